@@ -1,0 +1,229 @@
+"""The McKibben actuator: tension from pressure (model 1), rubber elasticity (model 2) and the effects.
+
+Every function works on numpy arrays (or plain floats) and broadcasts. Lengths are in m, pressures are
+gauge pressures P' = P - P0 in Pa, tensions in N, positive when the actuator pulls (model-spec section 1).
+
+Source: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5-13, with the
+missing n and V_r fixed by model-spec section 2 (see :mod:`mkctl.params`), and the effects of model-spec
+section 4.
+
+Example
+-------
+>>> from mkctl.actuator import tension_model1, tension_model2
+>>> round(float(tension_model2(0.18, 300e3)), 6)
+75.248131
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .errors import DomainError
+from .params import DEFAULT, Params
+
+
+def as_values(x):
+    """Floats pass through (scalar arithmetic is fast); anything else becomes a float numpy array."""
+    return x if isinstance(x, (float, np.floating)) else np.asarray(x, dtype=float)
+
+
+def check_length(L, b: float):
+    """Raise :class:`DomainError` unless every length lies in the model's domain 0 < L < b [m]."""
+    if isinstance(L, (float, np.floating)):
+        if 0 < L < b:  # False for NaN too
+            return
+        bad = L
+    else:
+        L = np.asarray(L, dtype=float)
+        inside = (L > 0) & (L < b)
+        if inside.all():
+            return
+        bad = L[~inside].flat[0]
+    raise DomainError(f"actuator length L = {float(bad)!r} m is outside the model's domain 0 < L < b = {b} m")
+
+
+def check_pressure(P):
+    """Raise :class:`DomainError` for a pressure that is not a finite number [Pa]."""
+    if isinstance(P, (float, np.floating)) and math.isfinite(P):
+        return
+    if not np.isfinite(np.asarray(P, dtype=float)).all():
+        raise DomainError("pressure is not a finite number (NaN or infinite)")
+
+
+# --- Braid geometry (Eq. 5-6) -------------------------------------------------------------------
+
+def braid_diameter(L, b: float, n: float):
+    """Bladder diameter ``D = sqrt(b^2 - L^2) / (n pi)`` [m], Eq. 5.
+
+    Parameters: L actuator length [m], b braid length [m], n turns of a thread [-].
+    """
+    return np.sqrt(b * b - L * L) / (n * np.pi)
+
+
+def bladder_volume(L, b: float, n: float):
+    """Bladder volume ``V_b = (b^2 L - L^3) / (4 pi n^2)`` [m^3], Eq. 6."""
+    return (b * b * L - L**3) / (4 * np.pi * n * n)
+
+
+# --- Model 1: pressure only (Eq. 7) -------------------------------------------------------------
+
+def pressure_gain(L, b: float, n: float):
+    """Tension per unit pressure ``-dV_b/dL = (3 L^2 - b^2) / (4 pi n^2)`` [N/Pa = m^2], Eq. 7.
+
+    It is also df1/dP, the derivative of model 1 (and model 2) with respect to the pressure.
+    """
+    return (3 * L * L - b * b) / (4 * np.pi * n * n)
+
+
+def pressure_gain_slope(L, b: float, n: float):
+    """``d/dL (3 L^2 - b^2) / (4 pi n^2) = 6 L / (4 pi n^2)`` [m]."""
+    return 6 * L / (4 * np.pi * n * n)
+
+
+def tension_model1(L, P, params: Params = DEFAULT):
+    """Model 1, Eq. 7: ``f1 = P (3 L^2 - b^2) / (4 pi n^2)`` [N].
+
+    Parameters: L actuator length [m] in 0 < L < b, P gauge pressure [Pa]; params supplies b [m], n [-].
+    """
+    L, P = as_values(L), as_values(P)
+    check_length(L, params.b)
+    return P * pressure_gain(L, params.b, params.n)
+
+
+# --- Model 2: plus Mooney-Rivlin rubber (Eq. 10-13) ---------------------------------------------
+
+def _stretch_constant(params: Params) -> float:
+    """``q = D0^2 n^2 pi^2`` [m^2], so that lambda_2^2 = (b^2 - L^2) / q (Eq. 11)."""
+    return (params.D0 * params.n * np.pi) ** 2
+
+
+def strain_energy_density(L, params: Params = DEFAULT):
+    """Mooney-Rivlin strain energy density W(L) [J/m^3 = Pa], Eq. 10-12.
+
+    With ``lambda_1 = L / L0``, ``lambda_2 = sqrt(b^2 - L^2) / (D0 n pi)``, ``lambda_3 = 1/(lambda_1 lambda_2)``:
+    ``W = C1 (l1^2 + l2^2 + l3^2 - 3) + C2 (1/l1^2 + 1/l2^2 + 1/l3^2 - 3)``.
+    Parameters: L [m]; params supplies b, L0, D0 [m], n [-], C1, C2 [Pa].
+    """
+    L = as_values(L)
+    q, s, L0 = _stretch_constant(params), params.b**2 - L * L, params.L0
+    l1sq, l2sq = (L / L0) ** 2, s / q
+    l3sq = 1.0 / (l1sq * l2sq)
+    return params.C1 * (l1sq + l2sq + l3sq - 3) + params.C2 * (1 / l1sq + 1 / l2sq + 1 / l3sq - 3)
+
+
+def strain_energy_gradient(L, params: Params = DEFAULT):
+    """dW/dL [Pa/m], the bracket of Eq. 13.
+
+    ``C1 (2L/L0^2 - 2L/q - 2 L0^2 q (b^2 - 2L^2) / (L^3 (b^2 - L^2)^2))
+    + C2 (-2 L0^2/L^3 + 2 q L/(b^2 - L^2)^2 + (2 L b^2 - 4 L^3)/(L0^2 q))`` with ``q = D0^2 n^2 pi^2``.
+    """
+    L = as_values(L)
+    q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
+    c1 = 2 * L / L0sq - 2 * L / q - 2 * L0sq * q * (b2 - 2 * L * L) / (L**3 * s * s)
+    c2 = -2 * L0sq / L**3 + 2 * q * L / (s * s) + (2 * L * b2 - 4 * L**3) / (L0sq * q)
+    return params.C1 * c1 + params.C2 * c2
+
+
+def strain_energy_curvature(L, params: Params = DEFAULT):
+    """d^2W/dL^2 [Pa/m^2], the derivative of :func:`strain_energy_gradient` (needed by Eq. 23)."""
+    L = as_values(L)
+    q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
+    u = b2 - 2 * L * L
+    dg = -4 / (L * L * s * s) - 3 * u / (L**4 * s * s) + 4 * u / (L * L * s**3)
+    c1 = 2 / L0sq - 2 / q - 2 * L0sq * q * dg
+    c2 = 6 * L0sq / L**4 + 2 * q / (s * s) + 8 * q * L * L / s**3 + (2 * b2 - 12 * L * L) / (L0sq * q)
+    return params.C1 * c1 + params.C2 * c2
+
+
+def elastic_tension(L, params: Params = DEFAULT):
+    """The rubber's share of the tension, ``V_r dW/dL`` [N] (zero for model 1)."""
+    if params.model == 1:
+        return 0.0 * L
+    return params.V_r * strain_energy_gradient(L, params)
+
+
+def tension_model2(L, P, params: Params = DEFAULT):
+    """Model 2, Eq. 13: ``f2 = P (3 L^2 - b^2)/(4 pi n^2) + V_r dW/dL`` [N].
+
+    Parameters: L actuator length [m] in 0 < L < b, P gauge pressure [Pa]; params supplies b, L0, D0,
+    t0 [m], n [-], C1, C2 [Pa] (V_r = pi t0 (D0 - t0) L0).
+    """
+    L, P = as_values(L), as_values(P)
+    check_length(L, params.b)
+    return P * pressure_gain(L, params.b, params.n) + params.V_r * strain_energy_gradient(L, params)
+
+
+def static_tension(L, P, params: Params = DEFAULT):
+    """The quasi-static tension of the model selected by ``params.model`` (1: Eq. 7, 2: Eq. 13) [N]."""
+    L, P = as_values(L), as_values(P)
+    check_length(L, params.b)
+    return P * pressure_gain(L, params.b, params.n) + elastic_tension(L, params)
+
+
+def static_tension_dL(L, P, params: Params = DEFAULT):
+    """Analytic d/dL of :func:`static_tension` [N/m]."""
+    L, P = as_values(L), as_values(P)
+    check_length(L, params.b)
+    slope = P * pressure_gain_slope(L, params.b, params.n)
+    if params.model == 2:
+        slope = slope + params.V_r * strain_energy_curvature(L, params)
+    return slope
+
+
+def static_tension_dP(L, params: Params = DEFAULT):
+    """Analytic d/dP of :func:`static_tension` [m^2]: the elastic term does not depend on P."""
+    L = as_values(L)
+    check_length(L, params.b)
+    return pressure_gain(L, params.b, params.n)
+
+
+# --- Effects beyond the paper (model-spec section 4) --------------------------------------------
+
+def viscous_tension(Ldot, c: float):
+    """Viscous damping ``c Ldot`` [N]: c [N s/m], Ldot [m/s] (> 0 when lengthening)."""
+    return c * as_values(Ldot)
+
+
+def friction_tension(Ldot, Fc: float, vs: float):
+    """Smoothed Coulomb friction ``Fc tanh(Ldot / vs)`` [N]: Fc [N], Ldot and vs [m/s]."""
+    return Fc * np.tanh(as_values(Ldot) / vs)
+
+
+def velocity_tension(Ldot, params: Params = DEFAULT):
+    """All velocity-dependent terms switched on in params: damping plus friction [N]."""
+    Ldot = as_values(Ldot)
+    if params.Fc == 0:  # skip the tanh when friction is off: this sits in the integrator's inner loop
+        return viscous_tension(Ldot, params.c)
+    return viscous_tension(Ldot, params.c) + friction_tension(Ldot, params.Fc, params.vs)
+
+
+def velocity_tension_dLdot(Ldot, params: Params = DEFAULT):
+    """Analytic d/dLdot of :func:`velocity_tension` [N s/m]."""
+    Ldot = as_values(Ldot)
+    return params.c + params.Fc / params.vs * (1 - np.tanh(Ldot / params.vs) ** 2)  # sech^2, no overflow
+
+
+def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
+    """Total tension [N]: the static model (1 or 2) plus damping and friction, as params switch them on.
+
+    ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``.
+    """
+    check_pressure(P)
+    return static_tension(L, P, params) + velocity_tension(Ldot, params)
+
+
+def pressure_rate(P, P_cmd, tau: float):
+    """First-order pressure lag ``dP/dt = (P_cmd - P) / tau`` [Pa/s] (spec section 4); tau [s] > 0."""
+    return (as_values(P_cmd) - as_values(P)) / tau
+
+
+def lagged_pressure(P, P_cmd, tau: float, dt: float):
+    """Exact solution of the lag over dt with P_cmd held constant: ``P_cmd + (P - P_cmd) exp(-dt/tau)``.
+
+    With tau = 0 there is no lag and the pressure equals the command.
+    """
+    P, P_cmd = as_values(P), as_values(P_cmd)
+    if tau <= 0:
+        return P_cmd + 0.0 * P
+    return P_cmd + (P - P_cmd) * math.exp(-dt / tau)

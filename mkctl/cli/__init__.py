@@ -1,0 +1,53 @@
+"""The ``mkctl`` command: a small command line over the plain Python API.
+
+Each subcommand lives in its own module of this package, which adds its parser in ``register`` and
+sets ``func`` to a function taking the parsed arguments. A user's mistake (bad arguments, a bad file, a
+parameter the model cannot represent) ends with one line on stderr and exit status 2, never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..errors import MkctlError
+#: Subcommand modules, in the order ``mkctl --help`` lists them.
+COMMANDS = []
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (the usage hint stays available with --help)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="mkctl",
+        description="McKibben muscles and the knee they drive: the paper's figures, FMUs, control analysis "
+                    "and diagnosis of measurements.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for module in COMMANDS:
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except MkctlError as error:
+        print(f"mkctl {args.command}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"mkctl {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

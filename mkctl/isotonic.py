@@ -1,0 +1,116 @@
+"""The isotonic test of Fig. 5: one actuator under a hanging load while its pressure is swept slowly.
+
+The test is quasi-static: the load's inertia is neglected, so at every instant the actuator's tension
+balances the load, ``f(L, P, Ldot) = F_load``. Which length that gives depends on the effects switched on
+(model-spec section 4):
+
+- no velocity effect: the static length, the root of ``f_static(L, P) = F_load``;
+- Coulomb friction: its quasi-static limit, a play operator. The length stays put while the static
+  tension lies within +-Fc of the load, and otherwise moves to the edge of that band (lengthening:
+  ``f_static = F - Fc``; shortening: ``f_static = F + Fc``). This draws the hysteresis loop of Fig. 5.
+- viscous damping: ``c Ldot = F - f_static - friction``, integrated by backward Euler between samples.
+
+The pressure is the one measured in the bladder, so the pressure lag plays no part here.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import brentq
+
+from . import actuator
+from .errors import DomainError
+from .params import DEFAULT, Params
+
+_BISECTIONS = 60  # halves the bracket (0, b) to below 1e-18 m
+
+
+def static_length(pressure, load, params: Params = DEFAULT):
+    """Length L [m] at which the static tension (model 1 or 2) equals the load: ``f_static(L, P) = F``.
+
+    Parameters: pressure P [Pa], load F [N] (arrays broadcast). Solved by bisection on 0 < L < b, where
+    the static tension rises with L for P >= 0. Raises :class:`DomainError` where no length in the
+    domain carries the load (for example model 1 with no pressure).
+    """
+    P, F = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    actuator.check_pressure(P)
+    actuator.check_pressure(F)
+    b = params.b
+    low = np.full(P.shape, b * 1e-3)
+    high = np.full(P.shape, b * (1 - 1e-9))
+    f_low = actuator.static_tension(low, P, params)
+    f_high = actuator.static_tension(high, P, params)
+    unreachable = ~((f_low <= F) & (F <= f_high))
+    if np.any(unreachable):
+        i = np.flatnonzero(unreachable)[0]
+        raise DomainError(f"no actuator length carries the load {F.flat[i]:g} N at pressure {P.flat[i]:g} Pa "
+                          f"(the tension can only range from {f_low.flat[i]:.4g} to {f_high.flat[i]:.4g} N)")
+    for _ in range(_BISECTIONS):
+        mid = 0.5 * (low + high)
+        too_long = actuator.static_tension(mid, P, params) > F
+        high = np.where(too_long, mid, high)
+        low = np.where(too_long, low, mid)
+    return 0.5 * (low + high)
+
+
+def play_operator(start, lower, upper):
+    """Backlash (play) operator: ``y_k = clip(y_{k-1}, lower_k, upper_k)`` with ``y_{-1} = start``.
+
+    The output stays put while it lies in the band and is dragged along by the band's edge otherwise.
+    """
+    out = np.empty(len(lower))
+    y = float(start)
+    for k, (lo, hi) in enumerate(zip(lower.tolist(), upper.tolist())):
+        y = min(max(y, lo), hi)
+        out[k] = y
+    return out
+
+
+def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: float | None = None):
+    """Actuator length L [m] over an isotonic record (quasi-static, see the module docstring).
+
+    Parameters: time [s] (increasing), pressure [Pa] measured in the bladder, load [N] the hanging
+    load's weight, all arrays of one length; L_start the length before the first sample (default: the
+    static length of the first sample, as after a long rest). Returns L [m] at every sample.
+    """
+    time = np.asarray(time, dtype=float)
+    P = np.asarray(pressure, dtype=float)
+    F = np.asarray(load, dtype=float)
+    if L_start is None:
+        L_start = float(static_length(P[0], F[0], params))
+    if params.c > 0:
+        return _damped_isotonic(time, P, F, params, L_start)
+    if params.Fc > 0:
+        # lengthening stops where f_static = F - Fc, shortening where f_static = F + Fc
+        return play_operator(L_start, static_length(P, F - params.Fc, params),
+                             static_length(P, F + params.Fc, params))
+    return static_length(P, F, params)
+
+
+def _damped_isotonic(time, P, F, params: Params, L_start: float):
+    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit)."""
+    L = np.empty(time.size)
+    previous = L_start
+    dt = np.diff(time, prepend=time[0])
+    for k in range(time.size):
+        if dt[k] <= 0:
+            L[k] = previous
+            continue
+
+        def residual(x, load):
+            return load - float(actuator.static_tension(x, P[k], params)) - params.c * (x - previous) / dt[k]
+
+        excess = residual(previous, F[k])
+        if abs(excess) <= params.Fc:  # friction holds
+            L[k] = previous
+        else:
+            load = F[k] - np.sign(excess) * params.Fc
+            target = float(static_length(P[k], load, params))  # the root lies between previous and target
+            low, high = sorted((previous, target))
+            L[k] = previous if high - low < 1e-15 else brentq(residual, low, high, args=(load,), xtol=1e-14)
+        previous = L[k]
+    return L
+
+
+def contraction(L, params: Params = DEFAULT):
+    """Contraction ratio ``(L0 - L) / L0`` [-] of Fig. 5 (positive when shorter than at rest)."""
+    return (params.L0 - np.asarray(L)) / params.L0

@@ -1,0 +1,277 @@
+"""The knee of Fig. 6: geometry, the ground force (Eq. 14-16) and the state equations (Eq. 17).
+
+Geometry (model-spec section 3). The knee is at the origin, the thigh (Lo) goes up to the hip, the shank
+(Lu) down to the ankle, and ``beta`` is the interior knee angle (pi = straight). The hip moves vertically
+above the ankle at height ``X``. A rigid kneecap lever of length ``r``, perpendicular to the shank, carries
+the extensor over its tip; ``alpha`` is the angle at that tip between the lever and the upper extensor
+segment. Angles in rad, lengths in m, pressures in Pa (gauge), forces in N.
+
+======================  ======================================================================
+hip height (Eq. 15)      X = sqrt(Lo^2 + Lu^2 - 2 Lo Lu cos(beta))
+lever angle              gamma = 3 pi / 2 - beta
+kneecap angle            alpha = atan2(L1 sin(gamma), r - L1 cos(gamma)),
+                         inverse: beta = pi/2 + alpha + asin(r sin(alpha) / L1)
+extensor                 lMo = sqrt(L1^2 + r^2 - 2 L1 r cos(gamma)), lMu = sqrt(L2^2 + r^2),
+                         Le = lMo + lMu - Lec
+flexor                   lmf = sqrt(L5^2 + L6^2 - 2 L5 L6 cos(beta)), Lf = lmf - Lfc
+Eq. 15                   G_e = r sin(alpha) X / (Lo Lu sin(beta))      (= -dLe/dX)
+Eq. 16                   G_f = L5 L6 X / (Lo Lu lmf)                   (= +dLf/dX; the paper's "L_0" is Lo)
+Eq. 14                   F = G_e f_e(Le, Pe, Le_dot) - G_f f_f(Lf, Pf, Lf_dot)
+Eq. 17                   dX/dt = V,  m dV/dt = F + F_stop - m g,  tau dP/dt = P_cmd - P
+======================  ======================================================================
+
+The end stops (``F_stop``) are not in the paper: they stand for the leg's mechanical range, a stiff,
+critically damped, one-sided contact that engages at alpha = ``ALPHA_STOP_LOW`` (deeply bent) and
+alpha = ``ALPHA_STOP_HIGH`` (short of straight), so that saturated pressures drive the leg onto a stop
+instead of out of the model's domain (straight leg, actuator length reaching b).
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from . import actuator
+from .errors import DomainError
+from .params import DEFAULT, Params
+
+#: The end stops, as kneecap angles [rad]: deeply bent (beta ~ 96 deg) and short of straight (~171 deg).
+ALPHA_STOP_LOW = np.radians(5.0)
+ALPHA_STOP_HIGH = np.radians(75.0)
+#: Contact stiffness of the end stops [N/m]; their damping is critical for the hip mass m.
+STOP_STIFFNESS = 2.0e5
+
+
+class KneeGeometry(NamedTuple):
+    """Every geometric quantity of one posture, with its derivative along the knee angle beta."""
+
+    beta: np.ndarray  #: interior knee angle [rad]
+    alpha: np.ndarray  #: kneecap angle [rad]
+    X: np.ndarray  #: hip height [m]
+    Le: np.ndarray  #: extensor actuator length [m]
+    Lf: np.ndarray  #: flexor actuator length [m]
+    G_e: np.ndarray  #: extensor gain, Eq. 15 [-]
+    G_f: np.ndarray  #: flexor gain, Eq. 16 [-]
+    dalpha_dbeta: np.ndarray  #: [-]
+    dX_dbeta: np.ndarray  #: [m/rad]
+    dLe_dbeta: np.ndarray  #: [m/rad]
+    dLf_dbeta: np.ndarray  #: [m/rad]
+    dGe_dbeta: np.ndarray  #: [1/rad]
+    dGf_dbeta: np.ndarray  #: [1/rad]
+
+
+def knee_geometry(beta, params: Params = DEFAULT) -> KneeGeometry:
+    """All of the knee's geometry at interior knee angle ``beta`` [rad] (table in the module docstring).
+
+    The derivatives are analytic; lengths come from params (L1, L2, L5, L6, Lo, Lu, Lec, Lfc, r [m]).
+    """
+    p = params
+    beta = actuator.as_values(beta)
+    _check_range(beta, 0.0, np.pi, "knee angle beta", "rad")
+    sin_b, cos_b = np.sin(beta), np.cos(beta)
+    gamma = 1.5 * np.pi - beta
+    sin_g, cos_g = np.sin(gamma), np.cos(gamma)
+
+    X = np.sqrt(p.Lo**2 + p.Lu**2 - 2 * p.Lo * p.Lu * cos_b)
+    dX_dbeta = p.Lo * p.Lu * sin_b / X
+
+    l_mo = np.sqrt(p.L1**2 + p.r**2 - 2 * p.L1 * p.r * cos_g)
+    l_mu = np.hypot(p.L2, p.r)
+    Le = l_mo + l_mu - p.Lec
+    dLe_dbeta = -p.L1 * p.r * sin_g / l_mo  # d(gamma)/d(beta) = -1
+
+    alpha = np.arctan2(p.L1 * sin_g, p.r - p.L1 * cos_g)
+    # differentiate beta = pi/2 + alpha + asin(r sin(alpha) / L1)
+    s = p.r * np.sin(alpha) / p.L1
+    dbeta_dalpha = 1 + p.r * np.cos(alpha) / (p.L1 * np.sqrt(1 - s * s))
+    dalpha_dbeta = 1 / dbeta_dalpha
+
+    l_mf = np.sqrt(p.L5**2 + p.L6**2 - 2 * p.L5 * p.L6 * cos_b)
+    Lf = l_mf - p.Lfc
+    dLf_dbeta = p.L5 * p.L6 * sin_b / l_mf
+
+    LoLu = p.Lo * p.Lu
+    sin_a, cos_a = np.sin(alpha), np.cos(alpha)
+    G_e = p.r * sin_a * X / (LoLu * sin_b)
+    dGe_dbeta = (p.r / LoLu) * (cos_a * dalpha_dbeta * X / sin_b + sin_a * dX_dbeta / sin_b
+                                - sin_a * X * cos_b / sin_b**2)
+    G_f = p.L5 * p.L6 * X / (LoLu * l_mf)
+    dGf_dbeta = (p.L5 * p.L6 / LoLu) * (dX_dbeta / l_mf - X * dLf_dbeta / l_mf**2)
+
+    return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, dalpha_dbeta, dX_dbeta, dLe_dbeta, dLf_dbeta,
+                        dGe_dbeta, dGf_dbeta)
+
+
+def _check_range(values, low, high, what, unit, why=""):
+    """Raise :class:`DomainError` unless low < values < high (NaN fails too)."""
+    if isinstance(values, (float, np.floating)):
+        if low < values < high:
+            return
+        bad = values
+    else:
+        inside = (values > low) & (values < high)
+        if inside.all():
+            return
+        bad = values[~inside].flat[0]
+    raise DomainError(f"{what} = {float(bad)!r} {unit} is outside ({low:g}, {high:g}) {unit}{why}")
+
+
+# --- Posture conversions: alpha <-> beta <-> X ----------------------------------------------------
+
+def beta_from_alpha(alpha, params: Params = DEFAULT):
+    """Interior knee angle ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` [rad] from alpha [rad]."""
+    alpha = actuator.as_values(alpha)
+    return 0.5 * np.pi + alpha + np.arcsin(params.r * np.sin(alpha) / params.L1)
+
+
+def alpha_from_beta(beta, params: Params = DEFAULT):
+    """Kneecap angle alpha [rad] from the interior knee angle beta [rad]."""
+    return knee_geometry(beta, params).alpha
+
+
+def hip_height(beta, params: Params = DEFAULT):
+    """Hip height ``X = sqrt(Lo^2 + Lu^2 - 2 Lo Lu cos(beta))`` [m]."""
+    return knee_geometry(beta, params).X
+
+
+def beta_from_X(X, params: Params = DEFAULT):
+    """Interior knee angle [rad] from the hip height X [m], |Lo - Lu| < X < Lo + Lu."""
+    X = actuator.as_values(X)
+    _check_range(X, abs(params.Lo - params.Lu), params.Lo + params.Lu, "hip height X", "m",
+                 " (the leg cannot fold flat or stretch past straight)")
+    return np.arccos((params.Lo**2 + params.Lu**2 - X * X) / (2 * params.Lo * params.Lu))
+
+
+def geometry_at_alpha(alpha, params: Params = DEFAULT) -> KneeGeometry:
+    """:func:`knee_geometry` at kneecap angle alpha [rad]."""
+    return knee_geometry(beta_from_alpha(alpha, params), params)
+
+
+def geometry_at_X(X, params: Params = DEFAULT) -> KneeGeometry:
+    """:func:`knee_geometry` at hip height X [m]."""
+    return knee_geometry(beta_from_X(X, params), params)
+
+
+def X_from_alpha(alpha, params: Params = DEFAULT):
+    """Hip height X [m] at kneecap angle alpha [rad]."""
+    return geometry_at_alpha(alpha, params).X
+
+
+def alpha_from_X(X, params: Params = DEFAULT):
+    """Kneecap angle alpha [rad] at hip height X [m]."""
+    return geometry_at_X(X, params).alpha
+
+
+# --- Forces (Eq. 14) --------------------------------------------------------------------------------
+
+class KneeForce(NamedTuple):
+    """The ground force of Eq. 14 at one state, with the two actuators' lengths rates and tensions."""
+
+    F: np.ndarray  #: ground force G_e f_e - G_f f_f [N]
+    fe: np.ndarray  #: extensor tension [N]
+    ff: np.ndarray  #: flexor tension [N]
+    Le_dot: np.ndarray  #: extensor lengthening rate [m/s]
+    Lf_dot: np.ndarray  #: flexor lengthening rate [m/s]
+
+
+def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeForce:
+    """Ground force ``F = G_e f_e - G_f f_f`` (Eq. 14) with the tensions of the model and effects in params.
+
+    The actuators move at ``Le_dot = dLe/dX V = -G_e V`` and ``Lf_dot = dLf/dX V = G_f V`` (virtual
+    work), which is where the damping and friction of spec section 4 enter. Parameters: geo from
+    :func:`knee_geometry`, V hip velocity [m/s], Pe, Pf actuator gauge pressures [Pa].
+    """
+    p = params
+    Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
+    actuator.check_pressure(Pe)
+    actuator.check_pressure(Pf)
+    Le_dot = geo.dLe_dbeta / geo.dX_dbeta * V
+    Lf_dot = geo.dLf_dbeta / geo.dX_dbeta * V
+    fe = actuator.static_tension(geo.Le, Pe, p) + actuator.velocity_tension(Le_dot, p)
+    ff = actuator.static_tension(geo.Lf, Pf, p) + actuator.velocity_tension(Lf_dot, p)
+    return KneeForce(geo.G_e * fe - geo.G_f * ff, fe, ff, Le_dot, Lf_dot)
+
+
+class KneeForcePartials(NamedTuple):
+    """Partial derivatives of the ground force (Eq. 14) with respect to the state and the pressures."""
+
+    F: np.ndarray  #: [N]
+    dF_dX: np.ndarray  #: [N/m]
+    dF_dV: np.ndarray  #: [N s/m]
+    dF_dPe: np.ndarray  #: [N/Pa]
+    dF_dPf: np.ndarray  #: [N/Pa]
+
+
+def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeForcePartials:
+    """Analytic partial derivatives of :func:`knee_force` at hip velocity V [m/s], pressures Pe, Pf [Pa].
+
+    Uses ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V), the derivatives of
+    the static models (:func:`mkctl.actuator.static_tension_dL`, ``_dP``) and of the velocity terms.
+    """
+    p = params
+    force = knee_force(geo, V, Pe, Pf, p)
+    Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
+    dX = geo.dX_dbeta
+    Ge_x, Gf_x = geo.dGe_dbeta / dX, geo.dGf_dbeta / dX  # dG/dX
+    Le_x, Lf_x = geo.dLe_dbeta / dX, geo.dLf_dbeta / dX  # dL/dX
+    dfe_dLdot = actuator.velocity_tension_dLdot(force.Le_dot, p)
+    dff_dLdot = actuator.velocity_tension_dLdot(force.Lf_dot, p)
+    dfe_dX = actuator.static_tension_dL(geo.Le, Pe, p) * Le_x + dfe_dLdot * (-Ge_x * V)
+    dff_dX = actuator.static_tension_dL(geo.Lf, Pf, p) * Lf_x + dff_dLdot * (Gf_x * V)
+    dF_dX = Ge_x * force.fe + geo.G_e * dfe_dX - Gf_x * force.ff - geo.G_f * dff_dX
+    dF_dV = geo.G_e * dfe_dLdot * Le_x - geo.G_f * dff_dLdot * Lf_x
+    dF_dPe = geo.G_e * actuator.static_tension_dP(geo.Le, p)
+    dF_dPf = -geo.G_f * actuator.static_tension_dP(geo.Lf, p)
+    return KneeForcePartials(force.F, dF_dX, dF_dV, dF_dPe, dF_dPf)
+
+
+def ground_force(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
+    """Eq. 14: ground force F(X, Pe', Pf') [N] at hip height X [m], pressures [Pa], hip velocity V [m/s]."""
+    return knee_force(geometry_at_X(X, params), V, Pe, Pf, params).F
+
+
+def stop_positions(params: Params = DEFAULT) -> tuple[float, float]:
+    """Hip heights [m] at which the lower (bent) and upper (near straight) end stops engage."""
+    return (float(X_from_alpha(ALPHA_STOP_LOW, params)), float(X_from_alpha(ALPHA_STOP_HIGH, params)))
+
+
+def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | None = None):
+    """Force of the mechanical end stops on the hip [N]: zero between them, a one-sided spring-damper beyond.
+
+    ``F_stop = k (X_low - X) - d V`` below X_low (never pulling) and ``-(k (X - X_high) + d V)`` above
+    X_high (never pulling), with k = STOP_STIFFNESS and the critical damping d = 2 sqrt(k m).
+    """
+    low, high = stops if stops is not None else stop_positions(params)
+    X, V = actuator.as_values(X), actuator.as_values(V)
+    k = STOP_STIFFNESS
+    d = 2 * np.sqrt(k * params.m)
+    below = np.maximum(k * (low - X) - d * V, 0.0) * (X < low)
+    above = np.maximum(k * (X - high) + d * V, 0.0) * (X > high)
+    return below - above
+
+
+# --- State equations (Eq. 17) -------------------------------------------------------------------
+
+def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
+    """Names of the knee's states: X, V, and Pe, Pf when the pressure lag is on (tau > 0)."""
+    return ("X", "V", "Pe", "Pf") if params.tau > 0 else ("X", "V")
+
+
+def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tuple[float, float] | None = None):
+    """Right-hand side of Eq. 17 with the effects of spec section 4 [SI units per second].
+
+    ``state`` is (X, V) or, with a pressure lag (tau > 0), (X, V, Pe, Pf); pe_cmd, pf_cmd are the
+    commanded pressures [Pa]. ``stops``: (X_low, X_high) of the end stops, or None for none at all.
+    Returns the time derivative of the state as a numpy array.
+    """
+    p = params
+    X, V = state[0], state[1]
+    Pe, Pf = (state[2], state[3]) if p.tau > 0 else (pe_cmd, pf_cmd)
+    force = knee_force(geometry_at_X(X, p), V, Pe, Pf, p).F
+    if stops is not None:
+        force = force + end_stop_force(X, V, p, stops)
+    dV = force / p.m - p.g
+    if p.tau > 0:
+        return np.array([V, dV, actuator.pressure_rate(Pe, pe_cmd, p.tau), actuator.pressure_rate(Pf, pf_cmd, p.tau)],
+                        dtype=float)
+    return np.array([V, dV], dtype=float)

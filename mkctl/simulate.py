@@ -1,0 +1,168 @@
+"""Time simulation of the knee (Eq. 17) and of one actuator, step by step as an FMU runs them.
+
+:class:`KneeSimulator` is what the knee FMU wraps: it holds the state (X, V and, with a pressure lag,
+Pe, Pf), advances it over a communication step with the commanded pressures held constant, and reports
+every output of model-spec section 7. :func:`simulate_knee` runs it over a whole record, the way the
+measurement bench ("knee" experiment) and the control analysis use it.
+
+Example
+-------
+>>> import numpy as np
+>>> from mkctl.simulate import simulate_knee
+>>> t = np.linspace(0, 1, 101)
+>>> run = simulate_knee(t, np.full(t.size, 1.75e6), np.full(t.size, 100e3))
+>>> run["X"].shape
+(101,)
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import actuator, knee, stability
+from .errors import DomainError
+from .integrate import integrate
+from .params import DEFAULT, Params
+
+#: Default posture of the knee FMU and of the examples: alpha = 60 deg (model-spec section 7).
+DEFAULT_ALPHA = math.radians(60.0)
+#: Default flexor command [Pa]; the default extensor command holds the leg at rest at DEFAULT_ALPHA.
+DEFAULT_PF = 100e3
+
+#: Names of the knee outputs of model-spec section 7, in order, with units.
+KNEE_OUTPUTS = {
+    "X": "m", "V": "m/s", "alpha": "rad", "beta": "rad", "Le": "m", "Lf": "m", "fe": "N", "ff": "N",
+    "Pe": "Pa", "Pf": "Pa", "F": "N", "a1": "1/s", "a2": "1/s2", "stable": "1",
+}
+
+
+def default_commands(params: Params = DEFAULT) -> tuple[float, float]:
+    """(pe_cmd, pf_cmd) [Pa] that hold the leg at rest at the default posture alpha = 60 deg."""
+    return float(stability.equilibrium_pressure(DEFAULT_ALPHA, DEFAULT_PF, params)), DEFAULT_PF
+
+
+def default_hip_height(params: Params = DEFAULT) -> float:
+    """Hip height X0 [m] at the default posture alpha = 60 deg."""
+    return float(knee.X_from_alpha(DEFAULT_ALPHA, params))
+
+
+class KneeSimulator:
+    """Integrates the knee across communication steps, inputs held constant over each step.
+
+    Parameters: params; X0 the initial hip height [m] (default alpha = 60 deg), at rest (V = 0);
+    pe0, pf0 the initial pressures [Pa] (the lag starts at P(0) = P_cmd(0)); stops: whether the end stops
+    act; rtol: relative tolerance of the adaptive integrator.
+    """
+
+    def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0, pf0: float = 0.0,
+                 stops: bool = True, rtol: float = 1e-10):
+        self.params = params
+        self.stops = knee.stop_positions(params) if stops else None
+        self.rtol = rtol
+        X0 = default_hip_height(params) if X0 is None else float(X0)
+        knee.beta_from_X(X0, params)  # raises a clear DomainError for an impossible X0
+        self.time = 0.0
+        self.state = np.array([X0, 0.0, pe0, pf0] if params.tau > 0 else [X0, 0.0], dtype=float)
+        # absolute tolerances: 1 nm, 1 nm/s, 1 mPa: far below what any output is read to
+        self.atol = np.array([1e-9, 1e-9, 1e-3, 1e-3][: self.state.size])
+        self.step_hint = 1e-3
+
+    # --- state, for FMU get/set state and replay ---
+    def get_state(self) -> tuple:
+        """A snapshot of everything that determines the future: time, states and the integrator's step."""
+        return (self.time, self.state.copy(), self.step_hint)
+
+    def set_state(self, snapshot: tuple) -> None:
+        """Return to a snapshot taken by :meth:`get_state`."""
+        self.time, state, self.step_hint = snapshot
+        self.state = np.array(state, dtype=float)
+
+    def pressures(self, pe_cmd: float, pf_cmd: float) -> tuple[float, float]:
+        """The actuator pressures now: the lag states, or the commands when there is no lag."""
+        if self.params.tau > 0:
+            return float(self.state[2]), float(self.state[3])
+        return float(pe_cmd), float(pf_cmd)
+
+    def step(self, dt: float, pe_cmd: float, pf_cmd: float) -> np.ndarray:
+        """Advance by dt [s] with the commands pe_cmd, pf_cmd [Pa] held constant; returns the new state."""
+        actuator.check_pressure(pe_cmd)
+        actuator.check_pressure(pf_cmd)
+        if dt > 0:
+            def rhs(y):
+                return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
+
+            self.state, self.step_hint, _ = integrate(rhs, self.state, dt, self.step_hint, self.atol, self.rtol)
+            self.time += dt
+        return self.state
+
+    def outputs(self, pe_cmd: float, pf_cmd: float) -> dict[str, float]:
+        """Every output of model-spec section 7 at the present state (a1, a2 without the end stops)."""
+        p = self.params
+        X, V = float(self.state[0]), float(self.state[1])
+        Pe, Pf = self.pressures(pe_cmd, pf_cmd)
+        geo = knee.geometry_at_X(X, p)
+        partials = knee.knee_force_partials(geo, V, Pe, Pf, p)
+        force = knee.knee_force(geo, V, Pe, Pf, p)
+        a1, a2 = partials.dF_dV / p.m, partials.dF_dX / p.m
+        return {
+            "X": X, "V": V, "alpha": float(geo.alpha), "beta": float(geo.beta), "Le": float(geo.Le),
+            "Lf": float(geo.Lf), "fe": float(force.fe), "ff": float(force.ff), "Pe": Pe, "Pf": Pf,
+            "F": float(force.F), "a1": float(a1), "a2": float(a2), "stable": bool(a1 < 0 and a2 < 0),
+        }
+
+
+def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
+                  stops: bool = True, rtol: float = 1e-10) -> dict[str, np.ndarray]:
+    """Simulate the knee over a record; commands are held from each sample to the next.
+
+    Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
+    the initial hip height, or None to start at rest in the stable equilibrium of the first commands.
+    Returns a dict of arrays: "time" and every name of :data:`KNEE_OUTPUTS`.
+    """
+    time = np.asarray(time, dtype=float)
+    pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
+    pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
+    if X0 is None:
+        X0 = stability.equilibrium_hip_height(pe_cmd[0], pf_cmd[0], params)
+    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
+    rows = [sim.outputs(pe_cmd[0], pf_cmd[0])]
+    for k in range(1, time.size):
+        sim.step(time[k] - time[k - 1], pe_cmd[k - 1], pf_cmd[k - 1])
+        rows.append(sim.outputs(pe_cmd[k], pf_cmd[k]))
+    result = {"time": time}
+    for name in KNEE_OUTPUTS:
+        result[name] = np.array([row[name] for row in rows])
+    return result
+
+
+class ActuatorSimulator:
+    """One actuator as the actuator FMU runs it: pressure lag state plus the tension at (L, P, Ldot).
+
+    The lag is integrated exactly over each step (the command is held constant), so the step size does
+    not matter. Without a lag the pressure equals the command.
+    """
+
+    def __init__(self, params: Params = DEFAULT, p0: float = 0.0):
+        self.params = params
+        self.time = 0.0
+        self.pressure = float(p0)
+
+    def get_state(self) -> tuple:
+        return (self.time, self.pressure)
+
+    def set_state(self, snapshot: tuple) -> None:
+        self.time, self.pressure = snapshot
+
+    def step(self, dt: float, p_cmd: float) -> float:
+        """Advance the pressure by dt [s] towards p_cmd [Pa]; returns the new pressure [Pa]."""
+        actuator.check_pressure(p_cmd)
+        self.pressure = float(actuator.lagged_pressure(self.pressure, p_cmd, self.params.tau, dt))
+        self.time += dt
+        return self.pressure
+
+    def tension(self, L: float, Ldot: float) -> float:
+        """Tension [N] at length L [m] and lengthening rate Ldot [m/s] with the present pressure."""
+        if not math.isfinite(Ldot):
+            raise DomainError("lengthening rate Ldot is not a finite number")
+        return float(actuator.tension(float(L), self.pressure, float(Ldot), self.params))

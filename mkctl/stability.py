@@ -1,0 +1,134 @@
+"""Local stability of the knee (paper Section VI, Eq. 18-25).
+
+Linearizing Eq. 17 about a posture gives ``d/dt (X, V) = [[0, 1], [a2, a1]] (X, V)`` (Eq. 18) with
+
+- ``a2 = (1/m) dF/dX`` (position condition, Eq. 20: a2 < 0),
+- ``a1 = (1/m) dF/dV`` (velocity condition, Eq. 19: a1 < 0),
+
+and by Routh-Hurwitz the posture is asymptotically stable iff a1 < 0 and a2 < 0. Because X grows with
+alpha, Eq. 20 is equivalent to ``h(alpha, Pe, Pf) = d/dalpha (G_e f_e - G_f f_f) < 0`` (Eq. 21-23).
+
+Model 2 alone has a1 = 0: the poles sit on the imaginary axis ("marginal"), which is the paper's point.
+Viscous damping gives ``a1 = -c (G_e^2 + G_f^2) / m < 0`` (spec section 4).
+
+The pressures enter h and F affinely, so the equilibrium set (F = m g, V = 0) and the h = 0 surface are
+both closed-form surfaces ``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and :func:`h_zero_pressure`.
+The pressure lag adds the decoupled poles -1/tau and does not change a1, a2.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+
+from . import knee
+from .errors import DomainError
+from .params import DEFAULT, Params
+
+
+def routh_hurwitz_coefficients(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
+    """(a1, a2) of Eq. 18 [1/s, 1/s^2] at hip height X [m], velocity V [m/s], pressures Pe, Pf [Pa].
+
+    The end stops are not included: a1, a2 describe what the muscles alone do at that posture.
+    """
+    partials = knee.knee_force_partials(knee.geometry_at_X(X, params), V, Pe, Pf, params)
+    return partials.dF_dV / params.m, partials.dF_dX / params.m
+
+
+def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
+    """Eq. 22-23: ``h(alpha, Pe', Pf') = d/dalpha (G_e f_e - G_f f_f)`` [N/rad] at V = 0.
+
+    Computed from the analytic derivatives: h = dF/dX * dX/dalpha. h < 0 is equivalent to a2 < 0.
+    Parameters: alpha kneecap angle [rad], Pe, Pf gauge pressures [Pa]; all broadcast.
+    """
+    geo = knee.geometry_at_alpha(alpha, params)
+    partials = knee.knee_force_partials(geo, 0.0, Pe, Pf, params)
+    return partials.dF_dX * geo.dX_dbeta / geo.dalpha_dbeta
+
+
+def h_slope(alpha, Pe, Pf, params: Params = DEFAULT, step: float = 1e-5):
+    """dh/dalpha [N/rad^2] by a central difference of the analytic h (used to test "h decreases")."""
+    return (h_function(alpha + step, Pe, Pf, params) - h_function(alpha - step, Pe, Pf, params)) / (2 * step)
+
+
+def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
+    """Extensor pressure Pe [Pa] that holds the hip at rest at kneecap angle alpha [rad] with flexor Pf [Pa].
+
+    F is affine in Pe, so ``Pe = (m g - F(alpha, 0, Pf)) / (dF/dPe)``: the set V = 0 of Fig. 7.
+    """
+    geo = knee.geometry_at_alpha(alpha, params)
+    partials = knee.knee_force_partials(geo, 0.0, 0.0, Pf, params)
+    return (params.m * params.g - partials.F) / partials.dF_dPe
+
+
+def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
+    """Extensor pressure Pe [Pa] on the surface h(alpha, Pe, Pf) = 0 (Fig. 7); h is affine in Pe."""
+    h0 = h_function(alpha, 0.0, Pf, params)
+    h1 = h_function(alpha, 1.0, Pf, params)
+    return -h0 / (h1 - h0)
+
+
+def verdict(a1, a2) -> np.ndarray:
+    """Routh-Hurwitz verdict for ``s^2 - a1 s - a2``: 'stable', 'marginal' (a1 = 0, a2 < 0) or 'unstable'."""
+    a1, a2 = np.asarray(a1), np.asarray(a2)
+    return np.where((a1 < 0) & (a2 < 0), "stable", np.where((a1 == 0) & (a2 < 0), "marginal", "unstable"))
+
+
+def poles(a1, a2) -> np.ndarray:
+    """The two eigenvalues of [[0, 1], [a2, a1]] (roots of s^2 - a1 s - a2) [1/s]."""
+    disc = np.sqrt(np.asarray(a1 * a1 + 4 * a2, dtype=complex))
+    return np.stack([(a1 + disc) / 2, (a1 - disc) / 2], axis=-1)
+
+
+@dataclass(frozen=True)
+class PostureStability:
+    """Everything the paper's stability analysis says about one posture."""
+
+    alpha: float  #: kneecap angle [rad]
+    X: float  #: hip height [m]
+    Pe: float  #: extensor pressure [Pa]
+    Pf: float  #: flexor pressure [Pa]
+    a1: float  #: velocity coefficient, Eq. 19 [1/s]
+    a2: float  #: position coefficient, Eq. 20 [1/s^2]
+    h: float  #: Eq. 22 [N/rad]
+    poles: tuple[complex, complex]  #: eigenvalues of Eq. 18 [1/s]
+    verdict: str  #: 'stable', 'marginal' or 'unstable'
+    in_equilibrium: bool  #: whether Pe was chosen to hold the posture at rest
+
+
+def posture_stability(alpha=None, *, X=None, Pf: float = 100e3, Pe: float | None = None,
+                      params: Params = DEFAULT) -> PostureStability:
+    """The Routh-Hurwitz verdict at a posture given by alpha [rad] or X [m].
+
+    With ``Pe=None`` the extensor pressure is the one that holds the posture in equilibrium.
+    """
+    if (alpha is None) == (X is None):
+        raise ValueError("give exactly one of alpha and X")
+    if alpha is None:
+        alpha = float(knee.alpha_from_X(X, params))
+    X = float(knee.X_from_alpha(alpha, params))
+    in_equilibrium = Pe is None
+    if Pe is None:
+        Pe = float(equilibrium_pressure(alpha, Pf, params))
+    a1, a2 = (float(v) for v in routh_hurwitz_coefficients(X, Pe, Pf, 0.0, params))
+    return PostureStability(float(alpha), X, float(Pe), float(Pf), a1, a2, float(h_function(alpha, Pe, Pf, params)),
+                            tuple(complex(s) for s in poles(a1, a2)), str(verdict(a1, a2)), in_equilibrium)
+
+
+def equilibrium_hip_height(Pe: float, Pf: float, params: Params = DEFAULT, X_range=None, samples: int = 400):
+    """The hip height X [m] of a stable equilibrium (F = m g, dF/dX < 0) for pressures Pe, Pf [Pa].
+
+    Searches X_range (default: between the end stops) and returns the stable root nearest the upper
+    stop. Raises :class:`DomainError` if there is none in range.
+    """
+    low, high = X_range if X_range is not None else knee.stop_positions(params)
+    grid = np.linspace(low, high, samples)
+    excess = knee.ground_force(grid, Pe, Pf, 0.0, params) - params.m * params.g
+    crossings = np.nonzero((excess[:-1] > 0) & (excess[1:] <= 0))[0]  # + to -: dF/dX < 0, stable
+    if crossings.size == 0:
+        raise DomainError(f"no stable equilibrium for Pe = {Pe:g} Pa, Pf = {Pf:g} Pa between X = {low:.4f} "
+                          f"and {high:.4f} m (the leg would rest on an end stop)")
+    i = crossings[-1]
+    return brentq(lambda x: float(knee.ground_force(x, Pe, Pf, 0.0, params)) - params.m * params.g,
+                  grid[i], grid[i + 1], xtol=1e-13)

@@ -1,0 +1,105 @@
+"""Time simulation: the integrator against scipy, step-size independence, state save/restore, isotonic."""
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from mkctl import isotonic, knee, stability
+from mkctl.errors import DomainError
+from mkctl.params import DEFAULT, Params
+from mkctl.simulate import ActuatorSimulator, KneeSimulator, default_commands, simulate_knee
+
+
+def test_default_commands_hold_the_default_posture_at_rest():
+    pe, pf = default_commands()
+    sim = KneeSimulator(DEFAULT, None, pe, pf)
+    X0 = sim.state[0]
+    for _ in range(100):
+        sim.step(0.01, pe, pf)
+    assert abs(sim.state[0] - X0) < 1e-9
+
+
+@pytest.mark.parametrize("params", [Params(), Params(c=40.0, tau=0.05), Params(c=20.0, Fc=2.0)])
+def test_knee_simulation_matches_scipy_and_does_not_depend_on_the_step(params):
+    pe, pf = default_commands(params)
+    pe_step = pe * 1.05
+    runs = {}
+    for dt in (1e-3, 20e-3):
+        sim = KneeSimulator(params, None, pe, pf)
+        samples = []
+        for k in range(int(round(1.0 / dt))):
+            sim.step(dt, pe_step, pf)
+            if (k + 1) % int(round(0.02 / dt)) == 0:
+                samples.append(sim.state[0])
+        runs[dt] = np.array(samples)
+    assert np.max(np.abs(runs[1e-3] - runs[20e-3])) < 1e-6  # 1 micrometre (issue 3)
+    stops = knee.stop_positions(params)
+    y0 = [knee.X_from_alpha(np.radians(60), params), 0.0] + ([pe, pf] if params.tau else [])
+    ref = solve_ivp(lambda t, y: knee.knee_derivatives(y, pe_step, pf, params, stops), (0, 1.0), y0,
+                    method="DOP853", rtol=1e-12, atol=1e-12, t_eval=np.arange(1, 51) * 0.02)
+    assert np.max(np.abs(ref.y[0] - runs[20e-3])) < 1e-7
+
+
+def test_state_can_be_saved_and_restored():
+    pe, pf = default_commands()
+    sim = KneeSimulator(Params(tau=0.05), None, pe, pf)
+    sim.step(0.1, pe * 1.1, pf)
+    snapshot = sim.get_state()
+    first = [sim.step(0.01, pe * 0.9, pf).copy() for _ in range(20)]
+    sim.set_state(snapshot)
+    again = [sim.step(0.01, pe * 0.9, pf).copy() for _ in range(20)]
+    np.testing.assert_array_equal(first, again)
+
+
+def test_saturated_flexor_drives_the_leg_onto_the_lower_stop_not_out_of_the_domain():
+    pe, pf = default_commands()
+    t = np.linspace(0, 2, 201)
+    run = simulate_knee(t, np.zeros_like(t), np.full_like(t, 1e6), X0=knee.X_from_alpha(np.radians(60)))
+    low, _ = knee.stop_positions()
+    assert run["X"][-1] == pytest.approx(low, abs=2e-3)
+    assert np.all(np.isfinite(run["X"]))
+
+
+def test_simulate_knee_starts_at_rest_in_equilibrium_and_reports_outputs():
+    t = np.linspace(0, 0.5, 51)
+    run = simulate_knee(t, 1.75e6, 1e5, Params(c=40.0))
+    assert run["X"][0] == pytest.approx(stability.equilibrium_hip_height(1.75e6, 1e5), abs=1e-12)
+    assert np.ptp(run["X"]) < 1e-9
+    assert run["stable"].all() and set(run) >= {"alpha", "beta", "Le", "Lf", "fe", "ff", "F", "a1", "a2"}
+
+
+def test_impossible_start_raises_a_clear_error():
+    with pytest.raises(DomainError, match="hip height"):
+        KneeSimulator(DEFAULT, X0=0.95)
+
+
+def test_actuator_simulator_lags_and_computes_tension():
+    act = ActuatorSimulator(Params(tau=0.1), p0=0.0)
+    act.step(0.1, 1e5)
+    assert act.pressure == pytest.approx(1e5 * (1 - np.exp(-1)))
+    from mkctl.actuator import tension_model2
+    assert act.tension(0.2, 0.0) == pytest.approx(tension_model2(0.2, act.pressure))
+    with pytest.raises(DomainError):
+        act.tension(0.25, 0.0)
+
+
+def test_static_isotonic_length_carries_the_load():
+    P = np.array([1e5, 3e5, 5e5])
+    L = isotonic.static_length(P, 60.0)
+    from mkctl.actuator import static_tension
+    np.testing.assert_allclose(static_tension(L, P), 60.0, rtol=1e-9)
+    with pytest.raises(DomainError, match="no actuator length"):
+        isotonic.static_length(0.0, 50.0, Params(model=1))
+
+
+def test_friction_draws_a_hysteresis_loop_in_the_isotonic_test():
+    t = np.linspace(0, 20, 801)
+    P = 50e3 + 250e3 * np.sin(np.pi * t / 20) ** 2
+    load = np.full_like(t, 50.0)
+    L0 = isotonic.simulate_isotonic(t, P, load)
+    L1 = isotonic.simulate_isotonic(t, P, load, Params(Fc=3.0))
+    # pressure rises over the first half (the muscle shortens), falls over the second (it lengthens)
+    up = np.interp(150e3, P[:401], L1[:401])
+    down = np.interp(150e3, P[400:][::-1], L1[400:][::-1])
+    # friction resists the motion, so the length lags: longer on the way up than on the way down
+    assert up - down > 1e-4, "the loop must open"
+    assert abs(np.interp(150e3, P[:401], L0[:401]) - np.interp(150e3, P[400:][::-1], L0[400:][::-1])) < 1e-8
