@@ -10,8 +10,10 @@ import argparse
 import sys
 
 from ..errors import MkctlError
+from . import control, measure, paper, run
+
 #: Subcommand modules, in the order ``mkctl --help`` lists them.
-COMMANDS = []
+COMMANDS = [run, paper, control, measure]
 
 
 class _Parser(argparse.ArgumentParser):
