@@ -1,5 +1,64 @@
-"""Subcommands of `mkctl` for this area (being written; registers nothing yet)."""
+"""``mkctl paper``: reproduce the paper's figures (Fig. 5, Fig. 7) and check the claims of Section VI.
+
+Writes into ``--out`` (default ``out/paper``): ``fig5_contraction.png``, ``fig7_surfaces.png`` (3-D),
+``fig7_sections.png`` (2-D), ``claims.md`` and ``claims.json``. Parameters default to Table I and II;
+``--mass`` and ``--set NAME=VALUE`` (repeatable, any name of :data:`mkctl.params.PARAMETER_NAMES`) change them.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .. import paper
+from ..errors import MkctlError, ParameterError
+from ..params import DEFAULT, PARAMETER_NAMES
 
 
 def register(subparsers) -> None:
-    """Add this module's subcommands to the `mkctl` parser."""
+    """Add the ``paper`` subcommand to the ``mkctl`` parser."""
+    parser = subparsers.add_parser(
+        "paper", help="reproduce the paper's Fig. 5 and Fig. 7 and check its stability claims",
+        description="Reproduce the paper's Fig. 5 (contraction against pressure, model 1 against model 2) and "
+                    "Fig. 7 (the h = 0 sheet and the equilibrium set), and write a table of the claims of "
+                    "Section VI with the model's numbers (claims.md, claims.json).")
+    parser.add_argument("--out", type=Path, default=Path("out/paper"), metavar="DIR",
+                        help="folder for the figures and the claims (default: out/paper)")
+    parser.add_argument("--mass", type=float, metavar="KG", help="hip mass m [kg] (Table II: 10)")
+    parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
+                        help="override a parameter in SI units, e.g. --set c=45 (repeatable; names: "
+                             + ", ".join(PARAMETER_NAMES) + ")")
+    parser.add_argument("--quiet", action="store_true", help="do not report progress on stderr")
+    parser.set_defaults(func=run_paper)
+
+
+def parse_overrides(items: list[str]) -> dict[str, float]:
+    """``["m=2.5", "c=45"]`` -> ``{"m": 2.5, "c": 45.0}``; a malformed item raises :class:`ParameterError`."""
+    values = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
+        try:
+            values[name] = float(text)
+        except ValueError:
+            raise ParameterError(f"--set {name}: {text.strip()!r} is not a number") from None
+    return values
+
+
+def run_paper(args: argparse.Namespace) -> int:
+    overrides = parse_overrides(args.overrides)
+    if args.mass is not None:
+        overrides["m"] = args.mass
+    params = DEFAULT.replace(**overrides) if overrides else DEFAULT
+    progress = None if args.quiet else (lambda message: print(f"mkctl paper: {message}", file=sys.stderr))
+    if args.out.exists() and not args.out.is_dir():
+        raise MkctlError(f"--out {args.out} exists and is not a folder")
+    try:
+        written = paper.reproduce_paper(args.out, params, progress=progress)
+    except OSError as error:
+        raise MkctlError(f"cannot write into {args.out}: {error.strerror or error}") from None
+    for name, path in written.items():
+        print(f"{name}: {path}")
+    return 0
