@@ -31,14 +31,22 @@ _E = (71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 4
 
 MAX_STEPS = 100_000
 
+# the tableau as arrays: each stage is one small matrix product (far cheaper than a Python loop over terms)
+_A_ROWS = tuple(np.array(row, dtype=float) for row in _A)
+_E_ROW = np.array(_E, dtype=float)
+
 
 def integrate(rhs: Callable[[np.ndarray], np.ndarray], y, duration: float, h_hint: float,
-              atol, rtol: float = 1e-9, h_max: float | None = None) -> tuple[np.ndarray, float, int]:
+              atol, rtol: float = 1e-9, h_max: float | None = None, *, k1=None,
+              full_output: bool = False):
     """Integrate the autonomous system ``dy/dt = rhs(y)`` over ``duration`` seconds.
 
     Parameters: y the initial state; h_hint the first step size to try [s]; atol the absolute tolerance
-    per state (array or float); rtol the relative tolerance. Returns (y at the end, the next step size to
-    try, the number of accepted steps). Raises :class:`DomainError` if the step size collapses.
+    per state (array or float); rtol the relative tolerance; k1 ``rhs(y)`` if the caller already has it
+    (first-same-as-last: the previous call's last derivative, when rhs has not changed). Returns (y at the
+    end, the next step size to try, the number of accepted steps), and with ``full_output`` also
+    ``rhs(y at the end)``, to pass as k1 to the next call. Raises :class:`DomainError` if the step size
+    collapses.
     """
     y = np.array(y, dtype=float)
     atol = np.asarray(atol, dtype=float)
@@ -46,27 +54,22 @@ def integrate(rhs: Callable[[np.ndarray], np.ndarray], y, duration: float, h_hin
     h = min(h_hint, duration) if h_hint > 0 else duration
     if h_max is not None:
         h = min(h, h_max)
-    k1 = rhs(y)
+    stages = np.empty((7, y.size))
+    stages[0] = rhs(y) if k1 is None else k1
     while t < duration:
         last = h >= duration - t
-        if last:
-            h_try = duration - t
-        else:
-            h_try = h
-        k = [k1]
+        h_try = duration - t if last else h
         for i in range(1, 7):
-            yi = y.copy()
-            for j, a in enumerate(_A[i]):
-                if a:
-                    yi += (h_try * a) * k[j]
-            k.append(rhs(yi))
+            yi = y + h_try * (_A_ROWS[i] @ stages[:i])
+            stages[i] = rhs(yi)
         y_new = yi  # the 7th stage is evaluated at the 5th-order solution
-        err_vec = sum(e * kj for e, kj in zip(_E, k) if e) * h_try
+        err_vec = h_try * (_E_ROW @ stages)
         scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
         err = float(np.sqrt(np.mean((err_vec / scale) ** 2)))
         if err <= 1.0:
             t = duration if last else t + h_try
-            y, k1 = y_new, k[6]
+            y = y_new
+            stages[0] = stages[6]
             steps += 1
             factor = 5.0 if err == 0 else min(5.0, 0.9 * err ** -0.2)
             # keep the long step in the hint when only the remainder of a communication step was taken
@@ -78,4 +81,6 @@ def integrate(rhs: Callable[[np.ndarray], np.ndarray], y, duration: float, h_hin
         if h < 1e-14 * max(1.0, duration) or steps > MAX_STEPS:
             raise DomainError("the integrator's step size collapsed: the state left the region the model "
                               "can represent")
+    if full_output:
+        return y, h, steps, stages[0].copy()
     return y, h, steps

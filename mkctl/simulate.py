@@ -67,6 +67,8 @@ class KneeSimulator:
         # absolute tolerances: 1 nm, 1 nm/s, 1 mPa: far below what any output is read to
         self.atol = np.array([1e-9, 1e-9, 1e-3, 1e-3][: self.state.size])
         self.step_hint = 1e-3
+        # first-same-as-last: the derivative at the end of the last step, reused while nothing changed
+        self._fsal_key, self._fsal_k = None, None
 
     # --- state, for FMU get/set state and replay ---
     def get_state(self) -> tuple:
@@ -92,7 +94,13 @@ class KneeSimulator:
             def rhs(y):
                 return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
 
-            self.state, self.step_hint, _ = integrate(rhs, self.state, dt, self.step_hint, self.atol, self.rtol)
+            key = (tuple(self.state.tolist()), float(pe_cmd), float(pf_cmd), self.params, self.stops)
+            k1 = self._fsal_k if key == self._fsal_key else None
+            state, self.step_hint, _, k_last = integrate(rhs, self.state, dt, self.step_hint, self.atol, self.rtol,
+                                                          k1=k1, full_output=True)
+            self.state = state
+            self._fsal_key = (tuple(state.tolist()),) + key[1:]
+            self._fsal_k = k_last
             self.time += dt
         return self.state
 
@@ -166,3 +174,12 @@ class ActuatorSimulator:
         if not math.isfinite(Ldot):
             raise DomainError("lengthening rate Ldot is not a finite number")
         return float(actuator.tension(float(L), self.pressure, float(Ldot), self.params))
+
+    def outputs(self, p_cmd: float, L: float, Ldot: float) -> dict[str, float]:
+        """The actuator FMU's outputs now: pressure "P" [Pa] (the lag state, or p_cmd without a lag) and
+        tension "f" [N] at length L [m] and lengthening rate Ldot [m/s]."""
+        actuator.check_pressure(p_cmd)
+        P = self.pressure if self.params.tau > 0 else float(p_cmd)
+        if not math.isfinite(Ldot):
+            raise DomainError("lengthening rate Ldot is not a finite number")
+        return {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}

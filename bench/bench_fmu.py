@@ -1,0 +1,92 @@
+"""Benchmark: 10 s of knee motion at a 1 ms communication step, through fmpy against mkctl directly.
+
+    python bench/bench_fmu.py [--fmu-dir dist] [--duration 10] [--repeat 3]
+
+Both runs simulate the same motion (a damped knee, c = 40 N s/m, driven by a 0.5 Hz sinusoidal extensor
+command around the 60 deg equilibrium), sampling every output at every millisecond:
+
+- FMU: ``fmpy.simulate_fmu`` on McKibbenKnee.fmu, the whole call (extracting, loading, stepping, recording);
+- direct: ``mkctl.simulate.simulate_knee`` on the same samples.
+
+Each run is a fresh process (so the FMU uses its packed mkctl), the two alternate ``--repeat`` times and the
+fastest of each is kept, so that a busy machine slows both alike. Prints both times, the ratio FMU/direct
+(target: at most 1.5), the real-time factor of the FMU run (simulated time / wall time) and the largest
+difference between the two hip heights.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+_CASE = """
+import json, sys, time
+import numpy as np
+import scipy.optimize  # imported before the clock starts in both modes: library loading is not the model's cost
+duration, mode, fmu = float(sys.argv[1]), sys.argv[2], sys.argv[3]
+t = np.round(np.arange(0.0, duration + 5e-4, 1e-3), 9)
+pe0, pf = 1693660.959396059, 100e3  # mkctl.simulate.default_commands(): at rest at alpha = 60 deg
+pe = pe0 * (1 + 0.05 * np.sin(2 * np.pi * 0.5 * t))
+if mode == "fmu":
+    from fmpy import simulate_fmu
+    signal = np.array(list(zip(t, pe, np.full_like(t, pf))),
+                      dtype=[("time", float), ("pe_cmd", float), ("pf_cmd", float)])
+    start = time.perf_counter()
+    run = simulate_fmu(fmu, stop_time=duration, output_interval=1e-3, input=signal, start_values={"c": 40.0})
+    elapsed = time.perf_counter() - start
+    X, end = run["X"].tolist(), float(run["time"][-1])
+else:
+    sys.path.insert(0, sys.argv[4])
+    from mkctl.params import Params
+    from mkctl.simulate import simulate_knee, default_hip_height
+    start = time.perf_counter()
+    run = simulate_knee(t, pe, np.full_like(t, pf), Params(c=40.0), X0=default_hip_height())
+    elapsed = time.perf_counter() - start
+    X, end = run["X"].tolist(), float(t[-1])
+print(json.dumps({"elapsed": elapsed, "X": X, "end": end}))
+"""
+
+
+def _run(mode: str, duration: float, fmu: Path) -> dict:
+    done = subprocess.run([sys.executable, "-c", _CASE, str(duration), mode, str(fmu), str(ROOT)],
+                          capture_output=True, text=True, check=True)
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--fmu-dir", type=Path, default=ROOT / "dist")
+    parser.add_argument("--duration", type=float, default=10.0, help="simulated time [s] (default 10)")
+    parser.add_argument("--repeat", type=int, default=3, help="alternating runs of each (default 3)")
+    args = parser.parse_args(argv)
+    fmu = args.fmu_dir / "McKibbenKnee.fmu"
+    if not fmu.exists():
+        subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(args.fmu_dir)], check=True)
+    best = {"fmu": None, "direct": None}
+    for _ in range(args.repeat):
+        for mode in best:
+            result = _run(mode, args.duration, fmu)
+            if best[mode] is None or result["elapsed"] < best[mode]["elapsed"]:
+                best[mode] = result
+    fmu_run, direct = best["fmu"], best["direct"]
+    if abs(fmu_run["end"] - args.duration) > 1e-9:
+        print(f"FMU run stopped early at t = {fmu_run['end']} s", file=sys.stderr)
+        return 1
+    difference = max(abs(a - b) for a, b in zip(fmu_run["X"], direct["X"]))
+    ratio = fmu_run["elapsed"] / direct["elapsed"]
+    print(f"{args.duration:g} s of knee motion, 1 ms communication step, best of {args.repeat}:")
+    print(f"  FMU through fmpy      {fmu_run['elapsed']:7.3f} s  (real-time factor "
+          f"{args.duration / fmu_run['elapsed']:.1f}x)")
+    print(f"  mkctl directly        {direct['elapsed']:7.3f} s  (real-time factor "
+          f"{args.duration / direct['elapsed']:.1f}x)")
+    print(f"  ratio FMU / direct    {ratio:7.2f}     (target <= 1.5)")
+    print(f"  max |X_fmu - X_direct| {difference:.2e} m")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,143 @@
+/* A minimal FMI 2.0 co-simulation host in C: proof that the FMUs run outside Python (see docs/fmu.md).
+ *
+ * Usage: fmi2_host FMU_DIR GUID STOP STEP OUT_VR [VR=VALUE ...]
+ *   FMU_DIR  the unzipped FMU (binaries/linux64/<model>.so, resources/)
+ *   GUID     the guid attribute of its modelDescription.xml
+ *   OUT_VR   value reference of the Real output to print after every step
+ *   VR=VALUE Real start values (parameters or inputs) to set before initialization
+ * Prints "time value" lines on stdout and the FMU's log messages on stderr; exits 0 only if every call
+ * returned fmi2OK and the run reached STOP.
+ *
+ * Build: gcc -I <fmpy>/c-code -o fmi2_host fmi2_host.c -ldl
+ * Run (pythonfmu FMUs need libpython in the process, and Python's own modules):
+ *   LD_PRELOAD=<LIBDIR>/<INSTSONAME> PYTHONHOME=<sys.base_prefix> PYTHONPATH=<site-packages> ./fmi2_host ...
+ */
+#include <dirent.h>
+#include <dlfcn.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status, fmi2String category,
+                   fmi2String message, ...)
+{
+    va_list args;
+    (void)env;
+    fprintf(stderr, "[%s] status %d %s: ", instance, (int)status, category);
+    va_start(args, message);
+    vfprintf(stderr, message, args);
+    va_end(args);
+    fputc('\n', stderr);
+}
+
+static void *symbol(void *library, const char *name)
+{
+    void *address = dlsym(library, name);
+    if (address == NULL) {
+        fprintf(stderr, "missing FMI function %s\n", name);
+        exit(2);
+    }
+    return address;
+}
+
+/* the first *.so in FMU_DIR/binaries/linux64 */
+static int find_library(const char *fmu_dir, char *path, size_t size)
+{
+    char folder[PATH_MAX + 32];
+    struct dirent *entry;
+    DIR *dir;
+    snprintf(folder, sizeof folder, "%s/binaries/linux64", fmu_dir);
+    dir = opendir(folder);
+    if (dir == NULL) return -1;
+    while ((entry = readdir(dir)) != NULL) {
+        size_t n = strlen(entry->d_name);
+        if (n > 3 && strcmp(entry->d_name + n - 3, ".so") == 0) {
+            snprintf(path, size, "%s/%s", folder, entry->d_name);
+            closedir(dir);
+            return 0;
+        }
+    }
+    closedir(dir);
+    return -1;
+}
+
+#define CHECK(call)                                                            \
+    do {                                                                       \
+        fmi2Status status_ = (call);                                           \
+        if (status_ != fmi2OK) {                                               \
+            fprintf(stderr, "%s returned status %d\n", #call, (int)status_);   \
+            return 1;                                                          \
+        }                                                                      \
+    } while (0)
+
+int main(int argc, char *argv[])
+{
+    char library_path[PATH_MAX + 64], resources[PATH_MAX + 64], real_dir[PATH_MAX];
+    fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
+    double stop, step, time = 0.0, value;
+    long k, steps;
+    fmi2ValueReference out_vr;
+    void *library;
+    fmi2Component fmu;
+    int i;
+
+    if (argc < 6) {
+        fprintf(stderr, "usage: %s FMU_DIR GUID STOP STEP OUT_VR [VR=VALUE ...]\n", argv[0]);
+        return 2;
+    }
+    stop = atof(argv[3]);
+    step = atof(argv[4]);
+    out_vr = (fmi2ValueReference)strtoul(argv[5], NULL, 10);
+    if (realpath(argv[1], real_dir) == NULL || find_library(real_dir, library_path, sizeof library_path) != 0) {
+        fprintf(stderr, "no binaries/linux64/*.so in %s\n", argv[1]);
+        return 2;
+    }
+    library = dlopen(library_path, RTLD_NOW | RTLD_LOCAL);
+    if (library == NULL) {
+        fprintf(stderr, "dlopen failed: %s\n", dlerror());
+        return 2;
+    }
+    fmi2InstantiateTYPE *instantiate = (fmi2InstantiateTYPE *)symbol(library, "fmi2Instantiate");
+    fmi2SetupExperimentTYPE *setup = (fmi2SetupExperimentTYPE *)symbol(library, "fmi2SetupExperiment");
+    fmi2EnterInitializationModeTYPE *enter = (fmi2EnterInitializationModeTYPE *)symbol(library, "fmi2EnterInitializationMode");
+    fmi2ExitInitializationModeTYPE *leave = (fmi2ExitInitializationModeTYPE *)symbol(library, "fmi2ExitInitializationMode");
+    fmi2SetRealTYPE *set_real = (fmi2SetRealTYPE *)symbol(library, "fmi2SetReal");
+    fmi2GetRealTYPE *get_real = (fmi2GetRealTYPE *)symbol(library, "fmi2GetReal");
+    fmi2DoStepTYPE *do_step = (fmi2DoStepTYPE *)symbol(library, "fmi2DoStep");
+    fmi2TerminateTYPE *terminate = (fmi2TerminateTYPE *)symbol(library, "fmi2Terminate");
+    fmi2FreeInstanceTYPE *free_instance = (fmi2FreeInstanceTYPE *)symbol(library, "fmi2FreeInstance");
+
+    snprintf(resources, sizeof resources, "file://%s/resources", real_dir);
+    fmu = instantiate("host", fmi2CoSimulation, argv[2], resources, &callbacks, fmi2False, fmi2True);
+    if (fmu == NULL) {
+        fprintf(stderr, "fmi2Instantiate failed\n");
+        return 1;
+    }
+    CHECK(setup(fmu, fmi2False, 0.0, 0.0, fmi2True, stop));
+    CHECK(enter(fmu));
+    for (i = 6; i < argc; i++) {
+        fmi2ValueReference vr;
+        if (sscanf(argv[i], "%u=%lf", &vr, &value) != 2) {
+            fprintf(stderr, "bad start value %s (want VR=VALUE)\n", argv[i]);
+            return 2;
+        }
+        CHECK(set_real(fmu, &vr, 1, &value));
+    }
+    CHECK(leave(fmu));
+    CHECK(get_real(fmu, &out_vr, 1, &value));
+    printf("%.17g %.17g\n", time, value);
+    steps = (long)(stop / step + 0.5);
+    for (k = 0; k < steps; k++) {
+        CHECK(do_step(fmu, time, step, fmi2True));
+        time = (k + 1) * step;
+        CHECK(get_real(fmu, &out_vr, 1, &value));
+        printf("%.17g %.17g\n", time, value);
+    }
+    CHECK(terminate(fmu));
+    free_instance(fmu);
+    return 0;
+}

@@ -1,0 +1,68 @@
+"""Pressure step from equilibrium: the leg rests at alpha = 60 deg, then the extensor command steps up.
+
+    python scenarios/pressure_step.py [--out DIR] [--fmu-dir DIR] [--duration 3] [--step-percent 5] [--c 40]
+
+The knee FMU starts at its defaults (at rest at 60 deg under the default commands); at t = 0.2 s pe_cmd rises
+by --step-percent. Writes the outputs to pressure_step.csv and plots X and alpha.
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from _common import finish, fmu_path, input_signal, main_guard, new_figure, parse_args, simulate  # first: finds mkctl
+from mkctl.params import Params  # noqa: E402
+from mkctl.stability import equilibrium_hip_height  # noqa: E402
+
+T_STEP = 0.2
+
+
+def run(argv=None):
+    def options(parser):
+        parser.add_argument("--step-percent", type=float, default=5.0, help="size of the step [%%] (default 5)")
+        parser.add_argument("--c", type=float, default=40.0, help="viscous damping c [N s/m] (default 40)")
+
+    args = parse_args("pressure_step", __doc__.splitlines()[0], 3.0, argv, options)
+    from fmpy import read_model_description
+
+    fmu = fmu_path(args, "knee")
+    start = {v.name: float(v.start) for v in read_model_description(str(fmu)).modelVariables
+             if v.causality == "input"}
+    pe0, pf = start["pe_cmd"], start["pf_cmd"]
+    pe1 = pe0 * (1 + args.step_percent / 100)
+    stop = args.duration
+    rows = [(0.0, {"pe_cmd": pe0, "pf_cmd": pf}), (T_STEP, {"pe_cmd": pe0, "pf_cmd": pf}),
+            (T_STEP, {"pe_cmd": pe1, "pf_cmd": pf}), (max(stop, T_STEP), {"pe_cmd": pe1, "pf_cmd": pf})]
+    result = simulate(fmu, stop, 1e-3, input_signal(rows), {"c": args.c})
+    t = result["time"]
+    X0, X_end = result["X"][0], result["X"][-1]
+    X_target = equilibrium_hip_height(pe1, pf, Params(c=args.c))  # where the step leads, at rest
+    overshoot = (result["X"].max() - X_target) / (X_target - X0) * 100
+
+    fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 5))
+    ax1.plot(t, result["X"] * 1e3)
+    ax1.axvline(T_STEP, color="0.6", lw=0.8)
+    ax1.axhline(X_target * 1e3, color="0.6", ls="--", lw=0.8, label="new equilibrium")
+    ax1.legend(loc="lower right")
+    ax1.set_ylabel("hip height X [mm]")
+    ax1.set_title(f"extensor command step +{args.step_percent:g} % at t = {T_STEP} s (c = {args.c:g} N s/m)")
+    ax2.plot(t, np.degrees(result["alpha"]))
+    ax2.set_ylabel("alpha [deg]")
+    ax2.set_xlabel("time [s]")
+    columns = {"time_s": t, "pe_cmd_Pa": np.where(t >= T_STEP, pe1, pe0), "pf_cmd_Pa": np.full(t.size, pf),
+               "X_m": result["X"], "V_m_per_s": result["V"], "alpha_rad": result["alpha"], "F_N": result["F"],
+               "stable": result["stable"]}
+    finish(args, columns, fig, [
+        f"pe_cmd {pe0 / 1e3:.1f} -> {pe1 / 1e3:.1f} kPa at t = {T_STEP} s, pf_cmd {pf / 1e3:.0f} kPa, "
+        f"c = {args.c:g} N s/m",
+        f"new equilibrium X = {X_target * 1e3:.2f} mm; overshoot {overshoot:.1f} % of the {(X_target - X0) * 1e3:.2f} mm "
+        "step",
+        f"X {X0 * 1e3:.2f} -> {X_end * 1e3:.2f} mm at t = {t[-1]:g} s (alpha {np.degrees(result['alpha'][0]):.2f} -> "
+        f"{np.degrees(result['alpha'][-1]):.2f} deg)",
+        f"stable (a1 < 0, a2 < 0) at the end: {bool(result['stable'][-1])}",
+    ])
+
+
+if __name__ == "__main__":
+    sys.exit(main_guard(run))

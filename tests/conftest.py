@@ -1,0 +1,44 @@
+"""Shared fixtures: the FMUs, built once per test session, and a way to run code in a fresh Python.
+
+The FMUs run in the host's Python: a process that already imported mkctl would make them use that copy
+instead of the packed one (DEVELOPERS.md, "Known pitfalls"). Tests therefore drive the FMUs in a subprocess
+(``run_python``) and compare with mkctl in the test process.
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="session")
+def built_fmus(tmp_path_factory) -> dict[str, Path]:
+    """``{"knee": Path, "actuator": Path}``: the FMUs built by ``build_fmu.py`` (validated) into a temp folder."""
+    out = tmp_path_factory.mktemp("fmus")
+    done = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(out), "--no-run"],
+                          capture_output=True, text=True, cwd=ROOT)
+    if done.returncode != 0:
+        pytest.fail(f"build_fmu.py failed:\n{done.stdout}\n{done.stderr}")
+    return {"knee": out / "McKibbenKnee.fmu", "actuator": out / "McKibbenActuator.fmu"}
+
+
+@pytest.fixture(scope="session")
+def run_python(tmp_path_factory):
+    """``run_python(code, *args, timeout=120) -> object``: run code in a fresh interpreter (outside the repository,
+    so that ``import mkctl`` cannot pick up this checkout), and return the JSON it prints on its last line."""
+    workdir = tmp_path_factory.mktemp("subprocess")
+
+    def run(code: str, *args, timeout: float = 120):
+        done = subprocess.run([sys.executable, "-c", code, *map(str, args)], capture_output=True, text=True,
+                              cwd=workdir, timeout=timeout)
+        if done.returncode != 0:
+            raise AssertionError(f"subprocess failed ({done.returncode}):\n{done.stdout[-3000:]}\n"
+                                 f"{done.stderr[-3000:]}")
+        return json.loads(done.stdout.strip().splitlines()[-1])
+
+    return run

@@ -1,0 +1,342 @@
+"""The FMUs against model-spec section 7 and against mkctl: interface, accuracy, end stops, errors, state.
+
+Every FMU run happens in a fresh interpreter (``run_python``, see conftest.py) so that the FMU runs its packed
+copy of mkctl; the references are computed here with mkctl directly.
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+
+from mkctl import knee
+from mkctl.params import DEFAULT, PARAMETER_NAMES, Params
+from mkctl.simulate import KNEE_OUTPUTS, ActuatorSimulator, KneeSimulator, default_commands, default_hip_height
+
+SPEC_PARAMETERS = ("b n L0 D0 C1 C2 t0 m L1 L2 L5 L6 Lo Lu Lec Lfc r g c Fc vs tau").split()
+PE0, PF0 = default_commands()
+
+# --- fmpy.simulate_fmu, several runs in one subprocess ---------------------------------------------------
+SIMULATE = r"""
+import json, sys
+import numpy as np
+from fmpy import simulate_fmu
+fmu, runs = sys.argv[1], json.loads(sys.argv[2])
+results = []
+for run in runs:
+    messages = []
+    def logger(component, instance, status, category, message):
+        messages.append([int(status), message.decode() if isinstance(message, bytes) else str(message)])
+    signal = None
+    if run.get("input"):
+        names = run["input_names"]
+        signal = np.array([tuple(row) for row in run["input"]], dtype=[("time", float)] + [(n, float) for n in names])
+    result = simulate_fmu(fmu, stop_time=run["stop"], output_interval=run["dt"], input=signal,
+                          start_values=run.get("start", {}), debug_logging=True, logger=logger)
+    results.append({"columns": {name: result[name].astype(float).tolist() for name in result.dtype.names},
+                    "messages": messages})
+import mkctl
+print(json.dumps({"results": results, "mkctl": mkctl.__file__}))
+"""
+
+
+def _step_input(pe0, pe1, pf, t_step, stop):
+    """fmpy input rows: pe_cmd steps from pe0 to pe1 at t_step (a repeated time is a discontinuity)."""
+    return [[0.0, pe0, pf], [t_step, pe0, pf], [t_step, pe1, pf], [stop, pe1, pf]]
+
+
+def _direct(params, dt, stop, pe_of_t, pf_of_t, X0=None):
+    """mkctl stepped the way fmpy drives the FMU: inputs applied at t_k, held over the step, outputs at t_k+1."""
+    steps = int(round(stop / dt))
+    times = np.arange(steps + 1) * dt
+    pe, pf = pe_of_t(0.0), pf_of_t(0.0)
+    sim = KneeSimulator(params, default_hip_height(params) if X0 is None else X0, pe, pf)
+    rows = [sim.outputs(pe, pf)]
+    for k in range(steps):
+        pe, pf = pe_of_t(times[k]), pf_of_t(times[k])
+        sim.step(dt, pe, pf)
+        rows.append(sim.outputs(pe, pf))
+    return times, {name: np.array([row[name] for row in rows], dtype=float) for name in KNEE_OUTPUTS}
+
+
+def test_model_descriptions_follow_the_spec_and_validate(built_fmus):
+    for path in built_fmus.values():
+        assert validate_fmu(str(path)) == []
+    md = read_model_description(str(built_fmus["knee"]))
+    variables = {v.name: v for v in md.modelVariables}
+    assert {n for n, v in variables.items() if v.causality == "input"} == {"pe_cmd", "pf_cmd"}
+    assert {n for n, v in variables.items() if v.causality == "parameter"} == set(SPEC_PARAMETERS) | {"model", "X0"}
+    assert {n for n, v in variables.items() if v.causality == "output"} == set(KNEE_OUTPUTS)
+    assert set(SPEC_PARAMETERS) <= set(PARAMETER_NAMES)
+    units = {u.name for u in md.unitDefinitions}
+    for name, v in variables.items():
+        assert v.description, name
+        if v.type == "Real":
+            assert v.unit in units, name
+    assert variables["Pe"].unit == "Pa" and variables["c"].unit == "N.s/m" and variables["g"].unit == "m/s2"
+    assert variables["model"].type == "Integer" and int(variables["model"].start) == 2
+    assert variables["stable"].type == "Boolean"
+    # defaults: Table I and II, effects off, X0 at alpha = 60 deg, inputs holding the leg at rest
+    for name in SPEC_PARAMETERS:
+        assert float(variables[name].start) == pytest.approx(getattr(DEFAULT, name), rel=1e-15), name
+    assert float(variables["X0"].start) == pytest.approx(default_hip_height(), rel=1e-15)
+    assert float(variables["pe_cmd"].start) == pytest.approx(PE0, rel=1e-15)
+    assert float(variables["pf_cmd"].start) == pytest.approx(PF0, rel=1e-15)
+    assert md.coSimulation.canGetAndSetFMUstate and md.coSimulation.canSerializeFMUstate
+    assert float(md.defaultExperiment.stopTime) > 0 and float(md.defaultExperiment.stepSize) > 0
+
+    md = read_model_description(str(built_fmus["actuator"]))
+    variables = {v.name: v for v in md.modelVariables}
+    assert {n for n, v in variables.items() if v.causality == "input"} == {"p_cmd", "L", "Ldot"}
+    assert {n for n, v in variables.items() if v.causality == "output"} == {"f", "P"}
+    assert {n for n, v in variables.items() if v.causality == "parameter"} == {
+        "b", "n", "L0", "D0", "C1", "C2", "t0", "c", "Fc", "vs", "tau", "model"}
+    assert variables["f"].unit == "N" and variables["Ldot"].unit == "m/s"
+
+
+@pytest.fixture(scope="module")
+def knee_runs(built_fmus, run_python):
+    """One subprocess, several runs of the knee FMU under fmpy."""
+    stop = 1.0
+    effects = {"c": 20.0, "Fc": 2.0, "tau": 0.05}
+    runs = {
+        "step_1ms": {"dt": 1e-3, "stop": stop, "start": {"c": 40.0}, "input_names": ["pe_cmd", "pf_cmd"],
+                     "input": _step_input(PE0, PE0 * 1.05, PF0, 0.1, stop)},
+        "step_20ms": {"dt": 20e-3, "stop": stop, "start": {"c": 40.0}, "input_names": ["pe_cmd", "pf_cmd"],
+                      "input": _step_input(PE0, PE0 * 1.05, PF0, 0.1, stop)},
+        "effects_1ms": {"dt": 1e-3, "stop": stop, "start": effects, "input_names": ["pe_cmd", "pf_cmd"],
+                        "input": _step_input(PE0, PE0 * 0.95, PF0, 0.1, stop)},
+        "effects_20ms": {"dt": 20e-3, "stop": stop, "start": effects, "input_names": ["pe_cmd", "pf_cmd"],
+                         "input": _step_input(PE0, PE0 * 0.95, PF0, 0.1, stop)},
+        "saturate_extensor": {"dt": 5e-3, "stop": 1.5, "start": {"c": 40.0}, "input_names": ["pe_cmd", "pf_cmd"],
+                              "input": [[0.0, 6e6, 0.0], [1.5, 6e6, 0.0]]},
+        "saturate_flexor": {"dt": 5e-3, "stop": 1.5, "start": {}, "input_names": ["pe_cmd", "pf_cmd"],
+                            "input": [[0.0, 0.0, 3e6], [1.5, 0.0, 3e6]]},
+        "negative_mass": {"dt": 1e-3, "stop": 0.1, "start": {"m": -1.0}},
+        "braid_too_short": {"dt": 1e-3, "stop": 0.1, "start": {"b": 0.2}},
+        "actuator_reaches_b": {"dt": 1e-3, "stop": 0.1, "start": {"Lec": 0.3}},
+        "leg_past_straight": {"dt": 1e-3, "stop": 0.1, "start": {"X0": 0.95}},
+        "bad_model": {"dt": 1e-3, "stop": 0.1, "start": {"model": 3}},
+        "nan_pressure": {"dt": 1e-3, "stop": 0.1, "input_names": ["pe_cmd", "pf_cmd"],
+                         "input": [[0.0, PE0, PF0], [0.05, PE0, PF0], [0.05, math.nan, PF0], [0.1, math.nan, PF0]]},
+    }
+    out = run_python(SIMULATE, built_fmus["knee"], json.dumps(list(runs.values())))
+    assert "resources" in out["mkctl"], "the FMU must run its packed mkctl"
+    return {name: (result["columns"], result["messages"]) for name, result in zip(runs, out["results"])}
+
+
+def _pe_step(pe0, pe1, t_step):
+    return lambda t: pe1 if t >= t_step - 1e-12 else pe0
+
+
+@pytest.mark.parametrize("case, params, pe1", [("step", Params(c=40.0), PE0 * 1.05),
+                                               ("effects", Params(c=20.0, Fc=2.0, tau=0.05), PE0 * 0.95)])
+def test_knee_fmu_matches_mkctl_and_does_not_depend_on_the_communication_step(knee_runs, case, params, pe1):
+    fine, _ = knee_runs[f"{case}_1ms"]
+    coarse, _ = knee_runs[f"{case}_20ms"]
+    assert fine["time"][-1] == pytest.approx(1.0, abs=1e-12) and coarse["time"][-1] == pytest.approx(1.0, abs=1e-12)
+    times, ref = _direct(params, 1e-3, 1.0, _pe_step(PE0, pe1, 0.1), lambda t: PF0)
+    np.testing.assert_allclose(fine["time"], times, atol=1e-12)
+    for name in KNEE_OUTPUTS:
+        np.testing.assert_allclose(fine[name], ref[name], rtol=1e-9, atol=1e-9, err_msg=name)
+    assert np.ptp(fine["X"]) > 1e-3, "the step must move the leg"
+    # the same run at 20 ms agrees within 1 micrometre at the shared sample times
+    shared = np.searchsorted(np.round(fine["time"], 9), np.round(coarse["time"], 9))
+    assert np.max(np.abs(np.array(fine["X"])[shared] - np.array(coarse["X"]))) < 1e-6
+
+
+def test_saturated_pressures_drive_the_knee_onto_its_end_stops(knee_runs):
+    high_X = knee.stop_positions()[1]
+    low_X = knee.stop_positions()[0]
+    up, messages = knee_runs["saturate_extensor"]
+    assert up["time"][-1] == pytest.approx(1.5), messages
+    assert np.degrees(up["alpha"][-1]) == pytest.approx(np.degrees(knee.ALPHA_STOP_HIGH), abs=0.5)
+    assert up["X"][-1] == pytest.approx(high_X, abs=5e-4) and np.all(np.isfinite(up["X"]))
+    down, messages = knee_runs["saturate_flexor"]
+    assert down["time"][-1] == pytest.approx(1.5), messages
+    assert np.degrees(down["alpha"][-1]) == pytest.approx(np.degrees(knee.ALPHA_STOP_LOW), abs=0.5)
+    assert min(down["X"]) > low_X - 0.01 and np.all(np.isfinite(down["X"]))
+
+
+@pytest.mark.parametrize("case, expected", [
+    ("negative_mass", "parameter m must be positive"),
+    ("braid_too_short", "must be shorter than the braid"),
+    ("actuator_reaches_b", "outside the model's domain 0 < L < b"),
+    ("leg_past_straight", "invalid start X0 = 0.95 m"),
+    ("bad_model", "parameter model must be 1 or 2"),
+    ("nan_pressure", "input pe_cmd = nan Pa is not a finite number"),
+])
+def test_bad_parameters_and_inputs_stop_the_run_with_a_logged_message(knee_runs, case, expected):
+    columns, messages = knee_runs[case]
+    assert columns["time"][-1] < 0.1 - 1e-9, "the run must stop early, not carry on"
+    errors = [text for status, text in messages if status == 3]  # fmi2Error category
+    assert any(expected in text for text in errors), messages
+    if case == "nan_pressure":
+        assert columns["time"][-1] == pytest.approx(0.05)
+        assert np.all(np.isfinite(columns["X"])), "no NaN state"
+
+
+# --- low-level calls: statuses, FMU state, reset, the actuator ------------------------------------------
+LOW_LEVEL = r"""
+import json, sys
+import numpy as np
+from fmpy import read_model_description, extract
+from fmpy.fmi1 import FMICallException
+from ctypes import byref
+from fmpy.fmi2 import (FMU2Slave, calloc, free, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE)
+from fmpy.logging import addLoggerProxy
+
+def open_fmu(path, name):
+    md = read_model_description(path)
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(path), modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName=name)
+    messages = []
+    def logger(component, instance, status, category, message):
+        messages.append([int(status), message.decode()])
+    callbacks = fmi2CallbackFunctions()  # as fmpy.simulate_fmu builds them for a logger
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    addLoggerProxy(byref(callbacks))
+    fmu.instantiate(callbacks=callbacks, loggingOn=True)
+    fmu.keep_alive = (callbacks, logger)
+    return fmu, {v.name: v.valueReference for v in md.modelVariables}, messages
+
+def init(fmu, vr, values):
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    for name, value in values.items():
+        if name == "model":
+            fmu.setInteger([vr[name]], [value])
+        else:
+            fmu.setReal([vr[name]], [value])
+    fmu.exitInitializationMode()
+
+def run(fmu, vr, t, steps, dt, inputs):
+    X = []
+    for k in range(steps):
+        for name, value in inputs(t).items():
+            fmu.setReal([vr[name]], [value])
+        fmu.doStep(t, dt)
+        t += dt
+        X.append(fmu.getReal([vr["X"], vr["V"], vr["Pe"]]))
+    return t, X
+
+out = {}
+knee, vr, messages = open_fmu(sys.argv[1], "knee")
+pe0 = knee.getReal([vr["pe_cmd"]])[0]
+setting = {"c": 30.0, "tau": 0.05, "Fc": 1.0}
+wave = lambda t: {"pe_cmd": pe0 * (1 + 0.05 * np.sin(7 * t))}
+init(knee, vr, setting)
+t, first = run(knee, vr, 0.0, 100, 2e-3, wave)
+state = knee.getFMUstate()
+serialized = knee.serializeFMUstate(state)
+t_saved = t
+_, original = run(knee, vr, t, 150, 2e-3, wave)
+knee.setFMUstate(state)
+_, replay = run(knee, vr, t_saved, 150, 2e-3, wave)
+knee.setFMUstate(knee.deSerializeFMUstate(serialized))
+_, replay_serialized = run(knee, vr, t_saved, 150, 2e-3, wave)
+knee.freeFMUstate(state)
+knee.reset()
+init(knee, vr, setting)
+_, after_reset = run(knee, vr, 0.0, 100, 2e-3, wave)
+out["knee"] = {"first": first, "original": original, "replay": replay, "replay_serialized": replay_serialized,
+               "after_reset": after_reset}
+
+# a NaN input: doStep answers fmi2Discard, the host carries on, the state is kept, a finite input resumes
+statuses = []
+knee.setReal([vr["pe_cmd"]], [float("nan")])
+try:
+    knee.doStep(0.2, 1e-3)
+    statuses.append(0)
+except FMICallException as error:
+    statuses.append(error.status)
+X_after = knee.getReal([vr["X"]])[0]
+knee.setReal([vr["pe_cmd"]], [pe0])
+knee.doStep(0.2, 1e-3)
+out["knee_nan"] = {"statuses": statuses, "X_after": X_after, "X_resumed": knee.getReal([vr["X"]])[0],
+                   "messages": messages}
+knee.terminate()
+knee.freeInstance()
+
+act, vr, messages = open_fmu(sys.argv[2], "actuator")
+init(act, vr, {"tau": 0.1, "c": 50.0, "Fc": 2.0, "model": 2})
+act.setReal([vr["p_cmd"], vr["L"], vr["Ldot"]], [300e3, 0.18, 0.0])  # start P(0) = 300 kPa
+rows = []
+t = 0.0
+for k in range(40):
+    L, Ldot = 0.18 + 0.01 * np.sin(3 * t), 0.03 * np.cos(3 * t)
+    act.setReal([vr["p_cmd"], vr["L"], vr["Ldot"]], [500e3, L, Ldot])
+    act.doStep(t, 0.01)
+    t += 0.01
+    rows.append([t, L, Ldot] + act.getReal([vr["f"], vr["P"]]))
+statuses = []
+for bad in ([500e3, 0.25, 0.0], [float("nan"), 0.18, 0.0]):
+    act.setReal([vr["p_cmd"], vr["L"], vr["Ldot"]], bad)
+    try:
+        act.doStep(t, 0.01)
+        statuses.append(0)
+    except FMICallException as error:
+        statuses.append(error.status)
+out["actuator"] = {"rows": rows, "statuses": statuses, "messages": messages}
+act.terminate()
+act.freeInstance()
+print(json.dumps(out))
+"""
+
+
+@pytest.fixture(scope="module")
+def low_level(built_fmus, run_python):
+    return run_python(LOW_LEVEL, built_fmus["knee"], built_fmus["actuator"])
+
+
+def test_fmu_state_restores_everything_and_reset_returns_to_the_start(low_level):
+    runs = low_level["knee"]
+    assert np.ptp(np.array(runs["original"])[:, 0]) > 1e-4, "the replayed stretch must move"
+    # the integrator's step and the pressure lag are part of the state: the replay is bit for bit the same
+    np.testing.assert_array_equal(runs["replay"], runs["original"])
+    np.testing.assert_array_equal(runs["replay_serialized"], runs["original"])
+    np.testing.assert_array_equal(runs["after_reset"], runs["first"])
+
+
+def test_a_nan_input_is_discarded_and_the_host_carries_on(low_level):
+    result = low_level["knee_nan"]
+    assert result["statuses"] == [2]  # fmi2Discard
+    assert math.isfinite(result["X_after"]) and math.isfinite(result["X_resumed"])
+    assert any("input pe_cmd = nan Pa" in text for status, text in result["messages"] if status == 3)
+
+
+def test_actuator_fmu_matches_mkctl(low_level):
+    params = Params(tau=0.1, c=50.0, Fc=2.0)
+    sim = ActuatorSimulator(params, 300e3)
+    for t, L, Ldot, f, P in low_level["actuator"]["rows"]:
+        sim.step(0.01, 500e3)
+        assert P == pytest.approx(sim.pressure, rel=1e-12)
+        assert f == pytest.approx(sim.tension(L, Ldot), rel=1e-10, abs=1e-9)
+    assert low_level["actuator"]["rows"][-1][4] == pytest.approx(500e3 - 200e3 * math.exp(-4.0), rel=1e-9)
+    assert low_level["actuator"]["statuses"] == [2, 2]  # fmi2Discard for L >= b and for a NaN pressure
+    texts = [text for status, text in low_level["actuator"]["messages"] if status == 3]
+    assert any("actuator length L = 0.25 m is outside the model's domain" in text for text in texts), texts
+    assert any("input p_cmd = nan Pa is not a finite number" in text for text in texts), texts
+
+
+def test_fmpy_simulate_alone_runs_the_default_experiment(built_fmus, tmp_path):
+    import subprocess
+    import sys
+    from pathlib import Path
+    fmpy_cli = Path(sys.executable).parent / "fmpy"
+    out = tmp_path / "default.csv"
+    done = subprocess.run([str(fmpy_cli), "simulate", str(built_fmus["knee"]), "--output-file", str(out)],
+                          capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert done.returncode == 0, done.stderr
+    data = np.genfromtxt(out, delimiter=",", names=True)
+    md = read_model_description(str(built_fmus["knee"]))
+    assert data["time"][-1] == pytest.approx(float(md.defaultExperiment.stopTime))
+    # the default run holds the leg at rest at alpha = 60 deg: the equilibrium of the default commands
+    np.testing.assert_allclose(data["alpha"], np.radians(60.0), atol=1e-9)
