@@ -68,30 +68,31 @@ def knee_geometry(beta, params: Params = DEFAULT) -> KneeGeometry:
     p = params
     beta = actuator.as_values(beta)
     _check_range(beta, 0.0, np.pi, "knee angle beta", "rad")
-    sin_b, cos_b = np.sin(beta), np.cos(beta)
+    xp = actuator.math_for(beta)
+    sin_b, cos_b = xp.sin(beta), xp.cos(beta)
     gamma = 1.5 * np.pi - beta
-    sin_g, cos_g = np.sin(gamma), np.cos(gamma)
+    sin_g, cos_g = xp.sin(gamma), xp.cos(gamma)
 
-    X = np.sqrt(p.Lo**2 + p.Lu**2 - 2 * p.Lo * p.Lu * cos_b)
+    X = xp.sqrt(p.Lo**2 + p.Lu**2 - 2 * p.Lo * p.Lu * cos_b)
     dX_dbeta = p.Lo * p.Lu * sin_b / X
 
-    l_mo = np.sqrt(p.L1**2 + p.r**2 - 2 * p.L1 * p.r * cos_g)
-    l_mu = np.hypot(p.L2, p.r)
+    l_mo = xp.sqrt(p.L1**2 + p.r**2 - 2 * p.L1 * p.r * cos_g)
+    l_mu = xp.hypot(p.L2, p.r)
     Le = l_mo + l_mu - p.Lec
     dLe_dbeta = -p.L1 * p.r * sin_g / l_mo  # d(gamma)/d(beta) = -1
 
-    alpha = np.arctan2(p.L1 * sin_g, p.r - p.L1 * cos_g)
+    alpha = xp.arctan2(p.L1 * sin_g, p.r - p.L1 * cos_g)
     # differentiate beta = pi/2 + alpha + asin(r sin(alpha) / L1)
-    s = p.r * np.sin(alpha) / p.L1
-    dbeta_dalpha = 1 + p.r * np.cos(alpha) / (p.L1 * np.sqrt(1 - s * s))
+    s = p.r * xp.sin(alpha) / p.L1
+    dbeta_dalpha = 1 + p.r * xp.cos(alpha) / (p.L1 * xp.sqrt(1 - s * s))
     dalpha_dbeta = 1 / dbeta_dalpha
 
-    l_mf = np.sqrt(p.L5**2 + p.L6**2 - 2 * p.L5 * p.L6 * cos_b)
+    l_mf = xp.sqrt(p.L5**2 + p.L6**2 - 2 * p.L5 * p.L6 * cos_b)
     Lf = l_mf - p.Lfc
     dLf_dbeta = p.L5 * p.L6 * sin_b / l_mf
 
     LoLu = p.Lo * p.Lu
-    sin_a, cos_a = np.sin(alpha), np.cos(alpha)
+    sin_a, cos_a = xp.sin(alpha), xp.cos(alpha)
     G_e = p.r * sin_a * X / (LoLu * sin_b)
     dGe_dbeta = (p.r / LoLu) * (cos_a * dalpha_dbeta * X / sin_b + sin_a * dX_dbeta / sin_b
                                 - sin_a * X * cos_b / sin_b**2)
@@ -121,7 +122,8 @@ def _check_range(values, low, high, what, unit, why=""):
 def beta_from_alpha(alpha, params: Params = DEFAULT):
     """Interior knee angle ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` [rad] from alpha [rad]."""
     alpha = actuator.as_values(alpha)
-    return 0.5 * np.pi + alpha + np.arcsin(params.r * np.sin(alpha) / params.L1)
+    xp = actuator.math_for(alpha)
+    return 0.5 * np.pi + alpha + xp.arcsin(params.r * xp.sin(alpha) / params.L1)
 
 
 def alpha_from_beta(beta, params: Params = DEFAULT):
@@ -200,6 +202,8 @@ class KneeForcePartials(NamedTuple):
     dF_dV: np.ndarray  #: [N s/m]
     dF_dPe: np.ndarray  #: [N/Pa]
     dF_dPf: np.ndarray  #: [N/Pa]
+    fe: np.ndarray  #: extensor tension [N]
+    ff: np.ndarray  #: flexor tension [N]
 
 
 def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeForcePartials:
@@ -222,7 +226,7 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) 
     dF_dV = geo.G_e * dfe_dLdot * Le_x - geo.G_f * dff_dLdot * Lf_x
     dF_dPe = geo.G_e * actuator.static_tension_dP(geo.Le, p)
     dF_dPf = -geo.G_f * actuator.static_tension_dP(geo.Lf, p)
-    return KneeForcePartials(force.F, dF_dX, dF_dV, dF_dPe, dF_dPf)
+    return KneeForcePartials(force.F, dF_dX, dF_dV, dF_dPe, dF_dPf, force.fe, force.ff)
 
 
 def ground_force(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
@@ -245,6 +249,10 @@ def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | 
     X, V = actuator.as_values(X), actuator.as_values(V)
     k = STOP_STIFFNESS
     d = 2 * np.sqrt(k * params.m)
+    if type(X) is float and type(V) is float:  # the integrator's case: no contact most of the time
+        if low <= X <= high:
+            return 0.0
+        return max(k * (low - X) - d * V, 0.0) if X < low else -max(k * (X - high) + d * V, 0.0)
     below = np.maximum(k * (low - X) - d * V, 0.0) * (X < low)
     above = np.maximum(k * (X - high) + d * V, 0.0) * (X > high)
     return below - above
@@ -265,8 +273,8 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tup
     Returns the time derivative of the state as a numpy array.
     """
     p = params
-    X, V = state[0], state[1]
-    Pe, Pf = (state[2], state[3]) if p.tau > 0 else (pe_cmd, pf_cmd)
+    X, V = float(state[0]), float(state[1])
+    Pe, Pf = (float(state[2]), float(state[3])) if p.tau > 0 else (float(pe_cmd), float(pf_cmd))
     force = knee_force(geometry_at_X(X, p), V, Pe, Pf, p).F
     if stops is not None:
         force = force + end_stop_force(X, V, p, stops)

@@ -110,9 +110,8 @@ class KneeSimulator:
         X, V = float(self.state[0]), float(self.state[1])
         Pe, Pf = self.pressures(pe_cmd, pf_cmd)
         geo = knee.geometry_at_X(X, p)
-        partials = knee.knee_force_partials(geo, V, Pe, Pf, p)
-        force = knee.knee_force(geo, V, Pe, Pf, p)
-        a1, a2 = partials.dF_dV / p.m, partials.dF_dX / p.m
+        force = knee.knee_force_partials(geo, V, Pe, Pf, p)
+        a1, a2 = force.dF_dV / p.m, force.dF_dX / p.m
         return {
             "X": X, "V": V, "alpha": float(geo.alpha), "beta": float(geo.beta), "Le": float(geo.Le),
             "Lf": float(geo.Lf), "fe": float(force.fe), "ff": float(force.ff), "Pe": Pe, "Pf": Pf,
