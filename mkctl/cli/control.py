@@ -1,5 +1,235 @@
-"""Subcommands of `mkctl` for this area (being written; registers nothing yet)."""
+"""``mkctl linearize``, ``mkctl rootlocus`` and ``mkctl step``: the linear view of the knee (:mod:`mkctl.control`).
+
+Common options: the posture (``--alpha`` deg or ``--X`` m, default alpha = 60 deg), the flexor pressure
+(``--pf`` kPa, default 100), the damping (``--c`` N s/m; where a damped knee is needed and no c is given,
+the closed-form c for ``--zeta``, default 0.3), the lag (``--tau`` s), any parameter (``--set NAME=VALUE``,
+SI) and the folder for the PNGs (``--out``).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .. import control as mc
+from ..errors import MkctlError, ParameterError
+from ..params import DEFAULT, PARAMETER_NAMES
+
+
+class UsageError(MkctlError, ValueError):
+    """A command-line value that cannot be used."""
+
+
+def _add_common(parser, needs_damping: bool) -> None:
+    posture = parser.add_mutually_exclusive_group()
+    posture.add_argument("--alpha", type=float, metavar="DEG", help="kneecap angle of the posture (default 60)")
+    posture.add_argument("--X", type=float, metavar="M", help="hip height of the posture instead of --alpha")
+    parser.add_argument("--pf", type=float, default=mc.DEFAULT_PF / 1e3, metavar="KPA",
+                        help="flexor pressure (default %(default)g)")
+    parser.add_argument("--c", type=float, metavar="NS_PER_M",
+                        help="viscous damping of each actuator (default: "
+                             + ("the c that gives --zeta)" if needs_damping else "0, the paper's model 2)"))
+    parser.add_argument("--zeta", type=float, default=mc.DEFAULT_ZETA,
+                        help="damping ratio for the closed-form c (default %(default)g)")
+    parser.add_argument("--tau", type=float, metavar="S", help="pressure lag time constant (default 0: no lag)")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="any parameter in SI units, e.g. --set m=2.5 (repeatable)")
+    parser.add_argument("--out", type=Path, default=Path("control_plots"), help="folder for the PNGs "
+                        "(default %(default)s)")
+
+
+def _add_fmu(parser) -> None:
+    parser.add_argument("--fmu", type=Path, default=mc.DEFAULT_FMU, help="knee FMU (default %(default)s)")
+    parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
 
 def register(subparsers) -> None:
-    """Add this module's subcommands to the `mkctl` parser."""
+    """Add ``linearize``, ``rootlocus`` and ``step`` to the ``mkctl`` parser."""
+    p = subparsers.add_parser("linearize", help="operating point, linear model, poles and the damping for zeta",
+                              description="Find the rest state at a posture, linearize there (analytic, "
+                                          "python-control's linearize, and the FMU), print A, B, the poles, "
+                                          "Eq. 19 and the damping c for a damping ratio; save a pole map.")
+    _add_common(p, needs_damping=False)
+    _add_fmu(p)
+    p.set_defaults(func=run_linearize)
+
+    p = subparsers.add_parser("rootlocus", help="root loci against c, tau or the height-control gain",
+                              description="Root locus against the damping c (exact velocity feedback), a sweep "
+                                          "of the lag tau (open and closed loop), or the gain of a height "
+                                          "controller through pe_cmd with and without the lag.")
+    p.add_argument("--vary", choices=("c", "tau", "gain"), default="gain", help="what varies (default gain)")
+    _add_common(p, needs_damping=True)
+    p.add_argument("--gain", type=float, metavar="PA_PER_M",
+                   help="height gain K for --vary tau (default: the critical gain at --tau, or 0.05 s)")
+    p.add_argument("--ti", type=float, metavar="S", help="integral time: PI instead of P height control")
+    p.set_defaults(func=run_rootlocus)
+
+    p = subparsers.add_parser("step", help="pressure-step responses: linear, nonlinear and FMU",
+                              description="Responses of the hip height to a step of pe_cmd, small and large, "
+                                          "from the linear model, the nonlinear model and the FMU, with rise "
+                                          "time, overshoot and settling time.")
+    _add_common(p, needs_damping=True)
+    p.add_argument("--small", type=float, default=1.0, metavar="KPA", help="small step (default %(default)g)")
+    p.add_argument("--large", type=float, default=100.0, metavar="KPA", help="large step (default %(default)g)")
+    p.add_argument("--duration", type=float, default=2.0, metavar="S", help="(default %(default)g)")
+    p.add_argument("--dt", type=float, default=1e-3, metavar="S", help="output interval (default %(default)g)")
+    _add_fmu(p)
+    p.set_defaults(func=run_step)
+
+
+# --- shared set-up ---------------------------------------------------------------------------------
+
+def _parse_set(items) -> dict:
+    values = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        name = name.strip()
+        if not sep or not name:
+            raise UsageError(f"--set {item!r}: expected NAME=VALUE")
+        if name not in PARAMETER_NAMES:
+            raise ParameterError(f"--set: unknown parameter {name!r} (known: {', '.join(PARAMETER_NAMES)})")
+        try:
+            values[name] = float(text)
+        except ValueError:
+            raise UsageError(f"--set {name}: {text!r} is not a number") from None
+    return values
+
+
+def _setup(args, needs_damping: bool):
+    """(operating point with c and tau applied, c) from the common options."""
+    overrides = _parse_set(args.set)
+    params = DEFAULT.replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
+    alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else mc.DEFAULT_ALPHA)
+    op = mc.operating_point(alpha, X=args.X, pf=args.pf * 1e3, params=params)
+    c = args.c if args.c is not None else overrides.get("c")
+    if c is None:
+        c = mc.damping_for_zeta(args.zeta, op) if needs_damping else 0.0
+    tau = args.tau if args.tau is not None else overrides.get("tau", 0.0)
+    return op.with_params(c=c, tau=tau)
+
+
+def _fmu_path(args):
+    if args.no_fmu:
+        return None
+    if not args.fmu.is_file():
+        print(f"note: FMU {args.fmu} not found (python build_fmu.py builds it); FMU part skipped")
+        return None
+    return args.fmu
+
+
+def _fmt_poles(eig) -> str:
+    return ", ".join(f"{z.real:.4g}{z.imag:+.4g}j" if abs(z.imag) > 1e-12 else f"{z.real:.4g}"
+                     for z in np.sort_complex(np.asarray(eig)))
+
+
+def _describe(op) -> str:
+    return (f"alpha = {math.degrees(op.alpha):.4g} deg, X = {op.X:.6f} m, pe = {op.pe / 1e3:.3f} kPa, "
+            f"pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s")
+
+
+def _scaled_error(sys, ref, op) -> float:
+    """max |difference| / max |reference| of [A B] in the units of mc.LINEARIZE_SCALE."""
+    sx = np.array([mc.LINEARIZE_SCALE[s] for s in op.state_names])
+    su = np.array([mc.LINEARIZE_SCALE[s] for s in mc.INPUT_NAMES])
+    def scaled(s):
+        return np.hstack([s.A * sx[None, :] / sx[:, None], s.B * su[None, :] / sx[:, None]])
+    return float(np.abs(scaled(sys) - scaled(ref)).max() / np.abs(scaled(ref)).max())
+
+
+# --- subcommands ------------------------------------------------------------------------------------
+
+def run_linearize(args) -> int:
+    op = _setup(args, needs_damping=False)
+    p = op.params
+    lin = mc.analytic_linearization(op)
+    a2, a1 = lin.A[1, 0] + 0.0, lin.A[1, 1] + 0.0  # + 0.0: print 0, not -0
+    print(f"operating point (python-control find_operating_point): {_describe(op)}")
+    print(f"Eq. 18: a2 = {a2:.6g} 1/s^2 (Eq. 20 {'holds' if a2 < 0 else 'fails'}), "
+          f"a1 = {a1:.6g} 1/s (Eq. 19 {'holds' if a1 < 0 else 'fails'})")
+    np.set_printoptions(precision=6, linewidth=120)
+    print(f"states {lin.state_labels}, inputs {lin.input_labels}")
+    print("A =\n" + str(lin.A) + "\nB =\n" + str(lin.B))
+    poles = lin.poles()
+    print(f"poles: {_fmt_poles(poles)}")
+    cases = {f"c = {p.c:.4g} N s/m" + (f", tau = {p.tau:g} s" if p.tau else ""): poles}
+    if a2 < 0:
+        zeta = mc.damping_ratio(a1, a2) + 0.0
+        print(f"natural frequency w_n = {math.sqrt(-a2):.5g} rad/s, damping ratio zeta = {zeta:.4g}")
+        c_zeta = mc.damping_for_zeta(args.zeta, op)
+        damped = mc.analytic_linearization(op.with_params(c=c_zeta)).poles()
+        print(f"damping for zeta = {args.zeta:g}: c = {c_zeta:.6g} N s/m -> poles {_fmt_poles(damped)}")
+        cases[f"c = {c_zeta:.4g} N s/m (zeta = {args.zeta:g})"] = damped
+        if p.c != 0:
+            undamped = mc.analytic_linearization(op.with_params(c=0.0)).poles()
+            cases["c = 0 (model 2 alone)"] = undamped
+    else:
+        print("a2 >= 0: the posture is not held by a restoring force; no damping makes it stable")
+    numerical = mc.numerical_linearization(op)
+    print(f"python-control linearize vs analytic: relative error {_scaled_error(numerical, lin, op):.2g} "
+          "(scaled [A B])")
+    fmu = _fmu_path(args)
+    if fmu is not None:
+        fmu_lin = mc.fmu_linearization(op, fmu)
+        print(f"FMU linearization (flow-map Jacobian, logm) vs analytic: relative error "
+              f"{_scaled_error(fmu_lin, lin, op):.2g}; poles {_fmt_poles(fmu_lin.poles())}")
+    path = mc.plot_poles(cases, f"Poles at alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.pf / 1e3:g} kPa",
+                         args.out / "poles.png")
+    print(f"wrote {path}")
+    return 0
+
+
+def run_rootlocus(args) -> int:
+    op = _setup(args, needs_damping=True)
+    print(f"operating point: {_describe(op)}")
+    out = args.out
+    if args.vary == "c":
+        c_zeta1 = mc.damping_for_zeta(1.0, op)
+        c_values = np.linspace(0.0, 1.5 * c_zeta1, 400)
+        path = mc.plot_damping_locus(op, c_values, op.params.c, out / "rootlocus_c.png")
+        print(f"c for zeta = {args.zeta:g}: {mc.damping_for_zeta(args.zeta, op):.6g} N s/m; critical damping "
+              f"(zeta = 1): {c_zeta1:.6g} N s/m")
+    elif args.vary == "tau":
+        tau_ref = op.params.tau or mc.DEFAULT_TAU
+        gain = args.gain
+        if gain is None:
+            gain = mc.critical_gain(mc.height_loop(op.with_params(tau=tau_ref), args.ti))
+        if not (gain > 0 and math.isfinite(gain)):
+            raise UsageError(f"height gain {gain!r} Pa/m must be a positive number")
+        taus = np.geomspace(1e-3, 1.0, 200)
+        path = mc.plot_lag_sweep(op, taus, gain, args.ti, out / "rootlocus_tau.png")
+        print(f"height gain K = {gain:.4g} Pa/m")
+        for tau in (0.01, 0.03, 0.1, 0.3):
+            loop = mc.height_loop(op.with_params(tau=tau), args.ti)
+            print(f"  tau = {tau:g} s: closed-loop poles {_fmt_poles(mc.closed_loop_poles(loop, gain))}; "
+                  f"critical gain {mc.critical_gain(loop):.4g} Pa/m")
+    else:
+        tau = op.params.tau or mc.DEFAULT_TAU
+        kc_lag = mc.critical_gain(mc.height_loop(op.with_params(tau=tau), args.ti))
+        top = 3 * kc_lag if math.isfinite(kc_lag) else 1e8
+        gains = np.concatenate([[0.0], np.geomspace(top * 1e-4, top, 800)])
+        path, summary = mc.plot_gain_locus(op, gains, args.ti, tau, out / "rootlocus_gain.png")
+        for label, kc in summary.items():
+            text = f"{kc:.6g} Pa/m" if math.isfinite(kc) else "none (stable for every gain)"
+            print(f"critical gain, {label}: {text}")
+    print(f"wrote {path}")
+    return 0
+
+
+def run_step(args) -> int:
+    op = _setup(args, needs_damping=True)
+    print(f"operating point: {_describe(op)}")
+    fmu = _fmu_path(args)
+    for label, kpa in (("small", args.small), ("large", args.large)):
+        result = mc.step_responses(op, kpa * 1e3, duration=args.duration, dt=args.dt, fmu=fmu)
+        print(f"{label} step of pe_cmd by {kpa:+g} kPa:")
+        for name, info in result["info"].items():
+            print(f"  {name:9s}: rise {info['RiseTime']:.4g} s, overshoot {info['Overshoot']:.4g} %, settling "
+                  f"{info['SettlingTime']:.4g} s, final X - X_op = {1e3 * result[name][-1]:+.4g} mm")
+        ref = np.abs(result["nonlinear"]).max()
+        others = [n for n in ("linear", "fmu") if result[n] is not None]
+        print("  max difference from the nonlinear model, relative to its peak: " + ", ".join(
+            f"{n} {np.abs(result[n] - result['nonlinear']).max() / ref:.3g}" for n in others))
+        path = mc.plot_step(result, op, args.out / f"step_{label}.png")
+        print(f"  wrote {path}")
+    return 0

@@ -1,0 +1,617 @@
+"""The linear view of the knee, with python-control: operating points, linearization, damping, lag, loci, steps.
+
+The knee of Eq. 17 as a python-control :class:`control.NonlinearIOSystem` with named signals:
+
+- states ``X`` [m], ``V`` [m/s], and with the pressure lag (tau > 0) ``Pe``, ``Pf`` [Pa];
+- inputs ``pe_cmd``, ``pf_cmd`` [Pa] (the commanded gauge pressures); outputs: the states.
+
+Linearized at a posture held at rest (an operating point), with ``G = dF/d(.)`` from
+:func:`mkctl.knee.knee_force_partials`::
+
+    A = [[0,        1,        0,          0         ],     B = [[0,     0    ],
+         [dF_dX/m,  dF_dV/m,  dF_dPe/m,   dF_dPf/m  ],          [0,     0    ],
+         [0,        0,        -1/tau,     0         ],          [1/tau, 0    ],
+         [0,        0,        0,          -1/tau    ]]          [0,     1/tau]]
+
+and without the lag ``A = [[0, 1], [a2, a1]]`` (Eq. 18), ``B = [[0, 0], [dF_dPe/m, dF_dPf/m]]``. The lag
+block is triangular: in open loop the lag adds the poles -1/tau and leaves the mechanical poles alone; it
+costs in closed loop (see :func:`critical_gain`).
+
+The velocity condition (Eq. 19): model 2 alone has a1 = 0, so the poles ``+-j sqrt(-a2)`` sit on the
+imaginary axis. Viscous damping gives ``a1 = -c (G_e^2 + G_f^2) / m``, and where a2 < 0 the damping ratio
+``zeta = -a1 / (2 sqrt(-a2))``: the damping for a chosen ratio is
+``c = 2 zeta m sqrt(-a2) / (G_e^2 + G_f^2)`` (:func:`damping_for_zeta`). That is also an exact root locus:
+damping is the velocity feedback ``u = -k V`` on the undamped plant, with loop gain ``k = c (G_e^2+G_f^2)/m``
+(:func:`damping_loop`).
+
+Example
+-------
+>>> import numpy as np
+>>> from mkctl import control as mc
+>>> op = mc.operating_point(np.radians(60), pf=100e3)
+>>> sys = mc.analytic_linearization(op)
+>>> sys.state_labels, sys.input_labels
+(['X', 'V'], ['pe_cmd', 'pf_cmd'])
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import control as ct
+import numpy as np
+
+from . import fmu_linear, knee, stability
+from .errors import DomainError, MkctlError
+from .fmu_linear import FMUAnalysisError, fmu_step_response
+from .params import DEFAULT, Params
+from .simulate import DEFAULT_ALPHA, DEFAULT_PF, KneeSimulator
+
+__all__ = [
+    "ControlAnalysisError", "FMUAnalysisError", "KneeOperatingPoint", "INPUT_NAMES", "knee_nlsys",
+    "operating_point", "analytic_linearization", "numerical_linearization", "fmu_linearization",
+    "damping_ratio", "natural_frequency", "damping_for_zeta", "damping_loop", "damping_root_locus",
+    "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
+    "step_responses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
+    "plot_step", "DEFAULT_FMU", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
+]
+
+#: Input names of every system built here.
+INPUT_NAMES = ("pe_cmd", "pf_cmd")
+#: Damping ratio used where a damped knee is needed and no c is given.
+DEFAULT_ZETA = 0.3
+#: Pressure lag [s] for the closed-loop comparison when none is given (valves and tubing: tens of ms).
+DEFAULT_TAU = 0.05
+#: Where the knee FMU is built (``python build_fmu.py``).
+DEFAULT_FMU = Path("dist") / "McKibbenKnee.fmu"
+#: Units in which :func:`numerical_linearization` perturbs the signals: python-control's ``linearize``
+#: takes one absolute forward step (1e-6) for all of them. So X and V are perturbed by 3e-9 m, m/s (F is
+#: curved in X; this step balances truncation and rounding, measured) and the pressures by 1 Pa (F is
+#: affine in them; a 1e-6 Pa step would drown in rounding).
+LINEARIZE_SCALE = {"X": 3e-3, "V": 3e-3, "Pe": 1e6, "Pf": 1e6, "pe_cmd": 1e6, "pf_cmd": 1e6}
+
+
+class ControlAnalysisError(MkctlError, ValueError):
+    """A control analysis that cannot be done as asked (no operating point, a2 >= 0 for a damping ratio, ...)."""
+
+
+# --- The nonlinear system and its operating points -------------------------------------------------
+
+def knee_nlsys(params: Params = DEFAULT, *, stops: bool = True, scale: dict | None = None,
+               name: str = "knee") -> ct.NonlinearIOSystem:
+    """Eq. 17 (:func:`mkctl.knee.knee_derivatives`) as a python-control nonlinear I/O system.
+
+    States X, V (+ Pe, Pf with a lag), inputs pe_cmd, pf_cmd, outputs the states, all SI. ``stops``: include
+    the mechanical end stops (as :func:`mkctl.simulate.simulate_knee` does). ``scale``: optional unit sizes
+    by signal name (a signal's value in the system is its SI value divided by its scale), used to give
+    python-control's fixed absolute finite-difference step a sensible size (:data:`LINEARIZE_SCALE`).
+    """
+    names = knee.state_names(params)
+    scale = scale or {}
+    sx = np.array([scale.get(s, 1.0) for s in names])
+    su = np.array([scale.get(s, 1.0) for s in INPUT_NAMES])
+    stop_positions = knee.stop_positions(params) if stops else None
+
+    def update(t, x, u, _params):
+        xs, us = np.asarray(x) * sx, np.asarray(u) * su
+        return knee.knee_derivatives(xs, us[0], us[1], params, stop_positions) / sx
+
+    def output(t, x, u, _params):
+        return np.asarray(x, dtype=float)
+
+    return ct.nlsys(update, output, states=list(names), inputs=list(INPUT_NAMES), outputs=list(names), name=name)
+
+
+@dataclass(frozen=True)
+class KneeOperatingPoint:
+    """A posture held at rest: the states and inputs where Eq. 17's right-hand side vanishes."""
+
+    params: Params
+    alpha: float  #: kneecap angle [rad]
+    X: float  #: hip height [m]
+    pe: float  #: extensor pressure (and command) [Pa]
+    pf: float  #: flexor pressure (and command) [Pa]
+    states: np.ndarray = field(repr=False)  #: SI, in the order of :attr:`state_names`
+    inputs: np.ndarray = field(repr=False)  #: (pe_cmd, pf_cmd) [Pa]
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return knee.state_names(self.params)
+
+    def with_params(self, **overrides) -> "KneeOperatingPoint":
+        """The same posture and pressures with other parameters that do not move the equilibrium (c, tau, Fc).
+
+        Damping, friction and lag act only when something moves, so the rest state is unchanged.
+        """
+        bad = set(overrides) - {"c", "tau", "Fc", "vs"}
+        if bad:
+            raise ControlAnalysisError(f"{sorted(bad)[0]} moves the equilibrium: find a new operating point")
+        params = self.params.replace(**overrides)
+        lag = params.tau > 0
+        states = np.array([self.X, 0.0, self.pe, self.pf] if lag else [self.X, 0.0])
+        return KneeOperatingPoint(params, self.alpha, self.X, self.pe, self.pf, states, self.inputs.copy())
+
+
+def _posture(alpha, X, params) -> tuple[float, float]:
+    """(alpha [rad], X [m]) from exactly one of them; between the end stops."""
+    if (alpha is None) == (X is None):
+        raise ControlAnalysisError("give exactly one of the posture alpha and the hip height X")
+    if alpha is None:
+        alpha = float(knee.alpha_from_X(float(X), params))
+    else:
+        alpha = float(alpha)
+        if not 0 < alpha < math.pi / 2:
+            raise DomainError(f"kneecap angle alpha = {math.degrees(alpha):g} deg is outside (0, 90) deg")
+    low, high = knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH
+    if not low < alpha < high:
+        raise DomainError(f"posture alpha = {math.degrees(alpha):.4g} deg is outside the end stops "
+                          f"({math.degrees(low):g}, {math.degrees(high):g}) deg: it cannot be held at rest")
+    return alpha, float(knee.X_from_alpha(alpha, params))
+
+
+def operating_point(alpha: float | None = None, *, X: float | None = None, pf: float = DEFAULT_PF,
+                    params: Params = DEFAULT) -> KneeOperatingPoint:
+    """The rest state at posture alpha [rad] or hip height X [m] with flexor pressure pf [Pa].
+
+    Found by python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd
+    and the other states free), in scaled units. Raises :class:`ControlAnalysisError` if it fails.
+    """
+    alpha, X = _posture(alpha, X, params)
+    if not math.isfinite(pf):
+        raise DomainError(f"flexor pressure pf = {pf!r} Pa is not a finite number")
+    names = knee.state_names(params)
+    sys = knee_nlsys(params, stops=False, scale=LINEARIZE_SCALE)
+    sx = np.array([LINEARIZE_SCALE[s] for s in names])
+    su = np.array([LINEARIZE_SCALE[s] for s in INPUT_NAMES])
+    pe_guess = 1.0e6  # a neutral first guess; the solver finds the pressure
+    x_guess = np.array([X, 0.0, pe_guess, pf][: len(names)]) / sx
+    u_guess = np.array([pe_guess, pf]) / su
+    try:
+        found = ct.find_operating_point(sys, x_guess, u_guess, y0=x_guess, iy=[0], iu=[1],
+                                        return_result=True)
+    except MkctlError as error:
+        raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
+                                   f"pf = {pf:g} Pa: {error}") from error
+    residual = np.abs(sys._rhs(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
+    if not found.result.success or residual > 1e-9:
+        raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, pf = {pf:g} Pa "
+                                   f"({found.result.message.strip()})")
+    states, inputs = np.asarray(found.states) * sx, np.asarray(found.inputs) * su
+    states[0] = X  # exact, as asked (the solver held it fixed)
+    return KneeOperatingPoint(params, alpha, X, float(inputs[0]), float(inputs[1]), states, inputs)
+
+
+# --- Linearizations ------------------------------------------------------------------------------
+
+def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
+    names = list(knee.state_names(params))
+    n = len(names)
+    return ct.ss(A, B, np.eye(n), np.zeros((n, 2)), states=names, inputs=list(INPUT_NAMES), outputs=names,
+                 name=name)
+
+
+def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") -> ct.StateSpace:
+    """The linearization at op from the analytic partials of :func:`mkctl.knee.knee_force_partials`.
+
+    Named states, inputs and outputs as in :func:`knee_nlsys`; A[1, 0] = a2 and A[1, 1] = a1 of Eq. 18.
+    """
+    p = op.params
+    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.pe, op.pf, p)
+    row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
+    gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
+    if p.tau > 0:
+        A = np.array([[0, 1, 0, 0], [*row, *gains], [0, 0, -1 / p.tau, 0], [0, 0, 0, -1 / p.tau]])
+        B = np.array([[0, 0], [0, 0], [1 / p.tau, 0], [0, 1 / p.tau]])
+    else:
+        A = np.array([[0.0, 1.0], row])
+        B = np.array([[0.0, 0.0], gains])
+    return _named_ss(A, B, p, name)
+
+
+def numerical_linearization(op: KneeOperatingPoint, scale: dict | None = None, eps: float = 1e-6,
+                            name: str = "knee_numerical") -> ct.StateSpace:
+    """python-control's ``linearize`` of :func:`knee_nlsys` at op, returned in SI units.
+
+    The system is linearized in the units of ``scale`` (default :data:`LINEARIZE_SCALE`) and transformed
+    back: ``A = S A_s S^-1``, ``B = S B_s T^-1`` with S, T the diagonal state and input scales.
+    """
+    scale = LINEARIZE_SCALE if scale is None else scale
+    names = op.state_names
+    sx = np.array([scale.get(s, 1.0) for s in names])
+    su = np.array([scale.get(s, 1.0) for s in INPUT_NAMES])
+    sys = knee_nlsys(op.params, stops=False, scale=scale)
+    lin = ct.linearize(sys, op.states / sx, op.inputs / su, eps=eps)
+    A = lin.A * sx[:, None] / sx[None, :]
+    B = lin.B * sx[:, None] / su[None, :]
+    return _named_ss(A, B, op.params, name)
+
+
+def fmu_linearization(op: KneeOperatingPoint, fmu=DEFAULT_FMU, dt: float = fmu_linear.DT,
+                      hX: float = fmu_linear.HX, hP: float = fmu_linear.HP, name: str = "knee_fmu") -> ct.StateSpace:
+    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu_linear`).
+
+    A one-step Jacobian of the FMU's flow map (perturbed X0 and inputs, velocity states prepared and
+    restored with fmi2Get/SetFMUstate) turned into A, B by a matrix logarithm, dt halved until it is short
+    enough for the knee's fastest mode. Runs the FMU in this process. Returns a named ``control.ss`` like
+    :func:`analytic_linearization`.
+    """
+    p = op.params
+    A, B, _ = fmu_linear.linearize_fmu(fmu, p.as_dict(), op.X, op.inputs, p.tau > 0, dt=dt, hX=hX, hP=hP)
+    return _named_ss(A, B, p, name)
+
+
+# --- Damping: the velocity condition (Eq. 19) --------------------------------------------------------
+
+def natural_frequency(a2) -> np.ndarray:
+    """Undamped natural frequency ``w_n = sqrt(-a2)`` [rad/s]; NaN where a2 >= 0 (no oscillation)."""
+    a2 = np.asarray(a2, dtype=float)
+    return np.sqrt(np.where(a2 < 0, -a2, np.nan))
+
+
+def damping_ratio(a1, a2) -> np.ndarray:
+    """Damping ratio ``zeta = -a1 / (2 sqrt(-a2))`` of ``s^2 - a1 s - a2`` [-]; NaN where a2 >= 0."""
+    return -np.asarray(a1, dtype=float) / (2 * natural_frequency(a2))
+
+
+def velocity_gain(op: KneeOperatingPoint) -> float:
+    """``(G_e^2 + G_f^2) / m`` [1/kg]: a1 = -c times this, at the posture of op."""
+    geo = knee.geometry_at_X(op.X, op.params)
+    return float(geo.G_e**2 + geo.G_f**2) / op.params.m
+
+
+def damping_for_zeta(zeta: float, op: KneeOperatingPoint) -> float:
+    """The viscous damping c [N s/m] that gives damping ratio zeta at op: ``2 zeta m sqrt(-a2)/(G_e^2+G_f^2)``.
+
+    a2 does not depend on c at rest, so this is exact. Raises :class:`ControlAnalysisError` where a2 >= 0
+    (the posture is not held by a restoring force: no damping ratio exists) or zeta < 0.
+    """
+    if not (math.isfinite(zeta) and zeta >= 0):
+        raise ControlAnalysisError(f"damping ratio zeta = {zeta!r} must be a number >= 0")
+    _, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
+    if not a2 < 0:
+        raise ControlAnalysisError(f"a2 = {float(a2):.4g} 1/s^2 >= 0 at alpha = {math.degrees(op.alpha):.4g} deg, "
+                                   f"pf = {op.pf:g} Pa: the posture is unstable (Eq. 20 fails) and no damping gives "
+                                   "it a damping ratio")
+    return 2 * zeta * math.sqrt(-float(a2)) / velocity_gain(op)
+
+
+def damping_loop(op: KneeOperatingPoint) -> tuple[ct.StateSpace, float]:
+    """The damping as an exact velocity-feedback loop: (plant, k per unit c).
+
+    The plant is the undamped mechanical part of the linearization (states X, V; c = 0) with one input
+    ``u`` added to dV/dt and output V; closing ``u = -k V`` gives the damped A exactly, with
+    ``k = c (G_e^2 + G_f^2) / m``. The lag states are left out: u does not reach them (A is block
+    triangular) and their poles stay at -1/tau whatever c is. Returns the SISO plant and ``k / c`` [1/kg].
+    """
+    undamped = analytic_linearization(op.with_params(c=0.0))
+    plant = ct.ss(undamped.A[:2, :2], [[0.0], [1.0]], [[0.0, 1.0]], 0, states=["X", "V"], inputs=["u"],
+                  outputs=["V"], name="velocity_loop")
+    return plant, velocity_gain(op)
+
+
+def damping_root_locus(op: KneeOperatingPoint, c_values) -> tuple[np.ndarray, np.ndarray]:
+    """python-control's ``root_locus_map`` of :func:`damping_loop` over c [N s/m]: (c_values, loci [1/s]).
+
+    loci[i] are the two mechanical poles at c_values[i] (the lag poles, if any, stay at -1/tau).
+    """
+    plant, per_c = damping_loop(op)
+    c_values = np.asarray(c_values, dtype=float)
+    data = ct.root_locus_map(plant, c_values * per_c)
+    return c_values, np.asarray(data.loci)
+
+
+# --- Height control through the extensor pressure --------------------------------------------------
+
+def height_plant(op: KneeOperatingPoint) -> ct.StateSpace:
+    """The SISO linear plant from pe_cmd [Pa] to the hip height X [m] at op.
+
+    States X, V and, with the lag, Pe. The flexor lag state Pf is left out: pe_cmd does not reach it,
+    so its pole stays at -1/tau in closed loop too (and a transfer function would carry it as a
+    cancelling pole-zero pair).
+    """
+    lin = analytic_linearization(op)
+    keep = [0, 1, 2] if op.params.tau > 0 else [0, 1]
+    return ct.ss(lin.A[np.ix_(keep, keep)], lin.B[keep, :1], lin.C[:1, keep], 0,
+                 states=[lin.state_labels[i] for i in keep], inputs=["pe_cmd"], outputs=["X"], name="height_plant")
+
+
+def height_loop(op: KneeOperatingPoint, ti: float | None = None) -> ct.StateSpace:
+    """Loop transfer of the height controller without its gain: ``L = C(s) G(s)``, SISO, state space.
+
+    The controller is ``pe_cmd = pe0 + K (e + (1/ti) int e dt)``, e = X_ref - X: proportional
+    (ti = None) or PI. The closed-loop poles for gain K [Pa/m] are the roots of 1 + K L(s).
+    """
+    plant = height_plant(op)
+    if ti is None:
+        return plant
+    if not ti > 0:
+        raise ControlAnalysisError(f"integral time ti = {ti!r} s must be positive")
+    pi = ct.ss([[0.0]], [[1.0]], [[1.0 / ti]], [[1.0]], inputs=["e"], outputs=["pe_cmd"], states=["int_e"],
+               name="pi")
+    return ct.series(pi, plant)
+
+
+def closed_loop_poles(loop: ct.StateSpace, gain) -> np.ndarray:
+    """Eigenvalues [1/s] of the loop closed by ``u = -K y``: one gain K, or an array of gains (one row each).
+
+    For a strictly proper loop (D = 0, as every loop here) that is ``eig(A - K B C)``; otherwise
+    python-control's ``feedback(K L, 1)``.
+    """
+    gains = np.atleast_1d(np.asarray(gain, dtype=float))
+    if np.any(loop.D):
+        rows = [ct.feedback(k * loop, 1).poles() for k in gains]
+    else:
+        BC = loop.B @ loop.C
+        rows = [np.linalg.eigvals(loop.A - k * BC) for k in gains]
+    rows = [np.sort_complex(r) for r in rows]
+    return np.array(rows) if np.ndim(gain) else rows[0]
+
+
+def critical_gain(loop: ct.StateSpace, k_max: float = 1e12, rtol: float = 1e-9) -> float:
+    """The smallest gain K > 0 at which a closed-loop pole of ``1 + K L`` reaches the right half plane.
+
+    Scans a log grid (8 points per decade) for the first unstable gain and refines by bisection on the
+    largest real part of the eigenvalues. Returns ``inf`` if the loop stays stable up to k_max, and 0 if
+    it is unstable already for vanishing gain.
+    """
+    def margin(k):
+        return float(np.max(closed_loop_poles(loop, k).real))
+
+    k_min = k_max * 1e-18
+    if margin(k_min) > 0:
+        return 0.0
+    grid = np.geomspace(k_min, k_max, 18 * 8 + 1)
+    prev = grid[0]
+    for k in grid[1:]:
+        if margin(k) > 0:
+            lo, hi = prev, k
+            while hi - lo > rtol * hi:
+                mid = 0.5 * (lo + hi)
+                lo, hi = (mid, hi) if margin(mid) <= 0 else (lo, mid)
+            return 0.5 * (lo + hi)
+        prev = k
+    return math.inf
+
+
+def height_root_locus(op: KneeOperatingPoint, gains, ti: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """python-control's ``root_locus_map`` of :func:`height_loop` over K [Pa/m]: (gains, loci [1/s])."""
+    gains = np.asarray(gains, dtype=float)
+    data = ct.root_locus_map(height_loop(op, ti), gains)
+    return gains, np.asarray(data.loci)
+
+
+# --- The pressure lag ---------------------------------------------------------------------------
+
+def lag_sweep(op: KneeOperatingPoint, taus, gain: float | None = None, ti: float | None = None):
+    """Eigenvalues [1/s] as the lag tau [s] grows: open loop and, with a height gain K [Pa/m], closed loop.
+
+    Returns (taus, open_loop, closed_loop) with one row of eigenvalues per tau (closed_loop None without a
+    gain). In open loop the mechanical poles stay put and the lag poles -1/tau approach the origin; in
+    closed loop the lag pole and the mechanical pair interact and move right as tau grows.
+    """
+    taus = np.asarray(taus, dtype=float)
+    if np.any(taus <= 0):
+        raise ControlAnalysisError("every lag tau of a sweep must be > 0 s")
+    open_rows, closed_rows = [], []
+    for tau in taus:
+        case = op.with_params(tau=float(tau))
+        open_rows.append(np.sort_complex(np.linalg.eigvals(analytic_linearization(case).A)))
+        if gain is not None:
+            closed_rows.append(closed_loop_poles(height_loop(case, ti), gain))
+    return taus, np.array(open_rows), (np.array(closed_rows) if gain is not None else None)
+
+
+# --- Step responses: linear, nonlinear, FMU ------------------------------------------------------
+
+def _response_info(time, y, final=None):
+    """python-control's ``step_info`` (2 % settling, 10-90 % rise) of one response, or NaNs if it is flat.
+
+    ``final``: the known final value (else the last sample is taken as final).
+    """
+    if not np.any(y):
+        return {"RiseTime": math.nan, "Overshoot": math.nan, "SettlingTime": math.nan}
+    info = ct.step_info(y, time, final_output=final)
+    return {k: float(info[k]) for k in ("RiseTime", "Overshoot", "SettlingTime", "Peak", "SteadyStateValue")}
+
+
+def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = 0.1,
+                   dt: float = 1e-3, fmu=DEFAULT_FMU):
+    """Hip height response to a step of the extensor command pe_cmd by dpe [Pa] at t_step [s], from rest at op.
+
+    Three models on one time grid (sampling dt [s]): the linearization (:func:`analytic_linearization`,
+    python-control ``step_response``), the nonlinear model (:class:`mkctl.simulate.KneeSimulator`, end stops
+    included) and, if ``fmu`` is a path to an existing file, the knee FMU through fmpy's ``simulate_fmu``.
+    Returns a dict: "time" [s]; "linear", "nonlinear", "fmu" (None without FMU): X - X_op [m];
+    "info": step_info of each, measured from t_step, with the known final values (the linear model's DC
+    gain; the library's equilibrium at the new pressure); "fmu_note": why the FMU is missing, if it is.
+    """
+    if not (math.isfinite(dpe) and dpe != 0):
+        raise ControlAnalysisError(f"pressure step dpe = {dpe!r} Pa must be a non-zero number")
+    if not (0 < dt < duration and 0 <= t_step < duration):
+        raise ControlAnalysisError("need 0 < dt < duration and 0 <= t_step < duration")
+    p = op.params
+    steps = int(round(duration / dt))
+    time = np.arange(steps + 1) * dt
+    after = time >= t_step - 1e-12
+
+    lin = analytic_linearization(op)
+    lin_out = np.zeros_like(time)
+    resp = ct.step_response(lin[0, 0], time[after] - time[after][0])  # X per unit pe_cmd
+    lin_out[after] = dpe * np.asarray(resp.outputs).ravel()
+
+    sim = KneeSimulator(p, op.X, op.pe, op.pf, stops=True)
+    nonlin = np.empty_like(time)
+    nonlin[0] = sim.state[0]
+    for k in range(1, time.size):
+        pe = op.pe + dpe if time[k - 1] >= t_step - 1e-12 else op.pe
+        try:
+            sim.step(time[k] - time[k - 1], pe, op.pf)
+        except MkctlError as error:
+            raise ControlAnalysisError(f"the nonlinear model failed at t = {time[k]:g} s: {error}") from error
+        nonlin[k] = sim.state[0]
+    nonlin -= op.X
+
+    result = {"time": time, "linear": lin_out, "nonlinear": nonlin, "fmu": None, "fmu_note": None,
+              "dpe": dpe, "t_step": t_step}
+    if fmu is not None and Path(fmu).is_file():
+        run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.pe + dpe, op.pf), t_step,
+                                duration, dt)
+        result["fmu"] = np.interp(time, run["time"], run["X"]) - op.X
+    elif fmu is not None:
+        result["fmu_note"] = f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
+    else:
+        result["fmu_note"] = "FMU response not asked for"
+    # final values: the linear model's DC gain; for the nonlinear model and the FMU the library's stable
+    # equilibrium at the new pressure, if there is one (a leg that falls to a stop ends where it ends)
+    finals = {"linear": dpe * float(ct.dcgain(lin[0, 0]))}
+    try:
+        finals["nonlinear"] = finals["fmu"] = stability.equilibrium_hip_height(op.pe + dpe, op.pf, p) - op.X
+        if abs(finals["nonlinear"] - nonlin[-1]) > 0.5 * abs(nonlin[-1] - nonlin[0]):
+            raise DomainError("the run went elsewhere")
+    except DomainError:
+        finals["nonlinear"] = finals["fmu"] = None
+    result["info"] = {
+        name: _response_info(time[after] - t_step, result[name][after], finals[name])
+        for name in ("linear", "nonlinear", "fmu") if result[name] is not None
+    }
+    return result
+
+
+# --- Plots --------------------------------------------------------------------------------------
+
+def _pole_axes(ax, title):
+    ax.axvline(0.0, color="0.5", lw=0.8)
+    ax.axhline(0.0, color="0.5", lw=0.8)
+    ax.set_xlabel("real part [1/s]")
+    ax.set_ylabel("imaginary part [1/s]")
+    ax.set_title(title, fontsize=10)
+    ax.grid(alpha=0.3)
+
+
+def plot_damping_locus(op: KneeOperatingPoint, c_values, c_marked: float | None = None, path=None):
+    """Root locus of the mechanical poles against c (:func:`damping_root_locus`), c = 0 and c_marked marked."""
+    from .plotting import new_figure, save_png
+
+    c_values, loci = damping_root_locus(op, c_values)
+    mech = np.isfinite(loci)
+    fig, ax = new_figure(figsize=(6.4, 5.2))
+    flat_c = np.repeat(c_values[:, None], loci.shape[1], axis=1)[mech]
+    sc = ax.scatter(loci[mech].real, loci[mech].imag, c=flat_c, s=6, cmap="viridis")
+    fig.colorbar(sc, ax=ax, label="viscous damping c [N s/m]")
+    undamped = np.linalg.eigvals(analytic_linearization(op.with_params(c=0.0)).A[:2, :2])
+    ax.plot(undamped.real, undamped.imag, "rx", ms=9, label="c = 0: model 2 alone (a1 = 0, Eq. 19 fails)")
+    if c_marked is not None:
+        marked = np.linalg.eigvals(analytic_linearization(op.with_params(c=c_marked)).A[:2, :2])
+        zeta = damping_ratio(-c_marked * velocity_gain(op), analytic_linearization(op).A[1, 0])
+        ax.plot(marked.real, marked.imag, "ko", mfc="none", ms=9, label=f"c = {c_marked:.4g} N s/m (zeta = {zeta:.3g})")
+    ax.legend(fontsize=8, loc="best")
+    _pole_axes(ax, f"Root locus against damping c (velocity feedback), alpha = {math.degrees(op.alpha):.4g} deg, "
+                   f"pf = {op.pf / 1e3:g} kPa")
+    return save_png(fig, path) if path else fig
+
+
+def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None = None, path=None):
+    """Eigenvalues against tau, open loop (only the lag poles move) and closed loop with height gain K,
+    and the critical height gain against tau."""
+    from .plotting import new_figure, save_png
+
+    taus, open_loop, closed = lag_sweep(op, taus, gain, ti)
+    fig, axes = new_figure(1, 3, figsize=(15, 4.8))
+    colour = np.log10(np.repeat(taus[:, None], open_loop.shape[1], axis=1))
+    lim = 4 * float(np.abs(analytic_linearization(op.with_params(tau=0.0)).poles()).max())
+    for ax, rows, title in ((axes[0], open_loop, "open loop: lag poles -1/tau move, mechanical poles stay"),
+                            (axes[1], closed, f"closed loop, height P{'I' if ti else ''} gain K = {gain:.3g} Pa/m")):
+        cols = colour if rows.shape == colour.shape else np.log10(np.repeat(taus[:, None], rows.shape[1], axis=1))
+        sc = ax.scatter(rows.real, rows.imag, c=cols, s=6, cmap="plasma", vmin=colour.min(), vmax=colour.max())
+        no_lag = op.with_params(tau=0.0)
+        if rows is open_loop:
+            mech, label = analytic_linearization(no_lag).poles(), "mechanical poles (any tau)"
+        else:
+            mech, label = closed_loop_poles(height_loop(no_lag, ti), gain), "same K without lag"
+        ax.plot(mech.real, mech.imag, "kx", ms=8, label=label)
+        ax.legend(fontsize=8, loc="lower left")
+        _pole_axes(ax, title)
+        ax.set_xlim(-lim, 0.3 * lim)
+        ax.set_ylim(-0.8 * lim, 0.8 * lim)
+    fig.colorbar(sc, ax=axes[:2], label="log10(tau / s)")
+    kc = np.array([critical_gain(height_loop(op.with_params(tau=float(t)), ti)) for t in taus])
+    axes[2].loglog(taus, kc, "-", label="critical gain K_crit(tau)")
+    axes[2].axhline(gain, color="k", ls="--", lw=1, label=f"K = {gain:.3g} Pa/m (middle panel)")
+    axes[2].set_xlabel("lag tau [s]")
+    axes[2].set_ylabel("critical gain [Pa/m]")
+    axes[2].grid(alpha=0.3, which="both")
+    axes[2].legend(fontsize=8)
+    axes[2].set_title("the lag's cost: without lag no finite critical gain", fontsize=10)
+    fig.suptitle(f"Pressure lag sweep tau = {taus[0]:.3g} .. {taus[-1]:.3g} s at "
+                 f"alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m",
+                 fontsize=10)
+    return save_png(fig, path) if path else fig
+
+
+def plot_gain_locus(op: KneeOperatingPoint, gains, ti: float | None = None, tau: float = DEFAULT_TAU, path=None):
+    """Root loci of the height controller against K, without and with the lag tau, critical gains marked."""
+    from .plotting import new_figure, save_png
+
+    fig, ax = new_figure(figsize=(7, 5.4))
+    summary = {}
+    for case, style, label in ((op.with_params(tau=0.0), "tab:blue", "no lag"),
+                               (op.with_params(tau=tau), "tab:red", f"lag tau = {tau:g} s")):
+        g, loci = height_root_locus(case, gains, ti)
+        finite = np.abs(loci) < 1e6
+        ax.plot(loci[finite].real, loci[finite].imag, ".", ms=2, color=style, label=label)
+        ol = height_loop(case, ti).poles()
+        ax.plot(ol.real, ol.imag, "x", color=style, ms=8)
+        kc = critical_gain(height_loop(case, ti))
+        summary[label] = kc
+        if math.isfinite(kc):
+            at = closed_loop_poles(height_loop(case, ti), kc)
+            ax.plot(at.real, at.imag, "o", mfc="none", color=style, ms=9,
+                    label=f"{label}: critical K = {kc:.4g} Pa/m")
+        else:
+            ax.plot([], [], " ", label=f"{label}: stable for every K")
+    box = np.abs(closed_loop_poles(height_loop(op.with_params(tau=tau), ti), gains[-1]))
+    lim = 1.3 * float(box.max())
+    ax.set_xlim(-lim, 0.4 * lim)
+    ax.set_ylim(-lim, lim)
+    ax.legend(fontsize=8)
+    _pole_axes(ax, f"Height P{'I' if ti else ''} control through pe_cmd, K = {gains[0]:.3g} .. {gains[-1]:.3g} Pa/m; "
+                   f"c = {op.params.c:.4g} N s/m")
+    return (save_png(fig, path) if path else fig), summary
+
+
+def plot_step(result: dict, op: KneeOperatingPoint, path=None):
+    """The hip-height step responses of :func:`step_responses`, in mm, with their step_info in the legend."""
+    from .plotting import new_figure, save_png
+
+    fig, ax = new_figure(figsize=(7.5, 4.8))
+    t = result["time"]
+    for name, style in (("nonlinear", "-"), ("fmu", ":"), ("linear", "--")):
+        y = result[name]
+        if y is None:
+            continue
+        info = result["info"][name]
+        ax.plot(t, 1e3 * y, style, lw=2 if name == "fmu" else 1.4,
+                label=f"{name}: rise {info['RiseTime']:.3g} s, overshoot {info['Overshoot']:.3g} %, "
+                      f"settling {info['SettlingTime']:.3g} s")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("X - X_op [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title(f"Step of pe_cmd by {result['dpe'] / 1e3:+g} kPa at alpha = {math.degrees(op.alpha):.4g} deg, "
+                 f"pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s", fontsize=9)
+    return save_png(fig, path) if path else fig
+
+
+def plot_poles(cases: dict, title: str, path=None):
+    """Eigenvalues of several linearizations on one pole map: {label: eigenvalues [1/s]}."""
+    from .plotting import new_figure, save_png
+
+    fig, ax = new_figure(figsize=(6.4, 5.0))
+    markers = iter("xo^sdv*")
+    for label, eig in cases.items():
+        eig = np.asarray(eig)
+        ax.plot(eig.real, eig.imag, next(markers, "."), mfc="none", ms=9, mew=1.5, label=label)
+    ax.legend(fontsize=8)
+    _pole_axes(ax, title)
+    return save_png(fig, path) if path else fig

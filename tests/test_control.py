@@ -1,0 +1,284 @@
+"""mkctl.control against independent references: the closed-form equilibrium, python-control's numerical
+linearize, the Routh criterion of the closed loop, eigenvalues, and the library's own simulation."""
+import math
+import re
+from pathlib import Path
+
+import control as ct
+import numpy as np
+import pytest
+
+from mkctl import control as mc
+from mkctl import knee, stability
+from mkctl.cli import main
+from mkctl.errors import DomainError, MkctlError
+from mkctl.params import Params
+
+ROOT = Path(__file__).resolve().parents[1]
+ALPHA60 = math.radians(60)
+
+
+@pytest.fixture(scope="module")
+def op60():
+    """alpha = 60 deg, Pf = 100 kPa, damped to zeta = 0.3."""
+    op = mc.operating_point(ALPHA60, pf=100e3)
+    return op.with_params(c=mc.damping_for_zeta(0.3, op))
+
+
+def scaled(sys, op):
+    """[A B] in the units of LINEARIZE_SCALE, so that every entry has a comparable size."""
+    sx = np.array([mc.LINEARIZE_SCALE[s] for s in op.state_names])
+    su = np.array([mc.LINEARIZE_SCALE[s] for s in mc.INPUT_NAMES])
+    return np.hstack([sys.A * sx[None, :] / sx[:, None], sys.B * su[None, :] / sx[:, None]])
+
+
+# --- the nonlinear system and its operating points ---
+
+def test_nlsys_has_named_signals_and_is_eq17():
+    p = Params(c=30.0, tau=0.05)
+    sys = mc.knee_nlsys(p)
+    assert sys.state_labels == ["X", "V", "Pe", "Pf"]
+    assert sys.input_labels == ["pe_cmd", "pf_cmd"]
+    assert sys.output_labels == ["X", "V", "Pe", "Pf"]
+    assert mc.knee_nlsys(Params()).state_labels == ["X", "V"]
+    x, u = np.array([0.84, 0.01, 1.6e6, 1.2e5]), np.array([1.7e6, 1e5])
+    np.testing.assert_allclose(sys._rhs(0.0, x, u), knee.knee_derivatives(x, *u, p, knee.stop_positions(p)))
+
+
+@pytest.mark.parametrize("params", [Params(), Params(model=1), Params(c=40.0, tau=0.05), Params(m=2.5)])
+@pytest.mark.parametrize("alpha_deg", [20, 45, 60, 72])
+def test_operating_point_matches_the_closed_form_equilibrium(params, alpha_deg):
+    alpha = math.radians(alpha_deg)
+    op = mc.operating_point(alpha, pf=150e3, params=params)
+    assert op.pe == pytest.approx(float(stability.equilibrium_pressure(alpha, 150e3, params)), rel=1e-9)
+    assert op.X == pytest.approx(float(knee.X_from_alpha(alpha, params)), rel=1e-14)
+    rhs = knee.knee_derivatives(op.states, op.pe, op.pf, params)
+    assert np.abs(rhs).max() < 1e-6
+    if params.tau > 0:
+        assert op.states[2:] == pytest.approx([op.pe, op.pf], rel=1e-9)
+
+
+def test_operating_point_from_hip_height_and_bad_postures():
+    op = mc.operating_point(X=0.83, pf=100e3)
+    assert op.X == 0.83 and op.alpha == pytest.approx(float(knee.alpha_from_X(0.83)), rel=1e-12)
+    with pytest.raises(DomainError, match="end stops"):
+        mc.operating_point(math.radians(80))
+    with pytest.raises(MkctlError, match="exactly one"):
+        mc.operating_point(ALPHA60, X=0.85)
+    with pytest.raises(MkctlError):
+        mc.operating_point(ALPHA60, pf=float("nan"))
+
+
+# --- linearizations ---
+
+@pytest.mark.parametrize("params", [Params(), Params(model=1), Params(c=45.0), Params(c=45.0, tau=0.03),
+                                    Params(c=20.0, Fc=3.0, vs=0.01)])
+@pytest.mark.parametrize("alpha_deg", [20, 45, 60, 72])
+def test_python_control_linearize_agrees_with_the_analytic_jacobian(params, alpha_deg):
+    op = mc.operating_point(math.radians(alpha_deg), pf=100e3, params=params)
+    analytic = mc.analytic_linearization(op)
+    numerical = mc.numerical_linearization(op)
+    assert numerical.state_labels == analytic.state_labels == list(op.state_names)
+    ref = scaled(analytic, op)
+    assert np.abs(scaled(numerical, op) - ref).max() / np.abs(ref).max() < 1e-6
+    assert numerical.A[1, 0] == pytest.approx(analytic.A[1, 0], rel=1e-6)  # a2, the curved direction
+
+
+def test_analytic_linearization_carries_a1_a2_and_the_lag_block(op60):
+    op = op60.with_params(tau=0.04)
+    lin = mc.analytic_linearization(op)
+    a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
+    assert lin.A[1, 0] == pytest.approx(float(a2), rel=1e-12)
+    assert lin.A[1, 1] == pytest.approx(float(a1), rel=1e-12)
+    np.testing.assert_array_equal(lin.A[2:, 2:], -np.eye(2) / 0.04)
+    np.testing.assert_array_equal(lin.B[2:], np.eye(2) / 0.04)
+    assert lin.input_labels == ["pe_cmd", "pf_cmd"]
+
+
+# --- Eq. 19: damping ---
+
+def test_model2_alone_leaves_the_poles_on_the_imaginary_axis_and_damping_moves_them_left():
+    op = mc.operating_point(ALPHA60, pf=100e3)
+    poles = mc.analytic_linearization(op).poles()
+    a2 = mc.analytic_linearization(op).A[1, 0]
+    assert np.abs(poles.real).max() < 1e-12
+    assert sorted(poles.imag) == pytest.approx([-math.sqrt(-a2), math.sqrt(-a2)], rel=1e-12)
+    geo = knee.geometry_at_X(op.X)
+    for c in (10.0, 100.0):
+        damped = mc.analytic_linearization(op.with_params(c=c)).poles()
+        expected = -c * (geo.G_e**2 + geo.G_f**2) / (2 * op.params.m)
+        assert damped.real == pytest.approx([expected, expected], rel=1e-12)
+
+
+@pytest.mark.parametrize("alpha_deg", [55, 60, 70])
+@pytest.mark.parametrize("zeta", [0.1, 0.3, 0.7])
+def test_damping_for_zeta_gives_that_damping_ratio_in_the_eigenvalues(alpha_deg, zeta):
+    op = mc.operating_point(math.radians(alpha_deg), pf=100e3)
+    c = mc.damping_for_zeta(zeta, op)
+    # eigenvalues of python-control's numerical linearization of the damped nonlinear system
+    eig = mc.numerical_linearization(op.with_params(c=c)).poles()
+    assert -eig.real / np.abs(eig) == pytest.approx([zeta, zeta], rel=1e-5)
+    assert mc.damping_ratio(*stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0,
+                                                                   op.params.replace(c=c))) == pytest.approx(zeta)
+
+
+def test_damping_for_zeta_refuses_an_unstable_posture_and_a_bad_ratio():
+    op = mc.operating_point(math.radians(30), pf=100e3)  # a2 > 0 there (h > 0, Eq. 20 fails)
+    with pytest.raises(mc.ControlAnalysisError, match="a2 = .* >= 0"):
+        mc.damping_for_zeta(0.3, op)
+    with pytest.raises(mc.ControlAnalysisError, match="zeta"):
+        mc.damping_for_zeta(-0.1, mc.operating_point(ALPHA60))
+
+
+def test_root_locus_against_c_is_exact_and_moves_the_poles_left(op60):
+    c_values = np.linspace(0.0, mc.damping_for_zeta(1.5, op60), 41)
+    c_values, loci = mc.damping_root_locus(op60, c_values)
+    for c, row in zip(c_values[::8], loci[::8]):
+        direct = np.sort_complex(mc.analytic_linearization(op60.with_params(c=c)).poles())
+        np.testing.assert_allclose(np.sort_complex(row), direct, rtol=1e-7, atol=1e-9)
+    trace = loci.sum(axis=1).real
+    assert np.all(np.diff(trace) < 0)  # the sum of the poles is a1: it falls as c grows
+    zeta = -loci.real.max(axis=1) / np.abs(loci).min(axis=1)
+    under = c_values < mc.damping_for_zeta(1.0, op60)
+    assert np.all(np.diff(zeta[under]) > 0)  # and the damping ratio rises up to critical damping
+
+
+# --- the pressure lag and the height controller ---
+
+def routh_critical_gain(op):
+    """Independent reference: Routh on tau s^3 + (1 - a1 tau) s^2 + (-a1 - a2 tau) s + (K b - a2)."""
+    lin = mc.analytic_linearization(op)
+    a2, a1, b, tau = lin.A[1, 0], lin.A[1, 1], lin.B[1, 0] if op.params.tau == 0 else lin.A[1, 2], op.params.tau
+    return ((1 - a1 * tau) * (-a1 - a2 * tau) / tau + a2) / b
+
+
+def test_lag_poles_are_minus_one_over_tau_and_move_right_as_tau_grows(op60):
+    taus = np.array([0.005, 0.01, 0.03, 0.1, 0.3])
+    taus, open_loop, _ = mc.lag_sweep(op60, taus)
+    mech = np.sort_complex(mc.analytic_linearization(op60).poles())
+    for tau, row in zip(taus, open_loop):
+        lag = row[np.abs(row.imag) < 1e-12 * np.abs(row).max()]
+        assert lag == pytest.approx([-1 / tau, -1 / tau], rel=1e-12)
+        rest = np.sort_complex(row[np.abs(row.imag) > 0])
+        np.testing.assert_allclose(rest, mech, rtol=1e-12)  # open loop: the mechanical poles do not move
+
+
+def test_critical_gain_matches_routh_and_the_lag_costs_gain(op60):
+    assert mc.critical_gain(mc.height_loop(op60.with_params(tau=0.0))) == math.inf
+    w_n = math.sqrt(-mc.analytic_linearization(op60).A[1, 0])
+    taus = np.geomspace(0.005, 1 / w_n, 6)  # below tau = 1/w_n, where K_crit(tau) has its minimum
+    kc = []
+    for tau in taus:
+        case = op60.with_params(tau=float(tau))
+        k = mc.critical_gain(mc.height_loop(case))
+        assert k == pytest.approx(routh_critical_gain(case), rel=1e-6)
+        poles = mc.closed_loop_poles(mc.height_loop(case), k)
+        assert np.max(poles.real) == pytest.approx(0.0, abs=1e-5 * np.abs(poles).max())
+        kc.append(k)
+    assert np.all(np.diff(kc) < 0)  # more lag, less gain
+
+
+def test_closed_loop_poles_move_right_as_tau_grows(op60):
+    gain = 0.5 * routh_critical_gain(op60.with_params(tau=0.05))
+    w_n = math.sqrt(-mc.analytic_linearization(op60).A[1, 0])
+    _, _, closed = mc.lag_sweep(op60, np.geomspace(0.002, 1 / w_n, 8), gain)
+    assert np.all(np.diff(closed.real.max(axis=1)) > 0)
+
+
+def test_gain_root_locus_and_feedback_agree(op60):
+    case = op60.with_params(tau=0.05)
+    loop = mc.height_loop(case)
+    gains = np.array([1e6, 1e7, 3e7])
+    _, loci = mc.height_root_locus(case, gains)
+    direct = mc.closed_loop_poles(loop, gains)
+    for k, row, ref in zip(gains, loci, direct):
+        np.testing.assert_allclose(np.sort_complex(row), ref, rtol=1e-6)
+        np.testing.assert_allclose(np.sort_complex(ct.feedback(k * loop, 1).poles()), ref, rtol=1e-9)
+    pi = mc.height_loop(case, ti=0.5)
+    assert pi.nstates == 4 and 0 < mc.critical_gain(pi) < mc.critical_gain(loop)
+
+
+# --- step responses ---
+
+def test_small_step_linear_and_nonlinear_agree_and_the_error_is_second_order(op60):
+    small = mc.step_responses(op60, 1e3, duration=1.6, fmu=None)
+    half = mc.step_responses(op60, 0.5e3, duration=1.6, fmu=None)
+    def rel_error(r):
+        return np.abs(r["linear"] - r["nonlinear"]).max() / np.abs(r["nonlinear"]).max()
+    assert rel_error(small) < 0.01
+    assert rel_error(small) / rel_error(half) == pytest.approx(2.0, rel=0.1)  # error/step ~ step
+    lin, non = small["info"]["linear"], small["info"]["nonlinear"]
+    for key in ("RiseTime", "Overshoot", "SettlingTime"):
+        assert non[key] == pytest.approx(lin[key], rel=0.02)
+    assert lin["Overshoot"] == pytest.approx(100 * math.exp(-math.pi * 0.3 / math.sqrt(1 - 0.09)), rel=1e-3)
+    assert small["fmu"] is None and "not asked" in small["fmu_note"]
+
+
+def test_large_step_shows_the_nonlinearity_and_settles_at_the_library_equilibrium(op60):
+    result = mc.step_responses(op60, 100e3, duration=3.0, fmu=Path("no/such.fmu"))
+    assert "not found" in result["fmu_note"]
+    assert np.abs(result["linear"] - result["nonlinear"]).max() > 0.2 * np.abs(result["nonlinear"]).max()
+    X_end = stability.equilibrium_hip_height(op60.pe + 100e3, op60.pf, op60.params)
+    assert result["nonlinear"][-1] + op60.X == pytest.approx(X_end, abs=2e-6)
+
+
+# --- command line ---
+
+def run_cli(args, capsys):
+    code = main(args)
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def test_cli_linearize(tmp_path, capsys):
+    code, out, _ = run_cli(["linearize", "--out", str(tmp_path), "--no-fmu"], capsys)
+    assert code == 0
+    assert "Eq. 19 fails" in out and "c = 193.4" in out
+    error = float(re.search(r"linearize vs analytic: relative error (\S+)", out).group(1))
+    assert error < 1e-6
+    assert (tmp_path / "poles.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("vary,png", [("c", "rootlocus_c.png"), ("tau", "rootlocus_tau.png"),
+                                      ("gain", "rootlocus_gain.png")])
+def test_cli_rootlocus(vary, png, tmp_path, capsys):
+    code, out, _ = run_cli(["rootlocus", "--vary", vary, "--out", str(tmp_path), "--set", "m=10"], capsys)
+    assert code == 0 and (tmp_path / png).stat().st_size > 0
+    if vary == "gain":
+        assert "no lag: none (stable for every gain)" in out
+        kc = float(re.search(r"lag tau = 0.05 s: (\S+) Pa/m", out).group(1))
+        assert kc == pytest.approx(routh_critical_gain(
+            mc.operating_point(ALPHA60).with_params(c=mc.damping_for_zeta(0.3, mc.operating_point(ALPHA60)),
+                                                    tau=0.05)), rel=1e-4)
+
+
+def test_cli_step(tmp_path, capsys):
+    code, out, _ = run_cli(["step", "--out", str(tmp_path), "--no-fmu", "--duration", "1.5"], capsys)
+    assert code == 0
+    assert (tmp_path / "step_small.png").exists() and (tmp_path / "step_large.png").exists()
+    assert "overshoot" in out
+
+
+@pytest.mark.parametrize("args,message", [
+    (["rootlocus", "--vary", "c", "--alpha", "30"], "a2 = "),
+    (["linearize", "--alpha", "80"], "end stops"),
+    (["linearize", "--set", "nope=1"], "unknown parameter"),
+    (["linearize", "--set", "m"], "NAME=VALUE"),
+    (["linearize", "--set", "m=-1"], "must be positive"),
+    (["step", "--small", "0", "--no-fmu"], "non-zero"),
+])
+def test_cli_bad_arguments_are_one_line_errors(args, message, tmp_path, capsys):
+    code, _, err = run_cli([*args, "--out", str(tmp_path)], capsys)
+    assert code == 2
+    assert message in err and len(err.strip().splitlines()) == 1
+
+
+# --- docs ---
+
+def test_docs_examples_run(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    blocks = re.findall(r"```python\n(.*?)```", (ROOT / "docs" / "control.md").read_text(), re.S)
+    assert blocks
+    for block in blocks:
+        exec(compile(block, "<docs/control.md>", "exec"), {"__name__": "__docs__"})
+    assert capsys.readouterr().out.strip()
