@@ -15,8 +15,6 @@ The pressure is the one measured in the bladder, so the pressure lag plays no pa
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
-
 from . import actuator
 from .errors import DomainError
 from .params import DEFAULT, Params
@@ -95,20 +93,57 @@ def _damped_isotonic(time, P, F, params: Params, L_start: float):
         if dt[k] <= 0:
             L[k] = previous
             continue
-
-        def residual(x, load):
-            return load - float(actuator.static_tension(x, P[k], params)) - params.c * (x - previous) / dt[k]
-
-        excess = residual(previous, F[k])
+        pressure = float(P[k])
+        excess = float(F[k]) - float(actuator.static_tension(previous, pressure, params))
         if abs(excess) <= params.Fc:  # friction holds
             L[k] = previous
         else:
-            load = F[k] - np.sign(excess) * params.Fc
-            target = float(static_length(P[k], load, params))  # the root lies between previous and target
-            low, high = sorted((previous, target))
-            L[k] = previous if high - low < 1e-15 else brentq(residual, low, high, args=(load,), xtol=1e-14)
+            load = float(F[k]) - np.sign(excess) * params.Fc
+            L[k] = _backward_euler_length(previous, pressure, load, params.c / dt[k], params)
         previous = L[k]
     return L
+
+
+def _backward_euler_length(previous: float, pressure: float, load: float, gain: float, params: Params) -> float:
+    """Root of ``g(x) = load - f_static(x, P) - gain (x - previous)`` [m], gain = c / dt [N/m].
+
+    g falls with x (the static tension rises with L for P >= 0), so the root lies on the side of
+    ``previous`` that g(previous) points to. Newton steps with the analytic slope, kept inside a bracket
+    that shrinks with every evaluation (bisection when a step leaves it).
+    """
+    def g(x):
+        return load - float(actuator.static_tension(x, pressure, params)) - gain * (x - previous)
+
+    value = g(previous)
+    if value == 0:
+        return previous
+    # bracket [low, high] with g(low) > 0 > g(high)
+    if value > 0:
+        low, high = previous, params.b * (1 - 1e-9)
+        if g(high) > 0:
+            static_length(pressure, load, params)  # raises the DomainError that explains it
+    else:
+        low, high = params.b * 1e-3, previous
+        if g(low) < 0:
+            static_length(pressure, load, params)
+    x = previous
+    for _ in range(_BISECTIONS):
+        slope = float(actuator.static_tension_dL(x, pressure, params)) + gain
+        step = value / slope if slope > 0 else 2 * (high - low)  # a step that leaves the bracket: bisect
+        if abs(step) < 1e-15:  # converged (1 fm): nothing left to gain
+            return x + step if low <= x + step <= high else x
+        candidate = x + step
+        x = candidate if low < candidate < high else 0.5 * (low + high)
+        value = g(x)
+        if value == 0:
+            return x
+        if value > 0:
+            low = x
+        else:
+            high = x
+        if high - low < 1e-15:
+            break
+    return x
 
 
 def contraction(L, params: Params = DEFAULT):

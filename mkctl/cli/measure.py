@@ -1,5 +1,139 @@
-"""Subcommands of `mkctl` for this area (being written; registers nothing yet)."""
+"""Subcommands for measurements: ``synth`` (the virtual test bench), ``compare`` and ``diagnose``.
+
+- ``mkctl synth knee data.csv --hidden viscous_damping`` writes a measurement file made by the model with
+  hidden effects (and ``data.truth.json`` with what was hidden).
+- ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
+  overlay and the residual as PNG.
+- ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
+  :mod:`mkctl.diagnose`), prints a summary and saves the JSON report and the pictures.
+"""
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+from ..errors import ParameterError
 
 
 def register(subparsers) -> None:
-    """Add this module's subcommands to the `mkctl` parser."""
+    """Add ``synth``, ``compare`` and ``diagnose`` to the `mkctl` parser."""
+    from ..synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE
+
+    p = subparsers.add_parser(
+        "synth", help="write a synthetic measurement file with hidden effects (the virtual test bench)",
+        description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
+                    "the measured output, and write a measurement file (model-spec section 5). The hidden values "
+                    "go to <stem>.truth.json beside it, never into the file.")
+    p.add_argument("experiment", choices=["knee", "isotonic"])
+    p.add_argument("output", metavar="OUT.csv")
+    p.add_argument("--hidden", nargs="+", default=[], metavar="EFFECT|NAME=VALUE",
+                   help="effects hidden in the data: an effect name (" + ", ".join(
+                       f"{k}" + (f" = {', '.join(f'{n} {v:g}' for n, v in d.items())}" if d else " = Table I")
+                       for k, d in DEFAULT_EFFECT_VALUES.items()) + ") or a parameter NAME=VALUE in SI")
+    p.add_argument("--param", nargs="+", default=[], metavar="NAME=VALUE",
+                   help="known parameters (SI), written into the file's metadata, e.g. m=2.5 or c=45")
+    p.add_argument("--baseline", choices=["model1", "model2"], default="model2",
+                   help="the baseline the file declares (default model2); hide elasticity with model1")
+    p.add_argument("--noise", type=float, default=DEFAULT_NOISE_MM,
+                   help=f"standard deviation of the output noise [mm] (default {DEFAULT_NOISE_MM:g})")
+    p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
+    p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic)")
+    p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
+    p.add_argument("--no-truth", action="store_true", help="do not write <stem>.truth.json")
+    p.set_defaults(func=run_synth)
+
+    p = subparsers.add_parser(
+        "compare", help="compare the baseline with a measurement file: RMSE, fit, overlay and residual PNGs",
+        description="Simulate the file's baseline on its inputs; print RMSE and fit = 100 (1 - |y - yhat| / "
+                    "|y - mean(y)|) and save <stem>_compare_overlay.png and <stem>_compare_residual.png.")
+    p.add_argument("file", metavar="FILE.csv")
+    p.add_argument("--out", metavar="DIR", default=None, help="folder for the PNGs (default: beside the file)")
+    p.set_defaults(func=run_compare)
+
+    p = subparsers.add_parser(
+        "diagnose", help="find the effects a measurement shows that the baseline lacks, fit them, report",
+        description="Rank the candidate effects (model-spec section 4) the baseline lacks, add the best while BIC "
+                    "and the held-out error support it, fit their parameters on simulation error, and report "
+                    "(JSON as model-spec section 6, plus PNGs: the error step by step, before/after overlay, "
+                    "residuals, signatures).")
+    p.add_argument("file", metavar="FILE.csv")
+    p.add_argument("--json", metavar="OUT.json", default=None, help="write the report here")
+    p.add_argument("--out", metavar="DIR", default=None,
+                   help="folder for the PNGs (default: beside the JSON, or beside the file)")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.set_defaults(func=run_diagnose)
+
+
+def _assignments(items, what: str) -> dict:
+    values = {}
+    for item in items:
+        name, sep, text = item.partition("=")
+        if not sep:
+            raise ParameterError(f"{what} {item!r} needs the form NAME=VALUE")
+        try:
+            values[name.strip()] = float(text)
+        except ValueError:
+            raise ParameterError(f"{what} {name.strip()!r}: {text!r} is not a number") from None
+    return values
+
+
+def run_synth(args) -> int:
+    from ..params import UNITS
+    from ..synth import synthesize, write_synthetic
+
+    record = synthesize(args.experiment, args.hidden, _assignments(args.param, "parameter"), args.baseline,
+                        args.noise, args.seed, args.samples, args.rate)
+    path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
+    hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
+    effects = ", ".join(record.hidden_effects) or "none"
+    print(f"wrote {path}: {record.experiment}, {record.time.size} samples over {record.time[-1]:g} s, "
+          f"baseline {record.baseline}")
+    print(f"hidden effects: {effects}" + (f" ({hidden})" if hidden else ""))
+    print(f"noise {record.noise:g} mm, seed {record.seed}" + (f"; the truth is in {truth}" if truth else ""))
+    return 0
+
+
+def run_compare(args) -> int:
+    from ..compare import compare, plot_overlay, plot_residuals
+    from ..measurements import read_measurement
+
+    measurement = read_measurement(args.file)
+    result = compare(measurement)
+    folder = Path(args.out) if args.out else Path(args.file).resolve().parent
+    stem = Path(args.file).stem
+    effects = ", ".join(measurement.params.effects) or "no effects"
+    print(f"{args.file}: {measurement.experiment}, {measurement.samples} samples, baseline {measurement.baseline} "
+          f"({effects})")
+    print(f"RMSE {result.rmse:.4g} {measurement.output_unit}   fit {result.fit_percent:.1f} %")
+    overlay = plot_overlay(measurement, {f"baseline {measurement.baseline}": result.simulated},
+                           folder / f"{stem}_compare_overlay.png", f"{stem}: baseline vs measurement")
+    residual = plot_residuals(measurement, {"measured - baseline": result.residual},
+                              folder / f"{stem}_compare_residual.png")
+    print(f"saved {overlay} and {residual}")
+    return 0
+
+
+def run_diagnose(args) -> int:
+    from ..diagnose import diagnose, public, save_pictures, summary
+    from ..measurements import read_measurement
+
+    measurement = read_measurement(args.file)
+    progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    report = diagnose(measurement, progress)
+    if args.out:
+        folder = Path(args.out)
+    elif args.json:
+        folder = Path(args.json).resolve().parent
+    else:
+        folder = Path(args.file).resolve().parent
+    report["pictures"] = save_pictures(measurement, report, folder, Path(args.file).stem)
+    for line in summary(report):
+        print(line)
+    if args.json:
+        path = Path(args.json)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(public(report), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
+        print(f"report: {path}")
+    print("pictures: " + ", ".join(report["pictures"].values()))
+    return 0

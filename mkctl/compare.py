@@ -1,0 +1,154 @@
+"""Compare a model with a measurement: simulate the file's inputs, and score the error.
+
+The simulation is the library's: :func:`mkctl.isotonic.simulate_isotonic` for the isotonic test, and
+the knee's :class:`mkctl.simulate.KneeSimulator` for the knee, started at rest in the stable equilibrium
+of the first commands, exactly as :func:`mkctl.simulate.simulate_knee` starts it. For the knee,
+:func:`simulate_output` may ask for the output at a subset of the samples only: the integrator then
+takes one communication step from each sample it needs (or each change of the commands) to the next,
+which gives the same values (to the integrator's tolerance) at a fraction of the cost. The diagnosis
+fits on such a subset.
+
+Scores, in the units of the file's output column:
+
+- ``rmse = sqrt(mean((y - yhat)^2))``;
+- ``fit = 100 (1 - |y - yhat| / |y - mean(y)|)`` [%] (2-norms; 100 is perfect, 0 is no better than
+  the mean, as in MATLAB's ``compare``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import stability
+from .errors import MkctlError
+from .isotonic import simulate_isotonic
+from .measurements import Measurement
+from .params import Params
+from .plotting import new_figure, save_png
+from .simulate import KneeSimulator
+
+
+def simulate_output(measurement: Measurement, params: Params, at=None, stop: int | None = None,
+                    velocity: bool = False):
+    """The model's output [SI: m] for the measurement's inputs, at the sample indices ``at`` (default all).
+
+    ``stop``: simulate only the first ``stop`` samples (``at`` must lie below it). With
+    ``velocity=True`` returns (output, rate of the output [m/s]) instead; for the isotonic test the rate
+    is the finite-difference slope of the simulated length.
+    """
+    n = measurement.samples if stop is None else int(stop)
+    at = np.arange(n) if at is None else np.asarray(at, dtype=int)
+    time = measurement.time[:n]
+    if measurement.experiment == "isotonic":
+        length = simulate_isotonic(time, measurement.inputs["pressure"][:n], measurement.inputs["force"][:n], params)
+        if not velocity:
+            return length[at]
+        return length[at], np.gradient(length, time)[at]
+    X, V = _knee_states(time, measurement.inputs["pe_cmd"][:n], measurement.inputs["pf_cmd"][:n], params, at)
+    return (X, V) if velocity else X
+
+
+def _knee_states(time, pe_cmd, pf_cmd, params: Params, at):
+    """Hip height X [m] and velocity V [m/s] at the samples ``at``; commands held from each sample to the next."""
+    n = time.size
+    changes = np.zeros(n, dtype=bool)
+    changes[1:] = (pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])
+    needed = np.zeros(n, dtype=bool)
+    needed[at] = True
+    X0 = stability.equilibrium_hip_height(pe_cmd[0], pf_cmd[0], params)
+    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0])
+    X, V = np.empty(n), np.empty(n)
+    X[0], V[0] = sim.state[0], sim.state[1]
+    previous = 0
+    for k in np.flatnonzero(changes | needed):
+        if k == 0:
+            continue
+        sim.step(time[k] - time[previous], pe_cmd[previous], pf_cmd[previous])
+        X[k], V[k] = sim.state[0], sim.state[1]
+        previous = k
+    return X[at], V[at]
+
+
+def rmse(measured, simulated) -> float:
+    """Root-mean-square error, in the units of the arguments."""
+    error = np.asarray(measured, dtype=float) - np.asarray(simulated, dtype=float)
+    return float(np.sqrt(np.mean(error * error)))
+
+
+def fit_percent(measured, simulated) -> float:
+    """``100 (1 - |y - yhat| / |y - mean(y)|)`` [%] with 2-norms (NaN for a constant record)."""
+    y = np.asarray(measured, dtype=float)
+    spread = np.linalg.norm(y - y.mean())
+    if spread == 0:
+        return float("nan")
+    return float(100.0 * (1.0 - np.linalg.norm(y - np.asarray(simulated, dtype=float)) / spread))
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """A model's simulation of a measurement, with its scores in the file's output units."""
+
+    measurement: Measurement
+    params: Params
+    simulated: np.ndarray  #: the model's output, SI [m]
+    rmse: float  #: file units
+    fit_percent: float  #: [%]
+
+    @property
+    def residual(self) -> np.ndarray:
+        """Measured minus simulated, in the file's output units."""
+        return self.measurement.to_file_units(self.measurement.output - self.simulated)
+
+
+def compare(measurement: Measurement, params: Params | None = None) -> Comparison:
+    """Simulate ``params`` (default: the file's baseline) on the measurement's inputs and score it."""
+    params = measurement.params if params is None else params
+    try:
+        simulated = simulate_output(measurement, params)
+    except MkctlError as error:
+        raise MkctlError(f"{measurement.source}: the model cannot simulate this record: {error}") from None
+    y, yhat = measurement.to_file_units(measurement.output), measurement.to_file_units(simulated)
+    return Comparison(measurement, params, simulated, rmse(y, yhat), fit_percent(y, yhat))
+
+
+def input_axis(measurement: Measurement):
+    """The record's main input (pressure or extensor command, in kPa) and its label, for plots."""
+    if measurement.experiment == "isotonic":
+        return measurement.inputs["pressure"] / 1e3, "pressure [kPa]"
+    return measurement.inputs["pe_cmd"] / 1e3, "extensor command pe_cmd [kPa]"
+
+
+def plot_overlay(measurement: Measurement, curves: dict, path, title: str = "") -> Path:
+    """Measured output and simulated curves (label -> SI array) over time, with the main input below."""
+    fig, (top, bottom) = new_figure(2, 1, figsize=(9, 6), sharex=True, height_ratios=(3, 1))
+    unit = measurement.output_unit
+    top.plot(measurement.time, measurement.to_file_units(measurement.output), ".", ms=2, color="0.5",
+             label=f"measured ({Path(measurement.source).name})")
+    for label, values in curves.items():
+        top.plot(measurement.time, measurement.to_file_units(values), lw=1.2, label=label)
+    top.set_ylabel(f"{measurement.output_column} [{unit}]")
+    top.legend(loc="best", fontsize=8)
+    top.set_title(title or f"{measurement.experiment}: model vs measurement")
+    values, label = input_axis(measurement)
+    bottom.plot(measurement.time, values, color="k", lw=1)
+    bottom.set_ylabel(label, fontsize=8)
+    bottom.set_xlabel("time [s]")
+    return save_png(fig, path)
+
+
+def plot_residuals(measurement: Measurement, residuals: dict, path, title: str = "") -> Path:
+    """Residuals (label -> array in file units) over time, one panel each, with their RMSE."""
+    fig, axes = new_figure(len(residuals), 1, figsize=(9, 2.2 * len(residuals) + 0.6), sharex=True,
+                           squeeze=False)
+    for ax, (label, residual) in zip(axes[:, 0], residuals.items()):
+        ax.plot(measurement.time, residual, lw=0.8)
+        ax.axhline(0, color="k", lw=0.5)
+        ax.set_ylabel(f"residual [{measurement.output_unit}]", fontsize=8)
+        ax.set_title(f"{label}: RMSE {np.sqrt(np.mean(np.square(residual))):.4g} {measurement.output_unit}",
+                     fontsize=9)
+    axes[-1, 0].set_xlabel("time [s]")
+    if title:
+        fig.suptitle(title)
+    return save_png(fig, path)
