@@ -52,7 +52,7 @@ def write_index(out_dir, title: str, intro: str, sections: list[Section]) -> tup
         md += [f"## {section.title}", ""]
         body.append(f"<h2>{html.escape(section.title)}</h2>")
         if section.summary:
-            md += [section.summary, ""]
+            md += ["```text", section.summary, "```", ""]
             body.append(f"<pre>{html.escape(section.summary)}</pre>")
         for entry in section.entries:
             link = _relative(entry.path, out_dir)
@@ -61,7 +61,7 @@ def write_index(out_dir, title: str, intro: str, sections: list[Section]) -> tup
                 body.append(f"<h3>{html.escape(entry.title)}</h3><p>{html.escape(entry.sentence)}</p>"
                             f'<img src="{html.escape(link)}" alt="{html.escape(entry.title)}" style="max-width:100%">')
             else:
-                md += [f"- [{entry.title}]({link}): {entry.sentence}"]
+                md += [f"- [{entry.title}]({link}): {entry.sentence}", ""]
                 body.append(f'<p><a href="{html.escape(link)}">{html.escape(entry.title)}</a>: '
                             f"{html.escape(entry.sentence)}</p>")
         md.append("")
