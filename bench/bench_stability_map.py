@@ -17,7 +17,6 @@ extrapolated; the printout says which. Both maps are compared, and the ratio is 
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 import time
 from pathlib import Path

@@ -245,6 +245,7 @@ def parse_measurement(text: str, source: str = "<text>") -> Measurement:
     # data rows
     rows: list[list[float]] = []
     row_lines: list[int] = []
+    previous_time_cell = ""  # the time cell of the row before, for the "time does not increase" message
     for index in range(header_index + 1, len(lines)):
         line = lines[index].strip()
         if not line:

@@ -13,8 +13,9 @@ from pathlib import Path
 import numpy as np
 
 from .. import control as mc
-from ..errors import MkctlError, ParameterError
-from ..params import DEFAULT, PARAMETER_NAMES
+from ..errors import MkctlError
+from ..params import DEFAULT
+from .options import parse_assignments
 
 
 class UsageError(MkctlError, ValueError):
@@ -80,25 +81,9 @@ def register(subparsers) -> None:
 
 # --- shared set-up ---------------------------------------------------------------------------------
 
-def _parse_set(items) -> dict:
-    values = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise UsageError(f"--set {item!r}: expected NAME=VALUE")
-        if name not in PARAMETER_NAMES:
-            raise ParameterError(f"--set: unknown parameter {name!r} (known: {', '.join(PARAMETER_NAMES)})")
-        try:
-            values[name] = float(text)
-        except ValueError:
-            raise UsageError(f"--set {name}: {text!r} is not a number") from None
-    return values
-
-
 def _setup(args, needs_damping: bool):
     """(operating point with c and tau applied, c) from the common options."""
-    overrides = _parse_set(args.set)
+    overrides = parse_assignments(args.set)
     params = DEFAULT.replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
     alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else mc.DEFAULT_ALPHA)
     op = mc.operating_point(alpha, X=args.X, pf=args.pf * 1e3, params=params)

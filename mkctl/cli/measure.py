@@ -13,7 +13,7 @@ import json
 import sys
 from pathlib import Path
 
-from ..errors import ParameterError
+from .options import parse_assignments
 
 
 def register(subparsers) -> None:
@@ -65,24 +65,11 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_diagnose)
 
 
-def _assignments(items, what: str) -> dict:
-    values = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        if not sep:
-            raise ParameterError(f"{what} {item!r} needs the form NAME=VALUE")
-        try:
-            values[name.strip()] = float(text)
-        except ValueError:
-            raise ParameterError(f"{what} {name.strip()!r}: {text!r} is not a number") from None
-    return values
-
-
 def run_synth(args) -> int:
     from ..params import UNITS
     from ..synth import synthesize, write_synthetic
 
-    record = synthesize(args.experiment, args.hidden, _assignments(args.param, "parameter"), args.baseline,
+    record = synthesize(args.experiment, args.hidden, parse_assignments(args.param, "--param"), args.baseline,
                         args.noise, args.seed, args.samples, args.rate)
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")

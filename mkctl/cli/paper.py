@@ -11,8 +11,9 @@ import sys
 from pathlib import Path
 
 from .. import paper
-from ..errors import MkctlError, ParameterError
+from ..errors import MkctlError
 from ..params import DEFAULT, PARAMETER_NAMES
+from .options import parse_assignments
 
 
 def register(subparsers) -> None:
@@ -32,23 +33,8 @@ def register(subparsers) -> None:
     parser.set_defaults(func=run_paper)
 
 
-def parse_overrides(items: list[str]) -> dict[str, float]:
-    """``["m=2.5", "c=45"]`` -> ``{"m": 2.5, "c": 45.0}``; a malformed item raises :class:`ParameterError`."""
-    values = {}
-    for item in items:
-        name, sep, text = item.partition("=")
-        name = name.strip()
-        if not sep or not name:
-            raise ParameterError(f"--set expects NAME=VALUE, got {item!r}")
-        try:
-            values[name] = float(text)
-        except ValueError:
-            raise ParameterError(f"--set {name}: {text.strip()!r} is not a number") from None
-    return values
-
-
 def run_paper(args: argparse.Namespace) -> int:
-    overrides = parse_overrides(args.overrides)
+    overrides = parse_assignments(args.overrides)
     if args.mass is not None:
         overrides["m"] = args.mass
     params = DEFAULT.replace(**overrides) if overrides else DEFAULT
