@@ -104,6 +104,7 @@ def tension_model1(L, P, params: Params = DEFAULT):
     """
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
+    check_pressure(P)
     return P * pressure_gain(L, params.b, params.n)
 
 
@@ -169,6 +170,7 @@ def tension_model2(L, P, params: Params = DEFAULT):
     """
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
+    check_pressure(P)
     return P * pressure_gain(L, params.b, params.n) + params.V_r * strain_energy_gradient(L, params)
 
 
@@ -176,6 +178,7 @@ def static_tension(L, P, params: Params = DEFAULT):
     """The quasi-static tension of the model selected by ``params.model`` (1: Eq. 7, 2: Eq. 13) [N]."""
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
+    check_pressure(P)
     return P * pressure_gain(L, params.b, params.n) + elastic_tension(L, params)
 
 
@@ -183,6 +186,7 @@ def static_tension_dL(L, P, params: Params = DEFAULT):
     """Analytic d/dL of :func:`static_tension` [N/m]."""
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
+    check_pressure(P)
     slope = P * pressure_gain_slope(L, params.b, params.n)
     if params.model == 2:
         slope = slope + params.V_r * strain_energy_curvature(L, params)
@@ -230,7 +234,9 @@ def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
 
     ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``.
     """
-    check_pressure(P)
+    Ldot = as_values(Ldot)
+    if not np.isfinite(Ldot).all():
+        raise DomainError("lengthening rate Ldot is not a finite number (NaN or infinite)")
     return static_tension(L, P, params) + velocity_tension(Ldot, params)
 
 

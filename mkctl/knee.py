@@ -185,8 +185,6 @@ def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeFo
     """
     p = params
     Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
-    actuator.check_pressure(Pe)
-    actuator.check_pressure(Pf)
     Le_dot = geo.dLe_dbeta / geo.dX_dbeta * V
     Lf_dot = geo.dLf_dbeta / geo.dX_dbeta * V
     fe = actuator.static_tension(geo.Le, Pe, p) + actuator.velocity_tension(Le_dot, p)

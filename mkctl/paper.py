@@ -638,12 +638,12 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         "supported" if np.all(a1 == 0) else "refuted",
         {"max_abs_a1": float(np.abs(a1).max()), "equilibria": int(reach_alpha.size)}))
     c = params.c if params.c > 0 else DEMO_DAMPING
-    damped = params.replace(c=c)
+    damped = params.replace(c=c, Fc=0.0)  # damping alone: the claim is about the viscous term
     a1d, a2d = stability.routh_hurwitz_coefficients(knee.X_from_alpha(reach_alpha, params), reach_pe, reach_pf,
                                                     0.0, damped)
     claims.append(Claim(
         "a1_damped", "a dissipation term (viscous damping) makes a1 < 0, so Eq. 19 holds", "Eq. 19, Sec. VI-B end",
-        f"with c = {c:g} N s/m: a1 ranges {float(a1d.min()):.3g}..{float(a1d.max()):.3g} 1/s (a1 = -c (G_e^2 + "
+        f"with c = {c:g} N s/m (and no friction): a1 ranges {float(a1d.min()):.3g}..{float(a1d.max()):.3g} 1/s (a1 = -c (G_e^2 + "
         f"G_f^2)/m); all {int((a1d < 0).sum())} of {reach_alpha.size} equilibria between the stops have a1 < 0"
         f", and {int(((a1d < 0) & (a2d < 0)).sum())} are asymptotically stable (a2 < 0 too)",
         _verdict(float((a1d < 0).mean())),

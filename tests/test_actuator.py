@@ -95,6 +95,14 @@ def test_lengths_outside_the_domain_raise_not_nan(L):
         actuator.tension_model2(np.array([0.2, L]), 1e5)
 
 
-def test_nan_pressure_raises():
+@pytest.mark.parametrize("model", [actuator.tension_model1, actuator.tension_model2, actuator.static_tension])
+def test_nan_pressure_raises_not_nan(model):
     with pytest.raises(DomainError, match="pressure"):
-        actuator.tension(0.2, float("nan"))
+        model(0.2, float("nan"))
+    with pytest.raises(DomainError, match="pressure"):
+        model(np.array([0.2, 0.21]), np.array([1e5, np.inf]))
+
+
+def test_nan_rate_raises():
+    with pytest.raises(DomainError, match="Ldot"):
+        actuator.tension(0.2, 1e5, float("nan"), Params(c=10.0))

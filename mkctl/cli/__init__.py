@@ -46,6 +46,10 @@ def main(argv: list[str] | None = None) -> int:
     except MkctlError as error:
         print(f"mkctl {args.command}: error: {error}", file=sys.stderr)
         return 2
+    except OSError as error:  # a path the user gave that cannot be read or written
+        where = f" {error.filename}" if error.filename else ""
+        print(f"mkctl {args.command}: error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print(f"mkctl {args.command}: interrupted", file=sys.stderr)
         return 130
