@@ -4,12 +4,15 @@
 
 writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
 
-1. pythonfmu packs the slave script of ``fmu/`` with the ``mkctl`` modules it imports (and nothing else);
+1. pythonfmu packs the slave script of ``fmu/`` with the ``mkctl`` modules the slave scripts import (and
+   nothing else), among them ``mkctl/fmu_slave.py``, the base class both slaves share; both FMUs get the same
+   files, staged once;
 2. the modelDescription.xml is completed where pythonfmu 0.7 leaves gaps: ``<UnitDefinitions>`` and a
    ``unit`` on every Real variable, and ``<InitialUnknowns>`` for the calculated outputs;
 3. ``fmpy.validation.validate_fmu`` must report no problem, and (unless ``--no-run``) each FMU runs its default
    experiment under fmpy in a fresh process (the FMU must use its packed mkctl, not this process's) and must
-   reach the stop time.
+   reach the stop time; then all of them run one after the other in one process: they share the module
+   names ``mkctl``, ``mkctl.fmu_slave`` and ``pythonfmu``, which resolve to the FMU loaded first.
 """
 from __future__ import annotations
 
@@ -127,20 +130,24 @@ def _validate(fmu: Path) -> None:
 _RUN_CHECK = """
 import sys
 from fmpy import read_model_description, simulate_fmu
-md = read_model_description(sys.argv[1])
-stop = float(md.defaultExperiment.stopTime)
-result = simulate_fmu(sys.argv[1], output_interval=float(md.defaultExperiment.stepSize))
-if abs(result['time'][-1] - stop) > 1e-9:
-    sys.exit(f"stopped at t = {result['time'][-1]} s instead of {stop} s")
+for fmu in sys.argv[1:]:
+    md = read_model_description(fmu)
+    stop = float(md.defaultExperiment.stopTime)
+    result = simulate_fmu(fmu, output_interval=float(md.defaultExperiment.stepSize))
+    if abs(result['time'][-1] - stop) > 1e-9:
+        sys.exit(f"{fmu}: stopped at t = {result['time'][-1]} s instead of {stop} s")
 """
 
 
-def _run_check(fmu: Path) -> None:
-    """Run the default experiment in a fresh process: the FMU must load its packed mkctl and reach the end."""
-    done = subprocess.run([sys.executable, "-c", _RUN_CHECK, str(fmu)], capture_output=True, text=True,
+def _run_check(*fmus: Path) -> None:
+    """Run the default experiments, one after the other, in one fresh process (so that the FMUs load a packed
+    mkctl, not this process's); each must reach its stop time."""
+    done = subprocess.run([sys.executable, "-c", _RUN_CHECK, *map(str, fmus)], capture_output=True, text=True,
                           cwd=tempfile.gettempdir())
     if done.returncode != 0:
-        raise BuildError(f"{fmu.name} failed its default experiment: {done.stderr.strip()[-2000:]}")
+        what = f"{fmus[0].name} failed its" if len(fmus) == 1 else \
+            " and ".join(f.name for f in fmus) + " in one process failed their"
+        raise BuildError(f"{what} default experiment: {done.stderr.strip()[-2000:]}")
 
 
 def build(out: Path = HERE / "dist", run: bool = True) -> dict[str, Path]:
@@ -163,6 +170,8 @@ def build(out: Path = HERE / "dist", run: bool = True) -> dict[str, Path]:
             if run:
                 _run_check(target)
             built[name] = target
+    if run and len(built) > 1:
+        _run_check(*built.values())
     return built
 
 

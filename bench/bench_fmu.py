@@ -1,11 +1,13 @@
 """Benchmark: 10 s of knee motion at a 1 ms communication step, through fmpy against mkctl directly.
 
-    python bench/bench_fmu.py [--fmu-dir dist] [--duration 10] [--repeat 3]
+    python bench/bench_fmu.py [--fmu-dir DIR] [--duration 10] [--repeat 3]
 
 Both runs simulate the same motion (a damped knee, c = 40 N s/m, driven by a 0.5 Hz sinusoidal extensor
 command around the 60 deg equilibrium), sampling every output at every millisecond:
 
-- FMU: ``fmpy.simulate_fmu`` on McKibbenKnee.fmu, the whole call (extracting, loading, stepping, recording);
+- FMU: ``fmpy.simulate_fmu`` on McKibbenKnee.fmu, the whole call (extracting, loading, stepping, recording),
+  built fresh by ``build_fmu.py`` into a temporary folder (an FMU in ``dist`` may predate the library it is
+  compared with), or taken from ``--fmu-dir`` when given;
 - direct: ``mkctl.simulate.simulate_knee`` on the same samples.
 
 Each run is a fresh process (so the FMU uses its packed mkctl), the two alternate ``--repeat`` times and the
@@ -19,6 +21,7 @@ import argparse
 import json
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -59,13 +62,27 @@ def _run(mode: str, duration: float, fmu: Path) -> dict:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--fmu-dir", type=Path, default=ROOT / "dist")
+    parser.add_argument("--fmu-dir", type=Path, default=None,
+                        help="folder holding McKibbenKnee.fmu (default: build it fresh into a temporary folder)")
     parser.add_argument("--duration", type=float, default=10.0, help="simulated time [s] (default 10)")
     parser.add_argument("--repeat", type=int, default=3, help="alternating runs of each (default 3)")
     args = parser.parse_args(argv)
-    fmu = args.fmu_dir / "McKibbenKnee.fmu"
-    if not fmu.exists():
-        subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(args.fmu_dir)], check=True)
+    if args.fmu_dir is not None:
+        fmu = args.fmu_dir / "McKibbenKnee.fmu"
+        if not fmu.exists():
+            print(f"bench_fmu: {fmu} not found (python build_fmu.py --out {args.fmu_dir} builds it)", file=sys.stderr)
+            return 1
+        return _bench(args, fmu)
+    with tempfile.TemporaryDirectory(prefix="bench_fmu_") as temp:
+        built = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", temp, "--no-run"],
+                               stdout=subprocess.DEVNULL)
+        if built.returncode != 0:
+            print("bench_fmu: build_fmu.py failed (its message is above)", file=sys.stderr)
+            return 1
+        return _bench(args, Path(temp) / "McKibbenKnee.fmu")
+
+
+def _bench(args, fmu: Path) -> int:
     best = {"fmu": None, "direct": None}
     for _ in range(args.repeat):
         for mode in best:
