@@ -12,7 +12,8 @@ Scores, in the units of the file's output column:
 
 - ``rmse = sqrt(mean((y - yhat)^2))``;
 - ``fit = 100 (1 - |y - yhat| / |y - mean(y)|)`` [%] (2-norms; 100 is perfect, 0 is no better than
-  the mean, as in MATLAB's ``compare``).
+  the mean, as in MATLAB's ``compare``). A constant measured output has no fit (NaN; :func:`fit_text`
+  says "fit undefined").
 """
 from __future__ import annotations
 
@@ -84,6 +85,13 @@ def fit_percent(measured, simulated) -> float:
     if spread == 0:
         return float("nan")
     return float(100.0 * (1.0 - np.linalg.norm(y - np.asarray(simulated, dtype=float)) / spread))
+
+
+def fit_text(fit: float) -> str:
+    """``"fit 87.3 %"``, or the reason there is none: a constant measured output has no spread to explain."""
+    if not np.isfinite(fit):
+        return "fit undefined (the measured output is constant: no variation to explain)"
+    return f"fit {fit:.1f} %"
 
 
 @dataclass(frozen=True)

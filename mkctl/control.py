@@ -160,6 +160,9 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, pf: f
     alpha, X = _posture(alpha, X, params)
     if not math.isfinite(pf):
         raise DomainError(f"flexor pressure pf = {pf!r} Pa is not a finite number")
+    if pf < 0:
+        raise DomainError(f"flexor pressure pf = {pf / 1e3:g} kPa is below 0: pressures are gauge pressures, and "
+                          "a McKibben muscle below atmospheric pressure does not pull (the model has no vacuum)")
     names = knee.state_names(params)
     sys = knee_nlsys(params, stops=False, scale=LINEARIZE_SCALE)
     sx = np.array([LINEARIZE_SCALE[s] for s in names])
@@ -172,13 +175,17 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, pf: f
                                         return_result=True)
     except MkctlError as error:
         raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
-                                   f"pf = {pf:g} Pa: {error}") from error
+                                   f"pf = {pf / 1e3:g} kPa: {error}") from error
     residual = np.abs(sys._rhs(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
     if not found.result.success or residual > 1e-9:
-        raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, pf = {pf:g} Pa "
+        raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, pf = {pf / 1e3:g} kPa "
                                    f"({found.result.message.strip()})")
     states, inputs = np.asarray(found.states) * sx, np.asarray(found.inputs) * su
     states[0] = X  # exact, as asked (the solver held it fixed)
+    if inputs[0] < 0:
+        raise ControlAnalysisError(f"holding alpha = {math.degrees(alpha):.4g} deg with pf = {pf / 1e3:g} kPa needs "
+                                   f"an extensor pressure pe = {inputs[0] / 1e3:.4g} kPa below 0 (gauge): "
+                                   "a muscle cannot push; raise pf or choose another posture")
     return KneeOperatingPoint(params, alpha, X, float(inputs[0]), float(inputs[1]), states, inputs)
 
 
@@ -271,7 +278,7 @@ def damping_for_zeta(zeta: float, op: KneeOperatingPoint) -> float:
     _, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
     if not a2 < 0:
         raise ControlAnalysisError(f"a2 = {float(a2):.4g} 1/s^2 >= 0 at alpha = {math.degrees(op.alpha):.4g} deg, "
-                                   f"pf = {op.pf:g} Pa: the posture is unstable (Eq. 20 fails) and no damping gives "
+                                   f"pf = {op.pf / 1e3:g} kPa: the posture is unstable (Eq. 20 fails) and no damping gives "
                                    "it a damping ratio")
     return 2 * zeta * math.sqrt(-float(a2)) / velocity_gain(op)
 
@@ -424,12 +431,23 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     included) and, if ``fmu`` is a path to an existing file, the knee FMU through fmpy's ``simulate_fmu``.
     Returns a dict: "time" [s]; "linear", "nonlinear", "fmu" (None without FMU): X - X_op [m];
     "info": step_info of each, measured from t_step, with the known final values (the linear model's DC
-    gain; the library's equilibrium at the new pressure); "fmu_note": why the FMU is missing, if it is.
+    gain; the library's equilibrium at the new pressure); "fmu_note": why the FMU is missing, if it is;
+    "end_stop": which end stop the nonlinear model ran onto, and when (None if it stayed between them).
+    A step that takes pe below 0 (gauge) raises :class:`ControlAnalysisError`.
     """
     if not (math.isfinite(dpe) and dpe != 0):
         raise ControlAnalysisError(f"pressure step dpe = {dpe!r} Pa must be a non-zero number")
-    if not (0 < dt < duration and 0 <= t_step < duration):
-        raise ControlAnalysisError("need 0 < dt < duration and 0 <= t_step < duration")
+    if op.pe + dpe < 0:
+        raise ControlAnalysisError(f"a step by {dpe / 1e3:+g} kPa takes the extensor pressure from {op.pe / 1e3:.4g} "
+                                   f"to {(op.pe + dpe) / 1e3:.4g} kPa, below 0 (gauge): a muscle cannot push")
+    if not (math.isfinite(duration) and duration > 0):
+        raise ControlAnalysisError(f"duration {duration!r} s must be a positive number")
+    if not (math.isfinite(t_step) and 0 <= t_step < duration):
+        raise ControlAnalysisError(f"the step at t_step = {t_step:g} s must come before the end (duration "
+                                   f"{duration:g} s)")
+    if not (math.isfinite(dt) and 0 < dt < duration):
+        raise ControlAnalysisError(f"sampling dt = {dt!r} s must be positive and shorter than the duration "
+                                   f"{duration:g} s")
     p = op.params
     steps = int(round(duration / dt))
     time = np.arange(steps + 1) * dt
@@ -453,7 +471,7 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     nonlin -= op.X
 
     result = {"time": time, "linear": lin_out, "nonlinear": nonlin, "fmu": None, "fmu_note": None,
-              "dpe": dpe, "t_step": t_step}
+              "dpe": dpe, "t_step": t_step, "end_stop": _end_stop(time, nonlin + op.X, p)}
     if fmu is not None and Path(fmu).is_file():
         run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.pe + dpe, op.pf), t_step,
                                 duration, dt)
@@ -476,6 +494,15 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
         for name in ("linear", "nonlinear", "fmu") if result[name] is not None
     }
     return result
+
+
+def _end_stop(time, X, params: Params):
+    """Which end stop the hip height X [m] reached, and when: "bent stop (alpha = 5 deg) at t = 0.2 s", or None."""
+    low, high = knee.stop_positions(params)
+    for hit, label, angle in ((X < low, "bent", knee.ALPHA_STOP_LOW), (X > high, "straight", knee.ALPHA_STOP_HIGH)):
+        if np.any(hit):
+            return f"{label} end stop (alpha = {math.degrees(angle):g} deg) at t = {time[np.argmax(hit)]:.3g} s"
+    return None
 
 
 # --- Plots --------------------------------------------------------------------------------------

@@ -45,7 +45,7 @@ import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
 from . import actuator, knee
-from .compare import fit_percent, plot_overlay, plot_residuals, rmse, simulate_output
+from .compare import fit_percent, fit_text, plot_overlay, plot_residuals, rmse, simulate_output
 from .errors import MkctlError
 from .measurements import Measurement
 from .params import UNITS, Params
@@ -421,7 +421,7 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     try:
         full_before = simulate_output(m, baseline)
     except MkctlError as error:
-        raise MkctlError(f"{m.source}: the baseline cannot simulate this record: {error}") from None
+        raise MkctlError(f"{m.source}: the model cannot simulate this record: {error}") from None
     current = _evaluate(problem, baseline, {})
     added: list[str] = []
     individual: dict = {}  # each candidate's value fitted alone against the baseline (round 1)
@@ -673,10 +673,15 @@ def summary(report: dict) -> list[str]:
     unit = report["output_unit"]
     lines = [f"{report['file']}: {report['experiment']}, {report['samples']} samples, baseline "
              f"{report['baseline']} ({', '.join(report['baseline_effects']) or 'no effects'})",
-             f"baseline: RMSE {report['rmse_before']:.4g} {unit}, fit {report['fit_percent_before']:.1f} %"]
+             f"baseline: RMSE {report['rmse_before']:.4g} {unit} (whole record), "
+             f"{fit_text(report['fit_percent_before'])}"]
     rounds = report["steps"] + ([report["stopped"]] if report["stopped"] and report["stopped"]["candidates"] else [])
+    fit_samples = report["rule"]["fit_samples"]
+    partial = fit_samples < report["samples"]
     for number, step in enumerate(rounds, 1):
-        lines.append(f"round {number}: candidates (best first)")
+        lines.append(f"round {number}: candidates (best first; RMSE over "
+                     + (f"the {fit_samples} fit samples" if partial else "the whole record")
+                     + f", held-out over the last {report['rule']['holdout_fraction']:.0%})")
         for row in step["candidates"]:
             if row["bic"] is None:
                 lines.append(f"  {row['effect']:<17} could not be simulated")
@@ -693,7 +698,8 @@ def summary(report: dict) -> list[str]:
                          f"to tell them apart: {tie['experiment']}")
         if step.get("added"):
             dropped = f" (dropped {', '.join(step['dropped'])}: no longer needed)" if step.get("dropped") else ""
-            lines.append(f"  -> added {step['added']}{dropped}: RMSE {step['rmse']:.4g} {unit}")
+            lines.append(f"  -> added {step['added']}{dropped}: RMSE {step['rmse']:.4g} {unit} (whole record, "
+                         f"{report['samples']} samples)")
         else:
             lines.append(f"  -> stop: {step['reason']}")
     if report["stopped"] and not report["stopped"]["candidates"]:
@@ -706,5 +712,6 @@ def summary(report: dict) -> list[str]:
             lines.append(f"  {name} = {value:.4g}{plus} {UNITS[name]}")
     else:
         lines.append("missing: nothing (no candidate effect is supported by the data)")
-    lines.append(f"after: RMSE {report['rmse_after']:.4g} {unit}, fit {report['fit_percent_after']:.1f} %")
+    lines.append(f"after: RMSE {report['rmse_after']:.4g} {unit} (whole record), "
+                 f"{fit_text(report['fit_percent_after'])}")
     return lines

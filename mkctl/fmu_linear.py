@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +55,39 @@ class FMUAnalysisError(_Base):
     """The FMU could not be loaded, refused a step, or did not expose what the analysis needs."""
 
 
+def check_fmu(path) -> Path:
+    """``path`` as a Path if it is an FMU file (a zip archive holding ``modelDescription.xml``).
+
+    Raises :class:`FMUAnalysisError` with one line that says what it is instead: missing, a folder, not a
+    zip archive, or a zip archive without a model description.
+    """
+    path = Path(path)
+    if not path.exists():
+        raise FMUAnalysisError(f"FMU file {path} not found (build it with: python build_fmu.py)")
+    if path.is_dir():
+        raise FMUAnalysisError(f"FMU {path} is a folder, not an FMU file")
+    try:
+        if not zipfile.is_zipfile(path):
+            raise FMUAnalysisError(f"{path} is not an FMU (not a zip archive)")
+        with zipfile.ZipFile(path) as archive:
+            if "modelDescription.xml" not in archive.namelist():
+                raise FMUAnalysisError(f"{path} is not an FMU (the zip archive has no modelDescription.xml)")
+    except (OSError, zipfile.BadZipFile) as error:
+        raise FMUAnalysisError(f"{path} cannot be read as an FMU: {error}") from None
+    return path
+
+
+def _model_description(path):
+    """fmpy's model description of the checked FMU at path; a broken one raises FMUAnalysisError."""
+    from fmpy import read_model_description
+
+    path = check_fmu(path)
+    try:
+        return read_model_description(str(path))
+    except Exception as error:  # noqa: BLE001 - fmpy raises many kinds for a broken description
+        raise FMUAnalysisError(f"{path} is not a valid FMU: {error}") from None
+
+
 class KneeFMU:
     """One instance of a knee FMU driven step by step with fmpy's FMU2Slave (context manager).
 
@@ -63,12 +97,10 @@ class KneeFMU:
     """
 
     def __init__(self, path, start_values: dict, inputs, tolerance: float | None = None, unzipdir=None):
-        from fmpy import extract, read_model_description
+        from fmpy import extract
 
         path = Path(path)
-        if not path.is_file():
-            raise FMUAnalysisError(f"FMU file {path} not found (build it with: python build_fmu.py)")
-        self.md = read_model_description(str(path))
+        self.md = _model_description(path)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         self.types = {v.name: v.type for v in self.md.modelVariables}
         missing = [name for name in (*INPUTS, *STATE_OUTPUTS, "X0") if name not in self.vr]
@@ -180,8 +212,7 @@ def flow_map_jacobian(path, start_values: dict, X0: float, inputs, lag: bool, dt
     """
     from fmpy import extract
 
-    if not Path(path).is_file():
-        raise FMUAnalysisError(f"FMU file {path} not found (build it with: python build_fmu.py)")
+    check_fmu(path)
     n = 4 if lag else 2
     u0 = np.array(inputs, dtype=float)
     unzipdir = extract(str(path))
@@ -281,12 +312,10 @@ def fmu_step_response(path, start_values: dict, inputs0, inputs1, t_step: float,
     The FMU starts at rest at ``start_values["X0"]`` with its lag (if any) at inputs0. Returns a dict of
     arrays: "time" and each name in outputs. Raises :class:`FMUAnalysisError` if the run stops early.
     """
-    from fmpy import extract, read_model_description, simulate_fmu
+    from fmpy import extract, simulate_fmu
 
     path = Path(path)
-    if not path.is_file():
-        raise FMUAnalysisError(f"FMU file {path} not found (build it with: python build_fmu.py)")
-    md = read_model_description(str(path))
+    md = _model_description(path)
     known = {v.name for v in md.modelVariables if v.causality == "parameter"}
     values = {k: v for k, v in start_values.items() if k in known and v is not None}
     dtype = [("time", float), ("pe_cmd", float), ("pf_cmd", float)]

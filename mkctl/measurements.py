@@ -213,7 +213,13 @@ def parse_measurement(text: str, source: str = "<text>") -> Measurement:
 
     # header
     header_line = header_index + 1
-    header = [cell.strip() for cell in lines[header_index].split(",")]
+    header_text = lines[header_index]
+    if "," not in header_text:
+        for separator, label in ((";", "semicolons"), ("\t", "tabs")):
+            if separator in header_text:
+                fail(header_line, f"not comma-separated: the header row is separated by {label}; measurement "
+                                  "files use commas between columns and '.' as the decimal point")
+    header = [cell.strip() for cell in header_text.split(",")]
     columns: dict[str, tuple[int, float]] = {}  # quantity name -> (column index, factor to SI)
     names = [q.name for q in (*experiment.inputs, experiment.output)]
     kinds = {q.name: q.kind for q in (*experiment.inputs, experiment.output)}
@@ -240,7 +246,11 @@ def parse_measurement(text: str, source: str = "<text>") -> Measurement:
     missing = [q for q in names if q not in columns]
     if missing:
         expected = ", ".join(f"{q.name}_{q.unit}" for q in (*experiment.inputs, experiment.output))
-        fail(header_line, f"missing column for {missing[0]!r} (a {name} file needs {expected})")
+        column = f"{missing[0]}_{_canonical_unit(experiment, missing[0])}"
+        article = "an" if name[0] in "aeiou" else "a"
+        units = "/".join(UNIT_FACTORS[kinds[missing[0]]])
+        fail(header_line, f"missing column {column!r} (any unit {units} will do; {article} {name} file "
+                          f"needs {expected})")
 
     # data rows
     rows: list[list[float]] = []

@@ -266,11 +266,105 @@ def test_cli_step(tmp_path, capsys):
     (["linearize", "--set", "m"], "NAME=VALUE"),
     (["linearize", "--set", "m=-1"], "must be positive"),
     (["step", "--small", "0", "--no-fmu"], "non-zero"),
+    (["linearize", "--pf", "-500", "--no-fmu"], "--pf -500: the flexor pressure is a gauge pressure and must be >= 0"),
+    (["rootlocus", "--vary", "gain", "--gain", "-5"], "--gain applies only to --vary tau"),
+    (["rootlocus", "--vary", "c", "--gain", "5"], "--gain applies only to --vary tau"),
+    (["rootlocus", "--vary", "tau", "--gain", "-5"], "--gain -5: the height gain must be a positive number"),
+    (["step", "--duration", "-1", "--no-fmu"], "--duration -1: the response must last longer than the step time"),
+    (["step", "--dt", "0", "--no-fmu"], "--dt 0: the output interval must be positive"),
+    (["step", "--large", "-2000", "--no-fmu"], "--large -2000: the step takes the extensor pressure from 1694 to"),
+    (["rootlocus", "--alpha", "40"], "pf = 100 kPa"),
+    (["step", "--alpha", "40", "--no-fmu"], "pf = 100 kPa"),
 ])
 def test_cli_bad_arguments_are_one_line_errors(args, message, tmp_path, capsys):
-    code, _, err = run_cli([*args, "--out", str(tmp_path)], capsys)
+    code, out, err = run_cli([*args, "--out", str(tmp_path)], capsys)
     assert code == 2
-    assert message in err and len(err.strip().splitlines()) == 1
+    assert message in err and err.count("\n") == 1 and err.startswith(f"mkctl {args[0]}: error: ")
+    assert "Traceback" not in err and "Pa " not in err.replace("kPa", "")
+    assert not list(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("args", [["linearize", "--no-fmu"], ["rootlocus"], ["step", "--no-fmu"]])
+def test_cli_bad_out_is_one_line_error_before_any_work(args, tmp_path, capsys, monkeypatch):
+    def must_not_run(*a, **k):
+        raise AssertionError("--out must be checked before the operating point is searched")
+
+    monkeypatch.setattr(mc, "operating_point", must_not_run)
+    afile = tmp_path / "afile"
+    afile.write_text("x")
+    for out, expected in ((afile, f"--out {afile}: is a file, not a folder"),
+                          (afile / "sub", f"--out {afile / 'sub'}: {afile} is a file, not a folder")):
+        code, stdout, err = run_cli([*args, "--out", str(out)], capsys)
+        assert code == 2 and stdout == "" and err == f"mkctl {args[0]}: error: {expected}\n"
+
+
+@pytest.mark.parametrize("command", ["linearize", "step"])
+def test_cli_fmu_given_explicitly_must_be_an_fmu(command, tmp_path, capsys):
+    not_fmu = tmp_path / "afile"
+    not_fmu.write_text("not a zip")
+    for fmu, expected in ((not_fmu, f"{not_fmu} is not an FMU (not a zip archive)"),
+                          (tmp_path / "nosuch.fmu", f"FMU file {tmp_path / 'nosuch.fmu'} not found"),
+                          (tmp_path, f"FMU {tmp_path} is a folder, not an FMU file")):
+        code, _, err = run_cli([command, "--fmu", str(fmu), "--out", str(tmp_path / "plots")], capsys)
+        assert code == 2 and expected in err and err.count("\n") == 1 and "Traceback" not in err
+
+
+def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(mc, "DEFAULT_FMU", tmp_path / "not_built.fmu")
+    code, out, err = run_cli(["linearize", "--out", str(tmp_path)], capsys)
+    assert code == 0 and err == ""
+    assert f"note: FMU {tmp_path / 'not_built.fmu'} not found" in out and "FMU linearization" not in out
+
+
+def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
+    from mkctl import fmu_linear
+
+    not_fmu = tmp_path / "afile.fmu"
+    not_fmu.write_text("not a zip")
+    with pytest.raises(mc.FMUAnalysisError, match="is not an FMU \\(not a zip archive\\)"):
+        mc.fmu_linearization(mc.operating_point(ALPHA60), not_fmu)
+    import zipfile
+    with zipfile.ZipFile(tmp_path / "empty.fmu", "w") as archive:
+        archive.writestr("readme.txt", "x")
+    with pytest.raises(mc.FMUAnalysisError, match="no modelDescription.xml"):
+        fmu_linear.fmu_step_response(tmp_path / "empty.fmu", {}, (1e6, 1e5), (1.1e6, 1e5), 0.1, 1.0, 0.01)
+
+
+def test_operating_point_refuses_negative_gauge_pressure():
+    with pytest.raises(DomainError, match="pf = -500 kPa is below 0"):
+        mc.operating_point(ALPHA60, pf=-500e3)
+    assert mc.operating_point(ALPHA60, pf=0.0).pe > 0  # 0 kPa (atmospheric) is allowed
+
+
+def test_cli_huge_pressure_gets_a_note_not_a_crash(tmp_path, capsys):
+    code, out, err = run_cli(["linearize", "--no-fmu", "--pf", "100000", "--out", str(tmp_path)], capsys)
+    assert code == 0 and err == ""
+    assert "note: pf = 100 MPa is far above what a McKibben muscle survives" in out
+    code, out, _ = run_cli(["linearize", "--no-fmu", "--out", str(tmp_path)], capsys)
+    assert code == 0 and "note:" not in out
+
+
+def test_step_onto_an_end_stop_is_reported(op60, tmp_path, capsys):
+    result = mc.step_responses(op60, -1600e3, duration=1.0, fmu=None)
+    low, _ = knee.stop_positions(op60.params)
+    assert (result["nonlinear"] + op60.X).min() < low  # it did reach the stop: an independent check
+    assert result["end_stop"].startswith("bent end stop (alpha = 5 deg) at t = ")
+    assert mc.step_responses(op60, 1e3, duration=1.0, fmu=None)["end_stop"] is None
+    with pytest.raises(mc.ControlAnalysisError, match="below 0"):
+        mc.step_responses(op60, -2000e3, duration=1.0, fmu=None)
+    code, out, _ = run_cli(["step", "--no-fmu", "--large", "-1600", "--duration", "1", "--out", str(tmp_path)], capsys)
+    assert code == 0 and out.count("note: the nonlinear response hit the bent end stop") == 1
+
+
+def test_cli_help_explains_gain_duration_and_fmu(capsys):
+    from mkctl.cli import build_parser
+
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices
+    helps = {cmd: {a.dest: a.help for a in sub[cmd]._actions} for cmd in ("rootlocus", "step", "linearize")}
+    assert "only with --vary tau" in helps["rootlocus"]["gain"]
+    assert "length of each simulated response" in helps["step"]["duration"]
+    assert "must be an FMU" in helps["linearize"]["fmu"]
 
 
 # --- docs ---

@@ -3,7 +3,8 @@
 Common options: the posture (``--alpha`` deg or ``--X`` m, default alpha = 60 deg), the flexor pressure
 (``--pf`` kPa, default 100), the damping (``--c`` N s/m; where a damped knee is needed and no c is given,
 the closed-form c for ``--zeta``, default 0.3), the lag (``--tau`` s), any parameter (``--set NAME=VALUE``,
-SI) and the folder for the PNGs (``--out``).
+SI) and the folder for the PNGs (``--out``, checked before any work). Pressures are gauge pressures in kPa:
+below 0 is refused (a muscle under vacuum does not pull), above 10 MPa gets a note.
 """
 from __future__ import annotations
 
@@ -13,13 +14,13 @@ from pathlib import Path
 import numpy as np
 
 from .. import control as mc
-from ..errors import MkctlError
+from ..fmu_linear import check_fmu
 from ..params import DEFAULT
-from .options import parse_assignments
+from .options import UsageError, output_folder, parse_assignments
 
-
-class UsageError(MkctlError, ValueError):
-    """A command-line value that cannot be used."""
+#: Above this gauge pressure [Pa] a note says the result is far outside what a McKibben muscle survives
+#: (typical muscles burst at 1-2 MPa; the model has no burst limit, so it keeps computing).
+PLAUSIBLE_PRESSURE = 10e6
 
 
 def _add_common(parser, needs_damping: bool) -> None:
@@ -27,7 +28,7 @@ def _add_common(parser, needs_damping: bool) -> None:
     posture.add_argument("--alpha", type=float, metavar="DEG", help="kneecap angle of the posture (default 60)")
     posture.add_argument("--X", type=float, metavar="M", help="hip height of the posture instead of --alpha")
     parser.add_argument("--pf", type=float, default=mc.DEFAULT_PF / 1e3, metavar="KPA",
-                        help="flexor pressure (default %(default)g)")
+                        help="flexor gauge pressure, >= 0 (default %(default)g)")
     parser.add_argument("--c", type=float, metavar="NS_PER_M",
                         help="viscous damping of each actuator (default: "
                              + ("the c that gives --zeta)" if needs_damping else "0, the paper's model 2)"))
@@ -41,7 +42,9 @@ def _add_common(parser, needs_damping: bool) -> None:
 
 
 def _add_fmu(parser) -> None:
-    parser.add_argument("--fmu", type=Path, default=mc.DEFAULT_FMU, help="knee FMU (default %(default)s)")
+    parser.add_argument("--fmu", type=Path, default=None,
+                        help=f"knee FMU (default {mc.DEFAULT_FMU}, skipped with a note if it is not built; "
+                             "a path given here must be an FMU)")
     parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
 
@@ -62,7 +65,8 @@ def register(subparsers) -> None:
     p.add_argument("--vary", choices=("c", "tau", "gain"), default="gain", help="what varies (default gain)")
     _add_common(p, needs_damping=True)
     p.add_argument("--gain", type=float, metavar="PA_PER_M",
-                   help="height gain K for --vary tau (default: the critical gain at --tau, or 0.05 s)")
+                   help="only with --vary tau: the height gain K > 0 of the closed loop swept against tau "
+                        "(default: the critical gain at --tau, or at 0.05 s); --vary gain scans K itself")
     p.add_argument("--ti", type=float, metavar="S", help="integral time: PI instead of P height control")
     p.set_defaults(func=run_rootlocus)
 
@@ -71,9 +75,12 @@ def register(subparsers) -> None:
                                           "from the linear model, the nonlinear model and the FMU, with rise "
                                           "time, overshoot and settling time.")
     _add_common(p, needs_damping=True)
-    p.add_argument("--small", type=float, default=1.0, metavar="KPA", help="small step (default %(default)g)")
-    p.add_argument("--large", type=float, default=100.0, metavar="KPA", help="large step (default %(default)g)")
-    p.add_argument("--duration", type=float, default=2.0, metavar="S", help="(default %(default)g)")
+    p.add_argument("--small", type=float, default=1.0, metavar="KPA",
+                   help="small step of pe_cmd, non-zero (default %(default)g)")
+    p.add_argument("--large", type=float, default=100.0, metavar="KPA",
+                   help="large step of pe_cmd, non-zero; pe must stay >= 0 (default %(default)g)")
+    p.add_argument("--duration", type=float, default=2.0, metavar="S",
+                   help="length of each simulated response, > 0.1 s (the step comes at 0.1 s; default %(default)g)")
     p.add_argument("--dt", type=float, default=1e-3, metavar="S", help="output interval (default %(default)g)")
     _add_fmu(p)
     p.set_defaults(func=run_step)
@@ -82,7 +89,11 @@ def register(subparsers) -> None:
 # --- shared set-up ---------------------------------------------------------------------------------
 
 def _setup(args, needs_damping: bool):
-    """(operating point with c and tau applied, c) from the common options."""
+    """The operating point with c and tau applied, from the common options (checked first, with --out)."""
+    output_folder(args.out, "--out")
+    if not math.isfinite(args.pf) or args.pf < 0:
+        raise UsageError(f"--pf {args.pf:g}: the flexor pressure is a gauge pressure and must be >= 0 kPa "
+                         "(a muscle below atmospheric pressure does not pull)")
     overrides = parse_assignments(args.set)
     params = DEFAULT.replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
     alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else mc.DEFAULT_ALPHA)
@@ -91,16 +102,24 @@ def _setup(args, needs_damping: bool):
     if c is None:
         c = mc.damping_for_zeta(args.zeta, op) if needs_damping else 0.0
     tau = args.tau if args.tau is not None else overrides.get("tau", 0.0)
+    for name, value in (("pf", op.pf), ("pe", op.pe)):
+        if value > PLAUSIBLE_PRESSURE:
+            print(f"note: {name} = {value / 1e6:.4g} MPa is far above what a McKibben muscle survives (1-2 MPa); "
+                  "the model has no burst limit, so the results below are the model's, not a real muscle's")
     return op.with_params(c=c, tau=tau)
 
 
 def _fmu_path(args):
+    """The FMU to use: None with --no-fmu or when the default one is not built (with a note); an --fmu given
+    explicitly must exist and be an FMU."""
     if args.no_fmu:
         return None
-    if not args.fmu.is_file():
-        print(f"note: FMU {args.fmu} not found (python build_fmu.py builds it); FMU part skipped")
-        return None
-    return args.fmu
+    if args.fmu is None:
+        if not mc.DEFAULT_FMU.is_file():
+            print(f"note: FMU {mc.DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
+            return None
+        return mc.DEFAULT_FMU
+    return check_fmu(args.fmu)
 
 
 def _fmt_poles(eig) -> str:
@@ -126,6 +145,7 @@ def _scaled_error(sys, ref, op) -> float:
 
 def run_linearize(args) -> int:
     op = _setup(args, needs_damping=False)
+    fmu = _fmu_path(args)
     p = op.params
     lin = mc.analytic_linearization(op)
     a2, a1 = lin.A[1, 0] + 0.0, lin.A[1, 1] + 0.0  # + 0.0: print 0, not -0
@@ -153,7 +173,6 @@ def run_linearize(args) -> int:
     numerical = mc.numerical_linearization(op)
     print(f"python-control linearize vs analytic: relative error {_scaled_error(numerical, lin, op):.2g} "
           "(scaled [A B])")
-    fmu = _fmu_path(args)
     if fmu is not None:
         fmu_lin = mc.fmu_linearization(op, fmu)
         print(f"FMU linearization (flow-map Jacobian, logm) vs analytic: relative error "
@@ -165,6 +184,9 @@ def run_linearize(args) -> int:
 
 
 def run_rootlocus(args) -> int:
+    if args.gain is not None and args.vary != "tau":
+        raise UsageError(f"--gain applies only to --vary tau (with --vary {args.vary} "
+                         + ("the gain itself is scanned)" if args.vary == "gain" else "there is no height loop)"))
     op = _setup(args, needs_damping=True)
     print(f"operating point: {_describe(op)}")
     out = args.out
@@ -180,7 +202,7 @@ def run_rootlocus(args) -> int:
         if gain is None:
             gain = mc.critical_gain(mc.height_loop(op.with_params(tau=tau_ref), args.ti))
         if not (gain > 0 and math.isfinite(gain)):
-            raise UsageError(f"height gain {gain!r} Pa/m must be a positive number")
+            raise UsageError(f"--gain {gain:g}: the height gain must be a positive number of Pa/m")
         taus = np.geomspace(1e-3, 1.0, 200)
         path = mc.plot_lag_sweep(op, taus, gain, args.ti, out / "rootlocus_tau.png")
         print(f"height gain K = {gain:.4g} Pa/m")
@@ -202,12 +224,29 @@ def run_rootlocus(args) -> int:
 
 
 def run_step(args) -> int:
+    t_step = 0.1  # the step's time [s], as in mc.step_responses
+    if not (math.isfinite(args.duration) and args.duration > t_step):
+        raise UsageError(f"--duration {args.duration:g}: the response must last longer than the step time "
+                         f"{t_step:g} s")
+    if not (math.isfinite(args.dt) and 0 < args.dt < args.duration - t_step):
+        raise UsageError(f"--dt {args.dt:g}: the output interval must be positive and shorter than the response "
+                         f"after the step ({args.duration - t_step:g} s)")
+    for option, kpa in (("--small", args.small), ("--large", args.large)):
+        if not (math.isfinite(kpa) and kpa != 0):
+            raise UsageError(f"{option} {kpa:g}: the pressure step must be a non-zero number of kPa")
     op = _setup(args, needs_damping=True)
+    for option, kpa in (("--small", args.small), ("--large", args.large)):
+        if op.pe + kpa * 1e3 < 0:
+            raise UsageError(f"{option} {kpa:g}: the step takes the extensor pressure from {op.pe / 1e3:.4g} to "
+                             f"{op.pe / 1e3 + kpa:.4g} kPa, below 0 (gauge pressure: a muscle cannot push)")
     print(f"operating point: {_describe(op)}")
     fmu = _fmu_path(args)
     for label, kpa in (("small", args.small), ("large", args.large)):
-        result = mc.step_responses(op, kpa * 1e3, duration=args.duration, dt=args.dt, fmu=fmu)
+        result = mc.step_responses(op, kpa * 1e3, duration=args.duration, t_step=t_step, dt=args.dt, fmu=fmu)
         print(f"{label} step of pe_cmd by {kpa:+g} kPa:")
+        if result["end_stop"]:
+            print(f"  note: the nonlinear response hit the {result['end_stop']}: from there on it shows the stop, "
+                  "not the muscles, and the linear model does not apply")
         for name, info in result["info"].items():
             print(f"  {name:9s}: rise {info['RiseTime']:.4g} s, overshoot {info['Overshoot']:.4g} %, settling "
                   f"{info['SettlingTime']:.4g} s, final X - X_op = {1e3 * result[name][-1]:+.4g} mm")

@@ -1,6 +1,7 @@
 """Subcommands for measurements: ``synth`` (the virtual test bench), ``compare`` and ``diagnose``.
 
-- ``mkctl synth knee data.csv --hidden viscous_damping`` writes a measurement file made by the model with
+- ``mkctl synth knee data.csv --hidden viscous_damping`` (``--hidden`` repeatable, or comma-separated:
+  ``--hidden c=45,tau=0.05``) writes a measurement file made by the model with
   hidden effects (and ``data.truth.json`` with what was hidden).
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
   overlay and the residual as PNG.
@@ -13,7 +14,7 @@ import json
 import sys
 from pathlib import Path
 
-from .options import parse_assignments
+from .options import output_file, output_folder, parse_assignments, split_items
 
 
 def register(subparsers) -> None:
@@ -25,14 +26,18 @@ def register(subparsers) -> None:
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
-    p.add_argument("experiment", choices=["knee", "isotonic"])
-    p.add_argument("output", metavar="OUT.csv")
-    p.add_argument("--hidden", nargs="+", default=[], metavar="EFFECT|NAME=VALUE",
-                   help="effects hidden in the data: an effect name (" + ", ".join(
+    p.add_argument("experiment", choices=["knee", "isotonic"],
+                   help="what to simulate: knee (the robot leg driven by pressure steps) or isotonic (one actuator "
+                        "under hanging loads, pressure swept)")
+    p.add_argument("output", metavar="OUT.csv", help="the measurement file to write (<stem>.truth.json goes beside it)")
+    p.add_argument("--hidden", action="append", default=[], metavar="EFFECT|NAME=VALUE",
+                   help="an effect hidden in the data (repeatable, or comma-separated): an effect name (" + ", ".join(
                        f"{k}" + (f" = {', '.join(f'{n} {v:g}' for n, v in d.items())}" if d else " = Table I")
-                       for k, d in DEFAULT_EFFECT_VALUES.items()) + ") or a parameter NAME=VALUE in SI")
-    p.add_argument("--param", nargs="+", default=[], metavar="NAME=VALUE",
-                   help="known parameters (SI), written into the file's metadata, e.g. m=2.5 or c=45")
+                       for k, d in DEFAULT_EFFECT_VALUES.items()) + ") or a parameter NAME=VALUE in SI, "
+                       "e.g. --hidden c=45 --hidden tau=0.05 or --hidden c=45,tau=0.05")
+    p.add_argument("--param", action="append", default=[], metavar="NAME=VALUE",
+                   help="a known parameter (SI), written into the file's metadata (repeatable, or comma-separated), "
+                        "e.g. --param m=2.5")
     p.add_argument("--baseline", choices=["model1", "model2"], default="model2",
                    help="the baseline the file declares (default model2); hide elasticity with model1")
     p.add_argument("--noise", type=float, default=DEFAULT_NOISE_MM,
@@ -69,8 +74,13 @@ def run_synth(args) -> int:
     from ..params import UNITS
     from ..synth import synthesize, write_synthetic
 
-    record = synthesize(args.experiment, args.hidden, parse_assignments(args.param, "--param"), args.baseline,
-                        args.noise, args.seed, args.samples, args.rate)
+    from ..synth import truth_path_for
+
+    output_file(args.output, "output file")
+    if not args.no_truth:
+        output_file(truth_path_for(args.output), "truth file")
+    record = synthesize(args.experiment, split_items(args.hidden), parse_assignments(split_items(args.param), "--param"),
+                        args.baseline, args.noise, args.seed, args.samples, args.rate)
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
     effects = ", ".join(record.hidden_effects) or "none"
@@ -82,17 +92,19 @@ def run_synth(args) -> int:
 
 
 def run_compare(args) -> int:
-    from ..compare import compare, plot_overlay, plot_residuals
+    from ..compare import compare, fit_text, plot_overlay, plot_residuals
     from ..measurements import read_measurement
 
+    folder = output_folder(args.out, "--out") if args.out else Path(args.file).resolve().parent
     measurement = read_measurement(args.file)
+    if not args.out:
+        output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     result = compare(measurement)
-    folder = Path(args.out) if args.out else Path(args.file).resolve().parent
     stem = Path(args.file).stem
     effects = ", ".join(measurement.params.effects) or "no effects"
     print(f"{args.file}: {measurement.experiment}, {measurement.samples} samples, baseline {measurement.baseline} "
           f"({effects})")
-    print(f"RMSE {result.rmse:.4g} {measurement.output_unit}   fit {result.fit_percent:.1f} %")
+    print(f"RMSE {result.rmse:.4g} {measurement.output_unit}   {fit_text(result.fit_percent)}")
     overlay = plot_overlay(measurement, {f"baseline {measurement.baseline}": result.simulated},
                            folder / f"{stem}_compare_overlay.png", f"{stem}: baseline vs measurement")
     residual = plot_residuals(measurement, {"measured - baseline": result.residual},
@@ -105,20 +117,24 @@ def run_diagnose(args) -> int:
     from ..diagnose import diagnose, public, save_pictures, summary
     from ..measurements import read_measurement
 
-    measurement = read_measurement(args.file)
-    progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
-    report = diagnose(measurement, progress)
+    # every output path is checked before the fit, which takes seconds to minutes
+    json_path = output_file(args.json, "--json") if args.json else None
     if args.out:
-        folder = Path(args.out)
+        folder = output_folder(args.out, "--out")
     elif args.json:
         folder = Path(args.json).resolve().parent
     else:
         folder = Path(args.file).resolve().parent
+    measurement = read_measurement(args.file)
+    if not args.out and not args.json:
+        output_folder(folder, "PNG folder (beside the file; choose another with --out)")
+    progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    report = diagnose(measurement, progress)
     report["pictures"] = save_pictures(measurement, report, folder, Path(args.file).stem)
     for line in summary(report):
         print(line)
-    if args.json:
-        path = Path(args.json)
+    if json_path:
+        path = json_path
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(public(report), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
         print(f"report: {path}")

@@ -1,8 +1,21 @@
-"""Command-line options shared by several subcommands."""
+"""Command-line options shared by several subcommands: parameter assignments and output paths."""
 from __future__ import annotations
 
-from ..errors import ParameterError
+import os
+import tempfile
+from pathlib import Path
+
+from ..errors import MkctlError, ParameterError
 from ..params import PARAMETER_NAMES
+
+
+class UsageError(MkctlError, ValueError):
+    """A command-line value that cannot be used (a bad option value, an output path that cannot be written)."""
+
+
+def split_items(items) -> list[str]:
+    """Repeated option values, each possibly a comma-separated list: ``["c=45,tau=0.05", "m=2"]`` -> 3 items."""
+    return [part.strip() for item in items or () for part in str(item).split(",") if part.strip()]
 
 
 def parse_assignments(items, option: str = "--set") -> dict[str, float]:
@@ -24,3 +37,60 @@ def parse_assignments(items, option: str = "--set") -> dict[str, float]:
         except ValueError:
             raise ParameterError(f"{option} {name}: {text.strip()!r} is not a number") from None
     return values
+
+
+# --- output paths: checked before the work, so that a typo does not cost a long run ---------------
+
+def _writable_folder(folder: Path) -> bool:
+    """Whether a file can be created in the existing folder (tried, not guessed: root passes os.access)."""
+    try:
+        with tempfile.TemporaryFile(dir=folder):
+            return True
+    except OSError:
+        return False
+
+
+def _folder_problem(folder: Path) -> str | None:
+    """Why files cannot be written into ``folder`` (made if missing), or None if they can."""
+    existing = folder
+    while not existing.exists():
+        if existing.is_symlink():  # a dangling link: it can be neither followed nor created
+            return f"{existing} is a broken link"
+        existing = existing.parent
+    if not existing.is_dir():
+        return f"{existing} is a file, not a folder"
+    if not os.access(existing, os.W_OK | os.X_OK) or not _writable_folder(existing):
+        return f"cannot write into the folder {existing}"
+    return None
+
+
+def output_folder(path, option: str) -> Path:
+    """Check that ``path`` is (or can become) a folder we can write into; return it as a Path.
+
+    Nothing is created. Raises :class:`UsageError` naming ``option`` (``--out``, ...), the path and the
+    problem: the path or one of its parents is a file, or the nearest existing folder cannot be written.
+    """
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise UsageError(f"{option} {path}: is a file, not a folder")
+    problem = _folder_problem(path)
+    if problem:
+        raise UsageError(f"{option} {path}: {problem}")
+    return path
+
+
+def output_file(path, option: str) -> Path:
+    """Check that the file ``path`` can be written (its folder made if missing); return it as a Path.
+
+    Nothing is created. Raises :class:`UsageError` naming ``option``, the path and the problem: the path is
+    a folder, a parent is a file, the folder cannot be written, or an existing file cannot be overwritten.
+    """
+    path = Path(path)
+    if path.is_dir() or str(path).endswith(("/", os.sep)):
+        raise UsageError(f"{option} {path}: is a folder, not a file")
+    problem = _folder_problem(path.parent)
+    if problem:
+        raise UsageError(f"{option} {path}: {problem}")
+    if path.exists() and not os.access(path, os.W_OK):
+        raise UsageError(f"{option} {path}: the file exists and cannot be overwritten")
+    return path
