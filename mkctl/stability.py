@@ -20,8 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import brentq
-
 from . import knee
 from .errors import DomainError
 from .params import DEFAULT, Params
@@ -122,6 +120,10 @@ def equilibrium_hip_height(Pe: float, Pf: float, params: Params = DEFAULT, X_ran
     Searches X_range (default: between the end stops) and returns the stable root nearest the upper
     stop. Raises :class:`DomainError` if there is none in range.
     """
+    # imported here, not at the top: the FMUs import this module, and a host that loads an FMU should not
+    # have to load scipy (and a second OpenBLAS) for a function the FMU never calls
+    from scipy.optimize import brentq
+
     low, high = X_range if X_range is not None else knee.stop_positions(params)
     grid = np.linspace(low, high, samples)
     excess = knee.ground_force(grid, Pe, Pf, 0.0, params) - params.m * params.g

@@ -340,3 +340,15 @@ def test_fmpy_simulate_alone_runs_the_default_experiment(built_fmus, tmp_path):
     assert data["time"][-1] == pytest.approx(float(md.defaultExperiment.stopTime))
     # the default run holds the leg at rest at alpha = 60 deg: the equilibrium of the default commands
     np.testing.assert_allclose(data["alpha"], np.radians(60.0), atol=1e-9)
+
+
+def test_the_fmus_do_not_load_scipy_into_the_host(built_fmus, run_python):
+    """A host that loads our FMUs gets numpy, not scipy (and its second OpenBLAS): the FMUs never need it."""
+    code = (
+        "import json, sys\n"
+        "from fmpy import simulate_fmu\n"
+        "for fmu in sys.argv[1:]:\n"
+        "    simulate_fmu(fmu, stop_time=0.01, output_interval=1e-3)\n"
+        "print(json.dumps(sorted(m for m in sys.modules if m.split('.')[0] == 'scipy')))\n"
+    )
+    assert run_python(code, built_fmus["knee"], built_fmus["actuator"]) == []
