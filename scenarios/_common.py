@@ -3,13 +3,26 @@
 Every scenario is ``python scenarios/NAME.py [--out DIR] [--fmu-dir DIR] [--duration S]``: it drives the FMUs
 of ``--fmu-dir`` (default ``dist``, built by build_fmu.py when missing) with fmpy, writes ``NAME.csv`` and
 ``NAME.png`` under ``--out`` (default ``out/NAME``) and prints a short summary.
+
+Errors. Every option is checked before the first simulation (``parse_args`` and the scenario's ``check``):
+a bad value, a folder that cannot be used or a parameter the model cannot represent ends the script with one
+line on stderr naming the option and the value, exit status 2, no traceback. A run that fails anyway (the FMU
+refuses a step, the FMUs cannot be built) ends the same way, with the FMU's own logged message.
+
+The FMUs run in this Python. The scenarios import mkctl (for the plots, the checks of the options and the
+reference numbers they print), so the FMUs use that copy of mkctl, not the one packed in the FMU
+(DEVELOPERS.md, "Known pitfalls"): the same code when the FMUs were built from this checkout. The packed FMUs
+are tested on their own in tests/test_fmu*.py.
 """
 from __future__ import annotations
 
 import argparse
 import csv
+import math
 import subprocess
 import sys
+import tempfile
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -18,18 +31,127 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and build_fmu.py
     sys.path.insert(0, str(ROOT))
 
-from mkctl.plotting import new_figure, save_png  # noqa: E402
+from mkctl.errors import MkctlError  # noqa: E402
+from mkctl.params import Params  # noqa: E402
 
 FMU_FILES = {"knee": "McKibbenKnee.fmu", "actuator": "McKibbenActuator.fmu"}
+STEP = 1e-3  #: communication step of the fmpy runs [s]
+
+_prog = "scenario"  # the script's name in error messages, set by parse_args
 
 
 class ScenarioError(Exception):
     """A scenario could not run to its end."""
 
 
-def parse_args(name: str, description: str, duration: float, argv=None, extra=None) -> argparse.Namespace:
-    """The common command line; ``extra(parser)`` may add the scenario's own options."""
-    parser = argparse.ArgumentParser(prog=f"scenarios/{name}.py", description=description)
+class UsageError(Exception):
+    """An option value the scenario cannot use; the message names the option and the value."""
+
+
+# --- figures: matplotlib is imported only when a figure is drawn, so that a bad option fails fast ---------
+
+def new_figure(*args, **kwargs):
+    """:func:`mkctl.plotting.new_figure`."""
+    from mkctl.plotting import new_figure as new
+    return new(*args, **kwargs)
+
+
+def save_png(fig, path, dpi: int = 120) -> Path:
+    """:func:`mkctl.plotting.save_png`."""
+    from mkctl.plotting import save_png as save
+    return save(fig, path, dpi)
+
+
+# --- the command line ------------------------------------------------------------------------------------
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but an error is one line (``--help`` still shows the usage)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def require(condition, message: str) -> None:
+    """Raise :class:`UsageError` with message unless condition holds."""
+    if not condition:
+        raise UsageError(message)
+
+
+def positive(value: float, option: str, unit: str = "") -> float:
+    """value if it is a finite number > 0, else a :class:`UsageError` naming the option."""
+    require(math.isfinite(value) and value > 0, f"{option} {value:g}: must be a positive number{unit and ' of ' + unit}")
+    return value
+
+
+def number_list(text: str, option: str) -> list[float]:
+    """``"0,20,40"`` -> ``[0.0, 20.0, 40.0]``; empty items, non-numbers and repeated values are usage errors."""
+    values = []
+    for item in str(text).split(","):
+        try:
+            value = float(item)
+        except ValueError:
+            raise UsageError(f"{option} {text!r}: {item.strip()!r} is not a number") from None
+        require(f"{value:g}" not in {f"{v:g}" for v in values},
+                f"{option} {text!r}: {value:g} is given twice")
+        values.append(value)
+    return values
+
+
+def checked_params(option: str, params: Params | None = None, **values) -> Params:
+    """``params.replace(**values)`` (default: the FMUs' defaults); a value the model cannot represent is a
+    :class:`UsageError` naming the option, e.g. ``--Fc -3: parameter Fc must not be negative, got -3.0``."""
+    try:
+        return (params or Params()).replace(**values)
+    except MkctlError as error:
+        raise UsageError(f"{option}: {error}") from None
+
+
+def _folder_problem(folder: Path) -> str | None:
+    """Why files cannot be written into folder (created if missing), or None if they can."""
+    existing = folder
+    while not existing.exists():
+        if existing.is_symlink():
+            return f"{existing} is a broken link"
+        existing = existing.parent
+    if not existing.is_dir():
+        return f"{existing} is a file, not a folder"
+    try:  # tried, not guessed: os.access says yes to root on a read-only mount
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError:
+        return f"cannot write into the folder {existing}"
+    return None
+
+
+def _check_folders(args, fmus) -> None:
+    problem = _folder_problem(Path(args.out))
+    require(problem is None, f"--out {args.out}: {problem}")
+    for suffix in ("csv", "png"):
+        target = Path(args.out) / f"{args.name}.{suffix}"
+        require(not target.is_dir(), f"--out {args.out}: {target} is a folder, cannot write the {suffix.upper()} there")
+    fmu_dir = Path(args.fmu_dir)
+    require(not fmu_dir.exists() or fmu_dir.is_dir(), f"--fmu-dir {fmu_dir}: is a file, not a folder")
+    paths = [fmu_dir / FMU_FILES[which] for which in fmus]
+    for path in paths:
+        require(not path.exists() or zipfile.is_zipfile(path), f"--fmu-dir {fmu_dir}: {path.name} is not an FMU "
+                "(not a zip file)")
+    if not all(path.exists() for path in paths):  # build_fmu.py will write there
+        problem = _folder_problem(fmu_dir)
+        require(problem is None, f"--fmu-dir {fmu_dir}: the FMUs are missing and cannot be built there: {problem}")
+
+
+def parse_args(name: str, description: str, duration: float, argv=None, extra=None, check=None,
+               fmus=("knee",)) -> argparse.Namespace:
+    """The common command line, checked before any work.
+
+    ``extra(parser)`` may add the scenario's own options; ``check(args)`` checks them (and the duration
+    against what the scenario needs), raising :class:`UsageError` (or an mkctl error) with a message naming the
+    option, and may store what it derived on args. ``fmus`` are the FMUs the scenario drives ("knee",
+    "actuator"). Any problem ends the script: one line on stderr, exit status 2.
+    """
+    global _prog
+    parser = _Parser(prog=f"scenarios/{name}.py", description=description)
+    _prog = parser.prog
     parser.add_argument("--out", type=Path, default=ROOT / "out" / name,
                         help="folder for the CSV and PNG (default: out/NAME)")
     parser.add_argument("--fmu-dir", type=Path, default=ROOT / "dist",
@@ -39,17 +161,65 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
         extra(parser)
     args = parser.parse_args(argv)
     args.name = name
+    try:
+        positive(args.duration, "--duration", "seconds")
+        require(args.duration >= 10 * STEP, f"--duration {args.duration:g}: must be at least {10 * STEP:g} s "
+                f"(ten communication steps)")
+        _check_folders(args, fmus)
+        if check is not None:
+            check(args)
+    except (UsageError, MkctlError) as error:
+        parser.error(str(error))
     return args
 
+
+# --- the FMUs ---------------------------------------------------------------------------------------------
 
 def fmu_path(args, which: str) -> Path:
     """Path of the knee or actuator FMU, building both with build_fmu.py if it is missing."""
     path = Path(args.fmu_dir) / FMU_FILES[which]
     if not path.exists():
         print(f"{path} missing: building the FMUs ...")
-        subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(args.fmu_dir), "--no-run"],
-                       check=True)
+        done = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(args.fmu_dir), "--no-run"],
+                              capture_output=True, text=True)
+        if done.returncode != 0 or not path.exists():
+            lines = (done.stderr or done.stdout).strip().splitlines()
+            raise ScenarioError(f"building the FMUs into {args.fmu_dir} failed: "
+                                + (lines[-1] if lines else f"exit status {done.returncode}"))
     return path
+
+
+class FMULog:
+    """An fmpy logger callback that keeps the FMU's messages of status discard, error and fatal."""
+
+    def __init__(self):
+        self.messages: list[str] = []
+
+    def __call__(self, component, instance, status, category, message):
+        if status >= 2:  # fmi2Discard, fmi2Error, fmi2Fatal
+            text = message.decode(errors="replace") if isinstance(message, bytes) else str(message)
+            self.messages.append(" ".join(text.split()))  # one line
+
+    def reason(self) -> str:
+        """The last message, or "no message"."""
+        return self.messages[-1] if self.messages else "the FMU logged no message"
+
+    def fmi2_callbacks(self):
+        """fmi2CallbackFunctions calling this logger, for ``FMU2Slave.instantiate(callbacks=...)``; keep a
+        reference as long as the instance lives."""
+        from ctypes import byref
+
+        from fmpy import calloc, free
+        from fmpy.fmi2 import (fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
+                               fmi2CallbackLoggerTYPE)
+        from fmpy.logging import addLoggerProxy  # formats the variadic message, as fmpy.simulate_fmu does
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(self)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        addLoggerProxy(byref(callbacks))
+        return callbacks
 
 
 def input_signal(rows) -> np.ndarray:
@@ -60,24 +230,64 @@ def input_signal(rows) -> np.ndarray:
                     dtype=[("time", float)] + [(n, float) for n in names])
 
 
-def simulate(fmu: Path, stop: float, step: float = 1e-3, inputs=None, start_values=None) -> np.ndarray:
-    """Run an FMU with fmpy at a fixed communication step; raise ScenarioError (with the FMU's own messages)
-    unless it reaches the stop time."""
+def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_values=None) -> np.ndarray:
+    """Run an FMU with fmpy at a fixed communication step; raise ScenarioError (with the FMU's last logged
+    error) unless it reaches the stop time."""
     from fmpy import simulate_fmu
 
-    messages = []
-
-    def logger(component, instance, status, category, message):
-        if status >= 2:  # discard, error, fatal
-            messages.append(message.decode(errors="replace") if isinstance(message, bytes) else str(message))
-
+    log = FMULog()
     result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
-                          start_values=start_values or {}, debug_logging=True, logger=logger)
+                          start_values=start_values or {}, debug_logging=True, logger=log)
     if abs(result["time"][-1] - stop) > 1e-9 * max(1.0, stop):
         raise ScenarioError(f"{Path(fmu).name} stopped at t = {result['time'][-1]:g} s instead of {stop:g} s: "
-                            + ("; ".join(messages) or "no message"))
+                            f"{log.reason()}")
     return result
 
+
+# --- reference numbers and metrics ------------------------------------------------------------------------
+
+def first_peak_time(params: Params | None = None) -> float:
+    """pi / omega [s]: when the undamped leg, linearized at the FMUs' default posture (alpha = 60 deg), reaches
+    its first peak after a step. A step response needs at least this long to show its overshoot."""
+    from mkctl.simulate import DEFAULT_ALPHA, DEFAULT_PF
+    from mkctl.stability import posture_stability
+
+    rest = posture_stability(DEFAULT_ALPHA, Pf=DEFAULT_PF, params=(params or Params()).replace(c=0.0, Fc=0.0))
+    omega = max(abs(pole.imag) for pole in rest.poles)
+    if omega == 0:
+        raise UsageError("the default posture does not oscillate: no first peak to wait for")
+    return math.pi / omega
+
+
+def step_overshoot(t, X, X0: float, target: float, t_step: float, settled: float = 0.02):
+    """Overshoot of a step response X(t) from X0 towards target (step at t_step), in % of the step.
+
+    Returns ``(value, None)``, or ``(None, why)`` when the run cannot tell: the step does not move the
+    equilibrium by more than the run resolves, X is still moving away at the end of the run, or X has neither
+    crossed the target nor come within ``settled`` (a fraction of the step) of it by the end.
+    """
+    step = target - X0
+    resolution = 1e-8 * max(abs(X0), abs(target))  # 100 x the relative tolerance (1e-10) of the FMU's integrator
+    if not abs(step) > resolution:
+        return None, f"the step moves the equilibrium by only {abs(step):.2g} m, below what the run resolves"
+    after = np.asarray(X)[np.asarray(t) >= t_step]
+    beyond = (after - target) / step  # > 0 past the target in the direction of the step, -1 at the start
+    peak = int(np.argmax(beyond))
+    if beyond[peak] > 0:
+        if peak == after.size - 1:
+            return None, f"X still moving away from the new equilibrium at t = {t[-1]:g} s"
+        return float(beyond[peak] * 100), None
+    if beyond[-1] >= -settled:
+        return 0.0, None  # within `settled` of the target without crossing it
+    return None, f"X covered only {(1 + beyond[-1]) * 100:.0f} % of the step by t = {t[-1]:g} s"
+
+
+def undefined(why: str) -> str:
+    """How a metric that cannot be computed is printed."""
+    return f"undefined ({why})"
+
+
+# --- output ----------------------------------------------------------------------------------------------
 
 def write_csv(path: Path, columns: dict[str, np.ndarray]) -> Path:
     """One column per entry (name with its unit as suffix, e.g. ``X_m``), one row per sample."""
@@ -103,14 +313,23 @@ def finish(args, columns: dict[str, np.ndarray], fig, summary: list[str]) -> Non
 
 
 def main_guard(run, argv=None) -> int:
-    """Run a scenario; a ScenarioError (or an FMU that could not be built) ends it with one line, exit 1."""
+    """Run a scenario; a failure (ScenarioError, an mkctl error, a file that cannot be written) ends it with one
+    line on stderr and exit status 2, an interrupt with exit status 130."""
     try:
         run(argv)
-    except (ScenarioError, subprocess.CalledProcessError) as error:
-        print(f"error: {error}", file=sys.stderr)
-        return 1
+    except (ScenarioError, UsageError, MkctlError) as error:
+        print(f"{_prog}: error: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:
+        where = f" {error.filename}" if error.filename else ""
+        print(f"{_prog}: error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{_prog}: interrupted", file=sys.stderr)
+        return 130
     return 0
 
 
-__all__ = ["ROOT", "ScenarioError", "parse_args", "fmu_path", "input_signal", "simulate", "write_csv", "finish",
-           "main_guard", "new_figure", "save_png"]
+__all__ = ["ROOT", "STEP", "ScenarioError", "UsageError", "parse_args", "require", "positive", "number_list",
+           "checked_params", "fmu_path", "FMULog", "input_signal", "simulate", "first_peak_time", "step_overshoot",
+           "undefined", "write_csv", "finish", "main_guard", "new_figure", "save_png"]

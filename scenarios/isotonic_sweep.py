@@ -3,42 +3,61 @@
     python scenarios/isotonic_sweep.py [--out DIR] [--fmu-dir DIR] [--duration 20] [--load 50] [--Fc 3]
 
 The pressure command rises from 50 to 350 kPa and falls back (a sin^2 sweep over --duration); the load
-hangs from the muscle, and its inertia is neglected (quasi-static, as in mkctl.isotonic): at every 50 ms
-sample the scenario finds the length L at which the FMU's tension f(L, P, Ldot) equals the load, with
-Ldot = (L - L_previous) / dt, by bracketing on the FMU's direct feedthrough (setReal L, Ldot; getReal f).
-With friction (--Fc > 0) the contraction draws a hysteresis loop against the pressure, as in Fig. 5.
+hangs from the muscle, and its inertia is neglected (quasi-static, as in mkctl.isotonic): at every sample
+(at most 50 ms apart; --duration at least 1 s) the scenario finds the length L at which the FMU's tension
+f(L, P, Ldot) equals the load, with Ldot = (L - L_previous) / dt, by bracketing on the FMU's direct feedthrough (setReal L, Ldot; getReal f).
+With friction (--Fc > 0) the contraction draws a hysteresis loop against the pressure, as in Fig. 5. The load
+(>= 0) must be one the muscle can carry all along the sweep (checked with mkctl.isotonic.static_length).
 Writes isotonic_sweep.csv and plots the contraction against the pressure.
 """
 from __future__ import annotations
 
+import math
 import sys
 
 import numpy as np
 
-from _common import ScenarioError, finish, fmu_path, main_guard, new_figure, parse_args  # first: finds mkctl
+from _common import (FMULog, ScenarioError, UsageError, checked_params, finish, fmu_path,  # first: finds mkctl
+                     main_guard, new_figure, parse_args, require)
+from mkctl.errors import MkctlError  # noqa: E402
+from mkctl.isotonic import static_length  # noqa: E402
 
-DT = 0.05  # sample interval [s]
+DT = 0.05  # longest sample interval [s]
+MIN_STEPS = 20  # steps of DT in the shortest sweep, enough to draw the loop
+P_LOW, P_HIGH = 50e3, 350e3  # the pressure sweep [Pa]
 
 
 class ActuatorFMU:
-    """The actuator FMU through fmpy's low-level API: step the pressure lag, then read f at any (L, Ldot)."""
+    """The actuator FMU through fmpy's low-level API: step the pressure lag, then read f at any (L, Ldot).
+
+    The FMU's log (discard, error, fatal) is kept, so that a refusal says why."""
 
     def __init__(self, path, start_values):
         from fmpy import extract, read_model_description
+        from fmpy.fmi1 import FMICallException
         from fmpy.fmi2 import FMU2Slave
 
         md = read_model_description(str(path))
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.start = {v.name: float(v.start) for v in md.modelVariables if v.start is not None}
+        self.log = FMULog()
+        self._callbacks = self.log.fmi2_callbacks()  # referenced for the instance's lifetime
         self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)),
                              modelIdentifier=md.coSimulation.modelIdentifier, instanceName="actuator")
-        self.fmu.instantiate()
-        self.fmu.setupExperiment(startTime=0.0)
-        self.fmu.enterInitializationMode()
-        for name, value in start_values.items():
-            self.fmu.setReal([self.vr[name]], [value])
-        self.fmu.exitInitializationMode()
         self.time = 0.0
+        try:
+            self.fmu.instantiate(callbacks=self._callbacks, loggingOn=True)
+        except Exception as error:  # fmpy raises a plain Exception when fmi2Instantiate returns NULL
+            raise ScenarioError(f"the actuator FMU could not be instantiated ({error}): {self.log.reason()}") from None
+        try:
+            self.fmu.setupExperiment(startTime=0.0)
+            self.fmu.enterInitializationMode()
+            for name, value in start_values.items():
+                self.fmu.setReal([self.vr[name]], [value])
+            self.fmu.exitInitializationMode()
+        except FMICallException as error:
+            self.close()
+            raise ScenarioError(f"the actuator FMU refused to start ({error}): {self.log.reason()}") from None
 
     def step(self, p_cmd: float, dt: float) -> None:
         from fmpy.fmi1 import FMICallException
@@ -46,8 +65,9 @@ class ActuatorFMU:
         self.fmu.setReal([self.vr["p_cmd"]], [p_cmd])
         try:
             self.fmu.doStep(self.time, dt)
-        except FMICallException as error:
-            raise ScenarioError(f"the actuator FMU refused the step at t = {self.time:g} s ({error})") from None
+        except FMICallException:
+            raise ScenarioError(f"the actuator FMU refused the step at t = {self.time:g} s: {self.log.reason()}") \
+                from None
         self.time += dt
 
     def tension(self, L: float, Ldot: float) -> tuple[float, float]:
@@ -57,6 +77,18 @@ class ActuatorFMU:
     def close(self):
         self.fmu.terminate()
         self.fmu.freeInstance()
+
+
+def check(args):
+    """The options before any simulation: the friction, a load the muscle can carry, enough samples."""
+    params = checked_params(f"--Fc {args.Fc:g}", Fc=args.Fc)
+    require(math.isfinite(args.load) and args.load >= 0, f"--load {args.load:g}: must be a number of newtons >= 0")
+    try:  # the static length must exist all along the sweep (the tension rises with P at every length)
+        static_length([P_LOW, P_HIGH], args.load, params)
+    except MkctlError as error:
+        raise UsageError(f"--load {args.load:g}: {error}") from None
+    require(args.duration >= MIN_STEPS * DT, f"--duration {args.duration:g}: too short for the sweep; needs at least "
+            f"{MIN_STEPS * DT:g} s ({MIN_STEPS} steps of {DT * 1e3:g} ms)")
 
 
 def balance(actuator: ActuatorFMU, load: float, L_previous: float, dt: float, b: float) -> float:
@@ -78,9 +110,10 @@ def run(argv=None):
         parser.add_argument("--load", type=float, default=50.0, help="hanging load [N] (default 50)")
         parser.add_argument("--Fc", type=float, default=3.0, help="Coulomb friction Fc [N] (default 3; 0 = off)")
 
-    args = parse_args("isotonic_sweep", __doc__.splitlines()[0], 20.0, argv, options)
-    t = np.arange(0.0, args.duration + DT / 2, DT)
-    p_cmd = 50e3 + 300e3 * np.sin(np.pi * t / args.duration) ** 2
+    args = parse_args("isotonic_sweep", __doc__.splitlines()[0], 20.0, argv, options, check, fmus=("actuator",))
+    t = np.linspace(0.0, args.duration, math.ceil(args.duration / DT - 1e-9) + 1)  # ends at the duration
+    dt = t[1] - t[0]
+    p_cmd = P_LOW + (P_HIGH - P_LOW) * np.sin(np.pi * t / args.duration) ** 2
     actuator = ActuatorFMU(fmu_path(args, "actuator"), {"Fc": args.Fc})
     b, L0 = actuator.start["b"], actuator.start["L0"]
     try:
@@ -90,14 +123,20 @@ def run(argv=None):
         L[0] = balance(actuator, args.load, 0.0, np.inf, b)
         f[0], P[0] = actuator.tension(L[0], 0.0)
         for k in range(1, t.size):
-            actuator.step(p_cmd[k - 1], DT)
+            actuator.step(p_cmd[k - 1], dt)
             actuator.fmu.setReal([actuator.vr["p_cmd"]], [p_cmd[k]])
-            L[k] = balance(actuator, args.load, L[k - 1], DT, b)
-            f[k], P[k] = actuator.tension(L[k], (L[k] - L[k - 1]) / DT)
+            L[k] = balance(actuator, args.load, L[k - 1], dt, b)
+            f[k], P[k] = actuator.tension(L[k], (L[k] - L[k - 1]) / dt)
+        miss = np.abs(f - args.load)
+        if not np.all(miss <= 1e-6 * max(1.0, args.load)):  # NaN too: the FMU could not compute f
+            k = int(np.argmax(~(miss <= 1e-6 * max(1.0, args.load))))
+            raise ScenarioError(f"could not balance the load {args.load:g} N at t = {t[k]:g} s (f = {f[k]:g} N at "
+                                f"L = {L[k] * 1e3:.3f} mm after bisection)"
+                                + (f": {actuator.log.reason()}" if actuator.log.messages else ""))
     finally:
         actuator.close()
     contraction = (L0 - L) / L0
-    half = t.size // 2
+    half = int(np.argmax(p_cmd))  # the top of the sweep: rising before, falling after
     mid = 0.5 * (p_cmd.min() + p_cmd.max())
     up = np.interp(mid, P[: half + 1], contraction[: half + 1])
     down = np.interp(mid, P[half:][::-1], contraction[half:][::-1])
@@ -114,8 +153,9 @@ def run(argv=None):
                f"pressure {P.min() / 1e3:.0f} -> {P.max() / 1e3:.0f} -> {P[-1] / 1e3:.0f} kPa over {t[-1]:g} s, "
                f"load {args.load:g} N, Fc = {args.Fc:g} N",
                f"length {L.max() * 1e3:.2f} .. {L.min() * 1e3:.2f} mm (contraction up to {contraction.max() * 100:.1f} %)",
-               f"loop width at {mid / 1e3:.0f} kPa: {(down - up) * 100:.3f} % contraction, "
-               f"{(down - up) * L0 * 1e3:.3f} mm (longer while the pressure rises: friction resists the motion)",
+               f"loop width at {mid / 1e3:.0f} kPa: {round((down - up) * 100, 3) + 0.0:.3f} % contraction, "
+               f"{round((down - up) * L0 * 1e3, 3) + 0.0:.3f} mm"
+               + (" (longer while the pressure rises: friction resists the motion)" if args.Fc > 0 else ""),
                f"largest |f - load|: {np.max(np.abs(f - args.load)):.2e} N",
            ])
 

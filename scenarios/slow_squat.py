@@ -7,20 +7,48 @@ the posture they hold at rest moves smoothly (a cosine profile) from --bent to -
 deg) and back: the commands are the equilibrium pressures of mkctl.stability along that path, sampled every
 1/50 of the half period, ramped linearly in between. Both ends must be stable postures: with Table I and II
 the equilibria are stable only above alpha ~ 52 deg (a2 < 0, Fig. 7 of the paper). The leg starts at rest
-at the bent posture. Writes slow_squat.csv and plots X, alpha (and its target) and the commands.
+at the bent posture. --bent must be below --straight, both between the end stops. Writes slow_squat.csv and plots X, alpha (and its target) and the commands.
 """
 from __future__ import annotations
 
+import math
 import sys
 
 import numpy as np
 
-from _common import finish, fmu_path, input_signal, main_guard, new_figure, parse_args, simulate  # first: finds mkctl
+from _common import (UsageError, checked_params, finish, fmu_path, input_signal, main_guard,  # first: finds mkctl
+                     new_figure, parse_args, require, simulate)
 from mkctl import knee  # noqa: E402
-from mkctl.params import Params  # noqa: E402
+from mkctl.errors import MkctlError  # noqa: E402
 from mkctl.stability import equilibrium_pressure, posture_stability  # noqa: E402
 
 PF_BENT, PF_STRAIGHT = 400e3, 100e3  # flexor commands at the two ends [Pa]
+
+
+def check(args):
+    """The options, and the commands they lead to, before any simulation."""
+    args.params = checked_params(f"--c {args.c:g}", c=args.c)
+    low, high = np.degrees(knee.ALPHA_STOP_LOW), np.degrees(knee.ALPHA_STOP_HIGH)
+    for option, value in (("--bent", args.bent), ("--straight", args.straight)):
+        require(math.isfinite(value) and low < value < high,
+                f"{option} {value:g}: must lie between the end stops, {low:g} < alpha < {high:g} deg")
+    require(args.bent < args.straight, f"--bent {args.bent:g} must be below --straight {args.straight:g} (deg)")
+    knots = np.linspace(0.0, args.duration, 101)
+    progress = 0.5 * (1 - np.cos(2 * np.pi * knots / args.duration))  # 0 -> 1 -> 0, smooth at the ends
+    alpha_knots = np.radians(args.bent + (args.straight - args.bent) * progress)
+    pf_knots = PF_BENT + (PF_STRAIGHT - PF_BENT) * progress
+    try:
+        pe_knots = equilibrium_pressure(alpha_knots, pf_knots, args.params)
+        args.ends = [posture_stability(np.radians(alpha), Pf=pf, params=args.params)
+                     for alpha, pf in ((args.bent, PF_BENT), (args.straight, PF_STRAIGHT))]
+    except MkctlError as error:
+        raise UsageError(f"--bent {args.bent:g} --straight {args.straight:g}: {error}") from None
+    bad = np.flatnonzero(~(np.isfinite(pe_knots) & (pe_knots > 0)))
+    if bad.size:
+        raise UsageError(f"--bent {args.bent:g} --straight {args.straight:g}: holding alpha = "
+                         f"{np.degrees(alpha_knots[bad[0]]):.1f} deg would need pe_cmd = {pe_knots[bad[0]]:g} Pa, "
+                         "not a positive pressure")
+    args.knots, args.alpha_knots, args.pe_knots, args.pf_knots = knots, alpha_knots, pe_knots, pf_knots
 
 
 def run(argv=None):
@@ -29,19 +57,13 @@ def run(argv=None):
         parser.add_argument("--bent", type=float, default=55.0, help="bent posture, alpha [deg] (default 55)")
         parser.add_argument("--straight", type=float, default=72.0, help="straight posture, alpha [deg] (default 72)")
 
-    args = parse_args("slow_squat", __doc__.splitlines()[0], 10.0, argv, options)
-    params = Params(c=args.c)
-    bent = posture_stability(np.radians(args.bent), Pf=PF_BENT, params=params)
-    straight = posture_stability(np.radians(args.straight), Pf=PF_STRAIGHT, params=params)
+    args = parse_args("slow_squat", __doc__.splitlines()[0], 10.0, argv, options, check)
+    bent, straight = args.ends
     for end in (bent, straight):
         if end.verdict != "stable":
             print(f"warning: alpha = {np.degrees(end.alpha):.1f} deg is not a stable posture ({end.verdict})")
     half = args.duration / 2
-    knots = np.linspace(0.0, args.duration, 101)
-    progress = 0.5 * (1 - np.cos(2 * np.pi * knots / args.duration))  # 0 -> 1 -> 0, smooth at the ends
-    alpha_knots = np.radians(args.bent + (args.straight - args.bent) * progress)
-    pf_knots = PF_BENT + (PF_STRAIGHT - PF_BENT) * progress
-    pe_knots = equilibrium_pressure(alpha_knots, pf_knots, params)
+    knots, alpha_knots, pe_knots, pf_knots = args.knots, args.alpha_knots, args.pe_knots, args.pf_knots
     signal = input_signal([(t, {"pe_cmd": pe, "pf_cmd": pf}) for t, pe, pf in zip(knots, pe_knots, pf_knots)])
     result = simulate(fmu_path(args, "knee"), args.duration, 1e-3, signal, {"c": args.c, "X0": bent.X})
     t = result["time"]
