@@ -46,6 +46,7 @@ from . import fmu_linear, knee, stability
 from .errors import DomainError, MkctlError
 from .fmu_linear import FMUAnalysisError, fmu_step_response
 from .params import DEFAULT, Params
+from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA
 from .simulate import DEFAULT_ALPHA, DEFAULT_PF, KneeSimulator
 
 __all__ = [
@@ -59,12 +60,6 @@ __all__ = [
 
 #: Input names of every system built here.
 INPUT_NAMES = ("pe_cmd", "pf_cmd")
-#: Damping ratio used where a damped knee is needed and no c is given.
-DEFAULT_ZETA = 0.3
-#: Pressure lag [s] for the closed-loop comparison when none is given (valves and tubing: tens of ms).
-DEFAULT_TAU = 0.05
-#: Where the knee FMU is built (``python build_fmu.py``).
-DEFAULT_FMU = Path("dist") / "McKibbenKnee.fmu"
 #: Units in which :func:`numerical_linearization` perturbs the signals: python-control's ``linearize``
 #: takes one absolute forward step (1e-6) for all of them. So X and V are perturbed by 3e-9 m, m/s (F is
 #: curved in X; this step balances truncation and rounding, measured) and the pressures by 1 Pa (F is

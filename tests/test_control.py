@@ -310,7 +310,9 @@ def test_cli_fmu_given_explicitly_must_be_an_fmu(command, tmp_path, capsys):
 
 
 def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeypatch):
-    monkeypatch.setattr(mc, "DEFAULT_FMU", tmp_path / "not_built.fmu")
+    from mkctl import control_defaults
+
+    monkeypatch.setattr(control_defaults, "DEFAULT_FMU", tmp_path / "not_built.fmu")
     code, out, err = run_cli(["linearize", "--out", str(tmp_path)], capsys)
     assert code == 0 and err == ""
     assert f"note: FMU {tmp_path / 'not_built.fmu'} not found" in out and "FMU linearization" not in out

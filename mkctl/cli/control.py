@@ -13,10 +13,23 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import control as mc
-from ..fmu_linear import check_fmu
+from .. import control_defaults
 from ..params import DEFAULT
+from ..simulate import DEFAULT_ALPHA, DEFAULT_PF
 from .options import UsageError, output_folder, parse_assignments
+
+
+class _LazyControl:
+    """:mod:`mkctl.control`, imported on first use: python-control takes seconds to import, and
+    ``mkctl --help`` or another subcommand should not wait for it."""
+
+    def __getattr__(self, name):
+        from .. import control
+
+        return getattr(control, name)
+
+
+mc = _LazyControl()
 
 #: Above this gauge pressure [Pa] a note says the result is far outside what a McKibben muscle survives
 #: (typical muscles burst at 1-2 MPa; the model has no burst limit, so it keeps computing).
@@ -27,12 +40,12 @@ def _add_common(parser, needs_damping: bool) -> None:
     posture = parser.add_mutually_exclusive_group()
     posture.add_argument("--alpha", type=float, metavar="DEG", help="kneecap angle of the posture (default 60)")
     posture.add_argument("--X", type=float, metavar="M", help="hip height of the posture instead of --alpha")
-    parser.add_argument("--pf", type=float, default=mc.DEFAULT_PF / 1e3, metavar="KPA",
+    parser.add_argument("--pf", type=float, default=DEFAULT_PF / 1e3, metavar="KPA",
                         help="flexor gauge pressure, >= 0 (default %(default)g)")
     parser.add_argument("--c", type=float, metavar="NS_PER_M",
                         help="viscous damping of each actuator (default: "
                              + ("the c that gives --zeta)" if needs_damping else "0, the paper's model 2)"))
-    parser.add_argument("--zeta", type=float, default=mc.DEFAULT_ZETA,
+    parser.add_argument("--zeta", type=float, default=control_defaults.DEFAULT_ZETA,
                         help="damping ratio for the closed-form c (default %(default)g)")
     parser.add_argument("--tau", type=float, metavar="S", help="pressure lag time constant (default 0: no lag)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
@@ -43,7 +56,7 @@ def _add_common(parser, needs_damping: bool) -> None:
 
 def _add_fmu(parser) -> None:
     parser.add_argument("--fmu", type=Path, default=None,
-                        help=f"knee FMU (default {mc.DEFAULT_FMU}, skipped with a note if it is not built; "
+                        help=f"knee FMU (default {control_defaults.DEFAULT_FMU}, skipped with a note if it is not built; "
                              "a path given here must be an FMU)")
     parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
@@ -96,7 +109,7 @@ def _setup(args, needs_damping: bool):
                          "(a muscle below atmospheric pressure does not pull)")
     overrides = parse_assignments(args.set)
     params = DEFAULT.replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
-    alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else mc.DEFAULT_ALPHA)
+    alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else DEFAULT_ALPHA)
     op = mc.operating_point(alpha, X=args.X, pf=args.pf * 1e3, params=params)
     c = args.c if args.c is not None else overrides.get("c")
     if c is None:
@@ -115,10 +128,12 @@ def _fmu_path(args):
     if args.no_fmu:
         return None
     if args.fmu is None:
-        if not mc.DEFAULT_FMU.is_file():
-            print(f"note: FMU {mc.DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
+        if not control_defaults.DEFAULT_FMU.is_file():
+            print(f"note: FMU {control_defaults.DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
-        return mc.DEFAULT_FMU
+        return control_defaults.DEFAULT_FMU
+    from ..fmu_linear import check_fmu
+
     return check_fmu(args.fmu)
 
 
@@ -197,7 +212,7 @@ def run_rootlocus(args) -> int:
         print(f"c for zeta = {args.zeta:g}: {mc.damping_for_zeta(args.zeta, op):.6g} N s/m; critical damping "
               f"(zeta = 1): {c_zeta1:.6g} N s/m")
     elif args.vary == "tau":
-        tau_ref = op.params.tau or mc.DEFAULT_TAU
+        tau_ref = op.params.tau or control_defaults.DEFAULT_TAU
         gain = args.gain
         if gain is None:
             gain = mc.critical_gain(mc.height_loop(op.with_params(tau=tau_ref), args.ti))
@@ -211,7 +226,7 @@ def run_rootlocus(args) -> int:
             print(f"  tau = {tau:g} s: closed-loop poles {_fmt_poles(mc.closed_loop_poles(loop, gain))}; "
                   f"critical gain {mc.critical_gain(loop):.4g} Pa/m")
     else:
-        tau = op.params.tau or mc.DEFAULT_TAU
+        tau = op.params.tau or control_defaults.DEFAULT_TAU
         kc_lag = mc.critical_gain(mc.height_loop(op.with_params(tau=tau), args.ti))
         top = 3 * kc_lag if math.isfinite(kc_lag) else 1e8
         gains = np.concatenate([[0.0], np.geomspace(top * 1e-4, top, 800)])

@@ -10,7 +10,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from .. import paper
 from ..errors import MkctlError
 from ..params import DEFAULT, PARAMETER_NAMES
 from .options import parse_assignments
@@ -42,6 +41,8 @@ def run_paper(args: argparse.Namespace) -> int:
     if args.out.exists() and not args.out.is_dir():
         raise MkctlError(f"--out {args.out} exists and is not a folder")
     try:
+        from .. import paper  # here, not at the top: it imports matplotlib, which other commands need not wait for
+
         written = paper.reproduce_paper(args.out, params, progress=progress)
     except OSError as error:
         raise MkctlError(f"cannot write into {args.out}: {error.strerror or error}") from None
