@@ -21,7 +21,6 @@ import csv
 import math
 import subprocess
 import sys
-import tempfile
 import zipfile
 from pathlib import Path
 
@@ -31,6 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and build_fmu.py
     sys.path.insert(0, str(ROOT))
 
+from mkctl.cli.options import folder_problem  # noqa: E402  (one check for the CLI and the scenarios)
 from mkctl.errors import MkctlError  # noqa: E402
 from mkctl.params import Params  # noqa: E402
 
@@ -106,25 +106,8 @@ def checked_params(option: str, params: Params | None = None, **values) -> Param
         raise UsageError(f"{option}: {error}") from None
 
 
-def _folder_problem(folder: Path) -> str | None:
-    """Why files cannot be written into folder (created if missing), or None if they can."""
-    existing = folder
-    while not existing.exists():
-        if existing.is_symlink():
-            return f"{existing} is a broken link"
-        existing = existing.parent
-    if not existing.is_dir():
-        return f"{existing} is a file, not a folder"
-    try:  # tried, not guessed: os.access says yes to root on a read-only mount
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError:
-        return f"cannot write into the folder {existing}"
-    return None
-
-
 def _check_folders(args, fmus) -> None:
-    problem = _folder_problem(Path(args.out))
+    problem = folder_problem(Path(args.out))
     require(problem is None, f"--out {args.out}: {problem}")
     for suffix in ("csv", "png"):
         target = Path(args.out) / f"{args.name}.{suffix}"
@@ -136,7 +119,7 @@ def _check_folders(args, fmus) -> None:
         require(not path.exists() or zipfile.is_zipfile(path), f"--fmu-dir {fmu_dir}: {path.name} is not an FMU "
                 "(not a zip file)")
     if not all(path.exists() for path in paths):  # build_fmu.py will write there
-        problem = _folder_problem(fmu_dir)
+        problem = folder_problem(fmu_dir)
         require(problem is None, f"--fmu-dir {fmu_dir}: the FMUs are missing and cannot be built there: {problem}")
 
 

@@ -50,7 +50,7 @@ def _writable_folder(folder: Path) -> bool:
         return False
 
 
-def _folder_problem(folder: Path) -> str | None:
+def folder_problem(folder: Path) -> str | None:
     """Why files cannot be written into ``folder`` (made if missing), or None if they can."""
     existing = folder
     while not existing.exists():
@@ -73,7 +73,7 @@ def output_folder(path, option: str) -> Path:
     path = Path(path)
     if path.exists() and not path.is_dir():
         raise UsageError(f"{option} {path}: is a file, not a folder")
-    problem = _folder_problem(path)
+    problem = folder_problem(path)
     if problem:
         raise UsageError(f"{option} {path}: {problem}")
     return path
@@ -88,7 +88,7 @@ def output_file(path, option: str) -> Path:
     path = Path(path)
     if path.is_dir() or str(path).endswith(("/", os.sep)):
         raise UsageError(f"{option} {path}: is a folder, not a file")
-    problem = _folder_problem(path.parent)
+    problem = folder_problem(path.parent)
     if problem:
         raise UsageError(f"{option} {path}: {problem}")
     if path.exists() and not os.access(path, os.W_OK):
