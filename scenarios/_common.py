@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and build_fmu.py
     sys.path.insert(0, str(ROOT))
 
-from mkctl.cli.options import folder_problem  # noqa: E402  (one check for the CLI and the scenarios)
+from mkctl.cli.options import folder_problem, run_reporting_errors  # noqa: E402  (one check for the CLI and the scenarios)
 from mkctl.errors import MkctlError  # noqa: E402
 from mkctl.params import Params  # noqa: E402
 
@@ -40,11 +40,11 @@ STEP = 1e-3  #: communication step of the fmpy runs [s]
 _prog = "scenario"  # the script's name in error messages, set by parse_args
 
 
-class ScenarioError(Exception):
+class ScenarioError(MkctlError):
     """A scenario could not run to its end."""
 
 
-class UsageError(Exception):
+class UsageError(MkctlError):
     """An option value the scenario cannot use; the message names the option and the value."""
 
 
@@ -298,19 +298,7 @@ def finish(args, columns: dict[str, np.ndarray], fig, summary: list[str]) -> Non
 def main_guard(run, argv=None) -> int:
     """Run a scenario; a failure (ScenarioError, an mkctl error, a file that cannot be written) ends it with one
     line on stderr and exit status 2, an interrupt with exit status 130."""
-    try:
-        run(argv)
-    except (ScenarioError, UsageError, MkctlError) as error:
-        print(f"{_prog}: error: {error}", file=sys.stderr)
-        return 2
-    except OSError as error:
-        where = f" {error.filename}" if error.filename else ""
-        print(f"{_prog}: error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"{_prog}: interrupted", file=sys.stderr)
-        return 130
-    return 0
+    return run_reporting_errors(_prog, run, argv)
 
 
 __all__ = ["ROOT", "STEP", "ScenarioError", "UsageError", "parse_args", "require", "positive", "number_list",

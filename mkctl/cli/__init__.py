@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from ..errors import MkctlError
+from .options import run_reporting_errors
 from . import control, measure, paper, run
 
 #: Subcommand modules, in the order ``mkctl --help`` lists them.
@@ -41,19 +41,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    try:
-        return int(args.func(args) or 0)
-    except MkctlError as error:
-        print(f"mkctl {args.command}: error: {error}", file=sys.stderr)
-        return 2
-    except OSError as error:  # a path the user gave that cannot be read or written
-        where = f" {error.filename}" if error.filename else ""
-        print(f"mkctl {args.command}: error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"mkctl {args.command}: interrupted", file=sys.stderr)
-        return 130
-
+    return run_reporting_errors(f"mkctl {args.command}", args.func, args)
 
 if __name__ == "__main__":
     sys.exit(main())

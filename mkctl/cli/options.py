@@ -1,7 +1,9 @@
-"""Command-line options shared by several subcommands: parameter assignments and output paths."""
+"""Command-line helpers shared by the subcommands and the scenario scripts: parameter assignments, output
+paths, and reporting a user's mistake as one line."""
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -94,3 +96,23 @@ def output_file(path, option: str) -> Path:
     if path.exists() and not os.access(path, os.W_OK):
         raise UsageError(f"{option} {path}: the file exists and cannot be overwritten")
     return path
+
+
+def run_reporting_errors(prog: str, run, *args) -> int:
+    """``run(*args)``, with a user's mistake reported as one line on stderr instead of a traceback.
+
+    Returns run's exit status (None counts as 0); 2 after a :class:`MkctlError` or an OSError (a path that
+    cannot be read or written), 130 after an interrupt. Used by ``mkctl`` and by the scenario scripts.
+    """
+    try:
+        return int(run(*args) or 0)
+    except MkctlError as error:
+        print(f"{prog}: error: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:
+        where = f" {error.filename}" if error.filename else ""
+        print(f"{prog}: error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
