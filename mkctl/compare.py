@@ -81,9 +81,9 @@ def rmse(measured, simulated) -> float:
 def fit_percent(measured, simulated) -> float:
     """``100 (1 - |y - yhat| / |y - mean(y)|)`` [%] with 2-norms (NaN for a constant record)."""
     y = np.asarray(measured, dtype=float)
-    spread = np.linalg.norm(y - y.mean())
-    if spread == 0:
+    if np.ptp(y) == 0:  # not "spread == 0": the mean of equal values is off by rounding
         return float("nan")
+    spread = np.linalg.norm(y - y.mean())
     return float(100.0 * (1.0 - np.linalg.norm(y - np.asarray(simulated, dtype=float)) / spread))
 
 
@@ -154,7 +154,7 @@ def plot_residuals(measurement: Measurement, residuals: dict, path, title: str =
         ax.plot(measurement.time, residual, lw=0.8)
         ax.axhline(0, color="k", lw=0.5)
         ax.set_ylabel(f"residual [{measurement.output_unit}]", fontsize=8)
-        ax.set_title(f"{label}: RMSE {np.sqrt(np.mean(np.square(residual))):.4g} {measurement.output_unit}",
+        ax.set_title(f"{label}: RMSE {rmse(residual, 0.0):.4g} {measurement.output_unit}",
                      fontsize=9)
     axes[-1, 0].set_xlabel("time [s]")
     if title:

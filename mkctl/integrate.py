@@ -73,14 +73,18 @@ def integrate(rhs: Callable[[np.ndarray], np.ndarray], y, duration: float, h_hin
             steps += 1
             factor = 5.0 if err == 0 else min(5.0, 0.9 * err ** -0.2)
             # keep the long step in the hint when only the remainder of a communication step was taken
-            h = max(h, h_try * factor) if last else h_try * factor
+            h = max(h, h_hint, h_try * factor) if last else h_try * factor
         else:
             h = h_try * max(0.2, 0.9 * err ** -0.25)
+            # only a rejected step can collapse: an accepted tiny step (a tiny communication step) is fine
+            if h < 1e-14 * max(1.0, duration, t):
+                raise DomainError("the integrator's step size collapsed: the state left the region the model "
+                                  "can represent")
         if h_max is not None:
             h = min(h, h_max)
-        if h < 1e-14 * max(1.0, duration) or steps > MAX_STEPS:
-            raise DomainError("the integrator's step size collapsed: the state left the region the model "
-                              "can represent")
+        if steps > MAX_STEPS:
+            raise DomainError(f"the integrator needed more than {MAX_STEPS} steps: the model is too stiff "
+                              "here (a huge damping or stiffness?)")
     if full_output:
         return y, h, steps, stages[0].copy()
     return y, h, steps

@@ -103,3 +103,16 @@ def test_friction_draws_a_hysteresis_loop_in_the_isotonic_test():
     # friction resists the motion, so the length lags: longer on the way up than on the way down
     assert up - down > 1e-4, "the loop must open"
     assert abs(np.interp(150e3, P[:401], L0[:401]) - np.interp(150e3, P[400:][::-1], L0[400:][::-1])) < 1e-8
+
+
+def test_a_tiny_communication_step_is_fine_and_keeps_the_step_hint():
+    pe, pf = default_commands()
+    t = np.array([0.0, 1e-3, 1e-3 + 1e-15, 2e-3])
+    run = simulate_knee(t, pe * 1.05, pf, X0=knee.X_from_alpha(np.radians(60)))
+    reference = simulate_knee(np.array([0.0, 1e-3, 2e-3]), pe * 1.05, pf, X0=knee.X_from_alpha(np.radians(60)))
+    assert run["X"][-1] == pytest.approx(reference["X"][-1], abs=1e-12)
+    sim = KneeSimulator(DEFAULT, None, pe, pf)
+    sim.step(1e-3, pe, pf)
+    hint = sim.step_hint
+    sim.step(1e-15, pe, pf)
+    assert sim.step_hint >= hint
