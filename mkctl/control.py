@@ -46,7 +46,7 @@ from . import fmu_linear, knee, stability
 from .errors import DomainError, MkctlError
 from .fmu_linear import FMUAnalysisError, fmu_step_response
 from .params import DEFAULT, Params
-from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA
+from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
 from .simulate import DEFAULT_ALPHA, DEFAULT_PF, KneeSimulator
 
 __all__ = [
@@ -257,9 +257,10 @@ def damping_ratio(a1, a2) -> np.ndarray:
 
 
 def velocity_gain(op: KneeOperatingPoint) -> float:
-    """``(G_e^2 + G_f^2) / m`` [1/kg]: a1 = -c times this, at the posture of op."""
-    geo = knee.geometry_at_X(op.X, op.params)
-    return float(geo.G_e**2 + geo.G_f**2) / op.params.m
+    """``(G_e^2 + G_f^2) / m`` [1/kg]: a1 = -c times this, at the posture of op (from the library's dF/dV)."""
+    unit_damping = op.params.replace(c=1.0, Fc=0.0)
+    partials = knee.knee_force_partials(knee.geometry_at_X(op.X, unit_damping), 0.0, op.pe, op.pf, unit_damping)
+    return float(-partials.dF_dV) / op.params.m
 
 
 def damping_for_zeta(zeta: float, op: KneeOperatingPoint) -> float:
@@ -417,7 +418,7 @@ def _response_info(time, y, final=None):
     return {k: float(info[k]) for k in ("RiseTime", "Overshoot", "SettlingTime", "Peak", "SteadyStateValue")}
 
 
-def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = 0.1,
+def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = STEP_TIME,
                    dt: float = 1e-3, fmu=DEFAULT_FMU):
     """Hip height response to a step of the extensor command pe_cmd by dpe [Pa] at t_step [s], from rest at op.
 

@@ -8,3 +8,5 @@ DEFAULT_ZETA = 0.3
 DEFAULT_TAU = 0.05
 #: Where the knee FMU is built (``python build_fmu.py``).
 DEFAULT_FMU = Path("dist") / "McKibbenKnee.fmu"
+#: Time of the pressure-command step in the step responses [s].
+STEP_TIME = 0.1

@@ -68,6 +68,10 @@ EFFECTS_TABLE = MappingProxyType({
     "tau": Quantity(0.0, "s", "pressure lag time constant: tau dP/dt = P_cmd - P"),
 })
 
+#: Typical rated gauge pressure of a real McKibben muscle [Pa]; the model itself has no limit (spec section 3
+#: note). Used only to tell users when the model asks for more than a real muscle takes.
+RATED_PRESSURE = 600e3
+
 #: Names of the effects of spec section 4, and the parameters each one brings.
 EFFECT_PARAMETERS = MappingProxyType({
     "elasticity": ("C1", "C2"),

@@ -341,7 +341,7 @@ def test_operating_point_refuses_negative_gauge_pressure():
 def test_cli_huge_pressure_gets_a_note_not_a_crash(tmp_path, capsys):
     code, out, err = run_cli(["linearize", "--no-fmu", "--pf", "100000", "--out", str(tmp_path)], capsys)
     assert code == 0 and err == ""
-    assert "note: pf = 100 MPa is far above what a McKibben muscle survives" in out
+    assert "note: pf = 100 MPa is far above what a McKibben muscle takes" in out
     code, out, _ = run_cli(["linearize", "--no-fmu", "--out", str(tmp_path)], capsys)
     assert code == 0 and "note:" not in out
 
