@@ -171,7 +171,7 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, pf: f
     except MkctlError as error:
         raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
                                    f"pf = {pf / 1e3:g} kPa: {error}") from error
-    residual = np.abs(sys._rhs(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
+    residual = np.abs(sys.dynamics(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
     if not found.result.success or residual > 1e-9:
         raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, pf = {pf / 1e3:g} kPa "
                                    f"({found.result.message.strip()})")

@@ -21,7 +21,6 @@ import math
 import numpy as np
 
 from . import actuator, knee, stability
-from .errors import DomainError
 from .integrate import integrate
 from .params import DEFAULT, Params
 
@@ -168,17 +167,9 @@ class ActuatorSimulator:
         self.time += dt
         return self.pressure
 
-    def tension(self, L: float, Ldot: float) -> float:
-        """Tension [N] at length L [m] and lengthening rate Ldot [m/s] with the present pressure."""
-        if not math.isfinite(Ldot):
-            raise DomainError("lengthening rate Ldot is not a finite number")
-        return float(actuator.tension(float(L), self.pressure, float(Ldot), self.params))
-
     def outputs(self, p_cmd: float, L: float, Ldot: float) -> dict[str, float]:
         """The actuator FMU's outputs now: pressure "P" [Pa] (the lag state, or p_cmd without a lag) and
         tension "f" [N] at length L [m] and lengthening rate Ldot [m/s]."""
         actuator.check_pressure(p_cmd)
         P = self.pressure if self.params.tau > 0 else float(p_cmd)
-        if not math.isfinite(Ldot):
-            raise DomainError("lengthening rate Ldot is not a finite number")
         return {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}

@@ -318,7 +318,7 @@ def test_actuator_fmu_matches_mkctl(low_level):
     for t, L, Ldot, f, P in low_level["actuator"]["rows"]:
         sim.step(0.01, 500e3)
         assert P == pytest.approx(sim.pressure, rel=1e-12)
-        assert f == pytest.approx(sim.tension(L, Ldot), rel=1e-10, abs=1e-9)
+        assert f == pytest.approx(sim.outputs(500e3, L, Ldot)["f"], rel=1e-10, abs=1e-9)
     assert low_level["actuator"]["rows"][-1][4] == pytest.approx(500e3 - 200e3 * math.exp(-4.0), rel=1e-9)
     assert low_level["actuator"]["statuses"] == [2, 2]  # fmi2Discard for L >= b and for a NaN pressure
     texts = [text for status, text in low_level["actuator"]["messages"] if status == 3]

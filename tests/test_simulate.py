@@ -77,9 +77,11 @@ def test_actuator_simulator_lags_and_computes_tension():
     act.step(0.1, 1e5)
     assert act.pressure == pytest.approx(1e5 * (1 - np.exp(-1)))
     from mkctl.actuator import tension_model2
-    assert act.tension(0.2, 0.0) == pytest.approx(tension_model2(0.2, act.pressure))
+    assert act.outputs(1e5, 0.2, 0.0)["f"] == pytest.approx(tension_model2(0.2, act.pressure))
     with pytest.raises(DomainError):
-        act.tension(0.25, 0.0)
+        act.outputs(1e5, 0.25, 0.0)
+    with pytest.raises(DomainError, match="Ldot"):
+        act.outputs(1e5, 0.2, float("nan"))
 
 
 def test_static_isotonic_length_carries_the_load():

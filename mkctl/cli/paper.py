@@ -10,9 +10,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..errors import MkctlError
 from ..params import DEFAULT, PARAMETER_NAMES
-from .options import parse_assignments
+from .options import output_folder, parse_assignments
 
 
 def register(subparsers) -> None:
@@ -38,14 +37,10 @@ def run_paper(args: argparse.Namespace) -> int:
         overrides["m"] = args.mass
     params = DEFAULT.replace(**overrides) if overrides else DEFAULT
     progress = None if args.quiet else (lambda message: print(f"mkctl paper: {message}", file=sys.stderr))
-    if args.out.exists() and not args.out.is_dir():
-        raise MkctlError(f"--out {args.out} exists and is not a folder")
-    try:
-        from .. import paper  # here, not at the top: it imports matplotlib, which other commands need not wait for
+    output_folder(args.out, "--out")
+    from .. import paper  # here, not at the top: it imports matplotlib, which other commands need not wait for
 
-        written = paper.reproduce_paper(args.out, params, progress=progress)
-    except OSError as error:
-        raise MkctlError(f"cannot write into {args.out}: {error.strerror or error}") from None
+    written = paper.reproduce_paper(args.out, params, progress=progress)
     for name, path in written.items():
         print(f"{name}: {path}")
     return 0

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from ..errors import MkctlError
 from ..report import Section, write_index
+from .options import output_folder
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -101,9 +102,7 @@ class _Job:
 
 
 def run_all(args) -> int:
-    out: Path = args.out.resolve()  # scripts run from the project folder: paths must not be relative
-    if out.exists() and not out.is_dir():
-        raise RunError(f"--out {out} exists and is not a folder")
+    out: Path = output_folder(args.out, "--out").resolve()  # scripts run from the project folder: not relative
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.glob("*/summary.txt"):
         stale.unlink()
