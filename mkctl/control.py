@@ -129,20 +129,13 @@ class KneeOperatingPoint:
 
 
 def _posture(alpha, X, params) -> tuple[float, float]:
-    """(alpha [rad], X [m]) from exactly one of them; between the end stops."""
-    if (alpha is None) == (X is None):
-        raise ControlAnalysisError("give exactly one of the posture alpha and the hip height X")
-    if alpha is None:
-        alpha = float(knee.alpha_from_X(float(X), params))
-    else:
-        alpha = float(alpha)
-        if not 0 < alpha < math.pi / 2:
-            raise DomainError(f"kneecap angle alpha = {math.degrees(alpha):g} deg is outside (0, 90) deg")
+    """(alpha [rad], X [m]) from exactly one of them (:func:`mkctl.knee.posture`); between the end stops."""
+    alpha, X = knee.posture(alpha, X, params)
     low, high = knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH
     if not low < alpha < high:
         raise DomainError(f"posture alpha = {math.degrees(alpha):.4g} deg is outside the end stops "
                           f"({math.degrees(low):g}, {math.degrees(high):g}) deg: it cannot be held at rest")
-    return alpha, float(knee.X_from_alpha(alpha, params))
+    return alpha, X
 
 
 def operating_point(alpha: float | None = None, *, X: float | None = None, pf: float = DEFAULT_PF,

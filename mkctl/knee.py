@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import actuator
-from .errors import DomainError
+from .errors import DomainError, ParameterError
 from .params import DEFAULT, Params
 
 #: The end stops, as kneecap angles [rad]: deeply bent (beta ~ 96 deg) and short of straight (~171 deg).
@@ -142,6 +142,23 @@ def beta_from_X(X, params: Params = DEFAULT):
     _check_range(X, abs(params.Lo - params.Lu), params.Lo + params.Lu, "hip height X", "m",
                  " (the leg cannot fold flat or stretch past straight)")
     return np.arccos((params.Lo**2 + params.Lu**2 - X * X) / (2 * params.Lo * params.Lu))
+
+
+def posture(alpha=None, X=None, params: Params = DEFAULT) -> tuple[float, float]:
+    """(alpha [rad], X [m]) of a posture given by exactly one of the kneecap angle and the hip height.
+
+    Raises :class:`ParameterError` unless exactly one is given, :class:`DomainError` for an alpha outside
+    (0, pi/2) or an impossible X.
+    """
+    if (alpha is None) == (X is None):
+        raise ParameterError("give exactly one of the kneecap angle alpha and the hip height X")
+    if alpha is None:
+        alpha = float(alpha_from_X(float(X), params))
+    else:
+        alpha = float(alpha)
+        if not 0 < alpha < np.pi / 2:
+            raise DomainError(f"kneecap angle alpha = {np.degrees(alpha):g} deg is outside (0, 90) deg")
+    return alpha, float(X_from_alpha(alpha, params))
 
 
 def geometry_at_alpha(alpha, params: Params = DEFAULT) -> KneeGeometry:

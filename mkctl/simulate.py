@@ -16,18 +16,12 @@ Example
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from . import actuator, knee, stability
 from .integrate import integrate
 from .params import DEFAULT, Params
-
-#: Default posture of the knee FMU and of the examples: alpha = 60 deg (model-spec section 7).
-DEFAULT_ALPHA = math.radians(60.0)
-#: Default flexor command [Pa]; the default extensor command holds the leg at rest at DEFAULT_ALPHA.
-DEFAULT_PF = 100e3
+from .stability import DEFAULT_ALPHA, DEFAULT_PF  # noqa: F401  (the default posture, re-exported here)
 
 #: Names of the knee outputs of model-spec section 7, in order, with units.
 KNEE_OUTPUTS = {

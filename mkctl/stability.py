@@ -24,6 +24,11 @@ from . import knee
 from .errors import DomainError
 from .params import DEFAULT, Params
 
+#: The default posture of the FMU, the examples and the analyses: alpha = 60 deg (model-spec section 7)...
+DEFAULT_ALPHA = float(np.radians(60.0))
+#: ... held with this flexor pressure [Pa] (the extensor pressure follows from the equilibrium).
+DEFAULT_PF = 100e3
+
 
 def routh_hurwitz_coefficients(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
     """(a1, a2) of Eq. 18 [1/s, 1/s^2] at hip height X [m], velocity V [m/s], pressures Pe, Pf [Pa].
@@ -95,17 +100,13 @@ class PostureStability:
     in_equilibrium: bool  #: whether Pe was chosen to hold the posture at rest
 
 
-def posture_stability(alpha=None, *, X=None, Pf: float = 100e3, Pe: float | None = None,
+def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float | None = None,
                       params: Params = DEFAULT) -> PostureStability:
     """The Routh-Hurwitz verdict at a posture given by alpha [rad] or X [m].
 
     With ``Pe=None`` the extensor pressure is the one that holds the posture in equilibrium.
     """
-    if (alpha is None) == (X is None):
-        raise ValueError("give exactly one of alpha and X")
-    if alpha is None:
-        alpha = float(knee.alpha_from_X(X, params))
-    X = float(knee.X_from_alpha(alpha, params))
+    alpha, X = knee.posture(alpha, X, params)
     in_equilibrium = Pe is None
     if Pe is None:
         Pe = float(equilibrium_pressure(alpha, Pf, params))

@@ -106,3 +106,14 @@ def test_end_stops_push_back_only_beyond_them():
 def test_impossible_hip_heights_raise(X):
     with pytest.raises(DomainError, match="hip height"):
         knee.geometry_at_X(X)
+
+
+def test_posture_takes_exactly_one_of_alpha_and_X():
+    from mkctl.errors import ParameterError
+    alpha, X = knee.posture(np.radians(60))
+    assert knee.posture(X=X) == pytest.approx((alpha, X))
+    for bad in ({}, {"alpha": 1.0, "X": 0.8}):
+        with pytest.raises(ParameterError, match="exactly one"):
+            knee.posture(**bad)
+    with pytest.raises(DomainError, match="outside"):
+        knee.posture(np.radians(100))
