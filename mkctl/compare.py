@@ -22,13 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from . import stability
 from .errors import MkctlError
 from .isotonic import simulate_isotonic
 from .measurements import Measurement
 from .params import Params
 from .plotting import new_figure, save_png
-from .simulate import KneeSimulator
+from .simulate import knee_states
 
 
 def simulate_output(measurement: Measurement, params: Params, at=None, stop: int | None = None,
@@ -47,29 +46,8 @@ def simulate_output(measurement: Measurement, params: Params, at=None, stop: int
         if not velocity:
             return length[at]
         return length[at], np.gradient(length, time)[at]
-    X, V = _knee_states(time, measurement.inputs["pe_cmd"][:n], measurement.inputs["pf_cmd"][:n], params, at)
+    X, V = knee_states(time, measurement.inputs["pe_cmd"][:n], measurement.inputs["pf_cmd"][:n], params, at=at)
     return (X, V) if velocity else X
-
-
-def _knee_states(time, pe_cmd, pf_cmd, params: Params, at):
-    """Hip height X [m] and velocity V [m/s] at the samples ``at``; commands held from each sample to the next."""
-    n = time.size
-    changes = np.zeros(n, dtype=bool)
-    changes[1:] = (pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])
-    needed = np.zeros(n, dtype=bool)
-    needed[at] = True
-    X0 = stability.equilibrium_hip_height(pe_cmd[0], pf_cmd[0], params)
-    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0])
-    X, V = np.empty(n), np.empty(n)
-    X[0], V[0] = sim.state[0], sim.state[1]
-    previous = 0
-    for k in np.flatnonzero(changes | needed):
-        if k == 0:
-            continue
-        sim.step(time[k] - time[previous], pe_cmd[previous], pf_cmd[previous])
-        X[k], V[k] = sim.state[0], sim.state[1]
-        previous = k
-    return X[at], V[at]
 
 
 def rmse(measured, simulated) -> float:

@@ -47,7 +47,7 @@ from .errors import DomainError, MkctlError
 from .fmu_linear import FMUAnalysisError, fmu_step_response
 from .params import DEFAULT, Params
 from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
-from .simulate import DEFAULT_ALPHA, DEFAULT_PF, KneeSimulator
+from .simulate import DEFAULT_PF, knee_states
 
 __all__ = [
     "ControlAnalysisError", "FMUAnalysisError", "KneeOperatingPoint", "INPUT_NAMES", "knee_nlsys",
@@ -447,17 +447,11 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     resp = ct.step_response(lin[0, 0], time[after] - time[after][0])  # X per unit pe_cmd
     lin_out[after] = dpe * np.asarray(resp.outputs).ravel()
 
-    sim = KneeSimulator(p, op.X, op.pe, op.pf, stops=True)
-    nonlin = np.empty_like(time)
-    nonlin[0] = sim.state[0]
-    for k in range(1, time.size):
-        pe = op.pe + dpe if time[k - 1] >= t_step - 1e-12 else op.pe
-        try:
-            sim.step(time[k] - time[k - 1], pe, op.pf)
-        except MkctlError as error:
-            raise ControlAnalysisError(f"the nonlinear model failed at t = {time[k]:g} s: {error}") from error
-        nonlin[k] = sim.state[0]
-    nonlin -= op.X
+    try:
+        nonlin, _ = knee_states(time, np.where(after, op.pe + dpe, op.pe), op.pf, p, X0=op.X)
+    except MkctlError as error:
+        raise ControlAnalysisError(f"the nonlinear model failed: {error}") from error
+    nonlin = nonlin - op.X
 
     result = {"time": time, "linear": lin_out, "nonlinear": nonlin, "fmu": None, "fmu_note": None,
               "dpe": dpe, "t_step": t_step, "end_stop": _end_stop(time, nonlin + op.X, p)}

@@ -118,3 +118,15 @@ def test_a_tiny_communication_step_is_fine_and_keeps_the_step_hint():
     hint = sim.step_hint
     sim.step(1e-15, pe, pf)
     assert sim.step_hint >= hint
+
+
+def test_knee_states_is_simulate_knee_at_the_asked_samples():
+    pe, pf = default_commands()
+    t = np.arange(0, 0.3, 1e-3)
+    pe_cmd = np.where(t < 0.05, pe, 1.04 * pe)
+    from mkctl.simulate import knee_states
+    full = simulate_knee(t, pe_cmd, pf, Params(c=30.0))
+    at = np.array([0, 17, 120, 299])
+    X, V = knee_states(t, pe_cmd, pf, Params(c=30.0), at=at)
+    np.testing.assert_allclose(X, full["X"][at], atol=1e-8)
+    np.testing.assert_allclose(V, full["V"][at], atol=1e-7)
