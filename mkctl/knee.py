@@ -60,10 +60,12 @@ class KneeGeometry(NamedTuple):
     dGf_dbeta: np.ndarray  #: [1/rad]
 
 
-def knee_geometry(beta, params: Params = DEFAULT) -> KneeGeometry:
+def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> KneeGeometry:
     """All of the knee's geometry at interior knee angle ``beta`` [rad] (table in the module docstring).
 
     The derivatives are analytic; lengths come from params (L1, L2, L5, L6, Lo, Lu, Lec, Lfc, r [m]).
+    ``derivatives=False`` leaves dalpha_dbeta, dGe_dbeta and dGf_dbeta out (None): the state equations
+    need only lengths and gains, and they run millions of times.
     """
     p = params
     beta = actuator.as_values(beta)
@@ -82,21 +84,25 @@ def knee_geometry(beta, params: Params = DEFAULT) -> KneeGeometry:
     dLe_dbeta = -p.L1 * p.r * sin_g / l_mo  # d(gamma)/d(beta) = -1
 
     alpha = xp.arctan2(p.L1 * sin_g, p.r - p.L1 * cos_g)
-    # differentiate beta = pi/2 + alpha + asin(r sin(alpha) / L1)
-    s = p.r * xp.sin(alpha) / p.L1
-    dbeta_dalpha = 1 + p.r * xp.cos(alpha) / (p.L1 * xp.sqrt(1 - s * s))
-    dalpha_dbeta = 1 / dbeta_dalpha
+    sin_a = p.L1 * sin_g / l_mo  # law of sines in the kneecap triangle
 
     l_mf = xp.sqrt(p.L5**2 + p.L6**2 - 2 * p.L5 * p.L6 * cos_b)
     Lf = l_mf - p.Lfc
     dLf_dbeta = p.L5 * p.L6 * sin_b / l_mf
 
     LoLu = p.Lo * p.Lu
-    sin_a, cos_a = xp.sin(alpha), xp.cos(alpha)
     G_e = p.r * sin_a * X / (LoLu * sin_b)
+    G_f = p.L5 * p.L6 * X / (LoLu * l_mf)
+    if not derivatives:
+        return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, None, dX_dbeta, dLe_dbeta, dLf_dbeta, None, None)
+
+    # differentiate beta = pi/2 + alpha + asin(r sin(alpha) / L1)
+    s = p.r * sin_a / p.L1
+    cos_a = xp.cos(alpha)
+    dbeta_dalpha = 1 + p.r * cos_a / (p.L1 * xp.sqrt(1 - s * s))
+    dalpha_dbeta = 1 / dbeta_dalpha
     dGe_dbeta = (p.r / LoLu) * (cos_a * dalpha_dbeta * X / sin_b + sin_a * dX_dbeta / sin_b
                                 - sin_a * X * cos_b / sin_b**2)
-    G_f = p.L5 * p.L6 * X / (LoLu * l_mf)
     dGf_dbeta = (p.L5 * p.L6 / LoLu) * (dX_dbeta / l_mf - X * dLf_dbeta / l_mf**2)
 
     return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, dalpha_dbeta, dX_dbeta, dLe_dbeta, dLf_dbeta,
@@ -166,9 +172,9 @@ def geometry_at_alpha(alpha, params: Params = DEFAULT) -> KneeGeometry:
     return knee_geometry(beta_from_alpha(alpha, params), params)
 
 
-def geometry_at_X(X, params: Params = DEFAULT) -> KneeGeometry:
+def geometry_at_X(X, params: Params = DEFAULT, derivatives: bool = True) -> KneeGeometry:
     """:func:`knee_geometry` at hip height X [m]."""
-    return knee_geometry(beta_from_X(X, params), params)
+    return knee_geometry(beta_from_X(X, params), params, derivatives)
 
 
 def X_from_alpha(alpha, params: Params = DEFAULT):
@@ -202,8 +208,7 @@ def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeFo
     """
     p = params
     Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
-    Le_dot = geo.dLe_dbeta / geo.dX_dbeta * V
-    Lf_dot = geo.dLf_dbeta / geo.dX_dbeta * V
+    Le_dot, Lf_dot = -geo.G_e * V, geo.G_f * V  # virtual work: dLe/dX = -G_e, dLf/dX = G_f
     fe = actuator.static_tension(geo.Le, Pe, p) + actuator.velocity_tension(Le_dot, p)
     ff = actuator.static_tension(geo.Lf, Pf, p) + actuator.velocity_tension(Lf_dot, p)
     return KneeForce(geo.G_e * fe - geo.G_f * ff, fe, ff, Le_dot, Lf_dot)
@@ -290,7 +295,7 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tup
     p = params
     X, V = float(state[0]), float(state[1])
     Pe, Pf = (float(state[2]), float(state[3])) if p.tau > 0 else (float(pe_cmd), float(pf_cmd))
-    force = knee_force(geometry_at_X(X, p), V, Pe, Pf, p).F
+    force = knee_force(geometry_at_X(X, p, derivatives=False), V, Pe, Pf, p).F
     if stops is not None:
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
