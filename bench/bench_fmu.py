@@ -25,14 +25,16 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl
+    sys.path.insert(0, str(ROOT))
 
 _CASE = """
 import json, sys, time
 import numpy as np
 import scipy.optimize  # imported before the clock starts in both modes: library loading is not the model's cost
 duration, mode, fmu = float(sys.argv[1]), sys.argv[2], sys.argv[3]
+pe0, pf = float(sys.argv[5]), float(sys.argv[6])  # mkctl.simulate.default_commands(), from the parent process
 t = np.round(np.arange(0.0, duration + 5e-4, 1e-3), 9)
-pe0, pf = 1693660.959396059, 100e3  # mkctl.simulate.default_commands(): at rest at alpha = 60 deg
 pe = pe0 * (1 + 0.05 * np.sin(2 * np.pi * 0.5 * t))
 if mode == "fmu":
     from fmpy import simulate_fmu
@@ -54,8 +56,9 @@ print(json.dumps({"elapsed": elapsed, "X": X, "end": end}))
 """
 
 
-def _run(mode: str, duration: float, fmu: Path) -> dict:
-    done = subprocess.run([sys.executable, "-c", _CASE, str(duration), mode, str(fmu), str(ROOT)],
+def _run(mode: str, duration: float, fmu: Path, commands: tuple[float, float]) -> dict:
+    pe0, pf = commands
+    done = subprocess.run([sys.executable, "-c", _CASE, str(duration), mode, str(fmu), str(ROOT), repr(pe0), repr(pf)],
                           capture_output=True, text=True, check=True)
     return json.loads(done.stdout.strip().splitlines()[-1])
 
@@ -83,10 +86,13 @@ def main(argv=None) -> int:
 
 
 def _bench(args, fmu: Path) -> int:
+    from mkctl.simulate import default_commands  # at rest at the default posture (alpha = 60 deg)
+
+    commands = default_commands()
     best = {"fmu": None, "direct": None}
     for _ in range(args.repeat):
         for mode in best:
-            result = _run(mode, args.duration, fmu)
+            result = _run(mode, args.duration, fmu, commands)
             if best[mode] is None or result["elapsed"] < best[mode]["elapsed"]:
                 best[mode] = result
     fmu_run, direct = best["fmu"], best["direct"]

@@ -34,9 +34,11 @@ def analytic_map(alphas, cs, pf, params):
     """Eigenvalues [n_alpha, n_c, 2] from the analytic Jacobian, vectorized over the grid."""
     pe = stability.equilibrium_pressure(alphas, pf, params)
     geo = knee.geometry_at_alpha(alphas, params)
-    partials = knee.knee_force_partials(geo, 0.0, pe, pf, params.replace(c=0.0))
-    a2 = partials.dF_dX / params.m  # does not depend on c at rest
-    a1 = -np.outer(geo.G_e**2 + geo.G_f**2, cs) / params.m  # dF/dV = -c (G_e^2 + G_f^2)
+    # at unit damping and no friction, dF/dV is the damping's share per unit c; at rest it is linear in c and
+    # dF/dX does not depend on c
+    partials = knee.knee_force_partials(geo, 0.0, pe, pf, params.replace(c=1.0, Fc=0.0))
+    a2 = partials.dF_dX / params.m
+    a1 = np.outer(partials.dF_dV / params.m, cs)
     A = np.zeros((alphas.size, cs.size, 2, 2))
     A[..., 0, 1] = 1.0
     A[..., 1, 0] = a2[:, None]

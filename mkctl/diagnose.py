@@ -191,10 +191,11 @@ def _evaluate(problem: _Problem, params: Params, values: dict):
     simulated = problem.simulate(params)
     if simulated is _FAILED:
         return None
-    r = problem.residual(simulated)
-    r_train, r_hold = r[problem.train], r[~problem.train]
+    measured = problem.measurement.output[problem.grid]
+    r_train = problem.residual(simulated)[problem.train]
+    hold = ~problem.train
     return _Fit(params, dict(values), float(r_train @ r_train), int(problem.train.sum()),
-                float(np.sqrt(np.mean(r_hold ** 2))), float(np.sqrt(np.mean(r ** 2))), simulated)
+                rmse(measured[hold], simulated[hold]), rmse(measured, simulated), simulated)
 
 
 def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: float, progress) -> tuple[float, int]:
@@ -311,8 +312,9 @@ def missing_force(measurement: Measurement, params: Params):
     yddot = savgol_filter(m.output, window, order, deriv=2, delta=dt)
     # the pressures go through the same smoothing as the acceleration, so that a command step does not
     # show up as a force the model lacks while the smoothed acceleration ramps up to it
-    Pe, Pf = (savgol_filter(p, window, order) for p in _model_pressures(m, params))
-    rates = [savgol_filter(p, window, order, deriv=1, delta=dt) for p in _model_pressures(m, params)]
+    pressures = _model_pressures(m, params)  # a loop over the samples when there is a lag: once
+    Pe, Pf = (savgol_filter(p, window, order) for p in pressures)
+    rates = [savgol_filter(p, window, order, deriv=1, delta=dt) for p in pressures]
     states = {"X": y, "V": ydot, "Pe": Pe, "Pf": Pf, "A": yddot, "Pe_rate": rates[0], "Pf_rate": rates[1]}
     return params.m * (yddot + params.g) - _knee_force(states, params), states
 

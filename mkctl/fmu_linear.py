@@ -109,7 +109,7 @@ class KneeFMU:
         self._own_dir = unzipdir is None  # extracted here: removed again in close()
         self._unzipdir = unzipdir or extract(str(path))
         self._states = []
-        self.fmu = _instantiate(path, self.md, self._unzipdir, "probe")
+        self.fmu = instantiate(self.md, self._unzipdir, "probe")
         self.time = 0.0
         try:
             self.fmu.setupExperiment(tolerance=tolerance, startTime=0.0)
@@ -163,7 +163,7 @@ class KneeFMU:
             self.fmu.terminate()
         except Exception:  # noqa: BLE001 - a failed instance may refuse terminate; freeing it is what matters
             pass
-        _free_instance(self.fmu)
+        free_instance(self.fmu)
         if self._own_dir:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
 
@@ -180,8 +180,8 @@ class KneeFMU:
 DT, HX, HP, T_PREP = 0.02, 3e-5, 1e3, 0.1
 
 
-def _free_instance(fmu) -> None:
-    """fmi2FreeInstance without unloading the binary.
+def free_instance(fmu) -> None:
+    """fmi2FreeInstance without unloading the binary, for an instance made by :func:`instantiate`.
 
     fmpy's ``freeInstance`` also unloads the shared library (dlclose). For a pythonfmu FMU, whose binary embeds
     the host's Python, that makes the host abort at exit now and then ("corrupted double-linked list", seen
@@ -190,12 +190,18 @@ def _free_instance(fmu) -> None:
     fmu.fmi2FreeInstance(fmu.component)
 
 
-def _instantiate(path, md, unzipdir, name="run"):
+def instantiate(md, unzipdir, name: str = "run", callbacks=None, logging_on: bool = False):
+    """A co-simulation instance (fmpy's FMU2Slave, instantiated) of the FMU described by md, extracted in unzipdir.
+
+    callbacks: fmi2CallbackFunctions (fmpy's default logger when None), referenced by the caller as long as the
+    instance lives; logging_on: fmi2's loggingOn. Free it with :func:`free_instance`, not ``freeInstance``.
+    fmpy raises a plain Exception when fmi2Instantiate returns NULL.
+    """
     from fmpy.fmi2 import FMU2Slave
 
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
                     instanceName=name)
-    fmu.instantiate()
+    fmu.instantiate(callbacks=callbacks, loggingOn=logging_on)
     return fmu
 
 
@@ -322,7 +328,7 @@ def fmu_step_response(path, start_values: dict, inputs0, inputs1, t_step: float,
     # a repeated time is fmpy's way to write a step: the first row holds up to t_step, the second after it
     signal = np.array([(0.0, *inputs0), (t_step, *inputs0), (t_step, *inputs1), (duration, *inputs1)], dtype=dtype)
     unzipdir = extract(str(path))
-    fmu = _instantiate(path, md, unzipdir)  # our own instance, freed without unloading the binary
+    fmu = instantiate(md, unzipdir)  # our own instance, freed without unloading the binary
     try:
         result = simulate_fmu(str(path), start_time=0.0, stop_time=duration, output_interval=output_interval,
                               start_values=values, input=signal, output=list(outputs), model_description=md,
@@ -330,7 +336,7 @@ def fmu_step_response(path, start_values: dict, inputs0, inputs1, t_step: float,
     except Exception as error:  # fmpy raises on fmi2Error/fmi2Discard
         raise FMUAnalysisError(f"the FMU failed: {error}") from error
     finally:
-        _free_instance(fmu)
+        free_instance(fmu)
         shutil.rmtree(unzipdir, ignore_errors=True)
     if not math.isclose(result["time"][-1], duration, rel_tol=0, abs_tol=output_interval / 2):
         raise FMUAnalysisError(f"the FMU stopped at t = {result['time'][-1]:g} s before {duration:g} s")

@@ -72,24 +72,36 @@ def extensor_gain_zero_alpha(params: Params = DEFAULT) -> float | None:
     Beyond it pressure pushes instead of pulling, so the equilibrium set needs Pe -> infinity there and
     ends. Returns None if the gain keeps its sign over the knee's domain.
     """
-    def gain(alpha):
-        return float(actuator.pressure_gain(knee.geometry_at_alpha(alpha, params).Le, params.b, params.n))
+    def gain(alpha):  # broadcasts over an array of alpha
+        return actuator.pressure_gain(knee.geometry_at_alpha(alpha, params).Le, params.b, params.n)
 
     grid = alpha_domain(params, 200)
-    values = np.array([gain(a) for a in grid])
+    values = gain(grid)
     change = np.flatnonzero(np.signbit(values[:-1]) != np.signbit(values[1:]))
     if change.size == 0:
         return None
     i = change[0]
-    return float(brentq(gain, grid[i], grid[i + 1], xtol=1e-14))
+    return float(brentq(lambda a: float(gain(a)), grid[i], grid[i + 1], xtol=1e-14))
 
 
 def equilibrium_alpha_range(params: Params = DEFAULT) -> tuple[float, float]:
-    """(low, high) [rad]: the part of the knee's domain where the equilibrium set exists (Pe finite)."""
+    """(low, high) [rad]: the part of the knee's domain where the equilibrium set exists (Pe finite).
+
+    It takes a root search; the functions below that need it accept it as ``eq_range`` (computed once per run
+    by :func:`reproduce_paper`) and compute it themselves when it is None.
+    """
     domain = alpha_domain(params, 2)
     gain_zero = extensor_gain_zero_alpha(params)
     high = domain[-1] if gain_zero is None else gain_zero * (1 - 1e-6)
     return float(domain[0]), float(high)
+
+
+def reachable_alpha_range(params: Params = DEFAULT, eq_range: tuple[float, float] | None = None
+                          ) -> tuple[float, float]:
+    """(low, high) [rad]: the equilibrium range (``eq_range``, default :func:`equilibrium_alpha_range`) within
+    the end stops, i.e. the equilibria the mechanism can reach."""
+    low, high = equilibrium_alpha_range(params) if eq_range is None else eq_range
+    return max(low, knee.ALPHA_STOP_LOW), min(high, knee.ALPHA_STOP_HIGH)
 
 
 # --- Fig. 5: the isotonic test ---------------------------------------------------------------------
@@ -157,14 +169,16 @@ def plot_fig5(path, params: Params = DEFAULT, curves: list[Fig5Curve] | None = N
 
 # --- Fig. 7: the h = 0 sheet and the equilibrium set ---------------------------------------------
 
-def stability_boundary(Pf: float, params: Params = DEFAULT, samples: int = 600) -> list[tuple[float, str]]:
+def stability_boundary(Pf: float, params: Params = DEFAULT, samples: int = 600,
+                       eq_range: tuple[float, float] | None = None) -> list[tuple[float, str]]:
     """Where h changes sign along the equilibrium set at flexor pressure Pf [Pa].
 
     Returns [(alpha [rad], 'gained' | 'lost'), ...] in increasing alpha: 'gained' where h goes from + to -
     (unstable below, stable above), 'lost' the other way. On the equilibrium set h = -dF/dPe dPe/dalpha,
-    so these are also the extrema of the equilibrium pressure along alpha.
+    so these are also the extrema of the equilibrium pressure along alpha. ``eq_range``: the precomputed
+    :func:`equilibrium_alpha_range` (computed here when None).
     """
-    low, high = equilibrium_alpha_range(params)
+    low, high = equilibrium_alpha_range(params) if eq_range is None else eq_range
     grid = np.linspace(low, high, samples)
 
     def h_on_equilibrium(alpha):
@@ -178,13 +192,14 @@ def stability_boundary(Pf: float, params: Params = DEFAULT, samples: int = 600) 
     return found
 
 
-def stability_loss_alpha(Pf: float, params: Params = DEFAULT) -> float:
+def stability_loss_alpha(Pf: float, params: Params = DEFAULT, eq_range: tuple[float, float] | None = None) -> float:
     """alpha [rad] on the equilibrium set below which the posture is unstable (h > 0), at flexor Pf [Pa].
 
     This is where the equilibrium set meets the h = 0 sheet (Fig. 7): the highest sign change of h from
-    + (below) to - (above). Raises :class:`DomainError` if h does not change sign that way.
+    + (below) to - (above). Raises :class:`DomainError` if h does not change sign that way. ``eq_range``: the
+    precomputed :func:`equilibrium_alpha_range` (computed here when None).
     """
-    gained = [a for a, kind in stability_boundary(Pf, params) if kind == "gained"]
+    gained = [a for a, kind in stability_boundary(Pf, params, eq_range=eq_range) if kind == "gained"]
     if not gained:
         raise DomainError(f"h does not change sign on the equilibrium set at Pf = {Pf:g} Pa")
     return gained[-1]
@@ -222,19 +237,22 @@ def _in_range_run(fun, grid, low: float, high: float):
 
 
 def fig7_surfaces(params: Params = DEFAULT, Pe_max: float = PE_MAX, Pf_max: float = PF_MAX,
-                  n_pf: int = 25, n_alpha: int = 80, search: int = 400) -> Fig7Data:
+                  n_pf: int = 25, n_alpha: int = 80, search: int = 400,
+                  eq_range: tuple[float, float] | None = None) -> Fig7Data:
     """The h = 0 sheet (:func:`mkctl.stability.h_zero_pressure`) and the equilibrium set
     (:func:`mkctl.stability.equilibrium_pressure`), both as Pe(alpha, Pf), where 0 <= Pe <= Pe_max [Pa].
 
     For each Pf in 0..Pf_max [Pa], each surface is resampled over the run of alpha where its Pe lies in
-    range (found on ``search`` samples, ends refined), so that the grids have no ragged edges.
+    range (found on ``search`` samples, ends refined), so that the grids have no ragged edges. ``eq_range``:
+    the precomputed :func:`equilibrium_alpha_range` (computed here when None).
     """
     Pf = np.linspace(0.0, Pf_max, n_pf)
     shape = (n_pf, n_alpha)
     h0_alpha, h0_Pe, eq_alpha, eq_Pe, eq_h = (np.full(shape, np.nan) for _ in range(5))
     loss_alpha, loss_Pe = np.full(n_pf, np.nan), np.full(n_pf, np.nan)
     domain = alpha_domain(params, search)
-    eq_low, eq_high = equilibrium_alpha_range(params)
+    eq_range = equilibrium_alpha_range(params) if eq_range is None else eq_range
+    eq_low, eq_high = eq_range
     eq_domain = np.linspace(eq_low, eq_high, search)
     for i, pf in enumerate(Pf):
         run = _in_range_run(lambda a: stability.h_zero_pressure(a, pf, params), domain, 0.0, Pe_max)
@@ -247,7 +265,7 @@ def fig7_surfaces(params: Params = DEFAULT, Pe_max: float = PE_MAX, Pf_max: floa
             eq_Pe[i] = stability.equilibrium_pressure(eq_alpha[i], pf, params)
             eq_h[i] = stability.h_function(eq_alpha[i], eq_Pe[i], pf, params)
         try:
-            loss_alpha[i] = stability_loss_alpha(pf, params)
+            loss_alpha[i] = stability_loss_alpha(pf, params, eq_range=eq_range)
             loss_Pe[i] = stability.equilibrium_pressure(loss_alpha[i], pf, params)
         except DomainError:
             pass
@@ -307,8 +325,10 @@ def plot_fig7(path, params: Params = DEFAULT, data: Fig7Data | None = None, view
 
 
 def plot_fig7_sections(path, params: Params = DEFAULT, pf_values=(0.0, 100e3, 300e3, 600e3),
-                       Pe_max: float = PE_MAX, samples: int = 500) -> Path:
-    """Fig. 7 in sections: Pe' [kPa] on the equilibrium set (solid) and on h = 0 (dashed) against alpha [deg]."""
+                       Pe_max: float = PE_MAX, samples: int = 500, eq_range: tuple[float, float] | None = None) -> Path:
+    """Fig. 7 in sections: Pe' [kPa] on the equilibrium set (solid) and on h = 0 (dashed) against alpha [deg].
+
+    ``eq_range``: the precomputed :func:`equilibrium_alpha_range` (computed here when None)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -316,7 +336,8 @@ def plot_fig7_sections(path, params: Params = DEFAULT, pf_values=(0.0, 100e3, 30
 
     fig, ax = new_figure(figsize=(10.0, 5.0))
     alpha = alpha_domain(params, samples)
-    eq_low, eq_high = equilibrium_alpha_range(params)
+    eq_range = equilibrium_alpha_range(params) if eq_range is None else eq_range
+    eq_low, eq_high = eq_range
     eq_alpha = np.linspace(eq_low, eq_high, samples)
     for i, pf in enumerate(pf_values):
         colour = f"C{i}"
@@ -325,7 +346,7 @@ def plot_fig7_sections(path, params: Params = DEFAULT, pf_values=(0.0, 100e3, 30
         pe_eq = np.where(pe_eq <= 1.2 * Pe_max, pe_eq, np.nan)
         pe_h0 = stability.h_zero_pressure(alpha, pf, params)
         try:
-            loss = stability_loss_alpha(pf, params)
+            loss = stability_loss_alpha(pf, params, eq_range=eq_range)
         except DomainError:
             loss = None
         ax.plot(np.degrees(eq_alpha), np.where(stable, pe_eq, np.nan) / 1e3, color=colour, linewidth=2.4)
@@ -440,11 +461,10 @@ def claims_grid(params: Params = DEFAULT, n_alpha: int = 400, n_pe: int = 61, n_
     return ClaimsGrid(alpha_domain(params, n_alpha), np.linspace(0.0, Pe_max, n_pe), np.linspace(0.0, Pf_max, n_pf))
 
 
-def _equilibrium_samples(params: Params, grid: ClaimsGrid, reachable: bool):
-    """(alpha, Pf, Pe) [rad, Pa, Pa] on the equilibrium set, with 0 <= Pe < inf, over the grid's alpha and Pf."""
-    low, high = equilibrium_alpha_range(params)
-    if reachable:
-        low, high = max(low, knee.ALPHA_STOP_LOW), min(high, knee.ALPHA_STOP_HIGH)
+def _equilibrium_samples(params: Params, grid: ClaimsGrid, reachable: bool, eq_range: tuple[float, float]):
+    """(alpha, Pf, Pe) [rad, Pa, Pa] on the equilibrium set, with 0 <= Pe < inf, over the grid's alpha and Pf
+    (between the end stops if reachable); eq_range: :func:`equilibrium_alpha_range`."""
+    low, high = reachable_alpha_range(params, eq_range) if reachable else eq_range
     alpha = np.linspace(low, high, grid.alpha.size)
     A, Pf = np.meshgrid(alpha, grid.Pf, indexing="ij")
     Pe = stability.equilibrium_pressure(A, Pf, params)
@@ -453,12 +473,14 @@ def _equilibrium_samples(params: Params, grid: ClaimsGrid, reachable: bool):
 
 
 def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, report_pf=REPORT_PF,
-                 progress: Progress = None) -> list[Claim]:
+                 progress: Progress = None, eq_range: tuple[float, float] | None = None) -> list[Claim]:
     """Check each claim of Section VI against the model on ``grid`` (default :func:`claims_grid`).
 
     Every number is computed here from the library at run time. Angles in the evidence are in degrees.
+    ``eq_range``: the precomputed :func:`equilibrium_alpha_range` (computed here when None).
     """
     say = progress or (lambda message: None)
+    eq_range = equilibrium_alpha_range(params) if eq_range is None else eq_range
     grid = claims_grid(params) if grid is None else grid
     A, E, F = np.meshgrid(grid.alpha, grid.Pe, grid.Pf, indexing="ij")
     stops = (knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH)
@@ -517,7 +539,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
          "straight_leg_alpha_deg": _deg(top), "fraction_crossings_plus_to_minus": frac_down}))
 
     say("claims: stability on the equilibrium set")
-    eq_alpha, eq_pf, eq_pe = _equilibrium_samples(params, grid, reachable=False)
+    eq_alpha, eq_pf, eq_pe = _equilibrium_samples(params, grid, reachable=False, eq_range=eq_range)
     _, a2 = stability.routh_hurwitz_coefficients(knee.X_from_alpha(eq_alpha, params), eq_pe, eq_pf, 0.0, params)
     stable = a2 < 0
     # "above the sheet": alpha beyond the highest + -> - crossing of h along alpha at that (Pe, Pf)
@@ -547,7 +569,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
     loss = {}
     for pf in report_pf:
         try:
-            loss[pf] = stability_loss_alpha(pf, params)
+            loss[pf] = stability_loss_alpha(pf, params, eq_range=eq_range)
         except DomainError:
             loss[pf] = None
     found = {pf: a for pf, a in loss.items() if a is not None}
@@ -572,7 +594,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         {"loss_alpha_deg": {str(pf): (_deg(a) if a is not None else None) for pf, a in loss.items()},
          "loss_Pe_Pa": {str(pf): loss_pe.get(pf) for pf in loss}, "max_abs_h": h_res, "max_abs_F_minus_mg": f_res}))
 
-    reach_alpha, reach_pf, reach_pe = _equilibrium_samples(params, grid, reachable=True)
+    reach_alpha, reach_pf, reach_pe = _equilibrium_samples(params, grid, reachable=True, eq_range=eq_range)
     reach_h = stability.h_function(reach_alpha, reach_pe, reach_pf, params)
     unstable = reach_h > 0
     le_bent = float(knee.geometry_at_alpha(alpha_domain(params, 2)[0], params).Le)
@@ -652,8 +674,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
 
     say("claims: pressures the hip mass needs")
     needs = {}
-    low, high = max(knee.ALPHA_STOP_LOW, equilibrium_alpha_range(params)[0]), min(
-        knee.ALPHA_STOP_HIGH, equilibrium_alpha_range(params)[1])
+    low, high = reachable_alpha_range(params, eq_range)
     span = np.linspace(low, high, grid.alpha.size)
     for pf in report_pf:
         pe = stability.equilibrium_pressure(span, pf, params)
@@ -729,10 +750,11 @@ def reproduce_paper(out_dir, params: Params = DEFAULT, progress: Progress = None
     say("Fig. 5: contraction against pressure")
     written["fig5"] = plot_fig5(out / "fig5_contraction.png", params)
     say("Fig. 7: h = 0 and the equilibrium set")
-    data = fig7_surfaces(params, n_pf=fig7_resolution[0], n_alpha=fig7_resolution[1])
+    eq_range = equilibrium_alpha_range(params)  # once per run: a root search
+    data = fig7_surfaces(params, n_pf=fig7_resolution[0], n_alpha=fig7_resolution[1], eq_range=eq_range)
     written["fig7"] = plot_fig7(out / "fig7_surfaces.png", params, data)
-    written["fig7_sections"] = plot_fig7_sections(out / "fig7_sections.png", params)
-    claims = paper_claims(params, grid, progress=progress)
+    written["fig7_sections"] = plot_fig7_sections(out / "fig7_sections.png", params, eq_range=eq_range)
+    claims = paper_claims(params, grid, progress=progress, eq_range=eq_range)
     say("claims table")
     written["claims_md"] = out / "claims.md"
     written["claims_md"].write_text(claims_markdown(claims, params))

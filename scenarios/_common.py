@@ -30,7 +30,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and build_fmu.py
     sys.path.insert(0, str(ROOT))
 
-from mkctl.cli.options import folder_problem, run_reporting_errors  # noqa: E402  (one check for the CLI and the scenarios)
+from mkctl.cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # noqa: E402  (one check for the CLI and the scenarios)
 from mkctl.errors import MkctlError  # noqa: E402
 from mkctl.params import Params  # noqa: E402
 
@@ -42,10 +42,6 @@ _prog = "scenario"  # the script's name in error messages, set by parse_args
 
 class ScenarioError(MkctlError):
     """A scenario could not run to its end."""
-
-
-class UsageError(MkctlError):
-    """An option value the scenario cannot use; the message names the option and the value."""
 
 
 # --- figures: matplotlib is imported only when a figure is drawn, so that a bad option fails fast ---------
@@ -63,13 +59,6 @@ def save_png(fig, path, dpi: int = 120) -> Path:
 
 
 # --- the command line ------------------------------------------------------------------------------------
-
-class _Parser(argparse.ArgumentParser):
-    """argparse, but an error is one line (``--help`` still shows the usage)."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
 
 def require(condition, message: str) -> None:
     """Raise :class:`UsageError` with message unless condition holds."""
@@ -133,7 +122,7 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
     "actuator"). Any problem ends the script: one line on stderr, exit status 2.
     """
     global _prog
-    parser = _Parser(prog=f"scenarios/{name}.py", description=description)
+    parser = OneLineParser(prog=f"scenarios/{name}.py", description=description)
     _prog = parser.prog
     parser.add_argument("--out", type=Path, default=ROOT / "out" / name,
                         help="folder for the CSV and PNG (default: out/NAME)")

@@ -18,7 +18,8 @@ import numpy as np
 from _common import (checked_params, finish, first_peak_time, fmu_path, input_signal, main_guard,  # first: finds mkctl
                      new_figure, number_list, parse_args, require, simulate, step_overshoot, undefined)
 from mkctl.params import Params  # noqa: E402
-from mkctl.stability import equilibrium_hip_height, posture_stability  # noqa: E402
+from mkctl.simulate import DEFAULT_ALPHA, DEFAULT_PF  # noqa: E402
+from mkctl.stability import equilibrium_hip_height, posture_stability, routh_hurwitz_coefficients  # noqa: E402
 
 T_STEP, STEP = 0.1, 0.05
 
@@ -41,7 +42,7 @@ def run(argv=None):
 
     args = parse_args("damping_sweep", __doc__.splitlines()[0], 3.0, argv, options, check)
     fmu = fmu_path(args, "knee")
-    rest = posture_stability(np.radians(60.0), Pf=100e3, params=Params())
+    rest = posture_stability(DEFAULT_ALPHA, Pf=DEFAULT_PF, params=Params())  # the FMU's default posture
     pe1 = rest.Pe * (1 + STEP)
     target = equilibrium_hip_height(pe1, rest.Pf)
     rows = [(0.0, {"pe_cmd": rest.Pe, "pf_cmd": rest.Pf}), (T_STEP, {"pe_cmd": rest.Pe, "pf_cmd": rest.Pf}),
@@ -57,13 +58,13 @@ def run(argv=None):
         t, X = result["time"], result["X"]
         columns.setdefault("time_s", t)
         columns[f"X_c{c:g}_m"] = X
-        a1 = posture_stability(np.radians(60.0), Pf=100e3, params=Params(c=c)).a1
+        a1, _ = routh_hurwitz_coefficients(rest.X, rest.Pe, rest.Pf, 0.0, Params(c=c))  # at the rest state
         overshoot, why = step_overshoot(t, X, rest.X, target, T_STEP)
         if why is not None:
             notes.append(f"c = {c:g}: overshoot {undefined(why)}")
         tail = X[t >= 0.8 * t[-1]]  # after the step: the duration is at least T_STEP + a half period
         shown = f"{overshoot:13.1f}" if why is None else f"{'undefined*':>13}"
-        summary.append(f"    {c:9g}   {a1 + 0.0:8.3f}   {shown}   {np.ptp(tail) * 1e3:27.3f}")
+        summary.append(f"    {c:9g}   {float(a1) + 0.0:8.3f}   {shown}   {np.ptp(tail) * 1e3:27.3f}")
         ax.plot(t, X * 1e3, label=f"c = {c:g}")
     summary += [f"  * {note}" for note in notes]
     ax.axhline(target * 1e3, color="0.6", ls="--", lw=0.8, label="new equilibrium")

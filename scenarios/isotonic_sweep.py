@@ -13,6 +13,7 @@ Writes isotonic_sweep.csv and plots the contraction against the pressure.
 from __future__ import annotations
 
 import math
+import shutil
 import sys
 
 import numpy as np
@@ -20,7 +21,8 @@ import numpy as np
 from _common import (FMULog, ScenarioError, UsageError, checked_params, finish, fmu_path,  # first: finds mkctl
                      main_guard, new_figure, parse_args, require)
 from mkctl.errors import MkctlError  # noqa: E402
-from mkctl.isotonic import static_length  # noqa: E402
+from mkctl.fmu_linear import free_instance, instantiate  # noqa: E402
+from mkctl.isotonic import contraction as contraction_of, static_length  # noqa: E402
 
 DT = 0.05  # longest sample interval [s]
 MIN_STEPS = 20  # steps of DT in the shortest sweep, enough to draw the loop
@@ -30,24 +32,24 @@ P_LOW, P_HIGH = 50e3, 350e3  # the pressure sweep [Pa]
 class ActuatorFMU:
     """The actuator FMU through fmpy's low-level API: step the pressure lag, then read f at any (L, Ldot).
 
-    The FMU's log (discard, error, fatal) is kept, so that a refusal says why."""
+    The FMU's log (discard, error, fatal) is kept, so that a refusal says why. The instance is made and freed by
+    mkctl.fmu_linear (freed without unloading the binary), and the extracted FMU is removed in close()."""
 
     def __init__(self, path, start_values):
         from fmpy import extract, read_model_description
         from fmpy.fmi1 import FMICallException
-        from fmpy.fmi2 import FMU2Slave
 
         md = read_model_description(str(path))
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.start = {v.name: float(v.start) for v in md.modelVariables if v.start is not None}
         self.log = FMULog()
         self._callbacks = self.log.fmi2_callbacks()  # referenced for the instance's lifetime
-        self.fmu = FMU2Slave(guid=md.guid, unzipDirectory=extract(str(path)),
-                             modelIdentifier=md.coSimulation.modelIdentifier, instanceName="actuator")
+        self._unzipdir = extract(str(path))
         self.time = 0.0
         try:
-            self.fmu.instantiate(callbacks=self._callbacks, loggingOn=True)
+            self.fmu = instantiate(md, self._unzipdir, "actuator", callbacks=self._callbacks, logging_on=True)
         except Exception as error:  # fmpy raises a plain Exception when fmi2Instantiate returns NULL
+            shutil.rmtree(self._unzipdir, ignore_errors=True)
             raise ScenarioError(f"the actuator FMU could not be instantiated ({error}): {self.log.reason()}") from None
         try:
             self.fmu.setupExperiment(startTime=0.0)
@@ -75,13 +77,19 @@ class ActuatorFMU:
         return tuple(self.fmu.getReal([self.vr["f"], self.vr["P"]]))
 
     def close(self):
-        self.fmu.terminate()
-        self.fmu.freeInstance()
+        from fmpy.fmi1 import FMICallException
+
+        try:
+            self.fmu.terminate()
+        except FMICallException:  # a failed instance may refuse terminate; freeing it is what matters
+            pass
+        free_instance(self.fmu)
+        shutil.rmtree(self._unzipdir, ignore_errors=True)
 
 
 def check(args):
     """The options before any simulation: the friction, a load the muscle can carry, enough samples."""
-    params = checked_params(f"--Fc {args.Fc:g}", Fc=args.Fc)
+    params = args.params = checked_params(f"--Fc {args.Fc:g}", Fc=args.Fc)
     require(math.isfinite(args.load) and args.load >= 0, f"--load {args.load:g}: must be a number of newtons >= 0")
     try:  # the static length must exist all along the sweep (the tension rises with P at every length)
         static_length([P_LOW, P_HIGH], args.load, params)
@@ -135,7 +143,7 @@ def run(argv=None):
                                 + (f": {actuator.log.reason()}" if actuator.log.messages else ""))
     finally:
         actuator.close()
-    contraction = (L0 - L) / L0
+    contraction = contraction_of(L, args.params.replace(L0=L0))  # against the FMU's own rest length
     half = int(np.argmax(p_cmd))  # the top of the sweep: rising before, falling after
     mid = 0.5 * (p_cmd.min() + p_cmd.max())
     up = np.interp(mid, P[: half + 1], contraction[: half + 1])

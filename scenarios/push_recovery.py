@@ -19,7 +19,8 @@ from _common import (checked_params, finish, first_peak_time, fmu_path, main_gua
                      parse_args, require, simulate, undefined)
 from mkctl import knee  # noqa: E402
 from mkctl.params import Params  # noqa: E402
-from mkctl.stability import posture_stability  # noqa: E402
+from mkctl.simulate import DEFAULT_ALPHA, DEFAULT_PF  # noqa: E402
+from mkctl.stability import posture_stability, routh_hurwitz_coefficients  # noqa: E402
 
 BAND = 1e-3  # "back": within 1 mm of the rest height [m]
 
@@ -31,7 +32,7 @@ def check(args):
         checked_params(f"--c {args.c}", c=c)
     require(math.isfinite(args.push_mm) and args.push_mm > 0, f"--push-mm {args.push_mm:g}: must be a positive "
             "number of millimetres (the push is downwards)")
-    args.rest = posture_stability(np.radians(60.0), Pf=100e3, params=Params())  # the FMU's default posture
+    args.rest = posture_stability(DEFAULT_ALPHA, Pf=DEFAULT_PF, params=Params())  # the FMU's default posture
     args.X0 = args.rest.X - args.push_mm / 1e3
     low, _ = knee.stop_positions(Params())
     require(args.X0 > low, f"--push-mm {args.push_mm:g}: would put the hip at X0 = {args.X0 * 1e3:.1f} mm, not above "
@@ -49,7 +50,7 @@ def run(argv=None):
     args = parse_args("push_recovery", __doc__.splitlines()[0], 4.0, argv, options, check)
     fmu = fmu_path(args, "knee")
     rest, X0 = args.rest, args.X0
-    columns, summary = {}, [f"rest X = {rest.X * 1e3:.2f} mm at alpha = 60 deg; pushed to {X0 * 1e3:.2f} mm"]
+    columns, summary = {}, [f"rest X = {rest.X * 1e3:.2f} mm at alpha = {math.degrees(DEFAULT_ALPHA):g} deg; pushed to {X0 * 1e3:.2f} mm"]
     fig, (ax1, ax2) = new_figure(2, 1, sharex=True, figsize=(7, 5))
     for c in args.dampings:
         result = simulate(fmu, args.duration, 1e-3, None, {"c": c, "X0": X0})
@@ -74,13 +75,13 @@ def run(argv=None):
             overshoot = undefined(f"X still rising at t = {t[-1]:g} s")
         else:
             overshoot = f"{(X.max() - rest.X) * 1e3:.2f} mm"
-        a1 = posture_stability(np.radians(60.0), Pf=100e3, params=Params(c=c)).a1
-        summary.append(f"c = {c:g} N s/m (a1 = {a1:.2f} 1/s): overshoot {overshoot}, {back}")
+        a1, _ = routh_hurwitz_coefficients(rest.X, rest.Pe, rest.Pf, 0.0, Params(c=c))  # at the rest state
+        summary.append(f"c = {c:g} N s/m (a1 = {float(a1):.2f} 1/s): overshoot {overshoot}, {back}")
         ax1.plot(t, X * 1e3, label=f"c = {c:g} N s/m")
         ax2.plot(t, result["V"], label=f"c = {c:g} N s/m")
     ax1.axhline(rest.X * 1e3, color="0.6", ls="--", lw=0.8)
     ax1.set_ylabel("hip height X [mm]")
-    ax1.set_title(f"recovery from a {args.push_mm:g} mm push at alpha = 60 deg")
+    ax1.set_title(f"recovery from a {args.push_mm:g} mm push at alpha = {math.degrees(DEFAULT_ALPHA):g} deg")
     ax1.legend()
     ax2.set_ylabel("hip velocity V [m/s]")
     ax2.set_xlabel("time [s]")

@@ -180,3 +180,15 @@ def test_physics_doc_example_runs(tmp_path, monkeypatch, capsys):
     for block in blocks:
         exec(compile(block, "<physics.md>", "exec"), {"__name__": "__docs__"})
     assert capsys.readouterr().out.strip()
+
+
+def test_equilibrium_range_passed_down_is_the_one_used():
+    eq_range = paper.equilibrium_alpha_range()
+    low, high = paper.reachable_alpha_range(DEFAULT, eq_range)
+    assert (low, high) == paper.reachable_alpha_range()
+    assert max(eq_range[0], knee.ALPHA_STOP_LOW) == low < high == min(eq_range[1], knee.ALPHA_STOP_HIGH)
+    loss = paper.stability_loss_alpha(100e3)
+    assert paper.stability_loss_alpha(100e3, eq_range=eq_range) == loss
+    # a range that ends below the loss of stability has no sign change of h in it: the range given is used
+    with pytest.raises(DomainError):
+        paper.stability_loss_alpha(100e3, eq_range=(eq_range[0], loss - 0.05))

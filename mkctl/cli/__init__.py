@@ -9,27 +9,20 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .options import run_reporting_errors
+from .options import OneLineParser, run_reporting_errors
 from . import control, measure, paper, run
 
 #: Subcommand modules, in the order ``mkctl --help`` lists them.
 COMMANDS = [run, paper, control, measure]
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (the usage hint stays available with --help)."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message}\n")
-
-
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = OneLineParser(
         prog="mkctl",
         description="McKibben muscles and the knee they drive: the paper's figures, FMUs, control analysis "
                     "and diagnosis of measurements.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     for module in COMMANDS:
         module.register(sub)
     return parser

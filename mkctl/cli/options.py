@@ -2,6 +2,7 @@
 paths, and reporting a user's mistake as one line."""
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 import tempfile
@@ -13,6 +14,13 @@ from ..params import PARAMETER_NAMES
 
 class UsageError(MkctlError, ValueError):
     """A command-line value that cannot be used (a bad option value, an output path that cannot be written)."""
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line (the usage hint stays available with --help)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def split_items(items) -> list[str]:
