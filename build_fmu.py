@@ -5,14 +5,14 @@
 writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
 
 1. pythonfmu packs the slave script of ``fmu/`` with the ``mkctl`` modules the slave scripts import (and
-   nothing else), among them ``mkctl/fmu_slave.py``, the base class both slaves share; both FMUs get the same
+   nothing else), among them ``mkctl/fmu/slave.py``, the base class both slaves share; both FMUs get the same
    files, staged once;
 2. the modelDescription.xml is completed where pythonfmu 0.7 leaves gaps: ``<UnitDefinitions>`` and a
    ``unit`` on every Real variable, and ``<InitialUnknowns>`` for the calculated outputs;
 3. ``fmpy.validation.validate_fmu`` must report no problem, and (unless ``--no-run``) each FMU runs its default
    experiment under fmpy in a fresh process (the FMU must use its packed mkctl, not this process's) and must
    reach the stop time; then all of them run one after the other in one process: they share the module
-   names ``mkctl``, ``mkctl.fmu_slave`` and ``pythonfmu``, which resolve to the FMU loaded first.
+   names ``mkctl``, ``mkctl.fmu.slave`` and ``pythonfmu``, which resolve to the FMU loaded first.
 """
 from __future__ import annotations
 

@@ -14,9 +14,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from mkctl.compare import simulate_output
-from mkctl.measurements import read_measurement
-from mkctl.synth import synthesize, write_synthetic
+from mkctl.analysis.compare import simulate_output
+from mkctl.io.measurements import read_measurement
+from mkctl.analysis.synth import synthesize, write_synthetic
 
 CASES = [
     ("knee, hidden viscous_damping", "knee", {"c": 45.0}, 3000),

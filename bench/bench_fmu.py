@@ -8,7 +8,7 @@ command around the 60 deg equilibrium), sampling every output at every milliseco
 - FMU: ``fmpy.simulate_fmu`` on McKibbenKnee.fmu, the whole call (extracting, loading, stepping, recording),
   built fresh by ``build_fmu.py`` into a temporary folder (an FMU in ``dist`` may predate the library it is
   compared with), or taken from ``--fmu-dir`` when given;
-- direct: ``mkctl.simulate.simulate_knee`` on the same samples.
+- direct: ``mkctl.physics.simulate.simulate_knee`` on the same samples.
 
 Each run is a fresh process (so the FMU uses its packed mkctl), the two alternate ``--repeat`` times and the
 fastest of each is kept, so that a busy machine slows both alike. Prints both times, the ratio FMU/direct
@@ -33,7 +33,7 @@ import json, sys, time
 import numpy as np
 import scipy.optimize  # imported before the clock starts in both modes: library loading is not the model's cost
 duration, mode, fmu = float(sys.argv[1]), sys.argv[2], sys.argv[3]
-pe0, pf = float(sys.argv[5]), float(sys.argv[6])  # mkctl.simulate.default_commands(), from the parent process
+pe0, pf = float(sys.argv[5]), float(sys.argv[6])  # mkctl.physics.simulate.default_commands(), from the parent process
 t = np.round(np.arange(0.0, duration + 5e-4, 1e-3), 9)
 pe = pe0 * (1 + 0.05 * np.sin(2 * np.pi * 0.5 * t))
 if mode == "fmu":
@@ -46,8 +46,8 @@ if mode == "fmu":
     X, end = run["X"].tolist(), float(run["time"][-1])
 else:
     sys.path.insert(0, sys.argv[4])
-    from mkctl.params import Params
-    from mkctl.simulate import simulate_knee, default_hip_height
+    from mkctl.physics.params import Params
+    from mkctl.physics.simulate import simulate_knee, default_hip_height
     start = time.perf_counter()
     run = simulate_knee(t, pe, np.full_like(t, pf), Params(c=40.0), X0=default_hip_height())
     elapsed = time.perf_counter() - start
@@ -86,7 +86,7 @@ def main(argv=None) -> int:
 
 
 def _bench(args, fmu: Path) -> int:
-    from mkctl.simulate import default_commands  # at rest at the default posture (alpha = 60 deg)
+    from mkctl.physics.simulate import default_commands  # at rest at the default posture (alpha = 60 deg)
 
     commands = default_commands()
     best = {"fmu": None, "direct": None}

@@ -1,4 +1,4 @@
-"""Benchmark: the rate of h evaluations (Eq. 22-23, :func:`mkctl.stability.h_function`), vectorized
+"""Benchmark: the rate of h evaluations (Eq. 22-23, :func:`mkctl.physics.stability.h_function`), vectorized
 against a point-by-point Python loop, measured side by side in one run.
 
 Three ways to evaluate h on an (alpha, Pe, Pf) grid:
@@ -19,8 +19,8 @@ import time
 
 import numpy as np
 
-from mkctl import knee, stability
-from mkctl.params import DEFAULT
+from mkctl.physics import knee, stability
+from mkctl.physics.params import DEFAULT
 
 
 def best_time(fun, repeat: int) -> float:

@@ -5,10 +5,10 @@
 For an n x n grid (kneecap angle alpha from 10 to 74 deg, damping c from 0 to 600 N s/m; Pf = 100 kPa and
 the extensor pressure that holds each posture at rest), the eigenvalues of the linearization by
 
-- fast path: the analytic Jacobian (mkctl.knee.knee_force_partials), vectorized over the whole grid, and
+- fast path: the analytic Jacobian (mkctl.physics.knee.knee_force_partials), vectorized over the whole grid, and
   numpy's batched eigvals;
-- slow path: python-control's numerical ``linearize`` of the nonlinear system (mkctl.control.knee_nlsys, in
-  the scaled units of mkctl.control.LINEARIZE_SCALE), one grid point at a time, then ``eigvals``.
+- slow path: python-control's numerical ``linearize`` of the nonlinear system (mkctl.analysis.control.knee_nlsys, in
+  the scaled units of mkctl.analysis.control.LINEARIZE_SCALE), one grid point at a time, then ``eigvals``.
 
 The operating points (the equilibrium pressure per posture) are shared and not timed. The slow path runs on
 all n*n points, or with ``--subset K`` on the first K alpha rows (each with every c), and the total is
@@ -25,9 +25,9 @@ import control as ct
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from mkctl import control as mc  # noqa: E402
-from mkctl import knee, stability  # noqa: E402
-from mkctl.params import DEFAULT  # noqa: E402
+from mkctl.analysis import control as mc  # noqa: E402
+from mkctl.physics import knee, stability  # noqa: E402
+from mkctl.physics.params import DEFAULT  # noqa: E402
 
 
 def analytic_map(alphas, cs, pf, params):

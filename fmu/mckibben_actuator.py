@@ -1,9 +1,9 @@
 """McKibbenActuator: one McKibben muscle (model-spec sections 2 and 4) as an FMI 2.0 co-simulation slave.
 
-A thin wrapper over :class:`mkctl.simulate.ActuatorSimulator`: the pressure lag is the only state (solved
+A thin wrapper over :class:`mkctl.physics.simulate.ActuatorSimulator`: the pressure lag is the only state (solved
 exactly over each step, so the step size does not matter); the tension follows from the inputs L, Ldot and
 the present pressure. Registration, errors, cached outputs and FMU state are the shared machinery of
-:class:`mkctl.fmu_slave.McKibbenSlave`: errors are logged, and answered with fmi2Discard from doStep, never
+:class:`mkctl.fmu.slave.McKibbenSlave`: errors are logged, and answered with fmi2Discard from doStep, never
 raised (pythonfmu 0.7 would make any exception fmi2Fatal).
 """
 from __future__ import annotations
@@ -11,9 +11,9 @@ from __future__ import annotations
 from pythonfmu import DefaultExperiment
 
 from mkctl.errors import MkctlError
-from mkctl.fmu_slave import MODEL_DESCRIPTION, N_DESCRIPTION, McKibbenSlave
-from mkctl.params import EFFECTS_TABLE, TABLE_I, UNITS
-from mkctl.simulate import ActuatorSimulator
+from mkctl.fmu.slave import MODEL_DESCRIPTION, N_DESCRIPTION, McKibbenSlave
+from mkctl.physics.params import EFFECTS_TABLE, TABLE_I, UNITS
+from mkctl.physics.simulate import ActuatorSimulator
 
 #: Parameters of model-spec sections 2 and 4, then model.
 PARAMETERS = ("b", "n", "L0", "D0", "C1", "C2", "t0", "c", "Fc", "vs", "tau")

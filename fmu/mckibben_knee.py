@@ -1,9 +1,9 @@
 """McKibbenKnee: the knee of model-spec section 3 with the effects of section 4, as an FMI 2.0 co-simulation slave.
 
-A thin wrapper over :class:`mkctl.simulate.KneeSimulator`: no equation lives here. The interface is the one of
+A thin wrapper over :class:`mkctl.physics.simulate.KneeSimulator`: no equation lives here. The interface is the one of
 model-spec section 7 (inputs pe_cmd, pf_cmd; every parameter of sections 2-4, model and X0; the outputs of
-:data:`mkctl.simulate.KNEE_OUTPUTS`). Registration, errors, cached outputs and FMU state are the shared machinery
-of :class:`mkctl.fmu_slave.McKibbenSlave`.
+:data:`mkctl.physics.simulate.KNEE_OUTPUTS`). Registration, errors, cached outputs and FMU state are the shared machinery
+of :class:`mkctl.fmu.slave.McKibbenSlave`.
 
 Errors. Nothing here raises into pythonfmu (which would make any exception fmi2Fatal): a parameter set the model
 cannot represent is logged (fmi2Error category) at exitInitializationMode, and every doStep then answers
@@ -11,17 +11,17 @@ fmi2Discard with the message again; an input or a state outside the model's doma
 answered with fmi2Discard, the state left as it was at the start of that step.
 
 Defaults that follow other parameters: ``n`` left at its start value is derived from b, L0, D0 (as
-:class:`mkctl.params.Params` does), and ``X0`` left at its start value is the hip height at alpha = 60 deg of
+:class:`mkctl.physics.params.Params` does), and ``X0`` left at its start value is the hip height at alpha = 60 deg of
 the actual geometry. Give either a different value and it is used as given.
 """
 from __future__ import annotations
 
 from pythonfmu import DefaultExperiment
 
-from mkctl import knee
-from mkctl.fmu_slave import MODEL_DESCRIPTION, N_DESCRIPTION, McKibbenSlave
-from mkctl.params import EFFECTS_TABLE, TABLE_I, TABLE_II, UNITS
-from mkctl.simulate import KNEE_OUTPUTS, KneeSimulator, default_commands, default_hip_height
+from mkctl.physics import knee
+from mkctl.fmu.slave import MODEL_DESCRIPTION, N_DESCRIPTION, McKibbenSlave
+from mkctl.physics.params import EFFECTS_TABLE, TABLE_I, TABLE_II, UNITS
+from mkctl.physics.simulate import KNEE_OUTPUTS, KneeSimulator, default_commands, default_hip_height
 
 #: Parameters in the order of model-spec section 7, then model and X0.
 PARAMETERS = ("b", "n", "L0", "D0", "C1", "C2", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "Lec", "Lfc",

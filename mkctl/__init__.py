@@ -3,14 +3,14 @@
 The library is the one home of every equation; the FMUs, the analyses, the diagnosis and the scenarios
 call it. Modules, from the bottom up:
 
-- :mod:`mkctl.params`: Table I, Table II and the effects, as immutable parameter sets with units.
-- :mod:`mkctl.actuator`: model 1 (Eq. 7), model 2 (Eq. 13), their derivatives, and the effects.
-- :mod:`mkctl.knee`: the knee's geometry, ground force (Eq. 14-16) and state equations (Eq. 17).
-- :mod:`mkctl.stability`: a1, a2, h (Eq. 18-23), the equilibrium set and the Routh-Hurwitz verdict.
-- :mod:`mkctl.integrate`, :mod:`mkctl.simulate`, :mod:`mkctl.isotonic`: time simulation.
+- :mod:`mkctl.physics.params`: Table I, Table II and the effects, as immutable parameter sets with units.
+- :mod:`mkctl.physics.actuator`: model 1 (Eq. 7), model 2 (Eq. 13), their derivatives, and the effects.
+- :mod:`mkctl.physics.knee`: the knee's geometry, ground force (Eq. 14-16) and state equations (Eq. 17).
+- :mod:`mkctl.physics.stability`: a1, a2, h (Eq. 18-23), the equilibrium set and the Routh-Hurwitz verdict.
+- :mod:`mkctl.physics.integrate`, :mod:`mkctl.physics.simulate`, :mod:`mkctl.physics.isotonic`: time simulation.
 """
 from .errors import DomainError, MeasurementFileError, MkctlError, ParameterError
-from .params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, Params
+from .physics.params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, Params
 
 __version__ = "0.1.0"
 

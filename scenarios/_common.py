@@ -32,7 +32,7 @@ if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and b
 
 from mkctl.cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # noqa: E402  (one check for the CLI and the scenarios)
 from mkctl.errors import MkctlError  # noqa: E402
-from mkctl.params import Params  # noqa: E402
+from mkctl.physics.params import Params  # noqa: E402
 
 FMU_FILES = {"knee": "McKibbenKnee.fmu", "actuator": "McKibbenActuator.fmu"}
 STEP = 1e-3  #: communication step of the fmpy runs [s]
@@ -47,14 +47,14 @@ class ScenarioError(MkctlError):
 # --- figures: matplotlib is imported only when a figure is drawn, so that a bad option fails fast ---------
 
 def new_figure(*args, **kwargs):
-    """:func:`mkctl.plotting.new_figure`."""
-    from mkctl.plotting import new_figure as new
+    """:func:`mkctl.io.plotting.new_figure`."""
+    from mkctl.io.plotting import new_figure as new
     return new(*args, **kwargs)
 
 
 def save_png(fig, path, dpi: int = 120) -> Path:
-    """:func:`mkctl.plotting.save_png`."""
-    from mkctl.plotting import save_png as save
+    """:func:`mkctl.io.plotting.save_png`."""
+    from mkctl.io.plotting import save_png as save
     return save(fig, path, dpi)
 
 
@@ -221,8 +221,8 @@ def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_valu
 def first_peak_time(params: Params | None = None) -> float:
     """pi / omega [s]: when the undamped leg, linearized at the FMUs' default posture (alpha = 60 deg), reaches
     its first peak after a step. A step response needs at least this long to show its overshoot."""
-    from mkctl.simulate import DEFAULT_ALPHA, DEFAULT_PF
-    from mkctl.stability import posture_stability
+    from mkctl.physics.simulate import DEFAULT_ALPHA, DEFAULT_PF
+    from mkctl.physics.stability import posture_stability
 
     rest = posture_stability(DEFAULT_ALPHA, Pf=DEFAULT_PF, params=(params or Params()).replace(c=0.0, Fc=0.0))
     omega = max(abs(pole.imag) for pole in rest.poles)

@@ -17,9 +17,9 @@ import numpy as np
 
 from _common import (checked_params, finish, first_peak_time, fmu_path, input_signal, main_guard,  # first: finds mkctl
                      new_figure, number_list, parse_args, require, simulate, step_overshoot, undefined)
-from mkctl.params import Params  # noqa: E402
-from mkctl.simulate import DEFAULT_ALPHA, DEFAULT_PF  # noqa: E402
-from mkctl.stability import equilibrium_hip_height, posture_stability, routh_hurwitz_coefficients  # noqa: E402
+from mkctl.physics.params import Params  # noqa: E402
+from mkctl.physics.simulate import DEFAULT_ALPHA, DEFAULT_PF  # noqa: E402
+from mkctl.physics.stability import equilibrium_hip_height, posture_stability, routh_hurwitz_coefficients  # noqa: E402
 
 T_STEP, STEP = 0.1, 0.05
 

@@ -3,11 +3,11 @@
     python scenarios/isotonic_sweep.py [--out DIR] [--fmu-dir DIR] [--duration 20] [--load 50] [--Fc 3]
 
 The pressure command rises from 50 to 350 kPa and falls back (a sin^2 sweep over --duration); the load
-hangs from the muscle, and its inertia is neglected (quasi-static, as in mkctl.isotonic): at every sample
+hangs from the muscle, and its inertia is neglected (quasi-static, as in mkctl.physics.isotonic): at every sample
 (at most 50 ms apart; --duration at least 1 s) the scenario finds the length L at which the FMU's tension
 f(L, P, Ldot) equals the load, with Ldot = (L - L_previous) / dt, by bracketing on the FMU's direct feedthrough (setReal L, Ldot; getReal f).
 With friction (--Fc > 0) the contraction draws a hysteresis loop against the pressure, as in Fig. 5. The load
-(>= 0) must be one the muscle can carry all along the sweep (checked with mkctl.isotonic.static_length).
+(>= 0) must be one the muscle can carry all along the sweep (checked with mkctl.physics.isotonic.static_length).
 Writes isotonic_sweep.csv and plots the contraction against the pressure.
 """
 from __future__ import annotations
@@ -21,8 +21,8 @@ import numpy as np
 from _common import (FMULog, ScenarioError, UsageError, checked_params, finish, fmu_path,  # first: finds mkctl
                      main_guard, new_figure, parse_args, require)
 from mkctl.errors import MkctlError  # noqa: E402
-from mkctl.fmu_linear import free_instance, instantiate  # noqa: E402
-from mkctl.isotonic import contraction as contraction_of, static_length  # noqa: E402
+from mkctl.fmu.probe import free_instance, instantiate  # noqa: E402
+from mkctl.physics.isotonic import contraction as contraction_of, static_length  # noqa: E402
 
 DT = 0.05  # longest sample interval [s]
 MIN_STEPS = 20  # steps of DT in the shortest sweep, enough to draw the loop
@@ -33,7 +33,7 @@ class ActuatorFMU:
     """The actuator FMU through fmpy's low-level API: step the pressure lag, then read f at any (L, Ldot).
 
     The FMU's log (discard, error, fatal) is kept, so that a refusal says why. The instance is made and freed by
-    mkctl.fmu_linear (freed without unloading the binary), and the extracted FMU is removed in close()."""
+    mkctl.fmu.probe (freed without unloading the binary), and the extracted FMU is removed in close()."""
 
     def __init__(self, path, start_values):
         from fmpy import extract, read_model_description

@@ -16,8 +16,8 @@ import numpy as np
 from _common import (UsageError, checked_params, finish, first_peak_time, fmu_path, input_signal,  # first: finds mkctl
                      main_guard, new_figure, parse_args, require, simulate, step_overshoot, undefined)
 from mkctl.errors import MkctlError  # noqa: E402
-from mkctl.simulate import default_commands  # noqa: E402
-from mkctl.stability import equilibrium_hip_height  # noqa: E402
+from mkctl.physics.simulate import default_commands  # noqa: E402
+from mkctl.physics.stability import equilibrium_hip_height  # noqa: E402
 
 T_STEP = 0.2
 

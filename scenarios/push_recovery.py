@@ -17,10 +17,10 @@ import numpy as np
 
 from _common import (checked_params, finish, first_peak_time, fmu_path, main_guard, new_figure, number_list,  # first: finds mkctl
                      parse_args, require, simulate, undefined)
-from mkctl import knee  # noqa: E402
-from mkctl.params import Params  # noqa: E402
-from mkctl.simulate import DEFAULT_ALPHA, DEFAULT_PF  # noqa: E402
-from mkctl.stability import posture_stability, routh_hurwitz_coefficients  # noqa: E402
+from mkctl.physics import knee  # noqa: E402
+from mkctl.physics.params import Params  # noqa: E402
+from mkctl.physics.simulate import DEFAULT_ALPHA, DEFAULT_PF  # noqa: E402
+from mkctl.physics.stability import posture_stability, routh_hurwitz_coefficients  # noqa: E402
 
 BAND = 1e-3  # "back": within 1 mm of the rest height [m]
 

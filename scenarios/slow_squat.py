@@ -4,7 +4,7 @@
 
 The flexor command falls linearly from 400 to 100 kPa while the extensor command rises (and back), so that
 the posture they hold at rest moves smoothly (a cosine profile) from --bent to --straight (kneecap angles,
-deg) and back: the commands are the equilibrium pressures of mkctl.stability along that path, sampled every
+deg) and back: the commands are the equilibrium pressures of mkctl.physics.stability along that path, sampled every
 1/50 of the half period, ramped linearly in between. Both ends must be stable postures: with Table I and II
 the equilibria are stable only above alpha ~ 52 deg (a2 < 0, Fig. 7 of the paper). The leg starts at rest
 at the bent posture. --bent must be below --straight, both between the end stops. Writes slow_squat.csv and plots X, alpha (and its target) and the commands.
@@ -18,9 +18,9 @@ import numpy as np
 
 from _common import (UsageError, checked_params, finish, fmu_path, input_signal, main_guard,  # first: finds mkctl
                      new_figure, parse_args, require, simulate)
-from mkctl import knee  # noqa: E402
+from mkctl.physics import knee  # noqa: E402
 from mkctl.errors import MkctlError  # noqa: E402
-from mkctl.stability import equilibrium_pressure, posture_stability  # noqa: E402
+from mkctl.physics.stability import equilibrium_pressure, posture_stability  # noqa: E402
 
 PF_BENT, PF_STRAIGHT = 400e3, 100e3  # flexor commands at the two ends [Pa]
 

@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from mkctl import actuator
+from mkctl.physics import actuator
 from mkctl.errors import DomainError
-from mkctl.params import DEFAULT, Params
+from mkctl.physics.params import DEFAULT, Params
 
 # model-spec section 2, reference values (Table I defaults)
 REFERENCE = [  # L [m], P [Pa], f1 [N], f2 [N]

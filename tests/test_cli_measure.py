@@ -105,8 +105,8 @@ def test_bad_output_paths_are_one_line_errors_before_any_work(good_csv, places, 
     def must_not_run(*args, **kwargs):
         raise AssertionError("the output paths must be checked before the work")
 
-    monkeypatch.setattr("mkctl.diagnose.diagnose", must_not_run)
-    monkeypatch.setattr("mkctl.compare.compare", must_not_run)
+    monkeypatch.setattr("mkctl.analysis.diagnose.diagnose", must_not_run)
+    monkeypatch.setattr("mkctl.analysis.compare.compare", must_not_run)
     cases = [
         ("compare", ["--out", str(afile)], f"--out {afile}: is a file, not a folder"),
         ("compare", ["--out", str(afile / "sub")], f"{afile} is a file, not a folder"),

@@ -1,4 +1,4 @@
-"""mkctl.control against independent references: the closed-form equilibrium, python-control's numerical
+"""mkctl.analysis.control against independent references: the closed-form equilibrium, python-control's numerical
 linearize, the Routh criterion of the closed loop, eigenvalues, and the library's own simulation."""
 import math
 import re
@@ -8,11 +8,11 @@ import control as ct
 import numpy as np
 import pytest
 
-from mkctl import control as mc
-from mkctl import knee, stability
+from mkctl.analysis import control as mc
+from mkctl.physics import knee, stability
 from mkctl.cli import main
 from mkctl.errors import DomainError, MkctlError
-from mkctl.params import Params
+from mkctl.physics.params import Params
 
 ROOT = Path(__file__).resolve().parents[1]
 ALPHA60 = math.radians(60)
@@ -310,7 +310,7 @@ def test_cli_fmu_given_explicitly_must_be_an_fmu(command, tmp_path, capsys):
 
 
 def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeypatch):
-    from mkctl import control_defaults
+    from mkctl.analysis import control_defaults
 
     monkeypatch.setattr(control_defaults, "DEFAULT_FMU", tmp_path / "not_built.fmu")
     code, out, err = run_cli(["linearize", "--out", str(tmp_path)], capsys)
@@ -319,7 +319,7 @@ def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeyp
 
 
 def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
-    from mkctl import fmu_linear
+    from mkctl.fmu import probe
 
     not_fmu = tmp_path / "afile.fmu"
     not_fmu.write_text("not a zip")
@@ -329,7 +329,7 @@ def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
     with zipfile.ZipFile(tmp_path / "empty.fmu", "w") as archive:
         archive.writestr("readme.txt", "x")
     with pytest.raises(mc.FMUAnalysisError, match="no modelDescription.xml"):
-        fmu_linear.fmu_step_response(tmp_path / "empty.fmu", {}, (1e6, 1e5), (1.1e6, 1e5), 0.1, 1.0, 0.01)
+        probe.fmu_step_response(tmp_path / "empty.fmu", {}, (1e6, 1e5), (1.1e6, 1e5), 0.1, 1.0, 0.01)
 
 
 def test_operating_point_refuses_negative_gauge_pressure():

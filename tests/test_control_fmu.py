@@ -1,7 +1,7 @@
 """The control analysis against the packed knee FMU: its own linearization, and its step responses.
 
 The FMU runs in a fresh interpreter (``run_python`` of conftest.py) so that it uses its packed copy of mkctl.
-That interpreter loads :mod:`mkctl.fmu_linear` by file path (the module imports nothing from mkctl), so no
+That interpreter loads :mod:`mkctl.fmu.probe` by file path (the module imports nothing from mkctl), so no
 mkctl of this checkout is imported there before the FMU brings its own. The references (the analytic
 linearization, the linear and nonlinear step responses) are computed here with mkctl.
 """
@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mkctl import control as mc
+from mkctl.analysis import control as mc
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -60,7 +60,7 @@ def probe(built_fmus, run_python, cases):
                   for op, dpe in cases["steps"]],
     }
     import json
-    return run_python(PROBE, ROOT / "mkctl" / "fmu_linear.py", built_fmus["knee"], json.dumps(job), timeout=300)
+    return run_python(PROBE, ROOT / "mkctl" / "fmu" / "probe.py", built_fmus["knee"], json.dumps(job), timeout=300)
 
 
 def test_the_fmu_used_its_packed_mkctl(probe):

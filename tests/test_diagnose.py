@@ -1,6 +1,6 @@
 """Diagnosis on data with hidden effects: the bench hides them, diagnose must find them without being told.
 
-Each case writes a file with the virtual test bench (:mod:`mkctl.synth`), reads it back as a user's file,
+Each case writes a file with the virtual test bench (:mod:`mkctl.analysis.synth`), reads it back as a user's file,
 and diagnoses it. The truth is what synth simulated with; diagnose sees only the file.
 """
 import json
@@ -8,12 +8,12 @@ import json
 import numpy as np
 import pytest
 
-from mkctl import diagnose as dg
-from mkctl.compare import compare, fit_percent, rmse, simulate_output
-from mkctl.measurements import read_measurement
-from mkctl.params import Params
-from mkctl.simulate import simulate_knee
-from mkctl.synth import synthesize, truth_path_for, write_synthetic
+from mkctl.analysis import diagnose as dg
+from mkctl.analysis.compare import compare, fit_percent, rmse, simulate_output
+from mkctl.io.measurements import read_measurement
+from mkctl.physics.params import Params
+from mkctl.physics.simulate import simulate_knee
+from mkctl.analysis.synth import synthesize, truth_path_for, write_synthetic
 
 NOISE_MM = 0.01
 KNEE = {"samples": 1500, "rate": 500.0}  # 3 s of record, as the default bench, at half the rate

@@ -13,9 +13,9 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
-from mkctl import knee
-from mkctl.params import DEFAULT, PARAMETER_NAMES, Params
-from mkctl.simulate import KNEE_OUTPUTS, ActuatorSimulator, KneeSimulator, default_commands, default_hip_height
+from mkctl.physics import knee
+from mkctl.physics.params import DEFAULT, PARAMETER_NAMES, Params
+from mkctl.physics.simulate import KNEE_OUTPUTS, ActuatorSimulator, KneeSimulator, default_commands, default_hip_height
 
 SPEC_PARAMETERS = ("b n L0 D0 C1 C2 t0 m L1 L2 L5 L6 Lo Lu Lec Lfc r g c Fc vs tau").split()
 PE0, PF0 = default_commands()

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from fmpy import read_model_description
 
-from mkctl.params import Params
-from mkctl.simulate import KneeSimulator, default_commands, default_hip_height
+from mkctl.physics.params import Params
+from mkctl.physics.simulate import KneeSimulator, default_commands, default_hip_height
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -11,8 +11,8 @@ import pytest
 
 pytest.importorskip("libcosimpy")
 
-from mkctl.params import Params  # noqa: E402
-from mkctl.simulate import KneeSimulator, default_commands, default_hip_height  # noqa: E402
+from mkctl.physics.params import Params  # noqa: E402
+from mkctl.physics.simulate import KneeSimulator, default_commands, default_hip_height  # noqa: E402
 
 PE0, PF0 = default_commands()
 PE1 = PE0 * 1.05

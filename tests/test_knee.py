@@ -2,9 +2,9 @@
 import numpy as np
 import pytest
 
-from mkctl import knee
+from mkctl.physics import knee
 from mkctl.errors import DomainError
-from mkctl.params import DEFAULT, Params
+from mkctl.physics.params import DEFAULT, Params
 
 # model-spec section 3, reference values (Table I and II defaults)
 REFERENCE = [  # alpha, X, beta, Le, Lf, G_e, G_f, F(Pe=500 kPa, Pf=100 kPa)

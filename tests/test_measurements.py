@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 from mkctl.errors import MeasurementFileError, ParameterError
-from mkctl.measurements import parse_measurement, read_measurement, write_measurement
-from mkctl.synth import hidden_values, isotonic_inputs, knee_inputs, synthesize, write_synthetic
+from mkctl.io.measurements import parse_measurement, read_measurement, write_measurement
+from mkctl.analysis.synth import hidden_values, isotonic_inputs, knee_inputs, synthesize, write_synthetic
 
 KNEE_HEADER = "time_s,pe_cmd_kPa,pf_cmd_kPa,x_mm"
 

@@ -1,4 +1,4 @@
-"""`mkctl paper` and mkctl.paper: figures written, claims backed by numbers, surfaces and terms checked
+"""`mkctl paper` and mkctl.analysis.paper: figures written, claims backed by numbers, surfaces and terms checked
 against independent computations (the library's h, F, static_length, finite differences)."""
 import json
 import re
@@ -7,9 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mkctl import cli, isotonic, knee, paper, stability
+from mkctl import cli
+from mkctl.physics import isotonic, knee, stability
+from mkctl.analysis import paper
 from mkctl.errors import DomainError
-from mkctl.params import DEFAULT, Params
+from mkctl.physics.params import DEFAULT, Params
 
 COARSE = dict(n_alpha=120, n_pe=13, n_pf=5)
 CLAIM_KEYS = {"h_decreasing", "one_sheet", "above_stable", "stability_lost", "below_unreachable", "eq24", "eq25",
@@ -138,7 +140,7 @@ def test_fig5_model2_point_matches_static_length():
     assert by_model[2].length[2] == pytest.approx(float(L), abs=1e-12)
     assert by_model[2].contraction[2] == pytest.approx((DEFAULT.L0 - float(L)) / DEFAULT.L0)
     # the static length carries the load: model 2's tension there is the load (spec's Eq. 13 table check)
-    from mkctl import actuator
+    from mkctl.physics import actuator
     assert float(actuator.tension_model2(by_model[2].length[2], 300e3)) == pytest.approx(30.0, rel=1e-9)
     # model 1 cannot carry a load without pressure: a gap, where static_length raises
     assert np.isnan(by_model[1].length[0]) and np.isfinite(by_model[1].length[1:]).all()
@@ -152,7 +154,7 @@ def test_eq23_terms_add_up_to_h_and_match_finite_differences():
     terms = paper.eq23_terms(alpha, Pe, Pf)
     np.testing.assert_allclose(terms.h, stability.h_function(alpha, Pe, Pf), rtol=1e-9, atol=1e-9)
     # the extensor's pressure term is Pe d/dalpha [(3 Le^2 - b^2)/(4 pi n^2)]: difference it along alpha
-    from mkctl import actuator
+    from mkctl.physics import actuator
     step = 1e-6
     gain = lambda a: actuator.pressure_gain(knee.geometry_at_alpha(a).Le, DEFAULT.b, DEFAULT.n)  # noqa: E731
     np.testing.assert_allclose(terms.extensor_pressure, Pe * (gain(alpha + step) - gain(alpha - step)) / (2 * step),

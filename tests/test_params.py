@@ -4,7 +4,7 @@ import math
 import pytest
 
 from mkctl.errors import ParameterError
-from mkctl.params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, UNITS, Params
+from mkctl.physics.params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, UNITS, Params
 
 
 def test_derived_turns_and_rubber_volume_match_spec_section_2():

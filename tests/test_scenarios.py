@@ -53,7 +53,7 @@ def test_scenario_runs_to_its_end_and_writes_csv_and_png(name, built_fmus, tmp_p
     if name == "damping_sweep":
         # c = 0 and 80 peak within 0.4 s: a number, checked against the CSV; c = 3000 creeps: undefined, with why
         rows = {float(m[1]): m[2] for m in re.finditer(r"^\s+(\d+)\s+\S+\s+(\S+)", done.stdout, re.M)}
-        from mkctl.stability import equilibrium_hip_height, posture_stability  # the library's reference
+        from mkctl.physics.stability import equilibrium_hip_height, posture_stability  # the library's reference
 
         rest = posture_stability(np.radians(60.0), Pf=100e3)
         target = equilibrium_hip_height(rest.Pe * 1.05, rest.Pf)

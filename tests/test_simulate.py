@@ -3,10 +3,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from mkctl import isotonic, knee, stability
+from mkctl.physics import isotonic, knee, stability
 from mkctl.errors import DomainError
-from mkctl.params import DEFAULT, Params
-from mkctl.simulate import ActuatorSimulator, KneeSimulator, default_commands, simulate_knee
+from mkctl.physics.params import DEFAULT, Params
+from mkctl.physics.simulate import ActuatorSimulator, KneeSimulator, default_commands, simulate_knee
 
 
 def test_default_commands_hold_the_default_posture_at_rest():
@@ -76,7 +76,7 @@ def test_actuator_simulator_lags_and_computes_tension():
     act = ActuatorSimulator(Params(tau=0.1), p0=0.0)
     act.step(0.1, 1e5)
     assert act.pressure == pytest.approx(1e5 * (1 - np.exp(-1)))
-    from mkctl.actuator import tension_model2
+    from mkctl.physics.actuator import tension_model2
     assert act.outputs(1e5, 0.2, 0.0)["f"] == pytest.approx(tension_model2(0.2, act.pressure))
     with pytest.raises(DomainError):
         act.outputs(1e5, 0.25, 0.0)
@@ -87,7 +87,7 @@ def test_actuator_simulator_lags_and_computes_tension():
 def test_static_isotonic_length_carries_the_load():
     P = np.array([1e5, 3e5, 5e5])
     L = isotonic.static_length(P, 60.0)
-    from mkctl.actuator import static_tension
+    from mkctl.physics.actuator import static_tension
     np.testing.assert_allclose(static_tension(L, P), 60.0, rtol=1e-9)
     with pytest.raises(DomainError, match="no actuator length"):
         isotonic.static_length(0.0, 50.0, Params(model=1))
@@ -124,7 +124,7 @@ def test_knee_states_is_simulate_knee_at_the_asked_samples():
     pe, pf = default_commands()
     t = np.arange(0, 0.3, 1e-3)
     pe_cmd = np.where(t < 0.05, pe, 1.04 * pe)
-    from mkctl.simulate import knee_states
+    from mkctl.physics.simulate import knee_states
     full = simulate_knee(t, pe_cmd, pf, Params(c=30.0))
     at = np.array([0, 17, 120, 299])
     X, V = knee_states(t, pe_cmd, pf, Params(c=30.0), at=at)

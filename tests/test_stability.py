@@ -2,8 +2,8 @@
 import numpy as np
 import pytest
 
-from mkctl import knee, stability
-from mkctl.params import DEFAULT, Params
+from mkctl.physics import knee, stability
+from mkctl.physics.params import DEFAULT, Params
 
 
 def numerical_jacobian(params, X, Pe, Pf, V=0.0):

@@ -1,4 +1,4 @@
-"""``mkctl linearize``, ``mkctl rootlocus`` and ``mkctl step``: the linear view of the knee (:mod:`mkctl.control`).
+"""``mkctl linearize``, ``mkctl rootlocus`` and ``mkctl step``: the linear view of the knee (:mod:`mkctl.analysis.control`).
 
 Common options: the posture (``--alpha`` deg or ``--X`` m, default alpha = 60 deg), the flexor pressure
 (``--pf`` kPa, default 100), the damping (``--c`` N s/m; where a damped knee is needed and no c is given,
@@ -13,18 +13,18 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import control_defaults
-from ..params import DEFAULT, RATED_PRESSURE
-from ..simulate import DEFAULT_ALPHA, DEFAULT_PF
+from ..analysis import control_defaults
+from ..physics.params import DEFAULT, RATED_PRESSURE
+from ..physics.simulate import DEFAULT_ALPHA, DEFAULT_PF
 from .options import UsageError, output_folder, parse_assignments
 
 
 class _LazyControl:
-    """:mod:`mkctl.control`, imported on first use: python-control takes seconds to import, and
+    """:mod:`mkctl.analysis.control`, imported on first use: python-control takes seconds to import, and
     ``mkctl --help`` or another subcommand should not wait for it."""
 
     def __getattr__(self, name):
-        from .. import control
+        from ..analysis import control
 
         return getattr(control, name)
 
@@ -133,7 +133,7 @@ def _fmu_path(args):
             print(f"note: FMU {control_defaults.DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
         return control_defaults.DEFAULT_FMU
-    from ..fmu_linear import check_fmu
+    from ..fmu.probe import check_fmu
 
     return check_fmu(args.fmu)
 

@@ -6,7 +6,7 @@
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
   overlay and the residual as PNG.
 - ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
-  :mod:`mkctl.diagnose`), prints a summary and saves the JSON report and the pictures.
+  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from .options import output_file, output_folder, parse_assignments, split_items
 
 def register(subparsers) -> None:
     """Add ``synth``, ``compare`` and ``diagnose`` to the `mkctl` parser."""
-    from ..synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE
+    from ..analysis.synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE
 
     p = subparsers.add_parser(
         "synth", help="write a synthetic measurement file with hidden effects (the virtual test bench)",
@@ -71,10 +71,10 @@ def register(subparsers) -> None:
 
 
 def run_synth(args) -> int:
-    from ..params import UNITS
-    from ..synth import synthesize, write_synthetic
+    from ..physics.params import UNITS
+    from ..analysis.synth import synthesize, write_synthetic
 
-    from ..synth import truth_path_for
+    from ..analysis.synth import truth_path_for
 
     output_file(args.output, "output file")
     if not args.no_truth:
@@ -92,8 +92,8 @@ def run_synth(args) -> int:
 
 
 def run_compare(args) -> int:
-    from ..compare import compare, fit_text, plot_overlay, plot_residuals
-    from ..measurements import read_measurement
+    from ..analysis.compare import compare, fit_text, plot_overlay, plot_residuals
+    from ..io.measurements import read_measurement
 
     folder = output_folder(args.out, "--out") if args.out else Path(args.file).resolve().parent
     measurement = read_measurement(args.file)
@@ -114,8 +114,8 @@ def run_compare(args) -> int:
 
 
 def run_diagnose(args) -> int:
-    from ..diagnose import diagnose, public, save_pictures, summary
-    from ..measurements import read_measurement
+    from ..analysis.diagnose import diagnose, public, save_pictures, summary
+    from ..io.measurements import read_measurement
 
     # every output path is checked before the fit, which takes seconds to minutes
     json_path = output_file(args.json, "--json") if args.json else None

@@ -9,7 +9,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import MkctlError, ParameterError
-from ..params import PARAMETER_NAMES
+from ..physics.params import PARAMETER_NAMES
 
 
 class UsageError(MkctlError, ValueError):

@@ -2,7 +2,7 @@
 
 Writes into ``--out`` (default ``out/paper``): ``fig5_contraction.png``, ``fig7_surfaces.png`` (3-D),
 ``fig7_sections.png`` (2-D), ``claims.md`` and ``claims.json``. Parameters default to Table I and II;
-``--mass`` and ``--set NAME=VALUE`` (repeatable, any name of :data:`mkctl.params.PARAMETER_NAMES`) change them.
+``--mass`` and ``--set NAME=VALUE`` (repeatable, any name of :data:`mkctl.physics.params.PARAMETER_NAMES`) change them.
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..params import DEFAULT, PARAMETER_NAMES
+from ..physics.params import DEFAULT, PARAMETER_NAMES
 from .options import output_folder, parse_assignments
 
 
@@ -38,7 +38,7 @@ def run_paper(args: argparse.Namespace) -> int:
     params = DEFAULT.replace(**overrides) if overrides else DEFAULT
     progress = None if args.quiet else (lambda message: print(f"mkctl paper: {message}", file=sys.stderr))
     output_folder(args.out, "--out")
-    from .. import paper  # here, not at the top: it imports matplotlib, which other commands need not wait for
+    from ..analysis import paper  # here, not at the top: it imports matplotlib, which other commands need not wait for
 
     written = paper.reproduce_paper(args.out, params, progress=progress)
     for name, path in written.items():

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 from ..errors import MkctlError
-from ..report import Section, write_index
+from ..io.report import Section, write_index
 from .options import output_folder
 
 ROOT = Path(__file__).resolve().parents[2]

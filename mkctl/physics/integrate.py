@@ -14,7 +14,7 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import DomainError
+from ..errors import DomainError
 
 _C = (0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0)
 _A = (

@@ -1,4 +1,4 @@
-"""Default settings of the control analysis, apart from :mod:`mkctl.control` so that the command line can
+"""Default settings of the control analysis, apart from :mod:`mkctl.analysis.control` so that the command line can
 show them without importing python-control (which takes seconds)."""
 from pathlib import Path
 

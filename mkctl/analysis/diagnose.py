@@ -1,6 +1,6 @@
 """Diagnosis: which effect of model-spec section 4 is the model missing, and with what parameter?
 
-Given a measurement (:mod:`mkctl.measurements`), :func:`diagnose` starts from the file's baseline and
+Given a measurement (:mod:`mkctl.io.measurements`), :func:`diagnose` starts from the file's baseline and
 adds effects one at a time, forward stepwise, while the evidence supports it:
 
 1. **Split** the record in time: the first 70 % trains, the last 30 % is held out. (Simulations always
@@ -30,7 +30,7 @@ of motion for friction, the pressure-command rate for the lag, the rubber's tens
 and near-ties (BIC within :data:`TIE_BIC`) together with the experiment that would tell them apart.
 
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points; the
-integrator still runs through every change of the commands, see :func:`mkctl.compare.simulate_output`),
+integrator still runs through every change of the commands, see :func:`mkctl.analysis.compare.simulate_output`),
 so n in BIC is the number of those samples. RMSE in the steps and before/after is over every sample.
 All RMSE are in the units of the file's output column; parameters are SI.
 """
@@ -44,12 +44,12 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
-from . import actuator, knee
+from ..physics import actuator, knee
 from .compare import fit_percent, fit_text, plot_overlay, plot_residuals, rmse, simulate_output
-from .errors import MkctlError
-from .measurements import Measurement
-from .params import UNITS, Params
-from .plotting import new_figure, save_png
+from ..errors import MkctlError
+from ..io.measurements import Measurement
+from ..physics.params import UNITS, Params
+from ..io.plotting import new_figure, save_png
 
 #: Share of the record (at its end) held out from fitting.
 HOLDOUT_FRACTION = 0.3

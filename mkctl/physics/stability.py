@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from . import knee
-from .errors import DomainError
+from ..errors import DomainError
 from .params import DEFAULT, Params
 
 #: The default posture of the FMU, the examples and the analyses: alpha = 60 deg (model-spec section 7)...

@@ -11,7 +11,7 @@ then one row of numbers per sample::
     ...
 
 - ``experiment`` (required): ``isotonic`` or ``knee``. ``baseline``: ``model1`` or ``model2`` (default).
-  Any parameter name of :data:`mkctl.params.PARAMETER_NAMES` overrides the default (SI units); an
+  Any parameter name of :data:`mkctl.physics.params.PARAMETER_NAMES` overrides the default (SI units); an
   effect parameter (``c = 45``) makes that effect part of the baseline with that known value. The
   baseline model is chosen with ``baseline``, not ``model``. Lines starting with ``#`` that hold no
   ``=`` are free comments.
@@ -34,8 +34,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .errors import MeasurementFileError, ParameterError
-from .params import PARAMETER_NAMES, Params
+from ..errors import MeasurementFileError, ParameterError
+from ..physics.params import PARAMETER_NAMES, Params
 
 
 class Quantity(NamedTuple):

@@ -42,7 +42,7 @@ import numpy as np
 from scipy.linalg import logm
 
 try:  # part of the mkctl package: errors are MkctlErrors (one line in the CLI)
-    from .errors import MkctlError as _Base
+    from ..errors import MkctlError as _Base
 except ImportError:  # loaded standalone by file path (test subprocess)
     _Base = RuntimeError
 
@@ -92,7 +92,7 @@ class KneeFMU:
     """One instance of a knee FMU driven step by step with fmpy's FMU2Slave (context manager).
 
     Parameters: path to the .fmu; start_values: parameter values by name (unknown names are ignored, so a
-    full :meth:`mkctl.params.Params.as_dict` can be passed); inputs: (pe_cmd, pf_cmd) [Pa] at initialization;
+    full :meth:`mkctl.physics.params.Params.as_dict` can be passed); inputs: (pe_cmd, pf_cmd) [Pa] at initialization;
     tolerance: passed to fmi2SetupExperiment.
     """
 

@@ -1,8 +1,8 @@
 """Compare a model with a measurement: simulate the file's inputs, and score the error.
 
-The simulation is the library's: :func:`mkctl.isotonic.simulate_isotonic` for the isotonic test, and
-the knee's :class:`mkctl.simulate.KneeSimulator` for the knee, started at rest in the stable equilibrium
-of the first commands, exactly as :func:`mkctl.simulate.simulate_knee` starts it. For the knee,
+The simulation is the library's: :func:`mkctl.physics.isotonic.simulate_isotonic` for the isotonic test, and
+the knee's :class:`mkctl.physics.simulate.KneeSimulator` for the knee, started at rest in the stable equilibrium
+of the first commands, exactly as :func:`mkctl.physics.simulate.simulate_knee` starts it. For the knee,
 :func:`simulate_output` may ask for the output at a subset of the samples only: the integrator then
 takes one communication step from each sample it needs (or each change of the commands) to the next,
 which gives the same values (to the integrator's tolerance) at a fraction of the cost. The diagnosis
@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import MkctlError
-from .isotonic import simulate_isotonic
-from .measurements import Measurement
-from .params import Params
-from .plotting import new_figure, save_png
-from .simulate import knee_states
+from ..errors import MkctlError
+from ..physics.isotonic import simulate_isotonic
+from ..io.measurements import Measurement
+from ..physics.params import Params
+from ..io.plotting import new_figure, save_png
+from ..physics.simulate import knee_states
 
 
 def simulate_output(measurement: Measurement, params: Params, at=None, stop: int | None = None,

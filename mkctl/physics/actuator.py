@@ -4,12 +4,12 @@ Every function works on numpy arrays (or plain floats) and broadcasts. Lengths a
 gauge pressures P' = P - P0 in Pa, tensions in N, positive when the actuator pulls (model-spec section 1).
 
 Source: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5-13, with the
-missing n and V_r fixed by model-spec section 2 (see :mod:`mkctl.params`), and the effects of model-spec
+missing n and V_r fixed by model-spec section 2 (see :mod:`mkctl.physics.params`), and the effects of model-spec
 section 4.
 
 Example
 -------
->>> from mkctl.actuator import tension_model1, tension_model2
+>>> from mkctl.physics.actuator import tension_model1, tension_model2
 >>> round(float(tension_model2(0.18, 300e3)), 6)
 75.248131
 """
@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from .errors import DomainError
+from ..errors import DomainError
 from .params import DEFAULT, Params
 
 

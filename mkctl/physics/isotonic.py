@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 from . import actuator
-from .errors import DomainError
+from ..errors import DomainError
 from .params import DEFAULT, Params
 
 _BISECTIONS = 60  # halves the bracket (0, b) to below 1e-18 m

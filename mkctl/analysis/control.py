@@ -6,7 +6,7 @@ The knee of Eq. 17 as a python-control :class:`control.NonlinearIOSystem` with n
 - inputs ``pe_cmd``, ``pf_cmd`` [Pa] (the commanded gauge pressures); outputs: the states.
 
 Linearized at a posture held at rest (an operating point), with ``G = dF/d(.)`` from
-:func:`mkctl.knee.knee_force_partials`::
+:func:`mkctl.physics.knee.knee_force_partials`::
 
     A = [[0,        1,        0,          0         ],     B = [[0,     0    ],
          [dF_dX/m,  dF_dV/m,  dF_dPe/m,   dF_dPf/m  ],          [0,     0    ],
@@ -27,7 +27,7 @@ damping is the velocity feedback ``u = -k V`` on the undamped plant, with loop g
 Example
 -------
 >>> import numpy as np
->>> from mkctl import control as mc
+>>> from mkctl.analysis import control as mc
 >>> op = mc.operating_point(np.radians(60), pf=100e3)
 >>> sys = mc.analytic_linearization(op)
 >>> sys.state_labels, sys.input_labels
@@ -42,12 +42,13 @@ from pathlib import Path
 import control as ct
 import numpy as np
 
-from . import fmu_linear, knee, stability
-from .errors import DomainError, MkctlError
-from .fmu_linear import FMUAnalysisError, fmu_step_response
-from .params import DEFAULT, Params
+from ..fmu import probe
+from ..physics import knee, stability
+from ..errors import DomainError, MkctlError
+from ..fmu.probe import FMUAnalysisError, fmu_step_response
+from ..physics.params import DEFAULT, Params
 from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
-from .simulate import DEFAULT_PF, knee_states
+from ..physics.simulate import DEFAULT_PF, knee_states
 
 __all__ = [
     "ControlAnalysisError", "FMUAnalysisError", "KneeOperatingPoint", "INPUT_NAMES", "knee_nlsys",
@@ -75,10 +76,10 @@ class ControlAnalysisError(MkctlError, ValueError):
 
 def knee_nlsys(params: Params = DEFAULT, *, stops: bool = True, scale: dict | None = None,
                name: str = "knee") -> ct.NonlinearIOSystem:
-    """Eq. 17 (:func:`mkctl.knee.knee_derivatives`) as a python-control nonlinear I/O system.
+    """Eq. 17 (:func:`mkctl.physics.knee.knee_derivatives`) as a python-control nonlinear I/O system.
 
     States X, V (+ Pe, Pf with a lag), inputs pe_cmd, pf_cmd, outputs the states, all SI. ``stops``: include
-    the mechanical end stops (as :func:`mkctl.simulate.simulate_knee` does). ``scale``: optional unit sizes
+    the mechanical end stops (as :func:`mkctl.physics.simulate.simulate_knee` does). ``scale``: optional unit sizes
     by signal name (a signal's value in the system is its SI value divided by its scale), used to give
     python-control's fixed absolute finite-difference step a sensible size (:data:`LINEARIZE_SCALE`).
     """
@@ -129,7 +130,7 @@ class KneeOperatingPoint:
 
 
 def _posture(alpha, X, params) -> tuple[float, float]:
-    """(alpha [rad], X [m]) from exactly one of them (:func:`mkctl.knee.posture`); between the end stops."""
+    """(alpha [rad], X [m]) from exactly one of them (:func:`mkctl.physics.knee.posture`); between the end stops."""
     alpha, X = knee.posture(alpha, X, params)
     low, high = knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH
     if not low < alpha < high:
@@ -187,7 +188,7 @@ def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
 
 
 def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") -> ct.StateSpace:
-    """The linearization at op from the analytic partials of :func:`mkctl.knee.knee_force_partials`.
+    """The linearization at op from the analytic partials of :func:`mkctl.physics.knee.knee_force_partials`.
 
     Named states, inputs and outputs as in :func:`knee_nlsys`; A[1, 0] = a2 and A[1, 1] = a1 of Eq. 18.
     """
@@ -222,9 +223,9 @@ def numerical_linearization(op: KneeOperatingPoint, scale: dict | None = None, e
     return _named_ss(A, B, op.params, name)
 
 
-def fmu_linearization(op: KneeOperatingPoint, fmu=DEFAULT_FMU, dt: float = fmu_linear.DT,
-                      hX: float = fmu_linear.HX, hP: float = fmu_linear.HP, name: str = "knee_fmu") -> ct.StateSpace:
-    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu_linear`).
+def fmu_linearization(op: KneeOperatingPoint, fmu=DEFAULT_FMU, dt: float = probe.DT,
+                      hX: float = probe.HX, hP: float = probe.HP, name: str = "knee_fmu") -> ct.StateSpace:
+    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu.probe`).
 
     A one-step Jacobian of the FMU's flow map (perturbed X0 and inputs, velocity states prepared and
     restored with fmi2Get/SetFMUstate) turned into A, B by a matrix logarithm, dt halved until it is short
@@ -232,7 +233,7 @@ def fmu_linearization(op: KneeOperatingPoint, fmu=DEFAULT_FMU, dt: float = fmu_l
     :func:`analytic_linearization`.
     """
     p = op.params
-    A, B, _ = fmu_linear.linearize_fmu(fmu, p.as_dict(), op.X, op.inputs, p.tau > 0, dt=dt, hX=hX, hP=hP)
+    A, B, _ = probe.linearize_fmu(fmu, p.as_dict(), op.X, op.inputs, p.tau > 0, dt=dt, hX=hX, hP=hP)
     return _named_ss(A, B, p, name)
 
 
@@ -416,7 +417,7 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     """Hip height response to a step of the extensor command pe_cmd by dpe [Pa] at t_step [s], from rest at op.
 
     Three models on one time grid (sampling dt [s]): the linearization (:func:`analytic_linearization`,
-    python-control ``step_response``), the nonlinear model (:class:`mkctl.simulate.KneeSimulator`, end stops
+    python-control ``step_response``), the nonlinear model (:class:`mkctl.physics.simulate.KneeSimulator`, end stops
     included) and, if ``fmu`` is a path to an existing file, the knee FMU through fmpy's ``simulate_fmu``.
     Returns a dict: "time" [s]; "linear", "nonlinear", "fmu" (None without FMU): X - X_op [m];
     "info": step_info of each, measured from t_step, with the known final values (the linear model's DC
@@ -501,7 +502,7 @@ def _pole_axes(ax, title):
 
 def plot_damping_locus(op: KneeOperatingPoint, c_values, c_marked: float | None = None, path=None):
     """Root locus of the mechanical poles against c (:func:`damping_root_locus`), c = 0 and c_marked marked."""
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     c_values, loci = damping_root_locus(op, c_values)
     mech = np.isfinite(loci)
@@ -524,7 +525,7 @@ def plot_damping_locus(op: KneeOperatingPoint, c_values, c_marked: float | None 
 def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None = None, path=None):
     """Eigenvalues against tau, open loop (only the lag poles move) and closed loop with height gain K,
     and the critical height gain against tau."""
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     taus, open_loop, closed = lag_sweep(op, taus, gain, ti)
     fig, axes = new_figure(1, 3, figsize=(15, 4.8))
@@ -561,7 +562,7 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
 
 def plot_gain_locus(op: KneeOperatingPoint, gains, ti: float | None = None, tau: float = DEFAULT_TAU, path=None):
     """Root loci of the height controller against K, without and with the lag tau, critical gains marked."""
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     fig, ax = new_figure(figsize=(7, 5.4))
     summary = {}
@@ -592,7 +593,7 @@ def plot_gain_locus(op: KneeOperatingPoint, gains, ti: float | None = None, tau:
 
 def plot_step(result: dict, op: KneeOperatingPoint, path=None):
     """The hip-height step responses of :func:`step_responses`, in mm, with their step_info in the legend."""
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     fig, ax = new_figure(figsize=(7.5, 4.8))
     t = result["time"]
@@ -615,7 +616,7 @@ def plot_step(result: dict, op: KneeOperatingPoint, path=None):
 
 def plot_poles(cases: dict, title: str, path=None):
     """Eigenvalues of several linearizations on one pole map: {label: eigenvalues [1/s]}."""
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     fig, ax = new_figure(figsize=(6.4, 5.0))
     markers = iter("xo^sdv*")

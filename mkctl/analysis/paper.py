@@ -1,14 +1,14 @@
 """The paper's figures and claims, reproduced from the model.
 
 - Fig. 5: contraction against pressure under constant loads, model 1 (Eq. 7) against model 2 (Eq. 13),
-  the quasi-static isotonic test of :mod:`mkctl.isotonic`.
+  the quasi-static isotonic test of :mod:`mkctl.physics.isotonic`.
 - Fig. 7: the h = 0 sheet (Eq. 22-23) and the equilibrium set (V = 0, F = m g) over (alpha, Pe', Pf'),
   with the curve where they meet: where stability is lost on the equilibrium set.
 - The claims of Section VI, each with the number from the model that supports or refutes it
   (:func:`paper_claims`, :func:`claims_markdown`).
 
 Nothing here writes an equation: h, the two surfaces, a1, a2 and the geometry come from
-:mod:`mkctl.stability` and :mod:`mkctl.knee`; the four terms of Eq. 24-25 are the library's actuator
+:mod:`mkctl.physics.stability` and :mod:`mkctl.physics.knee`; the four terms of Eq. 24-25 are the library's actuator
 derivatives times the geometry's dL/dalpha (chain rule), and a test checks that they add up to h.
 
 "Above" the h = 0 sheet means at larger alpha (a straighter leg), as in the paper: h decreases along
@@ -16,7 +16,7 @@ alpha, and the paper calls the side where h < 0 "above". Fig. 7 is drawn with al
 
 Example
 -------
->>> from mkctl import paper
+>>> from mkctl.analysis import paper
 >>> loss = paper.stability_loss_alpha(100e3)       # on the equilibrium set, Pf' = 100 kPa
 >>> 50 < float(np.degrees(loss)) < 53
 True
@@ -32,9 +32,9 @@ from typing import Callable, NamedTuple
 import numpy as np
 from scipy.optimize import brentq
 
-from . import actuator, isotonic, knee, stability
-from .errors import DomainError
-from .params import DEFAULT, Params
+from ..physics import actuator, isotonic, knee, stability
+from ..errors import DomainError
+from ..physics.params import DEFAULT, Params
 
 #: Constant loads of Fig. 5 [N] and its pressure sweep [Pa].
 FIG5_LOADS = (10.0, 30.0, 60.0, 100.0)
@@ -119,7 +119,7 @@ class Fig5Curve(NamedTuple):
 def fig5_curves(params: Params = DEFAULT, loads=FIG5_LOADS, pressures=FIG5_PRESSURES) -> list[Fig5Curve]:
     """Model curves of Fig. 5: static length and contraction against pressure, for each load and model.
 
-    Parameters: loads [N], pressures [Pa]. Uses :func:`mkctl.isotonic.static_length`; a pressure at which
+    Parameters: loads [N], pressures [Pa]. Uses :func:`mkctl.physics.isotonic.static_length`; a pressure at which
     no length carries the load (model 1 near P = 0) gives NaN, so the curve has a gap there.
     """
     pressures = np.asarray(pressures, dtype=float)
@@ -146,7 +146,7 @@ def plot_fig5(path, params: Params = DEFAULT, curves: list[Fig5Curve] | None = N
     """Fig. 5: contraction [%] against pressure [kPa], one colour per load, model 1 dashed, model 2 solid."""
     from matplotlib.lines import Line2D
 
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     curves = fig5_curves(params) if curves is None else curves
     loads = sorted({c.load for c in curves})
@@ -239,8 +239,8 @@ def _in_range_run(fun, grid, low: float, high: float):
 def fig7_surfaces(params: Params = DEFAULT, Pe_max: float = PE_MAX, Pf_max: float = PF_MAX,
                   n_pf: int = 25, n_alpha: int = 80, search: int = 400,
                   eq_range: tuple[float, float] | None = None) -> Fig7Data:
-    """The h = 0 sheet (:func:`mkctl.stability.h_zero_pressure`) and the equilibrium set
-    (:func:`mkctl.stability.equilibrium_pressure`), both as Pe(alpha, Pf), where 0 <= Pe <= Pe_max [Pa].
+    """The h = 0 sheet (:func:`mkctl.physics.stability.h_zero_pressure`) and the equilibrium set
+    (:func:`mkctl.physics.stability.equilibrium_pressure`), both as Pe(alpha, Pf), where 0 <= Pe <= Pe_max [Pa].
 
     For each Pf in 0..Pf_max [Pa], each surface is resampled over the run of alpha where its Pe lies in
     range (found on ``search`` samples, ends refined), so that the grids have no ragged edges. ``eq_range``:
@@ -283,7 +283,7 @@ def plot_fig7(path, params: Params = DEFAULT, data: Fig7Data | None = None, view
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     d = fig7_surfaces(params) if data is None else data
     fig, ax = new_figure(figsize=(8.2, 7.0), subplot_kw={"projection": "3d"})
@@ -332,7 +332,7 @@ def plot_fig7_sections(path, params: Params = DEFAULT, pf_values=(0.0, 100e3, 30
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    from .plotting import new_figure, save_png
+    from ..io.plotting import new_figure, save_png
 
     fig, ax = new_figure(figsize=(10.0, 5.0))
     alpha = alpha_domain(params, samples)

@@ -8,7 +8,7 @@ parameters); the hidden values go to a sidecar ``<name>.truth.json``, never into
 Default inputs (chosen to excite what each experiment can show):
 
 - ``knee``: 3000 samples at 1 kHz (3 s). The leg starts at rest in the equilibrium of the first commands
-  (the extensor command that holds alpha = 60 deg, :func:`mkctl.simulate.default_commands`, with
+  (the extensor command that holds alpha = 60 deg, :func:`mkctl.physics.simulate.default_commands`, with
   pf = 100 kPa); then the extensor command steps through +4 %, -3 %, +3 %, -2 % of that pressure at
   5, 27.5, 50 and 72.5 % of the record. Steps excite the leg's oscillation (about 1.7 Hz with Table II),
   whose decay shows damping and friction, and whose start shows the pressure lag.
@@ -27,11 +27,11 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import ParameterError
-from .isotonic import simulate_isotonic
-from .measurements import BASELINES, EXPERIMENTS, UNIT_FACTORS, round_to_file, write_measurement
-from .params import EFFECT_PARAMETERS, PARAMETER_NAMES, Params
-from .simulate import default_commands, simulate_knee
+from ..errors import ParameterError
+from ..physics.isotonic import simulate_isotonic
+from ..io.measurements import BASELINES, EXPERIMENTS, UNIT_FACTORS, round_to_file, write_measurement
+from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, Params
+from ..physics.simulate import default_commands, simulate_knee
 
 #: Default samples per experiment.
 DEFAULT_SAMPLES = {"knee": 3000, "isotonic": 2000}
@@ -191,7 +191,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
 
 
 def as_written(experiment: str, time, inputs: dict):
-    """Time and inputs rounded as :func:`mkctl.measurements.write_measurement` writes them."""
+    """Time and inputs rounded as :func:`mkctl.io.measurements.write_measurement` writes them."""
     spec = EXPERIMENTS[experiment]
     rounded = {q.name: round_to_file(inputs[q.name], q) for q in spec.inputs[1:]}
     return round_to_file(time, spec.inputs[0]), rounded

@@ -32,7 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import actuator
-from .errors import DomainError, ParameterError
+from ..errors import DomainError, ParameterError
 from .params import DEFAULT, Params
 
 #: The end stops, as kneecap angles [rad]: deeply bent (beta ~ 96 deg) and short of straight (~171 deg).
@@ -230,7 +230,7 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) 
     """Analytic partial derivatives of :func:`knee_force` at hip velocity V [m/s], pressures Pe, Pf [Pa].
 
     Uses ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V), the derivatives of
-    the static models (:func:`mkctl.actuator.static_tension_dL`, ``_dP``) and of the velocity terms.
+    the static models (:func:`mkctl.physics.actuator.static_tension_dL`, ``_dP``) and of the velocity terms.
     """
     p = params
     force = knee_force(geo, V, Pe, Pf, p)

@@ -12,7 +12,7 @@ Derived values (model-spec section 2):
 
 Example
 -------
->>> from mkctl.params import Params
+>>> from mkctl.physics.params import Params
 >>> p = Params(m=2.5, c=40.0)
 >>> p.effects
 ('elasticity', 'viscous_damping')
@@ -24,7 +24,7 @@ import math
 from types import MappingProxyType
 from typing import NamedTuple
 
-from .errors import ParameterError
+from ..errors import ParameterError
 
 
 class Quantity(NamedTuple):

@@ -8,7 +8,7 @@ measurement bench ("knee" experiment) and the control analysis use it.
 Example
 -------
 >>> import numpy as np
->>> from mkctl.simulate import simulate_knee
+>>> from mkctl.physics.simulate import simulate_knee
 >>> t = np.linspace(0, 1, 101)
 >>> run = simulate_knee(t, np.full(t.size, 1.75e6), np.full(t.size, 100e3))
 >>> run["X"].shape

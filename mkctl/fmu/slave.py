@@ -3,13 +3,13 @@
 ``fmu/mckibben_knee.py`` and ``fmu/mckibben_actuator.py`` declare their interface (inputs, parameters, outputs,
 descriptions, units) and say how to build and step their simulator; everything else lives here once: variable
 registration, the ``n`` default, start and error handling, doStep's refusals, the cached outputs and FMU state.
-No equation lives here either: the simulators of :mod:`mkctl.simulate` do the physics.
+No equation lives here either: the simulators of :mod:`mkctl.physics.simulate` do the physics.
 
 Why a module of mkctl. It is the top layer of the import graph (it imports pythonfmu and mkctl, and only the FMU
 scripts import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
 ``build_fmu.py`` packs every mkctl module the slave scripts import, so both FMUs carry this file as
-``resources/mkctl/fmu_slave.py``. Both FMUs load in one process: their scripts have different module names, and the
-shared names (``mkctl``, ``mkctl.fmu_slave``, ``pythonfmu``) resolve to whichever FMU was loaded first, which is
+``resources/mkctl/fmu/slave.py``. Both FMUs load in one process: their scripts have different module names, and the
+shared names (``mkctl``, ``mkctl.fmu.slave``, ``pythonfmu``) resolve to whichever FMU was loaded first, which is
 the same code since one build packs the same files into both.
 
 Errors. pythonfmu 0.7 turns any Python exception into fmi2Fatal, so nothing here raises: a parameter set the
@@ -29,8 +29,8 @@ from abc import abstractmethod
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 
-from .errors import MkctlError
-from .params import DEFAULT, Params
+from ..errors import MkctlError
+from ..physics.params import DEFAULT, Params
 
 #: Start value of ``n``; a parameter set that leaves n there derives it from b, L0, D0 (model-spec section 2).
 N_START = DEFAULT.n
@@ -42,12 +42,12 @@ MODEL_DESCRIPTION = ("tension model: 1 = Eq. 7 (pressure only), 2 = Eq. 13 (plus
 
 
 class McKibbenSlave(Fmi2Slave):
-    """A co-simulation slave around a simulator of :mod:`mkctl.simulate`.
+    """A co-simulation slave around a simulator of :mod:`mkctl.physics.simulate`.
 
     A subclass declares, as class attributes (value references follow this order):
 
     - ``inputs``: {name: start value}, continuous Real inputs, handed to the simulator's ``outputs`` in this order;
-    - ``parameters``: names of the Real parameters that start at :data:`mkctl.params.DEFAULT`'s value;
+    - ``parameters``: names of the Real parameters that start at :data:`mkctl.physics.params.DEFAULT`'s value;
       the Integer parameter ``model`` follows them;
     - ``extra_parameters``: {name: start value}, further Real parameters after ``model``;
     - ``outputs``: output names; those in ``boolean_outputs`` are discrete Booleans, the rest continuous Reals;

@@ -1,0 +1,1 @@
+"""The input/output layer: measurement files (model-spec section 5), index pages and figures."""
