@@ -7,6 +7,7 @@ from pathlib import Path
 import control as ct
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from mkctl.analysis import control as mc
 from mkctl.physics import knee, stability
@@ -230,10 +231,49 @@ def run_cli(args, capsys):
     return code, out.out, out.err
 
 
+def finite_difference_linearization(alpha, pf, params):
+    """The rest state and the linearization at alpha [rad], pf [Pa] from Eq. 17's right-hand side alone
+    (:func:`mkctl.physics.knee.knee_derivatives`, no stops): pe from its affine dependence on the pressure, the
+    Jacobian by central differences. Independent of mkctl.analysis.control and of the library's partials."""
+    X = float(knee.X_from_alpha(alpha, params))
+    accel = lambda x, v, pe, pf_: knee.knee_derivatives([x, v], pe, pf_, params)[1]  # noqa: E731
+    pe = -accel(X, 0.0, 0.0, pf) * 1e6 / (accel(X, 0.0, 1e6, pf) - accel(X, 0.0, 0.0, pf))
+    hX, hV, hP = 1e-7, 1e-6, 10.0
+    a2 = (accel(X + hX, 0.0, pe, pf) - accel(X - hX, 0.0, pe, pf)) / (2 * hX)
+    a1 = (accel(X, hV, pe, pf) - accel(X, -hV, pe, pf)) / (2 * hV)
+    b = [(accel(X, 0.0, pe + hP, pf) - accel(X, 0.0, pe - hP, pf)) / (2 * hP),
+         (accel(X, 0.0, pe, pf + hP) - accel(X, 0.0, pe, pf - hP)) / (2 * hP)]
+    unit_c = params.replace(c=1.0, Fc=0.0)  # a1 per unit c: -(G_e^2 + G_f^2) / m
+    per_c = (knee.knee_derivatives([X, hV], pe, pf, unit_c)[1] - knee.knee_derivatives([X, -hV], pe, pf, unit_c)[1]) \
+        / (2 * hV)
+    return {"X": X, "pe": pe, "a2": a2, "a1": a1, "b": b, "a1_per_c": per_c}
+
+
+def printed_matrix(text, name):
+    """The numbers of ``NAME =\n[[...]\n [...]]`` as printed by numpy."""
+    block = re.search(name + r" =\n(\[\[.*?\]\])", text, re.S).group(1)
+    return np.array([[float(v) for v in row.split()] for row in re.findall(r"\[([^\[\]]+)\]", block)])
+
+
 def test_cli_linearize(tmp_path, capsys):
-    code, out, _ = run_cli(["linearize", "--out", str(tmp_path), "--no-fmu"], capsys)
+    code, out, _ = run_cli(["linearize", "--out", str(tmp_path), "--no-fmu", "--zeta", "0.4"], capsys)
     assert code == 0
-    assert "Eq. 19 fails" in out and "c = 193.4" in out
+    ref = finite_difference_linearization(ALPHA60, 100e3, Params())
+    assert float(re.search(r"X = (\S+) m", out).group(1)) == pytest.approx(ref["X"], abs=1e-6)
+    assert float(re.search(r"pe = (\S+) kPa", out).group(1)) * 1e3 == pytest.approx(ref["pe"], abs=1.0)
+    A, B = printed_matrix(out, "A"), printed_matrix(out, "B")
+    np.testing.assert_allclose(A, [[0.0, 1.0], [ref["a2"], ref["a1"]]], rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(B, [[0.0, 0.0], ref["b"]], rtol=1e-5)
+    assert "Eq. 19 fails" in out and "Eq. 20 holds" in out  # a1 = 0, a2 < 0
+    assert ref["a1"] == 0.0 and ref["a2"] < 0
+    w_n = math.sqrt(-ref["a2"])
+    assert float(re.search(r"w_n = (\S+) rad/s", out).group(1)) == pytest.approx(w_n, rel=1e-4)
+    # the damping for zeta: the c whose a1 = -2 zeta w_n
+    c = float(re.search(r"zeta = 0.4: c = (\S+) N s/m", out).group(1))
+    assert c * ref["a1_per_c"] == pytest.approx(-2 * 0.4 * w_n, rel=1e-5)
+    poles = re.search(r"-> poles (\S+)-(\S+)j", out)
+    assert float(poles.group(1)) == pytest.approx(-0.4 * w_n, rel=1e-3)
+    assert float(poles.group(2)) == pytest.approx(w_n * math.sqrt(1 - 0.4 ** 2), rel=1e-3)
     error = float(re.search(r"linearize vs analytic: relative error (\S+)", out).group(1))
     assert error < 1e-6
     assert (tmp_path / "poles.png").stat().st_size > 0
@@ -252,11 +292,55 @@ def test_cli_rootlocus(vary, png, tmp_path, capsys):
                                                     tau=0.05)), rel=1e-4)
 
 
+def second_order_step_info(zeta, w_n, t):
+    """Rise time (10-90 %), overshoot [%] and 2 % settling time of the unit step of w_n^2 / (s^2 + 2 zeta w_n s +
+    w_n^2), from its closed form sampled at t: the textbook reference for the linear response."""
+    wd = w_n * math.sqrt(1 - zeta ** 2)
+    y = 1 - np.exp(-zeta * w_n * t) * (np.cos(wd * t) + zeta / math.sqrt(1 - zeta ** 2) * np.sin(wd * t))
+    rise = t[np.argmax(y >= 0.9)] - t[np.argmax(y >= 0.1)]
+    outside = np.flatnonzero(np.abs(y - 1) > 0.02)
+    return rise, 100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta ** 2)), t[outside[-1] + 1]
+
+
 def test_cli_step(tmp_path, capsys):
     code, out, _ = run_cli(["step", "--out", str(tmp_path), "--no-fmu", "--duration", "1.5"], capsys)
     assert code == 0
     assert (tmp_path / "step_small.png").exists() and (tmp_path / "step_large.png").exists()
-    assert "overshoot" in out
+    ref = finite_difference_linearization(ALPHA60, 100e3, Params())
+    w_n = math.sqrt(-ref["a2"])
+    c = -2 * 0.3 * w_n / ref["a1_per_c"]  # zeta = 0.3, the default
+    assert float(re.search(r"c = (\S+) N s/m", out).group(1)) == pytest.approx(c, rel=1e-3)
+    printed = {}
+    for size, block in re.findall(r"(small|large) step of pe_cmd[^\n]*\n((?:  [^\n]*\n?)*)", out):
+        for name, *numbers in re.findall(r"  (\w+)\s*: rise (\S+) s, overshoot (\S+) %, settling (\S+) s, "
+                                         r"final X - X_op = (\S+) mm", block):
+            printed[size, name] = tuple(float(v) for v in numbers)
+    assert set(printed) == {(s, n) for s in ("small", "large") for n in ("linear", "nonlinear")}
+    # linear: the textbook second-order step (zeta = 0.3 exactly), scaled by the DC gain b / -a2
+    t = np.linspace(0.0, 1.4, 1401)  # from the step at 0.1 s to the end at 1.5 s, dt = 1 ms
+    rise, overshoot, settling = second_order_step_info(0.3, w_n, t)
+    for size, dpe in (("small", 1e3), ("large", 100e3)):
+        lin = printed[(size, "linear")]
+        assert lin[0] == pytest.approx(rise, abs=1.5e-3)
+        assert lin[1] == pytest.approx(overshoot, rel=2e-3)
+        assert lin[2] == pytest.approx(settling, abs=1.5e-3)
+        assert lin[3] == pytest.approx(1e3 * dpe * ref["b"][0] / -ref["a2"], rel=2e-3)
+    # nonlinear: Eq. 17 integrated here by scipy (its own integrator), from rest, the step at 0.1 s
+    from scipy.integrate import solve_ivp
+
+    params = Params(c=c)
+    stops = knee.stop_positions(params)
+    for size, dpe in (("small", 1e3), ("large", 100e3)):
+        pe1 = ref["pe"] + dpe
+        run = solve_ivp(lambda _, y: knee.knee_derivatives(y, pe1, 100e3, params, stops), (0.0, t[-1]),
+                        [ref["X"], 0.0], t_eval=t, rtol=1e-10, atol=1e-12, method="DOP853")
+        y = run.y[0] - ref["X"]
+        final = brentq(lambda x: knee.ground_force(x, pe1, 100e3, 0.0, params) - params.m * params.g,
+                       ref["X"] - 0.02, ref["X"] + 0.02) - ref["X"]
+        nonlin = printed[(size, "nonlinear")]
+        assert nonlin[1] == pytest.approx(100 * (y.max() - final) / final, rel=2e-3)
+        assert nonlin[0] == pytest.approx(t[np.argmax(y >= 0.9 * final)] - t[np.argmax(y >= 0.1 * final)], abs=1.5e-3)
+        assert nonlin[3] == pytest.approx(1e3 * y[-1], rel=2e-3)  # the last sample, as printed
 
 
 @pytest.mark.parametrize("args,message", [
