@@ -396,10 +396,11 @@ def test_cli_fmu_given_explicitly_must_be_an_fmu(command, tmp_path, capsys):
 def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeypatch):
     from mkctl.analysis import control_defaults
 
-    monkeypatch.setattr(control_defaults, "DEFAULT_FMU", tmp_path / "not_built.fmu")
+    monkeypatch.chdir(tmp_path)  # a folder with no dist/: the command's default FMU is not built here
     code, out, err = run_cli(["linearize", "--out", str(tmp_path)], capsys)
     assert code == 0 and err == ""
-    assert f"note: FMU {tmp_path / 'not_built.fmu'} not found" in out and "FMU linearization" not in out
+    assert "note: FMU dist/McKibbenKnee.fmu not found" in out and "FMU linearization" not in out
+    assert not hasattr(control_defaults, "DEFAULT_FMU")  # no library default that depends on the working folder
 
 
 def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):

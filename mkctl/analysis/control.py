@@ -47,7 +47,7 @@ from ..physics import knee, stability
 from ..errors import DomainError, MkctlError
 from ..fmu.probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
-from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
+from .control_defaults import DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
 from ..physics.simulate import DEFAULT_PF, knee_states
 
 __all__ = [
@@ -56,7 +56,7 @@ __all__ = [
     "damping_ratio", "natural_frequency", "damping_for_zeta", "damping_loop", "damping_root_locus",
     "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
     "step_responses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
-    "plot_step", "DEFAULT_FMU", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
+    "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
 ]
 
 #: Input names of every system built here.
@@ -223,7 +223,7 @@ def numerical_linearization(op: KneeOperatingPoint, scale: dict | None = None, e
     return _named_ss(A, B, op.params, name)
 
 
-def fmu_linearization(op: KneeOperatingPoint, fmu=DEFAULT_FMU, dt: float = probe.DT,
+def fmu_linearization(op: KneeOperatingPoint, fmu, dt: float = probe.DT,
                       hX: float = probe.HX, hP: float = probe.HP, name: str = "knee_fmu") -> ct.StateSpace:
     """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu.probe`).
 
@@ -413,7 +413,7 @@ def _response_info(time, y, final=None):
 
 
 def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = STEP_TIME,
-                   dt: float = 1e-3, fmu=DEFAULT_FMU):
+                   dt: float = 1e-3, fmu=None):
     """Hip height response to a step of the extensor command pe_cmd by dpe [Pa] at t_step [s], from rest at op.
 
     Three models on one time grid (sampling dt [s]): the linearization (:func:`analytic_linearization`,

@@ -31,6 +31,10 @@ class _LazyControl:
 
 mc = _LazyControl()
 
+#: The knee FMU the commands use unless --fmu names one: where ``python build_fmu.py`` writes it, in the folder
+#: the command runs in (a command-line default; the library takes the path explicitly).
+CLI_DEFAULT_FMU = Path("dist") / "McKibbenKnee.fmu"
+
 #: Above this gauge pressure [Pa] a note says the result is far outside what a McKibben muscle takes: many
 #: times its rating (the defaults already need about three times it, so the note is kept for the extreme).
 PLAUSIBLE_PRESSURE = 10 * RATED_PRESSURE
@@ -56,7 +60,7 @@ def _add_common(parser, needs_damping: bool) -> None:
 
 def _add_fmu(parser) -> None:
     parser.add_argument("--fmu", type=Path, default=None,
-                        help=f"knee FMU (default {control_defaults.DEFAULT_FMU}, skipped with a note if it is not built; "
+                        help=f"knee FMU (default {CLI_DEFAULT_FMU} in the working folder, skipped with a note if it is not built; "
                              "a path given here must be an FMU)")
     parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
@@ -129,10 +133,11 @@ def _fmu_path(args):
     if args.no_fmu:
         return None
     if args.fmu is None:
-        if not control_defaults.DEFAULT_FMU.is_file():
-            print(f"note: FMU {control_defaults.DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
+        default = CLI_DEFAULT_FMU.resolve()  # explicit from here on: the library gets an absolute path
+        if not default.is_file():
+            print(f"note: FMU {CLI_DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
-        return control_defaults.DEFAULT_FMU
+        return default
     from ..fmu.probe import check_fmu
 
     return check_fmu(args.fmu)
