@@ -36,7 +36,7 @@ Example
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import control as ct
@@ -47,6 +47,7 @@ from ..physics import knee, stability
 from ..errors import DomainError, MkctlError
 from ..fmu.probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
+from ..results import Result
 from .control_defaults import DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
 from ..physics.simulate import DEFAULT_PF, knee_states
 
@@ -55,7 +56,7 @@ __all__ = [
     "operating_point", "analytic_linearization", "numerical_linearization", "fmu_linearization",
     "damping_ratio", "natural_frequency", "damping_for_zeta", "damping_loop", "damping_root_locus",
     "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
-    "step_responses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
+    "step_responses", "StepResponses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
     "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
 ]
 
@@ -412,18 +413,86 @@ def _response_info(time, y, final=None):
     return {k: float(info[k]) for k in ("RiseTime", "Overshoot", "SettlingTime", "Peak", "SteadyStateValue")}
 
 
+@dataclass(repr=False, eq=False)
+class StepResponses(Result):
+    """Hip-height responses to one step of pe_cmd, from three models on one time grid (:func:`step_responses`).
+
+    Arrays are X - X_op [m] on ``time`` [s]; ``fmu`` is None when the FMU was not run (``fmu_note`` says why).
+    ``info`` holds python-control's ``step_info`` per model present ("RiseTime" [s], "Overshoot" [%],
+    "SettlingTime" [s], "Peak" [m], "SteadyStateValue" [m]), measured from the step. ``end_stop`` names the end
+    stop the nonlinear model ran onto, and when (None if it stayed between them). ``result[name]`` reads a
+    field as the former dict did.
+    """
+
+    time: np.ndarray  #: sample times [s]
+    linear: np.ndarray  #: the linearization's response X - X_op [m]
+    nonlinear: np.ndarray  #: the nonlinear model's response X - X_op [m] (end stops included)
+    fmu: np.ndarray | None  #: the knee FMU's response X - X_op [m], or None
+    dpe: float  #: the step of pe_cmd [Pa]
+    t_step: float  #: when the step comes [s]
+    info: dict = field(default_factory=dict)  #: {model: step_info dict}
+    end_stop: str | None = None  #: which end stop the nonlinear model reached, and when
+    fmu_note: str | None = None  #: why there is no FMU response
+
+    MODELS = ("linear", "nonlinear", "fmu")
+
+    def __getitem__(self, name: str):
+        if name not in {f.name for f in fields(self)}:
+            raise KeyError(name)
+        return getattr(self, name)
+
+    def summary_lines(self) -> list[str]:
+        lines = [f"step of pe_cmd by {self.dpe / 1e3:+g} kPa at t = {self.t_step:g} s, {self.time.size} samples "
+                 f"to t = {self.time[-1]:g} s"]
+        for name in self.MODELS:
+            if name in self.info:
+                i = self.info[name]
+                lines.append(f"{name}: rise {i['RiseTime']:.4g} s, overshoot {i['Overshoot']:.4g} %, settling "
+                             f"{i['SettlingTime']:.4g} s, final X - X_op = {1e3 * self[name][-1]:+.4g} mm")
+        lines += [note for note in (self.end_stop and f"note: hit the {self.end_stop}", self.fmu_note) if note]
+        return lines
+
+    def table(self) -> dict[str, np.ndarray]:
+        """Columns ``time`` [s] and one X - X_op [m] per model present."""
+        return {"time": self.time, **{name: self[name] for name in self.MODELS if self[name] is not None}}
+
+
 def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = STEP_TIME,
                    dt: float = 1e-3, fmu=None):
     """Hip height response to a step of the extensor command pe_cmd by dpe [Pa] at t_step [s], from rest at op.
 
-    Three models on one time grid (sampling dt [s]): the linearization (:func:`analytic_linearization`,
-    python-control ``step_response``), the nonlinear model (:class:`mkctl.physics.simulate.KneeSimulator`, end stops
-    included) and, if ``fmu`` is a path to an existing file, the knee FMU through fmpy's ``simulate_fmu``.
-    Returns a dict: "time" [s]; "linear", "nonlinear", "fmu" (None without FMU): X - X_op [m];
-    "info": step_info of each, measured from t_step, with the known final values (the linear model's DC
-    gain; the library's equilibrium at the new pressure); "fmu_note": why the FMU is missing, if it is;
-    "end_stop": which end stop the nonlinear model ran onto, and when (None if it stayed between them).
-    A step that takes pe below 0 (gauge) raises :class:`ControlAnalysisError`.
+    Three models on one time grid: the linearization (:func:`analytic_linearization`, python-control
+    ``step_response`` of ``X/pe_cmd``, Eq. 18 with the input column ``dF/dPe / m``), the nonlinear model (Eq. 17,
+    :func:`mkctl.physics.simulate.knee_states`, end stops included) and, if ``fmu`` is a path to an existing
+    file, the knee FMU through fmpy's ``simulate_fmu`` (model-spec section 7).
+
+    Parameters
+    ----------
+    op : KneeOperatingPoint
+        The rest state the step starts from.
+    dpe : float
+        Step of pe_cmd [Pa], non-zero; pe + dpe must stay >= 0 (gauge pressure).
+    duration : float
+        Length of the response [s], > t_step.
+    t_step : float
+        Time of the step [s] (default :data:`~mkctl.analysis.control_defaults.STEP_TIME`).
+    dt : float
+        Sampling interval [s].
+    fmu : path or None
+        The knee FMU, or None to leave it out (a path to a missing file: left out, with a note).
+
+    Returns
+    -------
+    StepResponses
+        ``time`` [s]; ``linear``, ``nonlinear``, ``fmu`` (None without FMU): X - X_op [m]; ``info``: step_info
+        of each, measured from t_step, with the known final values (the linear model's DC gain
+        ``dpe (dF/dPe) / (-dF/dX)``; the library's stable equilibrium at the new pressure); ``fmu_note``; and
+        ``end_stop``. Reads like the former dict: ``result["info"]``.
+
+    Raises
+    ------
+    ControlAnalysisError
+        For a step, duration or dt that cannot be simulated, or when the nonlinear model fails.
     """
     if not (math.isfinite(dpe) and dpe != 0):
         raise ControlAnalysisError(f"pressure step dpe = {dpe!r} Pa must be a non-zero number")
@@ -454,16 +523,17 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
         raise ControlAnalysisError(f"the nonlinear model failed: {error}") from error
     nonlin = nonlin - op.X
 
-    result = {"time": time, "linear": lin_out, "nonlinear": nonlin, "fmu": None, "fmu_note": None,
-              "dpe": dpe, "t_step": t_step, "end_stop": _end_stop(time, nonlin + op.X, p)}
+    fmu_out, fmu_note = None, None
     if fmu is not None and Path(fmu).is_file():
         run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.pe + dpe, op.pf), t_step,
                                 duration, dt)
-        result["fmu"] = np.interp(time, run["time"], run["X"]) - op.X
+        fmu_out = np.interp(time, run["time"], run["X"]) - op.X
     elif fmu is not None:
-        result["fmu_note"] = f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
+        fmu_note = f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
     else:
-        result["fmu_note"] = "FMU response not asked for"
+        fmu_note = "FMU response not asked for"
+    result = StepResponses(time, lin_out, nonlin, fmu_out, dpe, t_step, end_stop=_end_stop(time, nonlin + op.X, p),
+                           fmu_note=fmu_note)
     # final values: the linear model's DC gain; for the nonlinear model and the FMU the library's stable
     # equilibrium at the new pressure, if there is one (a leg that falls to a stop ends where it ends)
     finals = {"linear": dpe * float(ct.dcgain(lin[0, 0]))}
@@ -473,9 +543,9 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
             raise DomainError("the run went elsewhere")
     except DomainError:
         finals["nonlinear"] = finals["fmu"] = None
-    result["info"] = {
+    result.info = {
         name: _response_info(time[after] - t_step, result[name][after], finals[name])
-        for name in ("linear", "nonlinear", "fmu") if result[name] is not None
+        for name in StepResponses.MODELS if result[name] is not None
     }
     return result
 
