@@ -142,10 +142,30 @@ def _posture(alpha, X, params) -> tuple[float, float]:
 
 def operating_point(alpha: float | None = None, *, X: float | None = None, pf: float = DEFAULT_PF,
                     params: Params = DEFAULT) -> KneeOperatingPoint:
-    """The rest state at posture alpha [rad] or hip height X [m] with flexor pressure pf [Pa].
+    """The rest state of Eq. 17 (V = 0, F = m g) at a posture, found by python-control.
 
-    Found by python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd
-    and the other states free), in scaled units. Raises :class:`ControlAnalysisError` if it fails.
+    python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd and the other
+    states free), in the units of :data:`LINEARIZE_SCALE`; a test checks it against the closed form
+    :func:`mkctl.physics.stability.equilibrium_pressure`.
+
+    Parameters
+    ----------
+    alpha : float, optional
+        Kneecap angle [rad], strictly between the end stops; or give ``X``, the hip height [m].
+    pf : float
+        Flexor gauge pressure (and command) [Pa], >= 0.
+    params : Params
+        The model.
+
+    Returns
+    -------
+    KneeOperatingPoint
+        alpha [rad], X [m], pe and pf [Pa] (pressures equal the commands at rest), the states and inputs.
+
+    Raises
+    ------
+    DomainError, ControlAnalysisError
+        For a posture outside the stops, a bad pf, no solution, or one that needs pe < 0.
     """
     alpha, X = _posture(alpha, X, params)
     if not math.isfinite(pf):
@@ -191,7 +211,13 @@ def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
 def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") -> ct.StateSpace:
     """The linearization at op from the analytic partials of :func:`mkctl.physics.knee.knee_force_partials`.
 
-    Named states, inputs and outputs as in :func:`knee_nlsys`; A[1, 0] = a2 and A[1, 1] = a1 of Eq. 18.
+    Without a lag ``A = [[0, 1], [a2, a1]]`` (Eq. 18; a2 = dF/dX / m [1/s^2], a1 = dF/dV / m [1/s]) and
+    ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]`` [m/(s^2 Pa)]; with a lag tau [s] the states Pe, Pf follow
+    ``tau dP/dt = P_cmd - P`` (model-spec section 4) and the pressure columns move into A (module docstring).
+
+    Parameters: op, the operating point; name of the system. Returns a ``control.StateSpace`` with named
+    states (X [m], V [m/s], Pe, Pf [Pa]), inputs (pe_cmd, pf_cmd [Pa]) and outputs (the states).
+    References: seed paper Eq. 17-20.
     """
     p = op.params
     d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.pe, op.pf, p)
@@ -259,10 +285,15 @@ def velocity_gain(op: KneeOperatingPoint) -> float:
 
 
 def damping_for_zeta(zeta: float, op: KneeOperatingPoint) -> float:
-    """The viscous damping c [N s/m] that gives damping ratio zeta at op: ``2 zeta m sqrt(-a2)/(G_e^2+G_f^2)``.
+    """The viscous damping c that gives damping ratio zeta at op.
 
-    a2 does not depend on c at rest, so this is exact. Raises :class:`ControlAnalysisError` where a2 >= 0
-    (the posture is not held by a restoring force: no damping ratio exists) or zeta < 0.
+    With ``a1 = -c (G_e^2 + G_f^2) / m`` (model-spec section 4) and ``zeta = -a1 / (2 sqrt(-a2))``:
+
+    .. math:: c = \\frac{2 \\zeta m \\sqrt{-a_2}}{G_e^2 + G_f^2}
+
+    a2 does not depend on c at rest, so this is exact. Parameters: zeta [-], >= 0; op. Returns c [N s/m].
+    Raises :class:`ControlAnalysisError` where a2 >= 0 (the posture is not held by a restoring force: no
+    damping ratio exists) or zeta < 0. References: seed paper Eq. 18-19.
     """
     if not (math.isfinite(zeta) and zeta >= 0):
         raise ControlAnalysisError(f"damping ratio zeta = {zeta!r} must be a number >= 0")
