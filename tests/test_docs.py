@@ -49,3 +49,26 @@ def test_the_spec_check_fails_without_the_shared_folder(tmp_path, monkeypatch):
     monkeypatch.setenv("MKCTL_NO_SHARED", "testing the skip")
     with pytest.raises(pytest.skip.Exception, match="absent on purpose"):
         test_the_spec_copy_in_docs_is_current()
+
+
+def layout_section() -> str:
+    text = (ROOT / "README.md").read_text()
+    return text[text.index("## Layout"):text.index("\n## ", text.index("## Layout") + 1)]
+
+
+def test_the_readme_layout_names_every_module_of_each_package():
+    """Each ``mkctl/NAME/`` bullet of the README's layout names exactly the modules in that folder."""
+    section = " ".join(layout_section().split())
+    packages = sorted(p for p in (ROOT / "mkctl").iterdir() if p.is_dir() and (p / "__init__.py").is_file())
+    for package in packages:
+        bullet = re.search(r"- `mkctl/" + package.name + r"/`: (.*?)(?= - `|$)", section)
+        assert bullet, f"the README's layout has no bullet for mkctl/{package.name}/"
+        named = set(re.findall(r"`(\w+)`", bullet.group(1)))
+        modules = {p.stem for p in package.glob("*.py") if p.stem != "__init__"}
+        modules |= {p.name for p in package.iterdir() if (p / "__init__.py").is_file()}
+        assert modules <= named, f"README layout, mkctl/{package.name}/: not named: {sorted(modules - named)}"
+        assert named <= modules | {"NAME"}, f"README layout, mkctl/{package.name}/: no such module {sorted(named - modules)}"
+    top = {p.name for p in (ROOT / "mkctl").glob("*.py") if p.stem not in ("__init__", "__main__")}
+    assert all(f"`mkctl/{name}`" in section for name in top), f"README layout misses one of {sorted(top)}"
+    for folder in ("fmu", "scenarios", "tests", "bench", "docs"):
+        assert f"`{folder}/`" in section and (ROOT / folder).is_dir(), folder
