@@ -22,7 +22,7 @@ ALPHA60 = math.radians(60)
 @pytest.fixture(scope="module")
 def op60():
     """alpha = 60 deg, Pf = 100 kPa, damped to zeta = 0.3."""
-    op = mc.operating_point(ALPHA60, pf=100e3)
+    op = mc.operating_point(ALPHA60, Pf=100e3)
     return op.with_params(c=mc.damping_for_zeta(0.3, op))
 
 
@@ -50,24 +50,24 @@ def test_nlsys_has_named_signals_and_is_eq17():
 @pytest.mark.parametrize("alpha_deg", [20, 45, 60, 72])
 def test_operating_point_matches_the_closed_form_equilibrium(params, alpha_deg):
     alpha = math.radians(alpha_deg)
-    op = mc.operating_point(alpha, pf=150e3, params=params)
-    assert op.pe == pytest.approx(float(stability.equilibrium_pressure(alpha, 150e3, params)), rel=1e-9)
+    op = mc.operating_point(alpha, Pf=150e3, params=params)
+    assert op.Pe == pytest.approx(float(stability.equilibrium_pressure(alpha, 150e3, params)), rel=1e-9)
     assert op.X == pytest.approx(float(knee.X_from_alpha(alpha, params)), rel=1e-14)
-    rhs = knee.knee_derivatives(op.states, op.pe, op.pf, params)
+    rhs = knee.knee_derivatives(op.states, op.Pe, op.Pf, params)
     assert np.abs(rhs).max() < 1e-6
     if params.tau > 0:
-        assert op.states[2:] == pytest.approx([op.pe, op.pf], rel=1e-9)
+        assert op.states[2:] == pytest.approx([op.Pe, op.Pf], rel=1e-9)
 
 
 def test_operating_point_from_hip_height_and_bad_postures():
-    op = mc.operating_point(X=0.83, pf=100e3)
+    op = mc.operating_point(X=0.83, Pf=100e3)
     assert op.X == 0.83 and op.alpha == pytest.approx(float(knee.alpha_from_X(0.83)), rel=1e-12)
     with pytest.raises(DomainError, match="end stops"):
         mc.operating_point(math.radians(80))
     with pytest.raises(MkctlError, match="exactly one"):
         mc.operating_point(ALPHA60, X=0.85)
     with pytest.raises(MkctlError):
-        mc.operating_point(ALPHA60, pf=float("nan"))
+        mc.operating_point(ALPHA60, Pf=float("nan"))
 
 
 # --- linearizations ---
@@ -76,7 +76,7 @@ def test_operating_point_from_hip_height_and_bad_postures():
                                     Params(c=20.0, Fc=3.0, vs=0.01)])
 @pytest.mark.parametrize("alpha_deg", [20, 45, 60, 72])
 def test_python_control_linearize_agrees_with_the_analytic_jacobian(params, alpha_deg):
-    op = mc.operating_point(math.radians(alpha_deg), pf=100e3, params=params)
+    op = mc.operating_point(math.radians(alpha_deg), Pf=100e3, params=params)
     analytic = mc.analytic_linearization(op)
     numerical = mc.numerical_linearization(op)
     assert numerical.state_labels == analytic.state_labels == list(op.state_names)
@@ -88,7 +88,7 @@ def test_python_control_linearize_agrees_with_the_analytic_jacobian(params, alph
 def test_analytic_linearization_carries_a1_a2_and_the_lag_block(op60):
     op = op60.with_params(tau=0.04)
     lin = mc.analytic_linearization(op)
-    a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
+    a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0, op.params)
     assert lin.A[1, 0] == pytest.approx(float(a2), rel=1e-12)
     assert lin.A[1, 1] == pytest.approx(float(a1), rel=1e-12)
     np.testing.assert_array_equal(lin.A[2:, 2:], -np.eye(2) / 0.04)
@@ -99,7 +99,7 @@ def test_analytic_linearization_carries_a1_a2_and_the_lag_block(op60):
 # --- Eq. 19: damping ---
 
 def test_model2_alone_leaves_the_poles_on_the_imaginary_axis_and_damping_moves_them_left():
-    op = mc.operating_point(ALPHA60, pf=100e3)
+    op = mc.operating_point(ALPHA60, Pf=100e3)
     poles = mc.analytic_linearization(op).poles()
     a2 = mc.analytic_linearization(op).A[1, 0]
     assert np.abs(poles.real).max() < 1e-12
@@ -114,17 +114,17 @@ def test_model2_alone_leaves_the_poles_on_the_imaginary_axis_and_damping_moves_t
 @pytest.mark.parametrize("alpha_deg", [55, 60, 70])
 @pytest.mark.parametrize("zeta", [0.1, 0.3, 0.7])
 def test_damping_for_zeta_gives_that_damping_ratio_in_the_eigenvalues(alpha_deg, zeta):
-    op = mc.operating_point(math.radians(alpha_deg), pf=100e3)
+    op = mc.operating_point(math.radians(alpha_deg), Pf=100e3)
     c = mc.damping_for_zeta(zeta, op)
     # eigenvalues of python-control's numerical linearization of the damped nonlinear system
     eig = mc.numerical_linearization(op.with_params(c=c)).poles()
     assert -eig.real / np.abs(eig) == pytest.approx([zeta, zeta], rel=1e-5)
-    assert mc.damping_ratio(*stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0,
+    assert mc.damping_ratio(*stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0,
                                                                    op.params.replace(c=c))) == pytest.approx(zeta)
 
 
 def test_damping_for_zeta_refuses_an_unstable_posture_and_a_bad_ratio():
-    op = mc.operating_point(math.radians(30), pf=100e3)  # a2 > 0 there (h > 0, Eq. 20 fails)
+    op = mc.operating_point(math.radians(30), Pf=100e3)  # a2 > 0 there (h > 0, Eq. 20 fails)
     with pytest.raises(mc.ControlAnalysisError, match="a2 = .* >= 0"):
         mc.damping_for_zeta(0.3, op)
     with pytest.raises(mc.ControlAnalysisError, match="zeta"):
@@ -219,7 +219,7 @@ def test_large_step_shows_the_nonlinearity_and_settles_at_the_library_equilibriu
     result = mc.step_responses(op60, 100e3, duration=3.0, fmu=Path("no/such.fmu"))
     assert "not found" in result["fmu_note"]
     assert np.abs(result["linear"] - result["nonlinear"]).max() > 0.2 * np.abs(result["nonlinear"]).max()
-    X_end = stability.equilibrium_hip_height(op60.pe + 100e3, op60.pf, op60.params)
+    X_end = stability.equilibrium_hip_height(op60.Pe + 100e3, op60.Pf, op60.params)
     assert result["nonlinear"][-1] + op60.X == pytest.approx(X_end, abs=2e-6)
 
 
@@ -419,8 +419,8 @@ def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
 
 def test_operating_point_refuses_negative_gauge_pressure():
     with pytest.raises(DomainError, match="pf = -500 kPa is below 0"):
-        mc.operating_point(ALPHA60, pf=-500e3)
-    assert mc.operating_point(ALPHA60, pf=0.0).pe > 0  # 0 kPa (atmospheric) is allowed
+        mc.operating_point(ALPHA60, Pf=-500e3)
+    assert mc.operating_point(ALPHA60, Pf=0.0).Pe > 0  # 0 kPa (atmospheric) is allowed
 
 
 def test_cli_huge_pressure_gets_a_note_not_a_crash(tmp_path, capsys):
@@ -463,3 +463,11 @@ def test_docs_examples_run(tmp_path, monkeypatch, capsys):
     for block in blocks:
         exec(compile(block, "<docs/control.md>", "exec"), {"__name__": "__docs__"})
     assert capsys.readouterr().out.strip()
+
+
+def test_the_operating_point_uses_the_fmu_names_and_keeps_the_former_ones():
+    op = mc.operating_point(ALPHA60, Pf=150e3)
+    assert (op.Pe, op.Pf) == (op.pe, op.pf) == tuple(op.inputs)  # the FMU's Pe, Pf; pe, pf: the former names
+    former = mc.operating_point(ALPHA60, pf=150e3)
+    assert (former.Pe, former.Pf) == (op.Pe, op.Pf)
+    assert op.Pe == pytest.approx(float(stability.equilibrium_pressure(ALPHA60, 150e3)), rel=1e-9)

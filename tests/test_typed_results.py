@@ -49,7 +49,7 @@ def test_simulation_result_reads_as_a_table_and_a_summary(run):
 def test_step_responses_are_typed_and_keep_the_dict_access():
     from mkctl.analysis import control as mc
 
-    op = mc.operating_point(math.radians(60), pf=100e3)
+    op = mc.operating_point(math.radians(60), Pf=100e3)
     op = op.with_params(c=mc.damping_for_zeta(0.3, op))
     result = mc.step_responses(op, 1e3, duration=1.5, fmu=None)
     assert isinstance(result, mc.StepResponses)

@@ -28,7 +28,7 @@ Example
 -------
 >>> import numpy as np
 >>> from mkctl.analysis import control as mc
->>> op = mc.operating_point(np.radians(60), pf=100e3)
+>>> op = mc.operating_point(np.radians(60), Pf=100e3)
 >>> sys = mc.analytic_linearization(op)
 >>> sys.state_labels, sys.input_labels
 (['X', 'V'], ['pe_cmd', 'pf_cmd'])
@@ -107,10 +107,20 @@ class KneeOperatingPoint:
     params: Params
     alpha: float  #: kneecap angle [rad]
     X: float  #: hip height [m]
-    pe: float  #: extensor pressure (and command) [Pa]
-    pf: float  #: flexor pressure (and command) [Pa]
+    Pe: float  #: extensor pressure [Pa] (the FMU's output ``Pe``; at rest also the command ``pe_cmd``)
+    Pf: float  #: flexor pressure [Pa] (the FMU's output ``Pf``; at rest also the command ``pf_cmd``)
     states: np.ndarray = field(repr=False)  #: SI, in the order of :attr:`state_names`
     inputs: np.ndarray = field(repr=False)  #: (pe_cmd, pf_cmd) [Pa]
+
+    @property
+    def pe(self) -> float:
+        """The former name of :attr:`Pe` (kept for old callers)."""
+        return self.Pe
+
+    @property
+    def pf(self) -> float:
+        """The former name of :attr:`Pf` (kept for old callers)."""
+        return self.Pf
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -126,8 +136,8 @@ class KneeOperatingPoint:
             raise ControlAnalysisError(f"{sorted(bad)[0]} moves the equilibrium: find a new operating point")
         params = self.params.replace(**overrides)
         lag = params.tau > 0
-        states = np.array([self.X, 0.0, self.pe, self.pf] if lag else [self.X, 0.0])
-        return KneeOperatingPoint(params, self.alpha, self.X, self.pe, self.pf, states, self.inputs.copy())
+        states = np.array([self.X, 0.0, self.Pe, self.Pf] if lag else [self.X, 0.0])
+        return KneeOperatingPoint(params, self.alpha, self.X, self.Pe, self.Pf, states, self.inputs.copy())
 
 
 def _posture(alpha, X, params) -> tuple[float, float]:
@@ -140,8 +150,8 @@ def _posture(alpha, X, params) -> tuple[float, float]:
     return alpha, X
 
 
-def operating_point(alpha: float | None = None, *, X: float | None = None, pf: float = DEFAULT_PF,
-                    params: Params = DEFAULT) -> KneeOperatingPoint:
+def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: float = DEFAULT_PF,
+                    params: Params = DEFAULT, pf: float | None = None) -> KneeOperatingPoint:
     """The rest state of Eq. 17 (V = 0, F = m g) at a posture, found by python-control.
 
     python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd and the other
@@ -152,15 +162,15 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, pf: f
     ----------
     alpha : float, optional
         Kneecap angle [rad], strictly between the end stops; or give ``X``, the hip height [m].
-    pf : float
-        Flexor gauge pressure (and command) [Pa], >= 0.
+    Pf : float
+        Flexor gauge pressure (and command) [Pa], >= 0 (``pf``: its former name, still accepted).
     params : Params
         The model.
 
     Returns
     -------
     KneeOperatingPoint
-        alpha [rad], X [m], pe and pf [Pa] (pressures equal the commands at rest), the states and inputs.
+        alpha [rad], X [m], Pe and Pf [Pa] (pressures equal the commands at rest), the states and inputs.
 
     Raises
     ------
@@ -168,6 +178,7 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, pf: f
         For a posture outside the stops, a bad pf, no solution, or one that needs pe < 0.
     """
     alpha, X = _posture(alpha, X, params)
+    pf = Pf if pf is None else pf
     if not math.isfinite(pf):
         raise DomainError(f"flexor pressure pf = {pf!r} Pa is not a finite number")
     if pf < 0:
@@ -220,7 +231,7 @@ def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") ->
     References: seed paper Eq. 17-20.
     """
     p = op.params
-    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.pe, op.pf, p)
+    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.Pe, op.Pf, p)
     row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
     gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
     if p.tau > 0:
@@ -280,7 +291,7 @@ def damping_ratio(a1, a2) -> np.ndarray:
 def velocity_gain(op: KneeOperatingPoint) -> float:
     """``(G_e^2 + G_f^2) / m`` [1/kg]: a1 = -c times this, at the posture of op (from the library's dF/dV)."""
     unit_damping = op.params.replace(c=1.0, Fc=0.0)
-    partials = knee.knee_force_partials(knee.geometry_at_X(op.X, unit_damping), 0.0, op.pe, op.pf, unit_damping)
+    partials = knee.knee_force_partials(knee.geometry_at_X(op.X, unit_damping), 0.0, op.Pe, op.Pf, unit_damping)
     return float(-partials.dF_dV) / op.params.m
 
 
@@ -297,10 +308,10 @@ def damping_for_zeta(zeta: float, op: KneeOperatingPoint) -> float:
     """
     if not (math.isfinite(zeta) and zeta >= 0):
         raise ControlAnalysisError(f"damping ratio zeta = {zeta!r} must be a number >= 0")
-    _, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
+    _, a2 = stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0, op.params)
     if not a2 < 0:
         raise ControlAnalysisError(f"a2 = {float(a2):.4g} 1/s^2 >= 0 at alpha = {math.degrees(op.alpha):.4g} deg, "
-                                   f"pf = {op.pf / 1e3:g} kPa: the posture is unstable (Eq. 20 fails) and no damping gives "
+                                   f"pf = {op.Pf / 1e3:g} kPa: the posture is unstable (Eq. 20 fails) and no damping gives "
                                    "it a damping ratio")
     return 2 * zeta * math.sqrt(-float(a2)) / velocity_gain(op)
 
@@ -527,9 +538,9 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     """
     if not (math.isfinite(dpe) and dpe != 0):
         raise ControlAnalysisError(f"pressure step dpe = {dpe!r} Pa must be a non-zero number")
-    if op.pe + dpe < 0:
-        raise ControlAnalysisError(f"a step by {dpe / 1e3:+g} kPa takes the extensor pressure from {op.pe / 1e3:.4g} "
-                                   f"to {(op.pe + dpe) / 1e3:.4g} kPa, below 0 (gauge): a muscle cannot push")
+    if op.Pe + dpe < 0:
+        raise ControlAnalysisError(f"a step by {dpe / 1e3:+g} kPa takes the extensor pressure from {op.Pe / 1e3:.4g} "
+                                   f"to {(op.Pe + dpe) / 1e3:.4g} kPa, below 0 (gauge): a muscle cannot push")
     if not (math.isfinite(duration) and duration > 0):
         raise ControlAnalysisError(f"duration {duration!r} s must be a positive number")
     if not (math.isfinite(t_step) and 0 <= t_step < duration):
@@ -549,14 +560,14 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     lin_out[after] = dpe * np.asarray(resp.outputs).ravel()
 
     try:
-        nonlin, _ = knee_states(time, np.where(after, op.pe + dpe, op.pe), op.pf, p, X0=op.X)
+        nonlin, _ = knee_states(time, np.where(after, op.Pe + dpe, op.Pe), op.Pf, p, X0=op.X)
     except MkctlError as error:
         raise ControlAnalysisError(f"the nonlinear model failed: {error}") from error
     nonlin = nonlin - op.X
 
     fmu_out, fmu_note = None, None
     if fmu is not None and Path(fmu).is_file():
-        run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.pe + dpe, op.pf), t_step,
+        run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.Pe + dpe, op.Pf), t_step,
                                 duration, dt)
         fmu_out = np.interp(time, run["time"], run["X"]) - op.X
     elif fmu is not None:
@@ -569,7 +580,7 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     # equilibrium at the new pressure, if there is one (a leg that falls to a stop ends where it ends)
     finals = {"linear": dpe * float(ct.dcgain(lin[0, 0]))}
     try:
-        finals["nonlinear"] = finals["fmu"] = stability.equilibrium_hip_height(op.pe + dpe, op.pf, p) - op.X
+        finals["nonlinear"] = finals["fmu"] = stability.equilibrium_hip_height(op.Pe + dpe, op.Pf, p) - op.X
         if abs(finals["nonlinear"] - nonlin[-1]) > 0.5 * abs(nonlin[-1] - nonlin[0]):
             raise DomainError("the run went elsewhere")
     except DomainError:
@@ -619,7 +630,7 @@ def plot_damping_locus(op: KneeOperatingPoint, c_values, c_marked: float | None 
         ax.plot(marked.real, marked.imag, "ko", mfc="none", ms=9, label=f"c = {c_marked:.4g} N s/m (zeta = {zeta:.3g})")
     ax.legend(fontsize=8, loc="best")
     _pole_axes(ax, f"Root locus against damping c (velocity feedback), alpha = {math.degrees(op.alpha):.4g} deg, "
-                   f"pf = {op.pf / 1e3:g} kPa")
+                   f"pf = {op.Pf / 1e3:g} kPa")
     return save_png(fig, path) if path else fig
 
 
@@ -656,7 +667,7 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
     axes[2].legend(fontsize=8)
     axes[2].set_title("the lag's cost: without lag no finite critical gain", fontsize=10)
     fig.suptitle(f"Pressure lag sweep tau = {taus[0]:.3g} .. {taus[-1]:.3g} s at "
-                 f"alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m",
+                 f"alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m",
                  fontsize=10)
     return save_png(fig, path) if path else fig
 
@@ -711,7 +722,7 @@ def plot_step(result: dict, op: KneeOperatingPoint, path=None):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title(f"Step of pe_cmd by {result['dpe'] / 1e3:+g} kPa at alpha = {math.degrees(op.alpha):.4g} deg, "
-                 f"pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s", fontsize=9)
+                 f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s", fontsize=9)
     return save_png(fig, path) if path else fig
 
 
