@@ -2,20 +2,19 @@
 
 A thin wrapper over :class:`mkctl.physics.simulate.ActuatorSimulator`: the pressure lag is the only state (solved
 exactly over each step, so the step size does not matter); the tension follows from the inputs L, Ldot and
-the present pressure. Registration, errors, cached outputs and FMU state are the shared machinery of
-:class:`mkctl.fmu.slave.McKibbenSlave`: errors are logged, and answered with fmi2Discard from doStep, never
-raised (pythonfmu 0.7 would make any exception fmi2Fatal).
+the present pressure. Registration, start values, errors, the rated pressure warning, cached outputs and FMU state
+are the shared machinery of :class:`mkctl.fmu.slave.McKibbenSlave`.
 """
 from __future__ import annotations
 
 from pythonfmu import DefaultExperiment
 
 from mkctl.errors import MkctlError
-from mkctl.fmu.slave import MODEL_DESCRIPTION, N_DESCRIPTION, McKibbenSlave
+from mkctl.fmu.slave import N_DESCRIPTION, McKibbenSlave
 from mkctl.physics.params import EFFECTS_TABLE, TABLE_I, UNITS
 from mkctl.physics.simulate import ActuatorSimulator
 
-#: Parameters of model-spec sections 2 and 4, then model.
+#: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them).
 PARAMETERS = ("b", "n", "L0", "D0", "C1", "C2", "t0", "c", "Fc", "vs", "tau")
 INPUTS = {"p_cmd": ("Pa", "commanded gauge pressure"),
           "L": ("m", "actuator length, 0 < L < b"),
@@ -25,14 +24,13 @@ OUTPUTS = {"f": ("N", "tension (positive pulls): model 1 or 2 plus damping and f
 _DESCRIPTIONS = {
     **{name: q.description for name, q in {**TABLE_I, **EFFECTS_TABLE}.items()},
     "n": N_DESCRIPTION,
-    "model": MODEL_DESCRIPTION,
     **{name: text for name, (_, text) in {**INPUTS, **OUTPUTS}.items()},
 }
 #: Start values of the inputs: 300 kPa at L = 0.18 m, a row of model-spec section 2's reference table.
 INPUT_START = {"p_cmd": 300e3, "L": 0.18, "Ldot": 0.0}
 
-#: Unit of every Real variable, as written into modelDescription.xml by build_fmu.py.
-VARIABLE_UNITS = {**{name: UNITS[name] for name in PARAMETERS},
+#: Unit of every Real variable, as written into modelDescription.xml by mkctl.fmu.build.
+VARIABLE_UNITS = {**{name: UNITS[name] for name in PARAMETERS}, "P_rated": "Pa",
                   **{name: unit for name, (unit, _) in {**INPUTS, **OUTPUTS}.items()}}
 
 
@@ -41,14 +39,22 @@ class McKibbenActuator(McKibbenSlave):
                    "(Eq. 13), damping, friction and a pressure lag (model-spec sections 2, 4 and 7)")
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=1.0, step_size=1e-2)
 
-    inputs = {name: INPUT_START[name] for name in INPUTS}
+    inputs = tuple(INPUTS)
     parameters = PARAMETERS
     outputs = tuple(OUTPUTS)
+    pressure_outputs = {"P": "muscle"}
     descriptions = _DESCRIPTIONS
     units = VARIABLE_UNITS
 
+    @classmethod
+    def _derived_starts(cls, params) -> dict:
+        return dict(INPUT_START)
+
     def _new_simulator(self, params) -> ActuatorSimulator:
-        return ActuatorSimulator(params, float(self.p_cmd))
+        sim = ActuatorSimulator(params, float(self.p_cmd))
+        self._stage = "the start inputs are outside the model's domain"
+        sim.outputs(self.p_cmd, self.L, self.Ldot)  # 0 < L < b, a finite pressure
+        return sim
 
     def _advance(self, step_size: float) -> None:
         snapshot = self._sim.get_state()

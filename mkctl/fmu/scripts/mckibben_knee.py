@@ -1,25 +1,20 @@
 """McKibbenKnee: the knee of model-spec section 3 with the effects of section 4, as an FMI 2.0 co-simulation slave.
 
 A thin wrapper over :class:`mkctl.physics.simulate.KneeSimulator`: no equation lives here. The interface is the one of
-model-spec section 7 (inputs pe_cmd, pf_cmd; every parameter of sections 2-4, model and X0; the outputs of
-:data:`mkctl.physics.simulate.KNEE_OUTPUTS`). Registration, errors, cached outputs and FMU state are the shared machinery
-of :class:`mkctl.fmu.slave.McKibbenSlave`.
+model-spec section 7 (inputs pe_cmd, pf_cmd; every parameter of sections 2-4, the Integer parameters, X0 and
+P_rated; the outputs of :data:`mkctl.physics.simulate.KNEE_OUTPUTS`). Registration, start values, errors, the rated
+pressure warning, cached outputs and FMU state are the shared machinery of :class:`mkctl.fmu.slave.McKibbenSlave`.
 
-Errors. Nothing here raises into pythonfmu (which would make any exception fmi2Fatal): a parameter set the model
-cannot represent is logged (fmi2Error category) at exitInitializationMode, and every doStep then answers
-fmi2Discard with the message again; an input or a state outside the model's domain during a step is logged and
-answered with fmi2Discard, the state left as it was at the start of that step.
-
-Defaults that follow other parameters: ``n`` left at its start value is derived from b, L0, D0 (as
-:class:`mkctl.physics.params.Params` does), and ``X0`` left at its start value is the hip height at alpha = 60 deg of
-the actual geometry. Give either a different value and it is used as given.
+Defaults that follow other parameters: ``n`` left at its start value while b, L0 or D0 change is derived from them
+(as :class:`mkctl.physics.params.Params` does), and ``X0`` left at its start value is the hip height at
+alpha = 60 deg of the actual geometry. Give either a different value and it is used as given. The start values of
+pe_cmd and X0 hold the leg of the build's parameters at rest at alpha = 60 deg.
 """
 from __future__ import annotations
 
 from pythonfmu import DefaultExperiment
 
-from mkctl.physics import knee
-from mkctl.fmu.slave import MODEL_DESCRIPTION, N_DESCRIPTION, McKibbenSlave
+from mkctl.fmu.slave import N_DESCRIPTION, McKibbenSlave
 from mkctl.physics.params import EFFECTS_TABLE, TABLE_I, TABLE_II, UNITS
 from mkctl.physics.simulate import KNEE_OUTPUTS, KneeSimulator, default_commands, default_hip_height
 
@@ -29,7 +24,6 @@ PARAMETERS = ("b", "n", "L0", "D0", "C1", "C2", "t0", "m", "L1", "L2", "L5", "L6
 _DESCRIPTIONS = {
     **{name: q.description for name, q in {**TABLE_I, **TABLE_II, **EFFECTS_TABLE}.items()},
     "n": N_DESCRIPTION,
-    "model": MODEL_DESCRIPTION,
     "X0": "initial hip height, the leg at rest; left at its start value it is alpha = 60 deg of the geometry",
     "pe_cmd": "commanded extensor gauge pressure",
     "pf_cmd": "commanded flexor gauge pressure",
@@ -42,14 +36,11 @@ _DESCRIPTIONS = {
     "stable": "Routh-Hurwitz verdict at the present state: a1 < 0 and a2 < 0; no unit",
 }
 
-#: Unit of every Real variable, as written into modelDescription.xml by build_fmu.py.
+#: Unit of every Real variable, as written into modelDescription.xml by mkctl.fmu.build.
 VARIABLE_UNITS = {
-    **{name: UNITS[name] for name in PARAMETERS}, "X0": "m", "pe_cmd": "Pa", "pf_cmd": "Pa",
+    **{name: UNITS[name] for name in PARAMETERS}, "X0": "m", "P_rated": "Pa", "pe_cmd": "Pa", "pf_cmd": "Pa",
     **{name: unit for name, unit in KNEE_OUTPUTS.items() if name != "stable"},
 }
-
-_PE0, _PF0 = default_commands()
-_X0_START = default_hip_height()
 
 
 class McKibbenKnee(McKibbenSlave):
@@ -57,17 +48,23 @@ class McKibbenKnee(McKibbenSlave):
                    "model-spec sections 3-4 and 7), with mechanical end stops")
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=2.0, step_size=1e-3)
 
-    inputs = {"pe_cmd": _PE0, "pf_cmd": _PF0}
+    inputs = ("pe_cmd", "pf_cmd")
     parameters = PARAMETERS
-    extra_parameters = {"X0": _X0_START}
+    extra_parameters = ("X0", "P_rated")
     outputs = tuple(KNEE_OUTPUTS)
     boolean_outputs = frozenset({"stable"})
+    pressure_outputs = {"Pe": "extensor", "Pf": "flexor"}
     descriptions = _DESCRIPTIONS
     units = VARIABLE_UNITS
     undefined_outputs = "outputs that depend on the pressures are undefined"
 
+    @classmethod
+    def _derived_starts(cls, params) -> dict:
+        pe, pf = default_commands(params)
+        return {"pe_cmd": pe, "pf_cmd": pf, "X0": default_hip_height(params)}
+
     def _new_simulator(self, params) -> KneeSimulator:
-        X0 = default_hip_height(params) if self.X0 == _X0_START else self.X0
+        X0 = default_hip_height(params) if self.X0 == self._starts["X0"] else self.X0
         self._stage = f"invalid start X0 = {X0!r} m"
         sim = KneeSimulator(params, X0, self.pe_cmd, self.pf_cmd)
         self._stage = "the start state is outside the model's domain"
@@ -76,13 +73,3 @@ class McKibbenKnee(McKibbenSlave):
 
     def _advance(self, step_size: float) -> None:
         self._sim.step(step_size, self.pe_cmd, self.pf_cmd)  # raises before changing the state
-
-    def _fallback_outputs(self) -> dict:
-        """Outputs when the pressures are not numbers: the posture from the state, NaN for the rest."""
-        outputs = super()._fallback_outputs()
-        if self._sim is not None:
-            X, V = float(self._sim.state[0]), float(self._sim.state[1])
-            geo = knee.geometry_at_X(X, self._sim.params)
-            outputs.update(X=X, V=V, alpha=float(geo.alpha), beta=float(geo.beta), Le=float(geo.Le),
-                           Lf=float(geo.Lf))
-        return outputs
