@@ -6,7 +6,6 @@ folder on PYTHONPATH (the dependencies come from this Python's environment). Qui
 """
 from __future__ import annotations
 
-import importlib.util
 import os
 import shutil
 import subprocess
@@ -28,9 +27,6 @@ def run(argv, cwd, env=None, timeout=600) -> subprocess.CompletedProcess:
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory) -> Path:
     """The folder the wheel was installed into (``pip install --no-deps --target``)."""
-    if importlib.util.find_spec("mkctl.fmu.build") is None:
-        pytest.skip("WHEEL NOT TESTED: this checkout has no mkctl.fmu.build yet (the FMU build moves into the "
-                    "package on branch fmu); until then mkctl run needs build_fmu.py from a checkout")
     base = tmp_path_factory.mktemp("wheel")
     source = base / "source"
     source.mkdir()

@@ -23,8 +23,6 @@ import contextlib
 import csv
 import io
 import math
-import subprocess
-import sys
 import zipfile
 from pathlib import Path
 
@@ -153,38 +151,20 @@ def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
     Uses :func:`mkctl.fmu.build.build`, so no file of a checkout is needed. Returns ({"knee": path,
     "actuator": path}, what the build printed); raises :class:`ScenarioError` with the build's last message.
     """
+    from ..fmu.build import build
+
     buffer = io.StringIO()
-    try:
-        from ..fmu.build import build
-    except ImportError:  # pragma: no cover - a checkout from before the build moved into the package
-        return _build_with_checkout_script(Path(out), run)
     try:
         with contextlib.redirect_stdout(buffer):
             built = build(Path(out), run=run)
     except MkctlError as error:
         raise ScenarioError(f"building the FMUs into {out} failed: {error}") from error
-    paths = {which: Path(out) / name for which, name in FMU_FILES.items()}
-    if isinstance(built, dict):  # the build names its FMUs; keep ours if it uses other keys
-        paths.update({which: Path(path) for which, path in built.items() if which in paths})
+    by_file = {Path(path).name: Path(path) for path in built.values()}  # keyed by model name there
+    paths = {which: by_file.get(name, Path(out) / name) for which, name in FMU_FILES.items()}
     missing = [str(path) for path in paths.values() if not path.is_file()]
     if missing:
         raise ScenarioError(f"building the FMUs into {out} failed: {missing[0]} was not written")
     return paths, buffer.getvalue()
-
-
-def _build_with_checkout_script(out: Path, run: bool) -> tuple[dict[str, Path], str]:
-    """The build through ``build_fmu.py`` of the checkout this package lies in (before mkctl.fmu.build existed)."""
-    script = Path(__file__).resolve().parents[2] / "build_fmu.py"
-    if not script.is_file():
-        raise ScenarioError("cannot build the FMUs: this mkctl has no mkctl.fmu.build and no build_fmu.py beside it")
-    done = subprocess.run([sys.executable, str(script), "--out", str(out)] + ([] if run else ["--no-run"]),
-                          capture_output=True, text=True)
-    paths = {which: out / name for which, name in FMU_FILES.items()}
-    if done.returncode != 0 or not all(path.is_file() for path in paths.values()):
-        lines = (done.stderr or done.stdout).strip().splitlines()
-        raise ScenarioError(f"building the FMUs into {out} failed: "
-                            + (lines[-1] if lines else f"exit status {done.returncode}"))
-    return paths, done.stdout
 
 
 def fmu_path(args, which: str) -> Path:
