@@ -36,7 +36,7 @@ PRESETS = {
     "physics": (
         ["mkctl/physics/actuator.py", "mkctl/physics/knee.py", "mkctl/physics/stability.py"],
         ["tests/test_actuator.py", "tests/test_knee.py", "tests/test_stability.py", "tests/test_pinned.py",
-         "tests/test_params.py", "tests/test_slack.py"],
+         "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py"],
     ),
     "diagnosis": (
         ["mkctl/analysis/diagnose.py"],
