@@ -4,6 +4,7 @@
     python bench/mutation.py --preset diagnosis                # the diagnosis acceptance rule
     python bench/mutation.py --targets mkctl/physics/knee.py --tests tests/test_knee.py tests/test_pinned.py
     python bench/mutation.py --sample 0.3 --seed 1             # a random 30 % of the mutants (faster)
+    python bench/mutation.py --preset diagnosis --root ../other-checkout   # another checkout, read only
 
 mutmut changes one thing at a time in the target files (an operator, a number, an argument, a comparison) and
 runs the chosen tests against each change; a mutant the tests do not fail on "survives". The script works in a
@@ -28,7 +29,8 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
+CHECKOUT = Path(__file__).resolve().parents[1]
+ROOT = CHECKOUT  #: the checkout whose package and tests are copied (``--root``)
 MUTMUT = [sys.executable, "-m", "mutmut"]
 
 #: Target files and the fast test selection that guards them.
@@ -38,9 +40,9 @@ PRESETS = {
         ["tests/test_actuator.py", "tests/test_knee.py", "tests/test_stability.py", "tests/test_pinned.py",
          "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py"],
     ),
-    "diagnosis": (
-        ["mkctl/analysis/diagnose.py"],
-        ["tests/test_diagnose.py", "tests/test_diagnose_rule.py"],
+    "diagnosis": (  # the acceptance rule, apart from the loop that fits (mkctl.analysis.diagnosis_rule)
+        ["mkctl/analysis/diagnosis_rule.py"],
+        ["tests/test_diagnose_rule.py"],
     ),
 }
 
@@ -118,10 +120,14 @@ def main(argv=None) -> int:
     parser.add_argument("--time-limit", type=float, default=None, metavar="S",
                         help="stop mutmut after this long and report what it checked")
     parser.add_argument("--show", type=int, default=40, metavar="N", help="diffs of at most N survivors (default 40)")
+    parser.add_argument("--root", type=Path, default=CHECKOUT, metavar="DIR",
+                        help="the checkout to copy the package and tests from (default: this one; read only)")
     parser.add_argument("--keep", type=Path, metavar="DIR", help="work in DIR and keep it (mutmut browse there)")
     parser.add_argument("--pytest-args", nargs=argparse.REMAINDER, default=[],
                         help="more pytest arguments (e.g. -k 'not slow'); must come last")
     args = parser.parse_args(argv)
+    global ROOT
+    ROOT = args.root.resolve()
     targets = args.targets or PRESETS[args.preset][0]
     tests = [t for t in (args.tests or PRESETS[args.preset][1]) if (ROOT / t).is_file()]
     missing = [t for t in targets if not (ROOT / t).is_file()]
