@@ -5,7 +5,10 @@
 - Fig. 7: the h = 0 sheet (Eq. 22-23) and the equilibrium set (V = 0, F = m g) over (alpha, Pe', Pf'),
   with the curve where they meet: where stability is lost on the equilibrium set.
 - The claims of Section VI, each with the number from the model that supports or refutes it
-  (:func:`paper_claims`, :func:`claims_markdown`).
+  (:func:`paper_claims`, :func:`claims_markdown`). Each claim is one small function registered in
+  :data:`CLAIMS` with :func:`claim`, in the report's order; they share a :class:`ClaimContext`, whose
+  quantities (h over the grid, the equilibrium samples, the loss of stability, the terms of Eq. 23) are
+  computed on first use, so that one claim can run alone.
 
 Nothing here writes an equation: h, the two surfaces, a1, a2 and the geometry come from
 :mod:`mkctl.physics.stability` and :mod:`mkctl.physics.knee`; the four terms of Eq. 24-25 are the library's actuator
