@@ -25,7 +25,7 @@ def accel(params, X, V, Pe, Pf):
     return float(knee.knee_derivatives([X, V], Pe, Pf, params)[1])
 
 
-@pytest.fixture(scope="module")
+@pytest.fixture  # per test, not per module: mutmut must see each test compute it (its test selection)
 def posture():
     alpha = math.radians(62.0)
     X = float(knee.X_from_alpha(alpha, OTHER))
@@ -226,3 +226,36 @@ def test_the_slack_equilibrium_equals_the_taut_one_while_both_muscles_pull(postu
     geo = knee.geometry_at_alpha(alpha, OTHER)
     assert float(knee.knee_force(geo, 0.0, Pe, Pf, OTHER).ff) > 1.0  # the flexor pulls more than 1 N here
     assert float(stability.equilibrium_pressure(alpha, Pf, slack)) == pytest.approx(Pe, rel=1e-12)
+
+
+def test_defaults_of_the_velocity_are_rest(posture):
+    _, X, Pe, Pf = posture
+    assert knee.ground_force(X, Pe, Pf, params=OTHER) == knee.ground_force(X, Pe, Pf, 0.0, OTHER)
+    assert stability.routh_hurwitz_coefficients(X, Pe, Pf, params=OTHER) == \
+        stability.routh_hurwitz_coefficients(X, Pe, Pf, 0.0, OTHER)
+
+
+def test_the_stops_given_to_the_state_equations_are_the_ones_used():
+    stops = (0.70, 0.80)
+    X, pe, pf = 0.81, 1.5e6, 1e5  # 1 cm beyond the given upper stop, inside the default ones
+    assert knee.end_stop_force(X, 0.0, OTHER) == 0.0
+    free = knee.knee_derivatives([X, 0.0], pe, pf, OTHER)[1]
+    pushed = knee.knee_derivatives([X, 0.0], pe, pf, OTHER, stops)[1]
+    assert (pushed - free) * OTHER.m == pytest.approx(-knee.STOP_STIFFNESS * 0.01, rel=1e-9)
+
+
+def test_a_slack_muscle_neither_pushes_nor_responds_to_its_pressure():
+    """Model-spec section 4 (slack): at alpha = 60 deg the unpressurized extensor is shorter than its rest length,
+    its rubber would push (negative tension); with slack on it carries nothing and dF/dPe = 0 there."""
+    slack = OTHER.replace(slack=1)
+    geo = knee.geometry_at_alpha(math.radians(60.0), slack)
+    fe = float(actuator.static_tension(geo.Le, 0.0, slack))
+    ff = float(actuator.static_tension(geo.Lf, 2e5, slack))
+    assert fe < 0 < ff  # the extensor would push, the flexor pulls
+    F = float(knee.ground_force(geo.X, 0.0, 2e5, 0.0, slack))
+    assert F == pytest.approx(-geo.G_f * ff, rel=1e-12)  # no push from the slack extensor
+    assert float(knee.ground_force(geo.X, 0.0, 2e5, 0.0, OTHER)) == pytest.approx(geo.G_e * fe - geo.G_f * ff,
+                                                                                 rel=1e-12)
+    d = knee.knee_force_partials(geo, 0.0, 0.0, 2e5, slack)
+    assert float(d.dF_dPe) == 0.0
+    assert float(d.dF_dPf) == pytest.approx(-geo.G_f * float(actuator.static_tension_dP(geo.Lf, slack)), rel=1e-12)
