@@ -1,13 +1,12 @@
 """The machinery both FMU slaves share: :class:`McKibbenSlave`, a pythonfmu ``Fmi2Slave`` around an mkctl simulator.
 
-``mkctl/fmu/scripts/mckibben_knee.py`` and ``mckibben_actuator.py`` declare their interface (inputs, parameters,
-outputs, descriptions, units) and say how to build and step their simulator; everything else lives here once:
+The slaves of :mod:`mkctl.fmu.models` declare their interface (inputs, parameters, outputs, descriptions, units) and say how to build and step their simulator; everything else lives here once:
 variable registration, start values, the ``n`` default, start and error handling, doStep's refusals, the rated
 pressure warning, the cached outputs and FMU state. No equation lives here either: the simulators of
 :mod:`mkctl.physics.simulate` do the physics.
 
 Why a module of mkctl. It is the top layer of the import graph (it imports pythonfmu and mkctl, and only the FMU
-scripts import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
+slave modules import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
 :mod:`mkctl.fmu.build` packs every mkctl module the slave scripts import, so both FMUs carry this file as
 ``resources/mkctl/fmu/slave.py``. Both FMUs load in one process: their scripts have different module names, and the
 shared names (``mkctl``, ``mkctl.fmu.slave``, ``pythonfmu``) resolve to whichever FMU was loaded first, which is
@@ -29,8 +28,8 @@ process's stderr (:meth:`McKibbenSlave._report`), and:
   state left as it was at the start of that step; outputs read while the inputs are invalid keep their last
   valid values (those of the last successful step), never NaN.
 
-pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave``, so a script's
-concrete class (``McKibbenKnee(McKibbenSlave)``) wins over this base class that it imports.
+pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave`` among the names
+of the FMU's script (``mkctl/fmu/scripts``), which imports only the concrete class.
 """
 from __future__ import annotations
 
@@ -64,6 +63,25 @@ P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is
                        "excursion); the model itself has no limit")
 _INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
 
+#: One entry per run of an FMU script (see :func:`keep_namespace`).
+_KEPT: list = []
+
+
+def keep_namespace(namespace: dict) -> None:
+    """Take one reference to an FMU script's namespace. pythonfmu 0.7 runs the script at every fmi2Instantiate and
+    then releases a reference to its namespace that it never took; without this one the namespace is freed
+    under the module after the first instance, and the next fmi2Instantiate crashes the host. Costs one list
+    slot (8 bytes) per instance."""
+    _KEPT.append(namespace)
+
+
+def _drop_repeated_path(resources) -> None:
+    """pythonfmu 0.7 inserts the resources folder at the front of sys.path at every fmi2Instantiate; keep only the
+    first copy, so that sys.path (and the time every later import takes to scan it) does not grow per instance."""
+    if resources and sys.path.count(resources) > 1:
+        first = sys.path.index(resources)
+        sys.path[first + 1:] = [entry for entry in sys.path[first + 1:] if entry != resources]
+
 
 class McKibbenSlave(Fmi2Slave):
     """A co-simulation slave around a simulator of :mod:`mkctl.physics.simulate`.
@@ -96,6 +114,7 @@ class McKibbenSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        _drop_repeated_path(kwargs.get("resources"))
         #: the start value of every settable variable (the build's Params, or DEFAULT)
         self._starts = self._read_starts(kwargs.get("resources"))
         for name in self.inputs:
