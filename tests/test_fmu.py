@@ -14,8 +14,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from mkctl.physics import knee
-from mkctl.fmu.slave import INTEGER_PARAMETERS
-from mkctl.physics.params import DEFAULT, PARAMETER_NAMES, RATED_PRESSURE, Params
+from mkctl.physics.params import DEFAULT, INTEGER_PARAMETERS, PARAMETER_NAMES, RATED_PRESSURE, Params
 from mkctl.physics.simulate import KNEE_OUTPUTS, ActuatorSimulator, KneeSimulator, default_commands, default_hip_height
 
 SPEC_PARAMETERS = ("b n L0 D0 C1 C2 t0 m L1 L2 L5 L6 Lo Lu Lec Lfc r g c Fc vs tau").split()
@@ -125,6 +124,10 @@ def knee_runs(built_fmus, run_python):
                               "input": [[0.0, 6e6, 0.0], [1.5, 6e6, 0.0]]},
         "saturate_flexor": {"dt": 5e-3, "stop": 1.5, "start": {}, "input_names": ["pe_cmd", "pf_cmd"],
                             "input": [[0.0, 0.0, 3e6], [1.5, 0.0, 3e6]]},
+        "slack_on": {"dt": 1e-3, "stop": 0.5, "start": {"c": 40.0, "slack": 1}, "input_names": ["pe_cmd", "pf_cmd"],
+                     "input": [[0.0, PE0, 0.0], [0.5, PE0, 0.0]]},
+        "slack_off": {"dt": 1e-3, "stop": 0.5, "start": {"c": 40.0}, "input_names": ["pe_cmd", "pf_cmd"],
+                      "input": [[0.0, PE0, 0.0], [0.5, PE0, 0.0]]},
         "negative_mass": {"dt": 1e-3, "stop": 0.1, "start": {"m": -1.0}},
         "braid_too_short": {"dt": 1e-3, "stop": 0.1, "start": {"b": 0.2}},
         "actuator_reaches_b": {"dt": 1e-3, "stop": 0.1, "start": {"Lec": 0.3}},
@@ -157,6 +160,18 @@ def test_knee_fmu_matches_mkctl_and_does_not_depend_on_the_communication_step(kn
     # the same run at 20 ms agrees within 1 micrometre at the shared sample times
     shared = np.searchsorted(np.round(fine["time"], 9), np.round(coarse["time"], 9))
     assert np.max(np.abs(np.array(fine["X"])[shared] - np.array(coarse["X"]))) < 1e-6
+
+
+def test_knee_fmu_with_slack_matches_mkctl_with_slack(knee_runs):
+    # with the flexor unpressurized, its model tension is negative (it would push): slack = 1 makes it 0
+    on, messages, _ = knee_runs["slack_on"]
+    off, _, _ = knee_runs["slack_off"]
+    assert on["time"][-1] == pytest.approx(0.5), messages
+    times, ref = _direct(Params(c=40.0, slack=1), 1e-3, 0.5, lambda t: PE0, lambda t: 0.0)
+    for name in KNEE_OUTPUTS:
+        np.testing.assert_allclose(on[name], ref[name], rtol=1e-9, atol=1e-9, err_msg=name)
+    assert min(on["ff"]) == 0.0 and min(off["ff"]) < -0.5
+    assert abs(on["X"][-1] - off["X"][-1]) > 1e-4, "slack must change the motion here"
 
 
 def test_saturated_pressures_drive_the_knee_onto_its_end_stops(knee_runs):
@@ -230,7 +245,7 @@ def init(fmu, vr, values):
     fmu.setupExperiment(startTime=0.0)
     fmu.enterInitializationMode()
     for name, value in values.items():
-        if name == "model":
+        if name in ("model", "slack"):
             fmu.setInteger([vr[name]], [value])
         else:
             fmu.setReal([vr[name]], [value])
@@ -249,8 +264,8 @@ def run(fmu, vr, t, steps, dt, inputs):
 out = {}
 knee, vr, messages = open_fmu(sys.argv[1], "knee")
 pe0 = knee.getReal([vr["pe_cmd"]])[0]
-setting = {"c": 30.0, "tau": 0.05, "Fc": 1.0}
-wave = lambda t: {"pe_cmd": pe0 * (1 + 0.05 * np.sin(7 * t))}
+setting = {"c": 30.0, "tau": 0.05, "Fc": 1.0, "slack": 1}
+wave = lambda t: {"pe_cmd": pe0 * (1 + 0.05 * np.sin(7 * t)), "pf_cmd": 0.0}
 init(knee, vr, setting)
 t, first = run(knee, vr, 0.0, 100, 2e-3, wave)
 state = knee.getFMUstate()
@@ -265,8 +280,12 @@ knee.freeFMUstate(state)
 knee.reset()
 init(knee, vr, setting)
 _, after_reset = run(knee, vr, 0.0, 100, 2e-3, wave)
+knee.reset()  # back to the start values (slack = 0): the saved state must bring every setting back
+init(knee, vr, {})
+knee.setFMUstate(knee.deSerializeFMUstate(serialized))
+_, replay_into_reset = run(knee, vr, t_saved, 150, 2e-3, wave)
 out["knee"] = {"first": first, "original": original, "replay": replay, "replay_serialized": replay_serialized,
-               "after_reset": after_reset}
+               "after_reset": after_reset, "replay_into_reset": replay_into_reset}
 
 # a NaN input: doStep answers fmi2Discard, the host carries on, the state is kept, a finite input resumes
 statuses = []
@@ -322,6 +341,7 @@ def test_fmu_state_restores_everything_and_reset_returns_to_the_start(low_level)
     np.testing.assert_array_equal(runs["replay"], runs["original"])
     np.testing.assert_array_equal(runs["replay_serialized"], runs["original"])
     np.testing.assert_array_equal(runs["after_reset"], runs["first"])
+    np.testing.assert_array_equal(runs["replay_into_reset"], runs["original"])
 
 
 def test_a_nan_input_is_discarded_and_the_host_carries_on(low_level):

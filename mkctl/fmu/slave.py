@@ -33,7 +33,6 @@ of the FMU's script (``mkctl/fmu/scripts``), which imports only the concrete cla
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import sys
@@ -44,12 +43,10 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Intege
 from pythonfmu.enums import Fmi2Status
 
 from ..errors import MkctlError
-from ..physics.params import DEFAULT, RATED_PRESSURE, Params
+from ..physics.params import DEFAULT, INTEGER_PARAMETERS, RATED_PRESSURE, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
-#: Integer parameters of both FMUs (fields of Params), after the Real ones.
-INTEGER_PARAMETERS = tuple(name for name in ("model", "slack") if name in {f.name for f in dataclasses.fields(Params)})
 #: Description of the parameter ``n``, common to both FMUs.
 N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
                  "sqrt(b^2 - L0^2) / (pi D0)")
