@@ -529,3 +529,47 @@ def test_1000_instantiate_free_cycles_in_one_process_keep_memory_and_handles_fla
     # pythonfmu 0.7 itself keeps 1-3 kB per instance (docs/fmu.md, "Memory"); the FMUs as first built kept
     # 11-36 kB (the whole slave class per instance): 4 MB over 1000 cycles tells them apart
     assert after["rss_kB"] - before["rss_kB"] < 4096, out
+
+
+# --- a user's muscle: build_fmu.py --params ----------------------------------------------------------------
+def test_build_fmu_with_a_muscle_file_makes_fmus_whose_defaults_are_that_muscle(tmp_path, run_python):
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from mkctl.io.muscle import write_muscle
+
+    root = Path(__file__).resolve().parents[1]
+    muscle = Params(b=0.25, n=3.1, L0=0.2, D0=0.012, C1=1.5e5, m=3.0, c=20.0, slack=1)
+    path = write_muscle(tmp_path / "muscle.json", muscle)
+    out = tmp_path / "fmus"
+    done = subprocess.run([sys.executable, str(root / "build_fmu.py"), "--out", str(out), "--no-run", "--params",
+                           str(path)], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    knee_fmu = out / "McKibbenKnee.fmu"
+    variables = {v.name: v for v in read_model_description(str(knee_fmu)).modelVariables}
+    for name in SPEC_PARAMETERS:
+        assert float(variables[name].start) == pytest.approx(getattr(muscle, name), rel=1e-15), name
+    assert int(variables["slack"].start) == 1 and int(variables["model"].start) == 2
+    pe0, pf0 = default_commands(muscle)
+    assert float(variables["pe_cmd"].start) == pytest.approx(pe0, rel=1e-15)
+    assert float(variables["X0"].start) == pytest.approx(default_hip_height(muscle), rel=1e-15)
+    actuator = {v.name: v for v in read_model_description(str(out / "McKibbenActuator.fmu")).modelVariables}
+    assert float(actuator["n"].start) == 3.1 and int(actuator["slack"].start) == 1
+
+    # the FMU's run with its defaults (and a 5 % step) is the library's run of that muscle: n = 3.1 as given,
+    # not derived from b, L0, D0
+    run = json.dumps([{"dt": 1e-3, "stop": 0.3, "input_names": ["pe_cmd", "pf_cmd"],
+                       "input": _step_input(pe0, pe0 * 1.05, pf0, 0.1, 0.3)}])
+    columns = run_python(SIMULATE, knee_fmu, run)["results"][0]["columns"]
+    times, ref = _direct(muscle, 1e-3, 0.3, _pe_step(pe0, pe0 * 1.05, 0.1), lambda t: pf0)
+    assert np.ptp(ref["X"]) > 1e-4
+    for name in KNEE_OUTPUTS:
+        np.testing.assert_allclose(columns[name], ref[name], rtol=1e-9, atol=1e-9, err_msg=name)
+
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"params": {"braid": 0.25}}')
+    done = subprocess.run([sys.executable, str(root / "build_fmu.py"), "--out", str(tmp_path / "no"), "--no-run",
+                           "--params", str(bad)], capture_output=True, text=True, cwd=tmp_path)
+    assert done.returncode == 2 and len(done.stderr.strip().splitlines()) == 1
+    assert "unknown parameter 'braid'" in done.stderr and not (tmp_path / "no").exists()
