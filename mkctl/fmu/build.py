@@ -281,7 +281,7 @@ def build(out, run: bool = True, params: Params | None = None, *, _fix_exit: boo
     from . import models
 
     params = DEFAULT if params is None else params
-    out = Path(out)
+    out = Path(out).resolve()  # the checks run in another folder
     out.mkdir(parents=True, exist_ok=True)
     built = {}
     with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
