@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import subprocess
 import sys
 import zipfile
@@ -33,6 +34,9 @@ if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and b
 from mkctl.cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # noqa: E402  (one check for the CLI and the scenarios)
 from mkctl.errors import MkctlError  # noqa: E402
 from mkctl.physics.params import Params  # noqa: E402
+
+# the scenarios show the FMUs' messages themselves (one line, see FMULog): the FMUs need not echo them on stderr
+os.environ.setdefault("MKCTL_FMU_STDERR", "0")
 
 FMU_FILES = {"knee": "McKibbenKnee.fmu", "actuator": "McKibbenActuator.fmu"}
 STEP = 1e-3  #: communication step of the fmpy runs [s]
@@ -173,8 +177,9 @@ class FMULog:
             self.messages.append(" ".join(text.split()))  # one line
 
     def reason(self) -> str:
-        """The last message, or "no message"."""
-        return self.messages[-1] if self.messages else "the FMU logged no message"
+        """The last message (pythonfmu's own note on a Python exception aside), or "no message"."""
+        own = [m for m in self.messages if not m.startswith("Fatal py exception encountered")]
+        return own[-1] if own else (self.messages[-1] if self.messages else "the FMU logged no message")
 
     def fmi2_callbacks(self):
         """fmi2CallbackFunctions calling this logger, for ``FMU2Slave.instantiate(callbacks=...)``; keep a
@@ -207,9 +212,14 @@ def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_valu
     error) unless it reaches the stop time."""
     from fmpy import simulate_fmu
 
+    from fmpy.fmi1 import FMICallException
+
     log = FMULog()
-    result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
-                          start_values=start_values or {}, debug_logging=True, logger=log)
+    try:
+        result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
+                              start_values=start_values or {}, debug_logging=True, logger=log)
+    except FMICallException as error:  # the FMUs answer invalid parameters with fmi2Fatal at initialization
+        raise ScenarioError(f"{Path(fmu).name} refused to start: {log.reason()}") from None
     if abs(result["time"][-1] - stop) > 1e-9 * max(1.0, stop):
         raise ScenarioError(f"{Path(fmu).name} stopped at t = {result['time'][-1]:g} s instead of {stop:g} s: "
                             f"{log.reason()}")

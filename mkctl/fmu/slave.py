@@ -19,7 +19,8 @@ settable variable, computed from the :class:`~mkctl.physics.params.Params` the F
 
 Errors. pythonfmu 0.7 forwards log messages to the host only when the host turned debug logging on, and turns
 any Python exception into fmi2Fatal. So every error and warning is logged *and* written as one line to the host
-process's stderr (:meth:`McKibbenSlave._report`), and:
+process's stderr (:meth:`McKibbenSlave._report`; ``MKCTL_FMU_STDERR=0`` in the environment skips the stderr copy),
+and:
 
 - a parameter set the model cannot represent, or an impossible start, is reported at exitInitializationMode,
   which then raises: the host gets fmi2Fatal (the only error status pythonfmu 0.7 can return) before any output
@@ -35,6 +36,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import sys
 from abc import abstractmethod
 from pathlib import Path
@@ -266,10 +268,11 @@ class McKibbenSlave(Fmi2Slave):
 
     def _report(self, message: str, status: Fmi2Status) -> None:
         """Log a message for the host's logger, and write it as one line on the host process's stderr: pythonfmu
-        0.7 forwards log messages only when the host turned debug logging on."""
+        0.7 forwards log messages only when the host turned debug logging on. A host that shows the log itself
+        can set the environment variable ``MKCTL_FMU_STDERR=0`` to skip the stderr copy."""
         self.log(message, status)
         stream = sys.stderr
-        if stream is not None:
+        if stream is not None and os.environ.get("MKCTL_FMU_STDERR", "1") != "0":
             try:
                 stream.write(f"{self.modelName} ({self.instance_name}) {status.name}: {' '.join(message.split())}\n")
                 stream.flush()
