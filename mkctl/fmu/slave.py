@@ -332,3 +332,5 @@ class McKibbenSlave(Fmi2Slave):
         self._last_valid = None
         self._version += 1
         self._cache_key = None
+        if self._sim is not None:
+            self._outputs()  # the restored state's outputs: what reads with invalid inputs fall back on
