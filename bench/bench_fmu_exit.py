@@ -7,12 +7,13 @@ as ``build_fmu.py`` does (fixed), and with pythonfmu's binary left as it is (``b
 the only use of that private switch besides the tests). Then runs each FMU ``--runs`` times in fresh processes,
 per host:
 
-- ``c``: ``fmu/fmi2_host.c`` (compiled with gcc), libpython preloaded, from the unzipped FMU; it returns from
-  ``main`` normally;
+- ``c``: ``fmu/fmi2_host.c`` (compiled with gcc), libpython preloaded, from the unzipped FMU (a folder whose
+  length changes from run to run); it returns from ``main`` normally;
 - ``fmpy``: the fmpy command line, ``python -m fmpy.cli simulate FMU`` (the default experiment);
 - ``libcosimpy``: the FMU as one slave of a libcosim execution, 0.1 s of 1 ms steps.
 
-Prints, per host, FMU and build, the number of runs that ended with a non-zero exit status or a signal, and the
+Every run gets an environment variable of its own length, which shifts the heap layout (whether the corrupted
+heap aborts a run depends on it). Prints, per host, FMU and build, the number of runs that ended with a non-zero exit status or a signal, and the
 distinct reasons (last line of stderr). ``--processes N`` then also runs N fresh fmpy processes that
 instantiate, step and free the knee FMU once each (the "1000 fresh processes" check) and prints their count of
 failures.
@@ -70,20 +71,27 @@ def compile_host(folder: Path) -> Path:
     return binary
 
 
-def c_host_command(host: Path, fmu: Path, folder: Path) -> list[str]:
+def c_host_command(host: Path, fmu: Path, folder: Path, k: int) -> list[str]:
+    """The C host's command line for the FMU unzipped into a folder whose path grows by 5 characters with k."""
     from fmpy import read_model_description
-    unzipped = folder / fmu.stem
-    with zipfile.ZipFile(fmu) as archive:
-        archive.extractall(unzipped)
+    unzipped = folder / ("x" * (5 * k + 1)) / fmu.stem
+    if not unzipped.exists():
+        with zipfile.ZipFile(fmu) as archive:
+            archive.extractall(unzipped)
     md = read_model_description(str(fmu))
     out_vr = next(v.valueReference for v in md.modelVariables if v.causality == "output")
     return [str(host), str(unzipped), md.guid, "0.1", "0.001", str(out_vr)]
 
 
-def count(command: list[str], runs: int, env=None, cwd=None) -> tuple[int, collections.Counter]:
+def count(command, runs: int, env=None, cwd=None) -> tuple[int, collections.Counter]:
+    """Failures of runs fresh processes; command is a list, or a function of the run's index k giving one. Each
+    run also gets an environment variable of its own length: the heap layout, and so whether a corrupted heap
+    aborts, shifts with it."""
     failures, reasons = 0, collections.Counter()
-    for _ in range(runs):
-        done = subprocess.run(command, capture_output=True, text=True, env=env, cwd=cwd, timeout=300)
+    for k in range(runs):
+        run_env = {**(os.environ if env is None else env), "BENCH_FMU_EXIT_PAD": "p" * (7 * k)}
+        done = subprocess.run(command(k) if callable(command) else command, capture_output=True, text=True,
+                              env=run_env, cwd=cwd, timeout=300)
         if done.returncode != 0:
             failures += 1
             lines = [line for line in done.stderr.splitlines() if line.strip()]
@@ -115,8 +123,8 @@ def main(argv=None) -> int:
                         if host is None:
                             print("  c: gcc not found, skipped")
                             break
-                        command = c_host_command(host, fmu, base / kind)
-                        failures, reasons = count(command, args.runs, env=python_environment())
+                        failures, reasons = count(lambda k: c_host_command(host, fmu, base / kind, k), args.runs,
+                                                  env=python_environment())
                     elif name == "fmpy":
                         failures, reasons = count([sys.executable, "-m", "fmpy.cli", "simulate", str(fmu)],
                                                   args.runs, cwd=temp)

@@ -6,7 +6,8 @@
 writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
 
 1. pythonfmu packs each slave script of :mod:`mkctl.fmu.scripts` with the ``mkctl`` modules the scripts import
-   (and nothing else), among them ``mkctl/fmu/slave.py``, the base class both slaves share, and with
+   (and nothing else), among them the slave classes (``mkctl/fmu/models.py``) and
+   ``mkctl/fmu/slave.py``, the base class both share, and with
    ``mkctl_start.json``, the start values of the build's parameters (``--params``, default Table I and II);
 2. the modelDescription.xml is completed where pythonfmu 0.7 leaves gaps: ``<UnitDefinitions>`` and a
    ``unit`` on every Real variable, and ``<InitialUnknowns>`` for the calculated outputs;
@@ -46,9 +47,10 @@ from ..errors import MkctlError
 from ..physics.params import DEFAULT, Params
 
 SCRIPTS = Path(__file__).resolve().parent / "scripts"
-#: The slave script of each FMU, by model name; each is also a module of mkctl (for its units and start values).
+#: The slave script of each FMU, by model name (a one-line import of the slave class, see mkctl/fmu/scripts).
 FMU_SCRIPTS = {"McKibbenKnee": SCRIPTS / "mckibben_knee.py",
                "McKibbenActuator": SCRIPTS / "mckibben_actuator.py"}
+
 
 #: FMI unit names for the unit strings of mkctl, and their SI base-unit exponents.
 _UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
@@ -274,24 +276,24 @@ def build(out, run: bool = True, params: Params | None = None, *, _fix_exit: boo
 
     Returns the FMUs' paths by model name. Raises :class:`BuildError`.
     """
-    import importlib
-
     from pythonfmu import FmuBuilder
 
+    from . import models
+
     params = DEFAULT if params is None else params
-    out = Path(out)
+    out = Path(out).resolve()  # the checks run in another folder
     out.mkdir(parents=True, exist_ok=True)
     built = {}
     with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
         temp = Path(temp)
         package = _stage_mkctl(temp / "stage")
         for name, script in FMU_SCRIPTS.items():
-            module = importlib.import_module(_script_module(name))
-            starts = _stage_starts(temp / "starts" / name, getattr(module, name), params)
+            slave_class = getattr(models, name)
+            starts = _stage_starts(temp / "starts" / name, slave_class, params)
             raw = FmuBuilder.build_FMU(script, dest=temp / f"{name}.fmu", project_files=[package, starts],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
             target = out / f"{name}.fmu"
-            _complete_fmu(Path(raw), target, module.VARIABLE_UNITS, fix_exit=_fix_exit)
+            _complete_fmu(Path(raw), target, slave_class.units, fix_exit=_fix_exit)
             _validate(target)
             built[name] = target
     if run:

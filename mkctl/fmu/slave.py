@@ -1,13 +1,12 @@
 """The machinery both FMU slaves share: :class:`McKibbenSlave`, a pythonfmu ``Fmi2Slave`` around an mkctl simulator.
 
-``mkctl/fmu/scripts/mckibben_knee.py`` and ``mckibben_actuator.py`` declare their interface (inputs, parameters,
-outputs, descriptions, units) and say how to build and step their simulator; everything else lives here once:
+The slaves of :mod:`mkctl.fmu.models` declare their interface (inputs, parameters, outputs, descriptions, units) and say how to build and step their simulator; everything else lives here once:
 variable registration, start values, the ``n`` default, start and error handling, doStep's refusals, the rated
 pressure warning, the cached outputs and FMU state. No equation lives here either: the simulators of
 :mod:`mkctl.physics.simulate` do the physics.
 
 Why a module of mkctl. It is the top layer of the import graph (it imports pythonfmu and mkctl, and only the FMU
-scripts import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
+slave modules import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
 :mod:`mkctl.fmu.build` packs every mkctl module the slave scripts import, so both FMUs carry this file as
 ``resources/mkctl/fmu/slave.py``. Both FMUs load in one process: their scripts have different module names, and the
 shared names (``mkctl``, ``mkctl.fmu.slave``, ``pythonfmu``) resolve to whichever FMU was loaded first, which is
@@ -20,7 +19,8 @@ settable variable, computed from the :class:`~mkctl.physics.params.Params` the F
 
 Errors. pythonfmu 0.7 forwards log messages to the host only when the host turned debug logging on, and turns
 any Python exception into fmi2Fatal. So every error and warning is logged *and* written as one line to the host
-process's stderr (:meth:`McKibbenSlave._report`), and:
+process's stderr (:meth:`McKibbenSlave._report`; ``MKCTL_FMU_STDERR=0`` in the environment skips the stderr copy),
+and:
 
 - a parameter set the model cannot represent, or an impossible start, is reported at exitInitializationMode,
   which then raises: the host gets fmi2Fatal (the only error status pythonfmu 0.7 can return) before any output
@@ -29,14 +29,14 @@ process's stderr (:meth:`McKibbenSlave._report`), and:
   state left as it was at the start of that step; outputs read while the inputs are invalid keep their last
   valid values (those of the last successful step), never NaN.
 
-pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave``, so a script's
-concrete class (``McKibbenKnee(McKibbenSlave)``) wins over this base class that it imports.
+pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave`` among the names
+of the FMU's script (``mkctl/fmu/scripts``), which imports only the concrete class.
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
+import os
 import sys
 from abc import abstractmethod
 from pathlib import Path
@@ -45,12 +45,10 @@ from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Intege
 from pythonfmu.enums import Fmi2Status
 
 from ..errors import MkctlError
-from ..physics.params import DEFAULT, RATED_PRESSURE, Params
+from ..physics.params import DEFAULT, INTEGER_PARAMETERS, RATED_PRESSURE, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
-#: Integer parameters of both FMUs (fields of Params), after the Real ones.
-INTEGER_PARAMETERS = tuple(name for name in ("model", "slack") if name in {f.name for f in dataclasses.fields(Params)})
 #: Description of the parameter ``n``, common to both FMUs.
 N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
                  "sqrt(b^2 - L0^2) / (pi D0)")
@@ -63,6 +61,25 @@ SLACK_DESCRIPTION = "1 = a muscle cannot push: the tension is max(f, 0) (model-s
 P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
                        "excursion); the model itself has no limit")
 _INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
+
+#: One entry per run of an FMU script (see :func:`keep_namespace`).
+_KEPT: list = []
+
+
+def keep_namespace(namespace: dict) -> None:
+    """Take one reference to an FMU script's namespace. pythonfmu 0.7 runs the script at every fmi2Instantiate and
+    then releases a reference to its namespace that it never took; without this one the namespace is freed
+    under the module after the first instance, and the next fmi2Instantiate crashes the host. Costs one list
+    slot (8 bytes) per instance."""
+    _KEPT.append(namespace)
+
+
+def _drop_repeated_path(resources) -> None:
+    """pythonfmu 0.7 inserts the resources folder at the front of sys.path at every fmi2Instantiate; keep only the
+    first copy, so that sys.path (and the time every later import takes to scan it) does not grow per instance."""
+    if resources and sys.path.count(resources) > 1:
+        first = sys.path.index(resources)
+        sys.path[first + 1:] = [entry for entry in sys.path[first + 1:] if entry != resources]
 
 
 class McKibbenSlave(Fmi2Slave):
@@ -96,6 +113,7 @@ class McKibbenSlave(Fmi2Slave):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
+        _drop_repeated_path(kwargs.get("resources"))
         #: the start value of every settable variable (the build's Params, or DEFAULT)
         self._starts = self._read_starts(kwargs.get("resources"))
         for name in self.inputs:
@@ -250,10 +268,11 @@ class McKibbenSlave(Fmi2Slave):
 
     def _report(self, message: str, status: Fmi2Status) -> None:
         """Log a message for the host's logger, and write it as one line on the host process's stderr: pythonfmu
-        0.7 forwards log messages only when the host turned debug logging on."""
+        0.7 forwards log messages only when the host turned debug logging on. A host that shows the log itself
+        can set the environment variable ``MKCTL_FMU_STDERR=0`` to skip the stderr copy."""
         self.log(message, status)
         stream = sys.stderr
-        if stream is not None:
+        if stream is not None and os.environ.get("MKCTL_FMU_STDERR", "1") != "0":
             try:
                 stream.write(f"{self.modelName} ({self.instance_name}) {status.name}: {' '.join(message.split())}\n")
                 stream.flush()
@@ -313,3 +332,5 @@ class McKibbenSlave(Fmi2Slave):
         self._last_valid = None
         self._version += 1
         self._cache_key = None
+        if self._sim is not None:
+            self._outputs()  # the restored state's outputs: what reads with invalid inputs fall back on

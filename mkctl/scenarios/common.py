@@ -23,6 +23,7 @@ import contextlib
 import csv
 import io
 import math
+import os
 import zipfile
 from pathlib import Path
 
@@ -31,6 +32,9 @@ import numpy as np
 from ..cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # one check for both
 from ..errors import MkctlError
 from ..physics.params import Params
+
+# the scenarios show the FMUs' messages themselves (one line, see FMULog): the FMUs need not echo them on stderr
+os.environ.setdefault("MKCTL_FMU_STDERR", "0")
 
 FMU_FILES = {"knee": "McKibbenKnee.fmu", "actuator": "McKibbenActuator.fmu"}
 STEP = 1e-3  #: communication step of the fmpy runs [s]
@@ -188,8 +192,9 @@ class FMULog:
             self.messages.append(" ".join(text.split()))  # one line
 
     def reason(self) -> str:
-        """The last message, or "no message"."""
-        return self.messages[-1] if self.messages else "the FMU logged no message"
+        """The last message (pythonfmu's own note on a Python exception aside), or "no message"."""
+        own = [m for m in self.messages if not m.startswith("Fatal py exception encountered")]
+        return own[-1] if own else (self.messages[-1] if self.messages else "the FMU logged no message")
 
     def fmi2_callbacks(self):
         """fmi2CallbackFunctions calling this logger, for ``FMU2Slave.instantiate(callbacks=...)``; keep a
@@ -222,9 +227,14 @@ def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_valu
     error) unless it reaches the stop time."""
     from fmpy import simulate_fmu
 
+    from fmpy.fmi1 import FMICallException
+
     log = FMULog()
-    result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
-                          start_values=start_values or {}, debug_logging=True, logger=log)
+    try:
+        result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
+                              start_values=start_values or {}, debug_logging=True, logger=log)
+    except FMICallException as error:  # the FMUs answer invalid parameters with fmi2Fatal at initialization
+        raise ScenarioError(f"{Path(fmu).name} refused to start: {log.reason()}") from None
     if abs(result["time"][-1] - stop) > 1e-9 * max(1.0, stop):
         raise ScenarioError(f"{Path(fmu).name} stopped at t = {result['time'][-1]:g} s instead of {stop:g} s: "
                             f"{log.reason()}")
