@@ -81,7 +81,8 @@ def math_for(x):
 
 
 #: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead of
-#: being tested: (value, low, high, message) with low/high None for "finite", message(bad, low, high) -> str.
+#: being tested: (value, low, high, message, what) with low/high None for "finite",
+#: message(bad, low, high) -> str the Python error text, what a short name of the checked quantity.
 _domain_trace: list | None = None
 
 
@@ -89,9 +90,9 @@ _domain_trace: list | None = None
 def tracing_domain_checks():
     """Collect the domain checks met while the equations are evaluated on symbols (for generated code).
 
-    Yields the list of (value, low, high, message): the check is ``low < value < high`` (NaN fails), or
-    ``value`` finite when low and high are None; ``message(bad, low, high)`` is the error text of the
-    Python check, so both paths report a violation in the same words.
+    Yields the list of (value, low, high, message, what): the check is ``low < value < high`` (NaN fails),
+    or ``value`` finite when low and high are None; ``message(bad, low, high)`` is the error text of the
+    Python check; ``what`` names the checked quantity.
     """
     global _domain_trace
     previous, _domain_trace = _domain_trace, []
@@ -101,10 +102,10 @@ def tracing_domain_checks():
         _domain_trace = previous
 
 
-def trace_domain_check(value, low, high, message) -> None:
+def trace_domain_check(value, low, high, message, what: str) -> None:
     """Record a check on a symbolic value (see :func:`tracing_domain_checks`); nothing outside tracing."""
     if _domain_trace is not None:
-        _domain_trace.append((value, low, high, message))
+        _domain_trace.append((value, low, high, message, what))
 
 
 def _length_message(bad, b) -> str:
@@ -118,7 +119,7 @@ _LDOT_MESSAGE = "lengthening rate Ldot is not a finite number (NaN or infinite)"
 def check_length(L, b: float):
     """Raise :class:`DomainError` unless every length lies in the model's domain 0 < L < b [m]."""
     if is_symbolic(L):
-        trace_domain_check(L, 0.0, b, lambda bad, low, high: _length_message(bad, high))
+        trace_domain_check(L, 0.0, b, lambda bad, low, high: _length_message(bad, high), "actuator length L [m]")
         return
     if isinstance(L, (float, np.floating)):
         if 0 < L < b:  # False for NaN too
@@ -138,7 +139,7 @@ def check_pressure(P):
     if isinstance(P, (float, np.floating)) and math.isfinite(P):
         return
     if is_symbolic(P):
-        trace_domain_check(P, None, None, lambda *_: _PRESSURE_MESSAGE)
+        trace_domain_check(P, None, None, lambda *_: _PRESSURE_MESSAGE, "pressure [Pa]")
         return
     if not np.isfinite(np.asarray(P, dtype=float)).all():
         raise DomainError(_PRESSURE_MESSAGE)
@@ -313,7 +314,7 @@ def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
     """
     Ldot = as_values(Ldot)
     if is_symbolic(Ldot):
-        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE)
+        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE, "lengthening rate Ldot [m/s]")
     elif not np.isfinite(Ldot).all():
         raise DomainError(_LDOT_MESSAGE)
     return static_tension(L, P, params) + velocity_tension(Ldot, params)

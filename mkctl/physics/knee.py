@@ -115,7 +115,7 @@ def _check_range(values, low, high, what, unit, why=""):
         return f"{what} = {float(bad)!r} {unit} is outside ({low:g}, {high:g}) {unit}{why}"
 
     if actuator.is_symbolic(values):
-        actuator.trace_domain_check(values, low, high, message)
+        actuator.trace_domain_check(values, low, high, message, f"{what} [{unit}]")
         return
     if isinstance(values, (float, np.floating)):
         if low < values < high:
