@@ -129,6 +129,25 @@ def test_compiled_knee_states_agrees_with_the_python_path(case, monkeypatch):
     assert_agree({"X": native[0], "V": native[1]}, {"X": python[0], "V": python[1]}, ("X", "V"))
 
 
+def test_compiled_step_is_kneesimulator_step():
+    # mk_knee_step is what a native FMU's doStep calls: steps of any size, first-same-as-last reuse
+    from mkctl.physics.simulate import KneeSimulator
+    params = Params(c=20.0, Fc=1.0, tau=0.02)
+    core = core_or_fail(params)
+    pe, pf = default_commands(params)
+    python, native = KneeSimulator(params, None, pe, pf), KneeSimulator(params, None, pe, pf)
+    step = core.stepper(native)
+    for k, dt in enumerate([1e-3] * 30 + [20e-3] * 10 + [0.0, 5e-3, 1e-3]):
+        command = pe * (1.05 if k >= 5 else 1.0)
+        python.step(dt, command, pf)
+        assert step(dt, command, pf) == 0
+        np.testing.assert_allclose(native.state, python.state, rtol=1e-12, atol=1e-12)
+        assert native.step_hint == pytest.approx(python.step_hint, rel=1e-6)
+    assert step(1e-3, float("nan"), pf) != 0  # the commands' check, generated from check_pressure
+    with pytest.raises(DomainError):
+        python.step(1e-3, float("nan"), pf)
+
+
 def test_compiled_record_without_stops_and_from_a_given_posture(monkeypatch):
     params = Params(c=30.0)
     core_or_fail(params)
