@@ -1,0 +1,364 @@
+"""Native FMUs (model-spec section 7b): the knee and the actuator as FMI 2.0 co-simulation FMUs in compiled C.
+
+    python -m mkctl.native.fmu [--out DIR]      # writes DIR/native/McKibbenKnee.fmu, DIR/native/McKibbenActuator.fmu
+
+:func:`build_native` writes FMUs with the same model names, variables (names, value references, causality,
+variability, units, descriptions, start values) and default experiments as the pythonfmu FMUs of ``build_fmu.py``,
+because it reads them from the same declaration: it instantiates the pythonfmu slave classes of
+``fmu/mckibben_knee.py`` and ``fmu/mckibben_actuator.py`` and walks their registered variables. The model code is
+the compiled core of :mod:`mkctl.native` (C generated from mkctl's equations); around it sit the FMI wrapper
+(``fmu_c/fmi2_wrapper.c``, shared) and the model's part (``fmu_c/knee_fmu.c``, ``fmu_c/actuator_fmu.c``).
+
+Each FMU carries its C sources in ``sources/`` (an FMI 2.0 source-code FMU: ``<SourceFiles>`` lists the
+compilation units; the FMI 2.0 headers are included) and the ``linux64`` binary, compiled with
+``gcc -O2 -fPIC -shared``. The host needs no Python.
+
+The parameter checks of the C wrapper are those of :class:`mkctl.physics.params.Params`: the per-parameter rules
+(positive, not negative) are read from ``Params`` itself at build time (:func:`parameter_rule`), the few rules
+between parameters are written in the wrapper with Params' own messages; tests compare both on every parameter.
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import datetime
+import importlib.util
+import math
+import shutil
+import subprocess
+import sys
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+from xml.dom.minidom import parseString
+from xml.etree import ElementTree as ET
+
+from ..errors import MkctlError, ParameterError
+from ..physics.params import DEFAULT, Params
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parents[1]
+C_DIR = HERE / "fmu_c"
+#: The pythonfmu slave scripts whose interface the native FMUs repeat, by model name.
+SLAVE_SCRIPTS = {"McKibbenKnee": ROOT / "fmu" / "mckibben_knee.py",
+                 "McKibbenActuator": ROOT / "fmu" / "mckibben_actuator.py"}
+#: The model's part of the wrapper, by model name.
+MODEL_SOURCES = {"McKibbenKnee": "knee_fmu.c", "McKibbenActuator": "actuator_fmu.c"}
+
+#: FMI unit names for mkctl's unit strings, and their SI base-unit exponents (as build_fmu.py writes them).
+_UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
+_BASE_UNITS = {
+    "m": {"m": 1}, "s": {"s": 1}, "kg": {"kg": 1}, "rad": {"rad": 1}, "1": {},
+    "N": {"kg": 1, "m": 1, "s": -2}, "Pa": {"kg": 1, "m": -1, "s": -2}, "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1}, "1/s": {"s": -1}, "1/s2": {"s": -2},
+}
+_LOG_CATEGORIES = {
+    "logStatusWarning": "Log messages with fmi2Warning status.",
+    "logStatusDiscard": "Log messages with fmi2Discard status.",
+    "logStatusError": "Log messages with fmi2Error status.",
+    "logStatusFatal": "Log messages with fmi2Fatal status.",
+    "logAll": "Log all messages.",
+}
+
+
+class NativeBuildError(MkctlError):
+    """The native FMUs could not be generated, compiled or validated."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Variable:
+    """One FMU variable, as the pythonfmu slave declares it."""
+
+    name: str
+    vr: int
+    type: str  #: "Real", "Integer" or "Boolean"
+    causality: str  #: "input", "parameter" or "output"
+    variability: str  #: "continuous", "fixed" or "discrete"
+    description: str
+    unit: str | None  #: FMI unit name (Real variables only)
+    start: float | int | None  #: None for outputs
+
+
+@dataclasses.dataclass(frozen=True)
+class Interface:
+    """What an FMU shows a host: its variables and model data, the same for the pythonfmu and the native FMU."""
+
+    model_name: str
+    description: str
+    author: str
+    default_experiment: dict[str, str]
+    variables: tuple[Variable, ...]
+    undefined_outputs: str
+
+    def by_name(self) -> dict[str, Variable]:
+        return {v.name: v for v in self.variables}
+
+
+def _load_slave_class(model_name: str):
+    """The pythonfmu slave class of a model, imported from its script under a private module name."""
+    script = SLAVE_SCRIPTS[model_name]
+    spec = importlib.util.spec_from_file_location(f"_mkctl_native_{script.stem}", script)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module, getattr(module, model_name)
+
+
+def _fmi_unit(unit: str) -> str:
+    return _UNIT_NAMES.get(unit, unit)
+
+
+def slave_interface(model_name: str, params: Params | None = None) -> Interface:
+    """The interface of a model's pythonfmu slave, start values taken from params (default: the slave's own).
+
+    With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
+    params' geometry and the knee's input commands at the pressures that hold it there.
+    """
+    module, cls = _load_slave_class(model_name)
+    slave = cls(instance_name="mkctl-native-build")
+    starts = {}
+    if params is not None:
+        from ..physics.simulate import default_commands, default_hip_height
+        starts = {name: getattr(params, name) for name in dataclasses.asdict(params)}
+        if model_name == "McKibbenKnee":
+            starts["X0"] = default_hip_height(params)
+            starts["pe_cmd"], starts["pf_cmd"] = default_commands(params)
+    variables = []
+    for vr, var in slave.vars.items():
+        kind = type(var).__name__
+        causality = var.causality.name
+        start = None
+        if causality != "output":
+            start = starts.get(var.name, getattr(slave, var.name))
+            start = int(start) if kind == "Integer" else float(start)
+        unit = _fmi_unit(slave.units[var.name]) if kind == "Real" else None
+        variables.append(Variable(var.name, vr, kind, causality, var.variability.name, var.description, unit,
+                                  start))
+    experiment = cls.default_experiment
+    default_experiment = {key: str(value) for key, value in (("startTime", experiment.start_time),
+                                                             ("stopTime", experiment.stop_time),
+                                                             ("stepSize", experiment.step_size),
+                                                             ("tolerance", experiment.tolerance))
+                          if value is not None}
+    return Interface(model_name, cls.description, cls.author, default_experiment, tuple(variables),
+                     cls.undefined_outputs)
+
+
+def parameter_rule(name: str) -> str:
+    """The check :class:`Params` applies to a Real parameter on its own: "positive", "not_negative" or "any".
+
+    Read from Params itself (a value of 0 or -1 in an otherwise default set), so that the C wrapper checks what
+    the library checks. ``n`` is "any" here: the wrapper checks it only when it is given (not left at its start).
+    """
+    if name not in dataclasses.asdict(DEFAULT) or name in ("n", "model"):
+        return "any"
+    for value, rule, words in ((0.0, "positive", "must be positive"), (-1.0, "not_negative", "must not be negative")):
+        try:
+            DEFAULT.replace(**{name: value})
+        except ParameterError as error:
+            if words in str(error):
+                return rule
+    return "any"
+
+
+# --- generated files -------------------------------------------------------------------------------------------
+
+def model_description(interface: Interface, guid: str, source_files: list[str]) -> bytes:
+    """modelDescription.xml of the native FMU (FMI 2.0 co-simulation, source files listed)."""
+    now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    root = ET.Element("fmiModelDescription", {
+        "fmiVersion": "2.0", "modelName": interface.model_name, "guid": guid,
+        "description": interface.description, "author": interface.author,
+        "generationTool": "mkctl.native.fmu (C generated from mkctl's equations)",
+        "generationDateAndTime": now, "variableNamingConvention": "structured",
+        "numberOfEventIndicators": "0"})
+    cosim = ET.SubElement(root, "CoSimulation", {
+        "modelIdentifier": interface.model_name, "needsExecutionTool": "false",
+        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
+        "canBeInstantiatedOnlyOncePerProcess": "false", "canNotUseMemoryManagementFunctions": "true",
+        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true",
+        "providesDirectionalDerivative": "false"})
+    sources = ET.SubElement(cosim, "SourceFiles")
+    for name in source_files:
+        ET.SubElement(sources, "File", name=name)
+    units = sorted({v.unit for v in interface.variables if v.unit is not None})
+    unknown = [u for u in units if u not in _BASE_UNITS]
+    if unknown:
+        raise NativeBuildError(f"no base-unit definition for unit(s) {unknown}")
+    definitions = ET.SubElement(root, "UnitDefinitions")
+    for unit in units:
+        node = ET.SubElement(definitions, "Unit", name=unit)
+        if _BASE_UNITS[unit]:
+            ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in _BASE_UNITS[unit].items()})
+    categories = ET.SubElement(root, "LogCategories")
+    for name, text in _LOG_CATEGORIES.items():
+        ET.SubElement(categories, "Category", name=name, description=text)
+    ET.SubElement(root, "DefaultExperiment", interface.default_experiment)
+    variables = ET.SubElement(root, "ModelVariables")
+    for v in interface.variables:
+        node = ET.SubElement(variables, "ScalarVariable", {
+            "name": v.name, "valueReference": str(v.vr), "description": v.description, "causality": v.causality,
+            "variability": v.variability})
+        attributes = {}
+        if v.start is not None:
+            attributes["start"] = repr(v.start)
+        if v.unit is not None:
+            attributes["unit"] = v.unit
+        ET.SubElement(node, v.type, attributes)
+    structure = ET.SubElement(root, "ModelStructure")
+    indices = [str(k) for k, v in enumerate(interface.variables, start=1) if v.causality == "output"]
+    for section in ("Outputs", "InitialUnknowns"):
+        node = ET.SubElement(structure, section)
+        for index in indices:
+            ET.SubElement(node, "Unknown", index=index)
+    return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
+
+
+def _c_string(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _c_double(value: float) -> str:
+    if not math.isfinite(value):
+        raise NativeBuildError(f"start value {value!r} is not a finite number")
+    return repr(float(value))
+
+
+def variables_header(interface: Interface, guid: str) -> str:
+    """model_variables.h: names, value references, GUID."""
+    lines = ["/* Generated by mkctl.native.fmu from the pythonfmu slave's interface: do not edit. */",
+             "#ifndef MODEL_VARIABLES_H", "#define MODEL_VARIABLES_H", "",
+             f"#define MK_MODEL_NAME {_c_string(interface.model_name)}",
+             f"#define MK_GUID {_c_string(guid)}",
+             f"#define MK_UNDEFINED_OUTPUTS {_c_string(interface.undefined_outputs)}",
+             f"#define NV {len(interface.variables)}", ""]
+    for v in interface.variables:
+        if not v.name.isidentifier():
+            raise NativeBuildError(f"variable name {v.name!r} is not a C identifier")
+        lines.append(f"#define VR_{v.name} {v.vr}")
+    lines += ["", "#endif", ""]
+    return "\n".join(lines)
+
+
+def variables_source(interface: Interface) -> str:
+    """model_variables.c: the table of variables (start values exact to the last bit), check order, inputs."""
+    types = {"Real": "MK_REAL", "Integer": "MK_INTEGER", "Boolean": "MK_BOOLEAN"}
+    causalities = {"input": "MK_INPUT", "parameter": "MK_PARAMETER", "output": "MK_OUTPUT"}
+    rules = {"any": "MK_ANY", "positive": "MK_POSITIVE", "not_negative": "MK_NOT_NEGATIVE"}
+    lines = ["/* Generated by mkctl.native.fmu from the pythonfmu slave's interface: do not edit. */",
+             '#include "mk_fmu.h"', "", "const mk_variable mk_variables[NV] = {"]
+    for v in sorted(interface.variables, key=lambda v: v.vr):
+        rule = parameter_rule(v.name) if v.causality == "parameter" and v.type == "Real" else "any"
+        start = _c_double(v.start) if v.start is not None else "0.0"
+        lines.append(f"    {{{_c_string(v.name)}, {types[v.type]}, {causalities[v.causality]}, {rules[rule]}, "
+                     f"{_c_string(v.unit or '')}, {start}}}, /* vr {v.vr} */")
+    lines.append("};")
+    names = interface.by_name()
+    order = [names[f].vr for f in dataclasses.asdict(DEFAULT)
+             if f in names and names[f].causality == "parameter" and names[f].type == "Real"]
+    inputs = [v.vr for v in interface.variables if v.causality == "input"]
+    lines += [f"const int mk_params_order[] = {{{', '.join(map(str, order))}}};",
+              f"const int mk_n_params_order = {len(order)};",
+              f"const int mk_inputs[] = {{{', '.join(map(str, inputs))}}};",
+              f"const int mk_n_inputs = {len(inputs)};", ""]
+    return "\n".join(lines)
+
+
+# --- sources, compilation, packing ------------------------------------------------------------------------------
+
+def fmi2_headers() -> Path:
+    """The folder with the FMI 2.0 headers (fmpy ships the standard ones)."""
+    import fmpy
+    folder = Path(fmpy.__file__).parent / "c-code"
+    if not (folder / "fmi2Functions.h").is_file():
+        raise NativeBuildError(f"no FMI 2.0 headers in {folder}")
+    return folder
+
+
+def core_sources(model_name: str) -> list[Path]:
+    """The C files of the compiled core the model's part needs (generated from mkctl's equations)."""
+    return []  # TEMPORARY: the core (branch core) has not landed; fmu_c/mk_core_api.c is a placeholder
+
+
+def write_sources(interface: Interface, guid: str, dest: Path) -> list[str]:
+    """Write every source file of the FMU into dest; returns the compilation units (file names)."""
+    dest.mkdir(parents=True, exist_ok=True)
+    headers = fmi2_headers()
+    for name in ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"):
+        shutil.copy2(headers / name, dest / name)
+    shutil.copy2(C_DIR / "mk_fmu.h", dest / "mk_fmu.h")
+    shutil.copy2(C_DIR / "mk_core_api.h", dest / "mk_core_api.h")
+    units = ["fmi2_wrapper.c", MODEL_SOURCES[interface.model_name], "mk_core_api.c", "model_variables.c"]
+    for name in units[:3]:
+        shutil.copy2(C_DIR / name, dest / name)
+    (dest / "model_variables.h").write_text(variables_header(interface, guid))
+    (dest / "model_variables.c").write_text(variables_source(interface))
+    for path in core_sources(interface.model_name):
+        shutil.copy2(path, dest / path.name)
+        if path.suffix == ".c":
+            units.append(path.name)
+    return units
+
+
+def compile_binary(sources: Path, units: list[str], target: Path, compiler: str = "gcc") -> None:
+    """Compile the units into a shared library (only the fmi2* functions exported)."""
+    if shutil.which(compiler) is None:
+        raise NativeBuildError(f"no C compiler: {compiler} is not on PATH (the native FMUs need one to build)")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    command = [compiler, "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall",
+               "-I", str(sources), "-o", str(target), *[str(sources / u) for u in units], "-lm"]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise NativeBuildError(f"compiling {target.name} failed:\n{done.stderr.strip()[-3000:]}")
+
+
+def _validate(fmu: Path) -> None:
+    from fmpy.validation import validate_fmu
+    problems = validate_fmu(str(fmu))
+    if problems:
+        raise NativeBuildError(f"{fmu.name} failed fmpy's validation:\n  " + "\n  ".join(problems))
+
+
+def build_one(model_name: str, target: Path, params: Params | None = None) -> Path:
+    """Generate, compile, pack and validate one native FMU at target."""
+    interface = slave_interface(model_name, params)
+    guid = "{" + str(uuid.uuid4()) + "}"
+    with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
+        stage = Path(temp) / "fmu"
+        units = write_sources(interface, guid, stage / "sources")
+        (stage / "modelDescription.xml").write_bytes(model_description(interface, guid, units))
+        compile_binary(stage / "sources", units, stage / "binaries" / "linux64" / f"{model_name}.so")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as fmu:
+            for path in sorted(stage.rglob("*")):
+                if path.is_file():
+                    fmu.write(path, path.relative_to(stage).as_posix())
+    _validate(target)
+    return target
+
+
+def build_native(out: Path, params: Params | None = None) -> dict[str, Path]:
+    """Write ``out/native/McKibbenKnee.fmu`` and ``out/native/McKibbenActuator.fmu``; returns their paths by
+    model name. params: a :class:`Params` whose values become the start values (default: Table I, II, effects off).
+    Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's validation failing)."""
+    folder = Path(out) / "native"
+    return {name: build_one(name, folder / f"{name}.fmu", params) for name in SLAVE_SCRIPTS}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description="Build the native FMUs (model-spec section 7b).")
+    parser.add_argument("--out", type=Path, default=ROOT / "dist", help="output folder (default: dist); "
+                        "the FMUs go into OUT/native")
+    args = parser.parse_args(argv)
+    try:
+        built = build_native(args.out)
+    except MkctlError as error:
+        print(f"mkctl.native.fmu: {error}", file=sys.stderr)
+        return 2
+    for path in built.values():
+        print(f"built {path} (validated)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

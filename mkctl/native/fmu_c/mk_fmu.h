@@ -1,0 +1,75 @@
+/* The FMI 2.0 co-simulation wrapper of mkctl's native FMUs: what the generic part (fmi2_wrapper.c) and a model's
+ * part (knee_fmu.c or actuator_fmu.c) share. Written by mkctl/native/fmu.py's build, see docs/fmu.md.
+ *
+ * Every variable lives in one array of doubles indexed by its value reference (Integer and Boolean values as
+ * whole numbers); model_variables.h (generated from the pythonfmu slave's interface) gives the value references
+ * as VR_<name>, the count NV and the table mk_variables[] (name, type, causality, unit, start value).
+ */
+#ifndef MK_FMU_H
+#define MK_FMU_H
+
+#include <stddef.h>
+
+enum mk_type { MK_REAL, MK_INTEGER, MK_BOOLEAN };
+enum mk_causality { MK_INPUT, MK_PARAMETER, MK_OUTPUT };
+/* checks of a Real parameter, the rules of mkctl.physics.params.Params */
+enum mk_rule { MK_ANY, MK_POSITIVE, MK_NOT_NEGATIVE };
+
+typedef struct {
+    const char *name;
+    int type;      /* enum mk_type */
+    int causality; /* enum mk_causality */
+    int rule;      /* enum mk_rule (parameters) */
+    const char *unit;
+    double start;
+} mk_variable;
+
+#include "model_variables.h" /* generated: MK_MODEL_NAME, MK_GUID, MK_UNDEFINED_OUTPUTS, NV, VR_<name> */
+
+extern const mk_variable mk_variables[NV];   /* by value reference */
+extern const int mk_params_order[];          /* the Real parameters, in the order Params checks them */
+extern const int mk_n_params_order;
+extern const int mk_inputs[];                /* the inputs, checked at every doStep */
+extern const int mk_n_inputs;
+
+#define MK_MAX_STATES 4
+#define MK_MESSAGE 600
+
+/* What determines the future of a run: the integrator's state. */
+typedef struct {
+    double time;
+    double y[MK_MAX_STATES]; /* knee: X, V (and Pe, Pf with a lag); actuator: P */
+    int ny;
+    double h;                /* the integrator's next step size [s] */
+} mk_state;
+
+/* Everything an FMU state holds (fmi2GetFMUstate copies it whole). */
+typedef struct {
+    double v[NV];            /* every variable, by value reference */
+    mk_state s;
+    double aux[8];           /* model constants computed at start (derived n, end stops, ...) */
+    int phase;               /* enum mk_phase */
+    int started;             /* the model was built from the present parameter values */
+    int failed;              /* ... and that failed: error says why */
+    int outputs_fresh;       /* the outputs in v[] belong to the present state and inputs */
+    int outputs_failed;
+    char error[MK_MESSAGE];
+} mk_data;
+
+enum mk_phase { MK_INSTANTIATED, MK_INITIALIZATION, MK_STEPPING, MK_TERMINATED };
+
+/* The model's part. Each returns 0 on success, or nonzero with a one-line message in msg. */
+/* Build the run from the parameters and inputs in d->v (parameter checks done): derived values, start state. */
+int mk_model_start(mk_data *d, char *msg, size_t size);
+/* Advance d->s by dt > 0 with the inputs held; on failure d->s is left as it was. */
+int mk_model_step(mk_data *d, double dt, char *msg, size_t size);
+/* Write every output into d->v from d->s and the present inputs. */
+int mk_model_outputs(mk_data *d, char *msg, size_t size);
+/* Outputs when mk_model_outputs failed: what can still be said (posture), NaN for the rest. */
+void mk_model_fallback_outputs(mk_data *d);
+
+/* Helpers the wrapper offers the models. */
+/* Python's repr of a double (shortest round-trip digits, "1.0" not "1"), for messages that read like mkctl's. */
+const char *mk_repr(double value, char *buffer, size_t size);
+
+#endif
