@@ -43,8 +43,9 @@ static const char *CATEGORIES[] = {"logStatusWarning", "logStatusDiscard", "logS
 
 static void mk_log(mk_instance *inst, fmi2Status status, const char *fmt, ...)
 {
-    char message[2 * MK_MESSAGE];
+    char raw[2 * MK_MESSAGE], message[4 * MK_MESSAGE];
     const char *category;
+    size_t i, j;
     int index;
     va_list args;
     if (inst == NULL || inst->cb.logger == NULL) return;
@@ -60,10 +61,17 @@ static void mk_log(mk_instance *inst, fmi2Status status, const char *fmt, ...)
     if (status < fmi2Discard && !(inst->logging_on && (inst->categories & ((1 << index) | (1 << 4)))))
         return;
     va_start(args, fmt);
-    vsnprintf(message, sizeof message, fmt, args);
+    vsnprintf(raw, sizeof raw, fmt, args);
     va_end(args);
-    /* the message goes through "%s": a '%' in it must not be read as a format */
-    inst->cb.logger(inst->cb.componentEnvironment, inst->name, status, category, "%s", message);
+    /* The message is passed as the format itself, already formatted: hosts that cannot read variadic arguments
+     * (ctypes: fmpy, pythonfmu's tests) see it whole. A '%' in it is doubled so that a printf-style host shows
+     * it once. */
+    for (i = 0, j = 0; raw[i] != '\0' && j + 2 < sizeof message; i++) {
+        message[j++] = raw[i];
+        if (raw[i] == '%') message[j++] = '%';
+    }
+    message[j] = '\0';
+    inst->cb.logger(inst->cb.componentEnvironment, inst->name, status, category, message);
 }
 
 const char *mk_repr(double value, char *buffer, size_t size)
