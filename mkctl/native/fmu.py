@@ -280,8 +280,10 @@ def core_sources(model_name: str) -> list[Path]:
     return []  # TEMPORARY: the core (branch core) has not landed; fmu_c/mk_core_api.c is a placeholder
 
 
-def write_sources(interface: Interface, guid: str, dest: Path) -> list[str]:
-    """Write every source file of the FMU into dest; returns the compilation units (file names)."""
+def write_sources(interface: Interface, guid: str, dest: Path, model_source: Path | None = None) -> list[str]:
+    """Write every source file of the FMU into dest; returns the compilation units (file names).
+
+    model_source: another model part than the model's own (the benchmark's no-op FMU measures fmpy's cost)."""
     dest.mkdir(parents=True, exist_ok=True)
     headers = fmi2_headers()
     for name in ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"):
@@ -291,6 +293,8 @@ def write_sources(interface: Interface, guid: str, dest: Path) -> list[str]:
     units = ["fmi2_wrapper.c", MODEL_SOURCES[interface.model_name], "mk_core_api.c", "model_variables.c"]
     for name in units[:3]:
         shutil.copy2(C_DIR / name, dest / name)
+    if model_source is not None:
+        shutil.copy2(model_source, dest / units[1])
     (dest / "model_variables.h").write_text(variables_header(interface, guid))
     (dest / "model_variables.c").write_text(variables_source(interface))
     for path in core_sources(interface.model_name):
@@ -319,13 +323,13 @@ def _validate(fmu: Path) -> None:
         raise NativeBuildError(f"{fmu.name} failed fmpy's validation:\n  " + "\n  ".join(problems))
 
 
-def build_one(model_name: str, target: Path, params: Params | None = None) -> Path:
-    """Generate, compile, pack and validate one native FMU at target."""
+def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None) -> Path:
+    """Generate, compile, pack and validate one native FMU at target (model_source: see :func:`write_sources`)."""
     interface = slave_interface(model_name, params)
     guid = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
         stage = Path(temp) / "fmu"
-        units = write_sources(interface, guid, stage / "sources")
+        units = write_sources(interface, guid, stage / "sources", model_source)
         (stage / "modelDescription.xml").write_bytes(model_description(interface, guid, units))
         compile_binary(stage / "sources", units, stage / "binaries" / "linux64" / f"{model_name}.so")
         target.parent.mkdir(parents=True, exist_ok=True)
