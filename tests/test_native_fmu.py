@@ -126,8 +126,8 @@ KNEE_CASES = {
         "stop": 0.6, "dt": 1e-3, "start": {"c": 40.0, "tau": 0.02, "Fc": 2.0},
         "signal": _steps([0.0, 0.1, 0.6], [{"pe_cmd": PE0, "pf_cmd": PF0}, {"pe_cmd": PE0 * 1.05, "pf_cmd": PF0},
                                            {"pe_cmd": PE0 * 1.05, "pf_cmd": PF0}])},
-    "saturated onto the upper stop, 5 ms steps": {
-        "stop": 0.5, "dt": 5e-3, "start": {"c": 40.0, "tau": 0.01},
+    "saturated onto the upper stop": {
+        "stop": 0.5, "dt": 1e-3, "start": {"c": 40.0, "tau": 0.01},
         "signal": _steps([0.0, 0.5], [{"pe_cmd": 6e6, "pf_cmd": 0.0}, {"pe_cmd": 6e6, "pf_cmd": 0.0}])},
     "saturated onto the lower stop, model 1, Fc": {
         "stop": 0.5, "dt": 1e-3, "start": {"Fc": 5.0, "model": 1, "m": 5.0},

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
+import functools
 import importlib.util
 import math
 import shutil
@@ -35,7 +36,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from ..errors import MkctlError, ParameterError
-from ..physics.params import DEFAULT, Params
+from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parents[1]
@@ -231,7 +232,8 @@ def variables_header(interface: Interface, guid: str) -> str:
              f"#define MK_MODEL_NAME {_c_string(interface.model_name)}",
              f"#define MK_GUID {_c_string(guid)}",
              f"#define MK_UNDEFINED_OUTPUTS {_c_string(interface.undefined_outputs)}",
-             f"#define NV {len(interface.variables)}", ""]
+             f"#define NV {len(interface.variables)}",
+             f"#define MK_NPARAM {len(PARAMETER_NAMES)} /* the core's parameter vector */", ""]
     for v in interface.variables:
         if not v.name.isidentifier():
             raise NativeBuildError(f"variable name {v.name!r} is not a C identifier")
@@ -260,7 +262,17 @@ def variables_source(interface: Interface) -> str:
     lines += [f"const int mk_params_order[] = {{{', '.join(map(str, order))}}};",
               f"const int mk_n_params_order = {len(order)};",
               f"const int mk_inputs[] = {{{', '.join(map(str, inputs))}}};",
-              f"const int mk_n_inputs = {len(inputs)};", ""]
+              f"const int mk_n_inputs = {len(inputs)};", "",
+              "void mk_param_vector(const mk_data *d, double n, double *p)", "{"]
+    for index, name in enumerate(PARAMETER_NAMES):
+        if name == "n":
+            lines.append(f"    p[{index}] = n; /* n, given or derived */")
+        elif name in names:
+            lines.append(f"    p[{index}] = d->v[VR_{name}];")
+        else:
+            lines.append(f"    p[{index}] = {_c_double(getattr(DEFAULT, name))}; /* {name}: not a variable here, "
+                         "Params' default */")
+    lines += ["}", ""]
     return "\n".join(lines)
 
 
@@ -275,9 +287,90 @@ def fmi2_headers() -> Path:
     return folder
 
 
-def core_sources(model_name: str) -> list[Path]:
-    """The C files of the compiled core the model's part needs (generated from mkctl's equations)."""
-    return []  # TEMPORARY: the core (branch core) has not landed; fmu_c/mk_core_api.c is a placeholder
+#: Stand-ins for the numbers of a domain check's message (value, low, high): the library's message is written
+#: with them and each is replaced by a marker the C fills in (mk_core_api.c: mk_fault_message).
+_SENTINELS = {"B": 1.2345678901234567e-300, "L": 2.2345678901234567e-300, "H": 3.2345678901234567e-300}
+
+
+def _fault_template(check) -> str:
+    """The library's error message of a traced domain check, as a template for mk_fault_message."""
+    _, _, _, message, what = check
+    text = message(*_SENTINELS.values())
+    for key, value in _SENTINELS.items():
+        text = text.replace(repr(value), "\001" + key).replace(format(value, "g"), "\001" + key.lower())
+    if "e-300" in text:
+        raise NativeBuildError(f"cannot make a message template of the check on {what}: {text!r}")
+    return text
+
+
+def _c_template(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\001", '\\001""') + '"'
+
+
+@functools.lru_cache(maxsize=1)
+def core_source() -> str:
+    """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant) with the FMUs' additions, all
+    generated from mkctl's equations: the hip height at a kneecap angle (knee.X_from_alpha, for the default X0),
+    the posture at a hip height (knee.geometry_at_X, for the outputs that can still be given when the pressures
+    are not numbers), every domain check's message, and KneeSimulator's integrator settings."""
+    import sympy
+
+    from ..physics import integrate, knee
+    from ..physics.params import PARAMETER_NAMES
+    from ..physics.simulate import KneeSimulator
+    from ..physics.stability import DEFAULT_ALPHA
+    from . import codegen
+    from .variants import ALL_VARIANTS, Variant
+
+    collected = []  # every check, in the order the CheckTable numbers them
+    original = codegen.CheckTable.add
+
+    def add(self, check):
+        collected.append(check)
+        return original(self, check)
+
+    codegen.CheckTable.add = add
+    try:
+        source, entries = codegen.generate_source(ALL_VARIANTS)
+        table = codegen.CheckTable()
+        table.entries = list(entries)
+        sp = codegen.SymbolicParams(Variant(2, False, False))  # the geometry does not depend on the variant
+        bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+        alpha, X = sympy.Symbol("alpha", real=True), sympy.Symbol("X", real=True)
+
+        def posture(X, params):
+            geo = knee.geometry_at_X(X, params, derivatives=False)
+            return [geo.alpha, geo.beta, geo.Le, geo.Lf]
+
+        extra = [
+            codegen.emit_function("int mk_fmu_X_from_alpha(const double *p, double alpha, double *out, "
+                                  "mk_fault *fault)", {**bindings, "alpha": "alpha"},
+                                  codegen.trace(lambda a, params: [knee.X_from_alpha(a, params)], alpha, sp),
+                                  "out", table),
+            codegen.emit_function("int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
+                                  {**bindings, "X": "X"}, codegen.trace(posture, X, sp), "out", table)]
+    finally:
+        codegen.CheckTable.add = original
+    if len(collected) != len(table.entries):
+        raise NativeBuildError("the core's domain checks could not be collected in order")
+    sim = KneeSimulator(Params(tau=1.0))
+    lines = ["", "/* ---- added for the native FMUs by mkctl/native/fmu.py (generated too) ---- */", *extra,
+             "const char *const mk_fmu_fault_templates[] = {",
+             *[f"    {_c_template(_fault_template(check))}," for check in collected], "};",
+             f"const int mk_fmu_fault_count = {len(collected)};",
+             f"const char MK_FMU_COLLAPSE_MESSAGE[] = {_c_string(integrate.COLLAPSE_MESSAGE)};",
+             f"const char MK_FMU_TOO_MANY_STEPS_MESSAGE[] = {_c_string(integrate.TOO_MANY_STEPS_MESSAGE)};",
+             f"const double MK_FMU_DEFAULT_ALPHA = {_c_double(DEFAULT_ALPHA)};",
+             f"const double MK_FMU_KNEE_RTOL = {_c_double(sim.rtol)};",
+             "const double MK_FMU_KNEE_ATOL[4] = {" + ", ".join(_c_double(a) for a in sim.atol) + "};",
+             f"const double MK_FMU_KNEE_H0 = {_c_double(sim.step_hint)};", ""]
+    return source + "\n".join(lines)
+
+
+def core_compiler_flags() -> tuple[str, ...]:
+    """The core's compiler flags (no fused multiply-add, no fast-math: the C rounds as Python does)."""
+    from .build import CFLAGS
+    return tuple(CFLAGS)
 
 
 def write_sources(interface: Interface, guid: str, dest: Path, model_source: Path | None = None) -> list[str]:
@@ -289,7 +382,7 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
     for name in ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h"):
         shutil.copy2(headers / name, dest / name)
     shutil.copy2(C_DIR / "mk_fmu.h", dest / "mk_fmu.h")
-    shutil.copy2(C_DIR / "mk_core_api.h", dest / "mk_core_api.h")
+    shutil.copy2(C_DIR / "mk_core_api.h", dest / "mk_core_api.h")  # the FMUs' view of the core
     units = ["fmi2_wrapper.c", MODEL_SOURCES[interface.model_name], "mk_core_api.c", "model_variables.c"]
     for name in units[:3]:
         shutil.copy2(C_DIR / name, dest / name)
@@ -297,10 +390,8 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
         shutil.copy2(model_source, dest / units[1])
     (dest / "model_variables.h").write_text(variables_header(interface, guid))
     (dest / "model_variables.c").write_text(variables_source(interface))
-    for path in core_sources(interface.model_name):
-        shutil.copy2(path, dest / path.name)
-        if path.suffix == ".c":
-            units.append(path.name)
+    (dest / "mkctl_core.c").write_text(core_source())
+    units.append("mkctl_core.c")
     return units
 
 
@@ -309,7 +400,8 @@ def compile_binary(sources: Path, units: list[str], target: Path, compiler: str 
     if shutil.which(compiler) is None:
         raise NativeBuildError(f"no C compiler: {compiler} is not on PATH (the native FMUs need one to build)")
     target.parent.mkdir(parents=True, exist_ok=True)
-    command = [compiler, "-O2", "-fPIC", "-shared", "-fvisibility=hidden", "-Wall",
+    flags = [f for f in core_compiler_flags() if f not in ("-O2", "-fPIC", "-shared")]
+    command = [compiler, "-O2", "-fPIC", "-shared", *flags, "-fvisibility=hidden", "-Wall",
                "-I", str(sources), "-o", str(target), *[str(sources / u) for u in units], "-lm"]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode != 0:

@@ -1,8 +1,9 @@
 /* The actuator's part of the native McKibbenActuator FMU: the run of mkctl.physics.simulate.ActuatorSimulator.
  *
- * The pressure lag is the only state, solved exactly over each step with the command held; the tension follows
- * from the inputs L, Ldot and the present pressure (the command itself without a lag). n left at its start value
- * follows b, L0, D0. A step that ends outside the model's domain (0 < L < b) is refused and the state kept.
+ * The pressure lag is the only state, solved exactly over each step with the command held (the core's
+ * mk_actuator_lagged_pressure); the tension (mk_actuator_tension) follows from the inputs L, Ldot and the
+ * present pressure (the command itself without a lag). n left at its start value follows b, L0, D0. A step
+ * that ends outside the model's domain (0 < L < b) is refused and the state kept.
  */
 #include <math.h>
 #include <stdio.h>
@@ -13,20 +14,14 @@
 
 #define AUX_N 0
 
-static void params_of(const mk_data *d, mk_params *p)
-{
-    memset(p, 0, sizeof *p);
-    p->b = d->v[VR_b]; p->n = d->aux[AUX_N]; p->L0 = d->v[VR_L0]; p->D0 = d->v[VR_D0];
-    p->C1 = d->v[VR_C1]; p->C2 = d->v[VR_C2]; p->t0 = d->v[VR_t0];
-    p->c = d->v[VR_c]; p->Fc = d->v[VR_Fc]; p->vs = d->v[VR_vs]; p->tau = d->v[VR_tau]; p->model = (int)d->v[VR_model];
-}
+static void params_of(const mk_data *d, double *p) { mk_param_vector(d, d->aux[AUX_N], p); }
 
 int mk_model_start(mk_data *d, char *msg, size_t size)
 {
     (void)msg;
     (void)size;
-    d->aux[AUX_N] = d->v[VR_n] == mk_variables[VR_n].start ? mk_core_derived_turns(d->v[VR_b], d->v[VR_L0], d->v[VR_D0])
-                                                            : d->v[VR_n];
+    d->aux[AUX_N] = d->v[VR_n] == mk_variables[VR_n].start
+                        ? mk_fmu_derived_turns(d->v[VR_b], d->v[VR_L0], d->v[VR_D0]) : d->v[VR_n];
     d->s.ny = 1;
     d->s.y[0] = d->v[VR_p_cmd];
     return 0;
@@ -34,9 +29,15 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
 
 int mk_model_step(mk_data *d, double dt, char *msg, size_t size)
 {
+    double p[MK_NPARAM], P;
     mk_state saved = d->s;
-    double tau = d->v[VR_tau], p_cmd = d->v[VR_p_cmd];
-    d->s.y[0] = mk_core_lagged_pressure(d->s.y[0], p_cmd, tau, dt);
+    mk_fault fault = {0, 0, 0, 0, 0, 0};
+    params_of(d, p);
+    if (mk_actuator_lagged_pressure(p, d->s.y[0], d->v[VR_p_cmd], dt, &P, &fault) != 0) {
+        mk_fault_message(&fault, msg, size);
+        return 1;
+    }
+    d->s.y[0] = P;
     d->s.time += dt;
     if (mk_model_outputs(d, msg, size) != 0) { /* the step must end in the model's domain */
         d->s = saved;
@@ -47,11 +48,14 @@ int mk_model_step(mk_data *d, double dt, char *msg, size_t size)
 
 int mk_model_outputs(mk_data *d, char *msg, size_t size)
 {
-    mk_params p;
-    double P, f;
-    params_of(d, &p);
-    P = p.tau > 0 ? d->s.y[0] : d->v[VR_p_cmd];
-    if (mk_core_actuator_tension(&p, d->v[VR_L], P, d->v[VR_Ldot], &f, msg, size) != 0) return 1;
+    double p[MK_NPARAM], P, f;
+    mk_fault fault = {0, 0, 0, 0, 0, 0};
+    params_of(d, p);
+    P = d->v[VR_tau] > 0 ? d->s.y[0] : d->v[VR_p_cmd];
+    if (mk_actuator_tension(p, d->v[VR_L], P, d->v[VR_Ldot], &f, &fault) != 0) {
+        mk_fault_message(&fault, msg, size);
+        return 1;
+    }
     d->v[VR_f] = f;
     d->v[VR_P] = P;
     return 0;

@@ -1,53 +1,56 @@
-/* TEMPORARY PLACEHOLDER until the compiled core (mkctl/native, branch core) lands: no physics here, only enough
- * to exercise the FMI wrapper, the build, the packing and validation. The tests that compare with the pythonfmu
- * FMUs fail against it, as they must. */
+/* The FMUs' side of the compiled core: fault messages in mkctl's words, and the one formula the core does not
+ * generate (mkctl.physics.params.derived_turns uses math.sqrt, which cannot be traced on symbols; tested
+ * against Params). */
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
+#include "mk_fmu.h"
 #include "mk_core_api.h"
 
-const double MK_DEFAULT_ALPHA = 1.0471975511965976;
-const double MK_ALPHA_STOP_LOW = 0.08726646259971647;
-const double MK_ALPHA_STOP_HIGH = 1.3089969389957472;
+/* generated with the core: per domain check, the library's message with markers for the numbers
+ * (\001B value repr, \001b value %g, \001L / \001l low, \001H / \001h high); integrator messages */
+extern const char *const mk_fmu_fault_templates[];
+extern const int mk_fmu_fault_count;
+extern const char MK_FMU_COLLAPSE_MESSAGE[];
+extern const char MK_FMU_TOO_MANY_STEPS_MESSAGE[];
 
-double mk_core_derived_turns(double b, double L0, double D0) { return sqrt(b * b - L0 * L0) / (3.141592653589793 * D0); }
-double mk_core_X_from_alpha(const mk_params *p, double alpha) { (void)alpha; return 0.5 * (p->Lo + p->Lu); }
-int mk_core_knee_posture(const mk_params *p, double X, double out[4])
+double mk_fmu_derived_turns(double b, double L0, double D0)
 {
-    (void)p; (void)X;
-    out[0] = out[1] = out[2] = out[3] = 0.0;
-    return 0;
+    return sqrt(b * b - L0 * L0) / (3.141592653589793 * D0);
 }
-int mk_core_knee_outputs(const mk_params *p, double X, double V, double Pe, double Pf, double out[MK_KNEE_N_OUTPUTS],
-                         char *msg, size_t size)
+
+void mk_fault_message(const mk_fault *fault, char *msg, size_t size)
 {
-    int k;
-    (void)p;
-    for (k = 0; k < MK_KNEE_N_OUTPUTS; k++) out[k] = 0.0;
-    out[0] = X; out[1] = V; out[8] = Pe; out[9] = Pf;
-    if (!isfinite(Pe) || !isfinite(Pf)) {
-        snprintf(msg, size, "pressure is not a finite number (NaN or infinite)");
-        return 1;
+    const char *t;
+    size_t j = 0;
+    char number[40];
+    if (size == 0) return;
+    msg[0] = '\0';
+    switch (fault->code) {
+    case 2: snprintf(msg, size, "%s", MK_FMU_COLLAPSE_MESSAGE); return;
+    case 3: snprintf(msg, size, "%s", MK_FMU_TOO_MANY_STEPS_MESSAGE); return;
+    case 1: break;
+    default: snprintf(msg, size, "the compiled core failed (fault code %d)", fault->code); return;
     }
-    return 0;
-}
-int mk_core_knee_step(const mk_params *p, const double stops[2], double pe_cmd, double pf_cmd, double *y, int ny,
-                      double dt, double *h, char *msg, size_t size)
-{
-    (void)p; (void)stops; (void)pe_cmd; (void)pf_cmd; (void)y; (void)ny; (void)dt; (void)h; (void)msg; (void)size;
-    return 0;
-}
-double mk_core_lagged_pressure(double P, double P_cmd, double tau, double dt)
-{
-    return tau <= 0 ? P_cmd : P_cmd + (P - P_cmd) * exp(-dt / tau);
-}
-int mk_core_actuator_tension(const mk_params *p, double L, double P, double Ldot, double *f, char *msg, size_t size)
-{
-    (void)Ldot;
-    if (!(0 < L && L < p->b)) {
-        snprintf(msg, size, "actuator length L = %g m is outside the model's domain 0 < L < b = %g m", L, p->b);
-        return 1;
+    if (fault->check < 0 || fault->check >= mk_fmu_fault_count) {
+        snprintf(msg, size, "domain check %d failed with the value %g", fault->check, fault->value);
+        return;
     }
-    *f = 0.0 * P;
-    return 0;
+    for (t = mk_fmu_fault_templates[fault->check]; *t != '\0' && j + 1 < size; t++) {
+        if (*t == '\001' && t[1] != '\0') {
+            double x;
+            int repr;
+            t++;
+            x = (*t == 'B' || *t == 'b') ? fault->value : (*t == 'L' || *t == 'l') ? fault->low : fault->high;
+            repr = *t == 'B' || *t == 'L' || *t == 'H';
+            if (repr) mk_repr(x, number, sizeof number);
+            else snprintf(number, sizeof number, "%g", x);
+            j += (size_t)snprintf(msg + j, size - j, "%s", number);
+            if (j >= size) j = size - 1;
+        } else {
+            msg[j++] = *t;
+        }
+    }
+    msg[j] = '\0';
 }

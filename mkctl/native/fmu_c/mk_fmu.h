@@ -41,6 +41,9 @@ typedef struct {
     double y[MK_MAX_STATES]; /* knee: X, V (and Pe, Pf with a lag); actuator: P */
     int ny;
     double h;                /* the integrator's next step size [s] */
+    double k[28];            /* first-same-as-last: the derivative at y (7 stages x 4 states) */
+    int k1_valid;
+    double k_pe, k_pf;       /* the commands k was computed with */
 } mk_state;
 
 /* Everything an FMU state holds (fmi2GetFMUstate copies it whole). */
@@ -67,6 +70,10 @@ int mk_model_step(mk_data *d, double dt, char *msg, size_t size);
 int mk_model_outputs(mk_data *d, char *msg, size_t size);
 /* Outputs when mk_model_outputs failed: what can still be said (posture), NaN for the rest. */
 void mk_model_fallback_outputs(mk_data *d);
+
+/* The core's parameter vector (every field of Params in order): the FMU's values, n as given or derived,
+ * the fields the FMU does not have at Params' defaults (generated in model_variables.c). */
+void mk_param_vector(const mk_data *d, double n, double *p);
 
 /* Helpers the wrapper offers the models. */
 /* Python's repr of a double (shortest round-trip digits, "1.0" not "1"), for messages that read like mkctl's. */
