@@ -4,12 +4,16 @@
 
 All three FMUs are built fresh into a temporary folder and simulate the same motion (c = 40 N s/m, a 0.5 Hz
 sinusoidal extensor command around the 60 deg equilibrium, every output recorded every millisecond) with
-``fmpy.simulate_fmu``, the whole call timed (extracting, loading, stepping, recording):
+fmpy:
 
 - python: ``McKibbenKnee.fmu`` of ``build_fmu.py`` (pythonfmu, the model in Python);
 - native: ``native/McKibbenKnee.fmu`` of :mod:`mkctl.native.fmu` (the compiled core);
 - floor: the same interface and FMI wrapper with a model that does nothing (``bench/noop_knee_fmu.c``): what
   fmpy itself costs per step, which no knee FMU can go below.
+
+Three ways to drive them through fmpy: ``simulate_fmu`` (the whole call timed), a host loop over fmpy's
+``FMU2Slave`` (setReal of the inputs, doStep, getReal of the 13 Real outputs, every step; the loop timed), and the
+same loop on fmpy's ``fmi2SetReal``/``fmi2DoStep``/``fmi2GetReal`` with the ctypes arrays made once.
 
 Each run is a fresh process; the three alternate ``--repeat`` times and the fastest of each is kept. Prints the
 absolute times, the cost per step, the real-time factors, every ratio (target: python / native >= 20) and the
@@ -44,6 +48,7 @@ if how == "simulate_fmu":
     elapsed = time.perf_counter() - start
     X, end = run["X"].tolist(), float(run["time"][-1])
 else:  # the host's own loop over fmpy's FMU2Slave: set the inputs, doStep, read every Real output
+    import ctypes
     md = read_model_description(fmu)
     vr = {v.name: v.valueReference for v in md.modelVariables}
     outputs = [v.valueReference for v in md.modelVariables if v.causality == "output" and v.type == "Real"]
@@ -55,19 +60,37 @@ else:  # the host's own loop over fmpy's FMU2Slave: set the inputs, doStep, read
     slave.setReal([vr["c"]], [40.0])
     slave.exitInitializationMode()
     inputs, rows = [vr["pe_cmd"], vr["pf_cmd"]], []
-    start = time.perf_counter()
-    for k in range(t.size - 1):
-        slave.setReal(inputs, [pe[k], pf])
-        slave.doStep(t[k], 1e-3)
-        rows.append(slave.getReal(outputs))
-    elapsed = time.perf_counter() - start
+    if how == "loop":
+        start = time.perf_counter()
+        for k in range(t.size - 1):
+            slave.setReal(inputs, [pe[k], pf])
+            slave.doStep(t[k], 1e-3)
+            rows.append(slave.getReal(outputs))
+        elapsed = time.perf_counter() - start
+    else:  # fmpy's fmi2 functions with ctypes arrays made once: what a host that cares about speed writes
+        c = slave.component
+        in_vr = (ctypes.c_uint * 2)(*inputs)
+        in_values = (ctypes.c_double * 2)()
+        out_vr = (ctypes.c_uint * len(outputs))(*outputs)
+        out_values = (ctypes.c_double * len(outputs))()
+        set_real, do_step, get_real = slave.fmi2SetReal, slave.fmi2DoStep, slave.fmi2GetReal
+        n_out = len(outputs)
+        start = time.perf_counter()
+        for k in range(t.size - 1):
+            in_values[0], in_values[1] = pe[k], pf
+            set_real(c, in_vr, 2, in_values)
+            do_step(c, t[k], 1e-3, 1)
+            get_real(c, out_vr, n_out, out_values)
+            rows.append(out_values[:])
+        elapsed = time.perf_counter() - start
     X, end = [r[outputs.index(vr["X"])] for r in rows], float(t[-1])
     X.insert(0, X[0])  # no sample at t = 0 in this loop: keep the lengths alike
 print(json.dumps({"elapsed": elapsed, "X": X, "end": end}))
 """
 
 HOW = {"simulate_fmu": "fmpy.simulate_fmu (the whole call: extract, load, step, record)",
-       "loop": "a host loop over fmpy's FMU2Slave (setReal inputs, doStep, getReal 13 outputs; the loop timed)"}
+       "loop": "a host loop over fmpy's FMU2Slave (setReal inputs, doStep, getReal 13 outputs; the loop timed)",
+       "raw": "the same loop on fmpy's fmi2SetReal/fmi2DoStep/fmi2GetReal with ctypes arrays made once"}
 
 
 def _run(fmu: Path, duration: float, commands: tuple[float, float], how: str) -> dict:
