@@ -36,6 +36,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import sympy
+from sympy.printing.c import C99CodePrinter
 
 from ..physics import actuator, integrate, knee, simulate
 from ..physics.params import PARAMETER_NAMES, Params, rubber_volume
@@ -109,52 +110,135 @@ def _c_number(x) -> str:
     return repr(float(x))
 
 
-def emit_function(signature: str, bindings: dict, traced: Traced, out: str, checks: CheckTable,
-                  extra_outputs: tuple[str, ...] = ()) -> str:
-    """C body: bind the inputs, compute the CSE'd expressions, test the checks in order, store out[i]."""
-    symbols = set()
-    for expr in traced.outputs:
-        symbols |= expr.free_symbols
+class _Printer(C99CodePrinter):
+    """sympy's C printer, with small integer and half-integer powers as products and sqrt (``pow`` is a
+    library call; ``x*x*x`` is what the Python equations compute anyway)."""
+
+    def _print_Pow(self, expr):
+        base, exponent = expr.args
+        if exponent.is_Integer and 2 <= abs(int(exponent)) <= 4:
+            b = self.parenthesize(base, 1000)  # parenthesise anything but an atom
+            product = "*".join([b] * abs(int(exponent)))
+            return f"({product})" if exponent > 0 else f"(1.0/({product}))"
+        if exponent.is_Rational and exponent.q == 2 and 1 <= abs(exponent.p) <= 3:
+            root = f"sqrt({self._print(base)})"
+            power = root if abs(exponent.p) == 1 else f"({self.parenthesize(base, 1000)}*{root})"
+            return power if exponent > 0 else f"(1.0/{power})"
+        return super()._print_Pow(expr)
+
+
+def ccode(expr) -> str:
+    return _Printer().doprint(expr)
+
+
+def _split_constants(exprs, constant: set, prefix: str):
+    """Replace every largest subexpression of exprs made of constant symbols only by a new symbol.
+
+    Returns (the new expressions, [(symbol, constant subexpression)]): what a record computes once, not at
+    every evaluation. Sums and products keep their variable terms and gather their constant ones.
+    """
+    table: dict = {}
+
+    def name_of(expr):
+        if expr not in table:
+            table[expr] = sympy.Symbol(f"{prefix}[{len(table)}]", real=True)
+        return table[expr]
+
+    def is_constant(expr):
+        return bool(expr.free_symbols) and expr.free_symbols <= constant
+
+    def visit(expr):
+        if expr.is_Atom:
+            return expr
+        if is_constant(expr):
+            return name_of(expr)
+        if isinstance(expr, (sympy.Add, sympy.Mul)):
+            fixed = [a for a in expr.args if is_constant(a) or a.is_Number]
+            if all(a.is_Number for a in fixed):
+                fixed = []
+            rest = [visit(a) for a in expr.args if a not in fixed]
+            if fixed:
+                rest.append(name_of(expr.func(*fixed)))
+            return expr.func(*rest, evaluate=False)
+        return expr.func(*[visit(a) for a in expr.args])
+
+    return [visit(e) for e in exprs], [(symbol, expr) for expr, symbol in table.items()]
+
+
+#: Largest number of per-record constants one function may have (the size of the C arrays holding them).
+MAX_CONSTANTS = 96
+
+
+def emit_function(name: str, arguments: str, call: str, bindings: dict, constant: set, traced: Traced, out: str,
+                  checks: CheckTable, extra_outputs: tuple[str, ...] = ()) -> str:
+    """C for one traced function: ``<name>_constants(p, stops, k)`` computes the subexpressions that depend on
+    the parameters (and stops) only, once per record; ``<name>(p, stops, k, <arguments>)`` binds the inputs,
+    computes the CSE'd expressions, tests the domain checks in the order Python makes them, stores out[i]."""
     exprs = list(traced.outputs)
+    layout = []
     for value, low, high, _, _ in traced.checks:
+        layout.append(len(exprs))
         exprs.append(sympy.sympify(value))
         if low is not None:
             exprs += [sympy.sympify(low), sympy.sympify(high)]
-    for expr in exprs:
-        symbols |= expr.free_symbols
+    symbols = set().union(*(e.free_symbols for e in exprs))
     unknown = sorted(str(s) for s in symbols if s.name not in bindings)
     if unknown:
-        raise ValueError(f"unbound symbols {unknown} in {signature}")
-    temporaries = sympy.numbered_symbols("t_")
-    replacements, reduced = sympy.cse(exprs, symbols=temporaries, order="none")
-    lines = [signature, "{"]
-    for sym in sorted(symbols, key=lambda s: s.name):
-        if bindings[sym.name] != sym.name:  # not an argument of that name already
-            lines.append(f"    const double {sym.name} = {bindings[sym.name]};")
-    for tmp, expr in replacements:
-        lines.append(f"    const double {tmp} = {sympy.ccode(expr)};")
-    n_out = len(traced.outputs)
-    position = n_out
-    for check in traced.checks:
+        raise ValueError(f"unbound symbols {unknown} in {name}")
+    exprs, constants = _split_constants(exprs, {s for s in symbols if s.name in constant}, "k")
+    if len(constants) > MAX_CONSTANTS:
+        raise ValueError(f"{name} has {len(constants)} constants, more than MAX_CONSTANTS = {MAX_CONSTANTS}")
+
+    def bind(used, indent="    "):
+        return [f"{indent}const double {sym.name} = {bindings[sym.name]};"
+                for sym in sorted(used, key=lambda s: s.name) if bindings.get(sym.name, sym.name) != sym.name]
+
+    head = ["static void " + name + "_constants(const double *p, const double *stops, double *k)", "{"]
+    values = [expr for _, expr in constants]
+    replacements, reduced = sympy.cse(values, symbols=sympy.numbered_symbols("c_"), order="none")
+    head += bind(set().union(set(), *(v.free_symbols for v in values)) - {s for s, _ in replacements})
+    head += [f"    const double {tmp} = {ccode(expr)};" for tmp, expr in replacements]
+    head += [f"    {sym.name} = {ccode(expr)};" for (sym, _), expr in zip(constants, reduced)]
+    head += ["    (void)p; (void)stops; (void)k;", "}", ""]
+
+    lines = [f"static int {name}(const double *p, const double *stops, const double *k, {arguments})", "{"]
+    replacements, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("t_"), order="none")
+    used = set().union(set(), *(e.free_symbols for e in exprs)) - set(s for s, _ in constants)
+    lines += bind(used)
+    lines += [f"    const double {tmp} = {ccode(expr)};" for tmp, expr in replacements]
+    for check, position in zip(traced.checks, layout):
         index = checks.add(check)
-        value = sympy.ccode(reduced[position])
+        value = ccode(reduced[position])
         if check[1] is None:
             lines.append(f"    if (!isfinite({value})) return mk_fail(fault, {index}, {value}, NAN, NAN);")
-            position += 1
         else:
-            low, high = sympy.ccode(reduced[position + 1]), sympy.ccode(reduced[position + 2])
+            low, high = ccode(reduced[position + 1]), ccode(reduced[position + 2])
             lines.append(f"    if (!(({low}) < ({value}) && ({value}) < ({high}))) "
                          f"return mk_fail(fault, {index}, {value}, {low}, {high});")
-            position += 3
-    for i in range(n_out):
-        lines.append(f"    {out}[{i}] = {sympy.ccode(reduced[i])};")
+    lines += [f"    {out}[{i}] = {ccode(reduced[i])};" for i in range(len(traced.outputs))]
     lines += list(extra_outputs)
-    lines += ["    return 0;", "}", ""]
-    return "\n".join(lines)
+    lines += ["    (void)p; (void)stops; (void)k;", "    return 0;", "}", ""]
+    # the one-call form: constants on the stack
+    lines += [f"static int {name}_once(const double *p, const double *stops, {arguments})", "{",
+              f"    double k[MAX_CONSTANTS_PLACEHOLDER];", f"    {name}_constants(p, stops, k);",
+              f"    return {name}(p, stops, k, {call});", "}", ""]
+    return "\n".join(head + lines).replace("MAX_CONSTANTS_PLACEHOLDER", "MK_MAX_CONSTANTS")
 
 
 def _parameter_bindings() -> dict:
     return {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+
+
+#: The generated functions: kind -> (C arguments after p, stops, k; the call passing them on).
+KINDS = {
+    "knee_rhs": ("const double *y, double pe_cmd, double pf_cmd, double *out, mk_fault *fault",
+                 "y, pe_cmd, pf_cmd, out, fault"),
+    "knee_outputs": ("double X, double V, double Pe, double Pf, double *out, mk_fault *fault",
+                     "X, V, Pe, Pf, out, fault"),
+    "actuator_tension": ("double L, double P, double Ldot, double *out, mk_fault *fault", "L, P, Ldot, out, fault"),
+    "actuator_lagged_pressure": ("double P, double P_cmd, double dt, double *out, mk_fault *fault",
+                                 "P, P_cmd, dt, out, fault"),
+}
 
 
 def variant_functions(variant: Variant, checks: CheckTable) -> str:
@@ -164,62 +248,60 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
     X_low, X_high = _real("X_low"), _real("X_high")
     P_, L_, Ldot_, P_cmd_, dt_ = (_real(n) for n in ("P", "L", "Ldot", "P_cmd", "dt"))
     v = variant.name
-    parts = []
+    parameters = _parameter_bindings()
+    constant = set(parameters)
     state = [X, V, Pe, Pf][: variant.nstate]
-    bindings = {**_parameter_bindings(), "X": "y[0]", "V": "y[1]", "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd",
+    bindings = {**parameters, "X": "y[0]", "V": "y[1]", "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd",
                 "X_low": "(stops ? stops[0] : -INFINITY)", "X_high": "(stops ? stops[1] : INFINITY)"}
     if variant.lag:
         bindings.update(Pe="y[2]", Pf="y[3]")
-    parts.append(emit_function(
-        f"static int knee_rhs_{v}(const double *p, const double *stops, const double *y, double pe_cmd, "
-        "double pf_cmd, double *out, mk_fault *fault)",
-        bindings, trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, (X_low, X_high)), "out", checks))
 
+    def emit(kind, bindings, constant, traced, extra=()):
+        arguments, call = KINDS[kind]
+        return emit_function(f"{kind}_{v}", arguments, call, bindings, constant, traced, "out", checks, extra)
+
+    parts = [emit("knee_rhs", bindings, constant | {"X_low", "X_high"},
+                  trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, (X_low, X_high)))]
     traced = trace(simulate.knee_outputs, X, V, Pe, Pf, sp)
     a1, a2 = KNEE_OUTPUT_NAMES.index("a1"), KNEE_OUTPUT_NAMES.index("a2")
     stable = KNEE_OUTPUT_NAMES.index("stable")
     if stable != len(traced.outputs):
         raise ValueError("'stable' must be the last knee output, after those of simulate.knee_outputs")
-    parts.append(emit_function(
-        f"static int knee_outputs_{v}(const double *p, double X, double V, double Pe, double Pf, double *out, "
-        "mk_fault *fault)",
-        {**_parameter_bindings(), "X": "X", "V": "V", "Pe": "Pe", "Pf": "Pf"}, traced, "out", checks,
-        extra_outputs=(f"    out[{stable}] = (out[{a1}] < 0 && out[{a2}] < 0) ? 1.0 : 0.0;",)))
-
-    parts.append(emit_function(
-        f"static int actuator_tension_{v}(const double *p, double L, double P, double Ldot, double *out, "
-        "mk_fault *fault)",
-        {**_parameter_bindings(), "L": "L", "P": "P", "Ldot": "Ldot"},
-        trace(actuator.tension, L_, P_, Ldot_, sp), "out", checks))
-    parts.append(emit_function(
-        f"static int actuator_lagged_pressure_{v}(const double *p, double P, double P_cmd, double dt, "
-        "double *out, mk_fault *fault)",
-        {**_parameter_bindings(), "P": "P", "P_cmd": "P_cmd", "dt": "dt"},
-        trace(actuator.lagged_pressure, P_, P_cmd_, sp.tau, dt_), "out", checks))
+    parts.append(emit("knee_outputs", {**parameters, "X": "X", "V": "V", "Pe": "Pe", "Pf": "Pf"}, constant, traced,
+                      (f"    out[{stable}] = (out[{a1}] < 0 && out[{a2}] < 0) ? 1.0 : 0.0;",)))
+    parts.append(emit("actuator_tension", {**parameters, "L": "L", "P": "P", "Ldot": "Ldot"}, constant,
+                      trace(actuator.tension, L_, P_, Ldot_, sp)))
+    parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"}, constant,
+                      trace(actuator.lagged_pressure, P_, P_cmd_, sp.tau, dt_)))
     return "\n".join(parts)
 
 
 def common_functions(checks: CheckTable) -> str:
-    """The C of the functions that do not depend on the variant."""
+    """The C of the functions that do not depend on the variant: the commands' checks, the stop positions."""
     sp = SymbolicParams(Variant(2, False, False))
+    parameters = _parameter_bindings()
     pe_cmd, pf_cmd = _real("pe_cmd"), _real("pf_cmd")
 
-    def both(pe, pf):
+    def step_checks(pe, pf):  # what KneeSimulator.step checks before it integrates
         actuator.check_pressure(pe)
         actuator.check_pressure(pf)
         return []
 
-    parts = [emit_function("int mk_step_checks(const double *p, double pe_cmd, double pf_cmd, mk_fault *fault)",
-                           {**_parameter_bindings(), "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd"},
-                           trace(both, pe_cmd, pf_cmd), "out", checks)]
-
-    def stops(params):
-        # knee.stop_positions, traced: the stop angles as sympy numbers, so the posture math runs on symbols
+    def stops(params):  # knee.stop_positions, with the stop angles as sympy numbers
         return [knee.X_from_alpha(sympy.Float(knee.ALPHA_STOP_LOW), params),
                 knee.X_from_alpha(sympy.Float(knee.ALPHA_STOP_HIGH), params)]
 
-    parts.append(emit_function("int mk_stop_positions(const double *p, double *out, mk_fault *fault)",
-                               _parameter_bindings(), trace(stops, sp), "out", checks))
+    parts = [emit_function("step_checks", "double pe_cmd, double pf_cmd, mk_fault *fault", "pe_cmd, pf_cmd, fault",
+                           {**parameters, "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd"}, set(parameters),
+                           trace(step_checks, pe_cmd, pf_cmd), "out", checks),
+             emit_function("stop_positions", "double *out, mk_fault *fault", "out, fault", parameters,
+                           set(parameters), trace(stops, sp), "out", checks),
+             "/* the commands' checks of KneeSimulator.step: finite pressures */",
+             "int mk_step_checks(const double *p, double pe_cmd, double pf_cmd, mk_fault *fault)",
+             "{", "    return step_checks_once(p, NULL, pe_cmd, pf_cmd, fault);", "}", "",
+             "/* hip heights [m] of the lower and upper end stops (knee.stop_positions) */",
+             "int mk_stop_positions(const double *p, double *out, mk_fault *fault)",
+             "{", "    return stop_positions_once(p, NULL, out, fault);", "}", ""]
     return "\n".join(parts)
 
 
@@ -238,36 +320,32 @@ def _dispatch(variants: tuple[Variant, ...]) -> str:
               "/* number of knee states for parameter vector p: 4 with a pressure lag, else 2 */",
               "int mk_knee_nstate(const double *p)", "{", "    return mk_variant_nstate(mk_variant(p));", "}", ""]
 
-    def switch(kind, signature, call):
-        body = [signature, "{", "    switch (variant) {"]
-        for i, v in enumerate(variants):
-            body.append(f"    case {i}: return {kind}_{v.name}({call});")
-        body += ["    }", "    return mk_fault_code(fault, MK_FAULT_VARIANT);", "}", ""]
-        return body
-
-    lines += switch("knee_rhs", "static int mk_knee_rhs_variant(int variant, const double *p, const double *stops, "
-                    "const double *y, double pe_cmd, double pf_cmd, double *out, mk_fault *fault)",
-                    "p, stops, y, pe_cmd, pf_cmd, out, fault")
-    lines += switch("knee_outputs", "static int mk_knee_outputs_variant(int variant, const double *p, double X, "
-                    "double V, double Pe, double Pf, double *out, mk_fault *fault)",
-                    "p, X, V, Pe, Pf, out, fault")
-    lines += switch("actuator_tension", "static int mk_actuator_tension_variant(int variant, const double *p, "
-                    "double L, double P, double Ldot, double *out, mk_fault *fault)", "p, L, P, Ldot, out, fault")
-    lines += switch("actuator_lagged_pressure", "static int mk_actuator_lagged_pressure_variant(int variant, "
-                    "const double *p, double P, double P_cmd, double dt, double *out, mk_fault *fault)",
-                    "p, P, P_cmd, dt, out, fault")
+    for kind, (arguments, call) in KINDS.items():
+        forms = [("_constants", "static void", "const double *p, const double *stops, double *k", "p, stops, k",
+                  "    return;"),
+                 ("", "static int", f"const double *p, const double *stops, const double *k, {arguments}",
+                  f"p, stops, k, {call}", "    return mk_fault_code(fault, MK_FAULT_VARIANT);"),
+                 ("_once", "static int", f"const double *p, const double *stops, {arguments}", f"p, stops, {call}",
+                  "    return mk_fault_code(fault, MK_FAULT_VARIANT);")]
+        for suffix, returns, signature, passed, otherwise in forms:
+            lines += [f"{returns} mk_{kind}{suffix}_variant(int variant, {signature})", "{", "    switch (variant) {"]
+            for i, v in enumerate(variants):
+                lines.append(f"    case {i}: " + (f"{kind}_{v.name}{suffix}({passed}); return;" if returns ==
+                                                   "static void" else f"return {kind}_{v.name}{suffix}({passed});"))
+            lines += ["    }", otherwise, "}", ""]
     lines += [
-        "/* right-hand side of Eq. 17 (knee.knee_derivatives): dy = f(y) for the variant of p */",
+        "/* right-hand side of Eq. 17 (knee.knee_derivatives): dy = f(y) for the variant of p; stops NULL: none */",
         "int mk_knee_rhs(const double *p, const double *stops, const double *y, double pe_cmd, double pf_cmd, "
         "double *dy, mk_fault *fault)",
-        "{", "    return mk_knee_rhs_variant(mk_variant(p), p, stops, y, pe_cmd, pf_cmd, dy, fault);", "}", "",
+        "{", "    return mk_knee_rhs_once_variant(mk_variant(p), p, stops, y, pe_cmd, pf_cmd, dy, fault);", "}", "",
         "/* actuator tension f(L, P, Ldot) [N] (actuator.tension) */",
         "int mk_actuator_tension(const double *p, double L, double P, double Ldot, double *f, mk_fault *fault)",
-        "{", "    return mk_actuator_tension_variant(mk_variant(p), p, L, P, Ldot, f, fault);", "}", "",
+        "{", "    return mk_actuator_tension_once_variant(mk_variant(p), p, NULL, L, P, Ldot, f, fault);", "}", "",
         "/* pressure after dt with the command held (actuator.lagged_pressure, exact) */",
         "int mk_actuator_lagged_pressure(const double *p, double P, double P_cmd, double dt, double *out, "
         "mk_fault *fault)",
-        "{", "    return mk_actuator_lagged_pressure_variant(mk_variant(p), p, P, P_cmd, dt, out, fault);", "}", ""]
+        "{", "    return mk_actuator_lagged_pressure_once_variant(mk_variant(p), p, NULL, P, P_cmd, dt, out, fault);",
+        "}", ""]
     return "\n".join(lines)
 
 
@@ -288,6 +366,7 @@ def _tableau() -> str:
 
 def _parameter_macros() -> str:
     lines = [f"#define MK_NPARAM {len(PARAMETER_NAMES)}", f"#define MK_MAX_STATES {MAX_STATES}",
+             f"#define MK_MAX_CONSTANTS {MAX_CONSTANTS}",
              f"#define MK_KNEE_NOUT {len(KNEE_OUTPUT_NAMES)}",
              "/* knee outputs: " + ", ".join(f"{i} {name}" for i, name in enumerate(KNEE_OUTPUT_NAMES)) + " */"]
     lines += [f"#define MK_P_{name} {i}" for i, name in enumerate(PARAMETER_NAMES)]

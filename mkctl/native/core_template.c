@@ -59,7 +59,8 @@ static int mk_fault_code(mk_fault *fault, int code)
 /* Integrate the knee over `duration` s with the commands held; the same algorithm, line by line, as
  * mkctl.physics.integrate.integrate. k: 7*MK_MAX_STATES doubles of stage storage; k[0..n-1] holds
  * rhs(y) on entry when *k1_valid, and holds rhs(y_end) on return (first same as last). */
-static int mk_integrate(int variant, const double *p, const double *stops, double pe_cmd, double pf_cmd,
+static int mk_integrate(int variant, const double *p, const double *stops, const double *kc, double pe_cmd,
+                        double pf_cmd,
                         double *y, double duration, double h_hint, const double *atol, double rtol,
                         double h_max, double *k, int *k1_valid, double *h_next, mk_fault *fault)
 {
@@ -73,7 +74,7 @@ static int mk_integrate(int variant, const double *p, const double *stops, doubl
     if (h_max > 0)
         h = MK_PY_MIN(h, h_max);
     if (!*k1_valid) {
-        rc = mk_knee_rhs_variant(variant, p, stops, y, pe_cmd, pf_cmd, k, fault);
+        rc = mk_knee_rhs_variant(variant, p, stops, kc, y, pe_cmd, pf_cmd, k, fault);
         if (rc)
             return rc;
         *k1_valid = 1;
@@ -89,7 +90,7 @@ static int mk_integrate(int variant, const double *p, const double *stops, doubl
                     acc += MK_A[s][j] * k[j * MK_MAX_STATES + i];
                 yi[i] = y[i] + h_try * acc;
             }
-            rc = mk_knee_rhs_variant(variant, p, stops, yi, pe_cmd, pf_cmd, k + s * MK_MAX_STATES, fault);
+            rc = mk_knee_rhs_variant(variant, p, stops, kc, yi, pe_cmd, pf_cmd, k + s * MK_MAX_STATES, fault);
             if (rc)
                 return rc;
         }
@@ -127,19 +128,13 @@ static int mk_integrate(int variant, const double *p, const double *stops, doubl
     return 0;
 }
 
-/* Integrate the knee state y (MK_P_tau > 0: X, V, Pe, Pf, else X, V) over one communication step dt
- * with the commands held, as mkctl.physics.simulate.KneeSimulator.step does. stops: (X_low, X_high)
- * or NULL for none. h_hint: in/out step-size estimate. k, k1_valid, k_pe, k_pf: first-same-as-last
- * storage (7*MK_MAX_STATES doubles; set *k1_valid = 0 whenever y or the parameters change outside). */
-int mk_knee_step(const double *p, const double *stops, double *y, double dt, double pe_cmd, double pf_cmd,
-                 double rtol, const double *atol, double *h_hint, double *k, int *k1_valid, double *k_pe,
-                 double *k_pf, mk_fault *fault)
+static int mk_step_variant(int variant, const double *p, const double *stops, const double *kc, double *y,
+                           double dt, double pe_cmd, double pf_cmd, double rtol, const double *atol, double *h_hint,
+                           double *k, int *k1_valid, double *k_pe, double *k_pf, mk_fault *fault)
 {
-    const int variant = mk_variant(p);
-    int rc;
-    if (variant < 0)
-        return mk_fault_code(fault, MK_FAULT_VARIANT);
-    rc = mk_step_checks(p, pe_cmd, pf_cmd, fault);
+    double y_try[MK_MAX_STATES], h_next = *h_hint;
+    const int n = mk_variant_nstate(variant);
+    int i, rc = mk_step_checks(p, pe_cmd, pf_cmd, fault);
     if (rc)
         return rc;
     if (!(dt > 0))
@@ -148,23 +143,36 @@ int mk_knee_step(const double *p, const double *stops, double *y, double dt, dou
         *k1_valid = 0;
     *k_pe = pe_cmd;
     *k_pf = pf_cmd;
-    {
-        double y_try[MK_MAX_STATES], h_next = *h_hint;
-        const int n = mk_variant_nstate(variant);
-        int i;
-        for (i = 0; i < n; i++)
-            y_try[i] = y[i];
-        rc = mk_integrate(variant, p, stops, pe_cmd, pf_cmd, y_try, dt, *h_hint, atol, rtol, -1.0, k, k1_valid,
-                          &h_next, fault);
-        if (rc) {
-            *k1_valid = 0;
-            return rc;
-        }
-        for (i = 0; i < n; i++)
-            y[i] = y_try[i];
-        *h_hint = h_next;
+    for (i = 0; i < n; i++)
+        y_try[i] = y[i];
+    rc = mk_integrate(variant, p, stops, kc, pe_cmd, pf_cmd, y_try, dt, *h_hint, atol, rtol, -1.0, k, k1_valid,
+                      &h_next, fault);
+    if (rc) {
+        *k1_valid = 0;
+        return rc;
     }
+    for (i = 0; i < n; i++)
+        y[i] = y_try[i];
+    *h_hint = h_next;
     return 0;
+}
+
+/* Integrate the knee state y (MK_P_tau > 0: X, V, Pe, Pf, else X, V) over one communication step dt
+ * with the commands held, as mkctl.physics.simulate.KneeSimulator.step does. stops: (X_low, X_high)
+ * or NULL for none. h_hint: in/out step-size estimate. k, k1_valid, k_pe, k_pf: first-same-as-last
+ * storage (7*MK_MAX_STATES doubles; set *k1_valid = 0 whenever y or the parameters change outside).
+ * On a fault y and *h_hint are unchanged. */
+int mk_knee_step(const double *p, const double *stops, double *y, double dt, double pe_cmd, double pf_cmd,
+                 double rtol, const double *atol, double *h_hint, double *k, int *k1_valid, double *k_pe,
+                 double *k_pf, mk_fault *fault)
+{
+    const int variant = mk_variant(p);
+    double kc[MK_MAX_CONSTANTS];
+    if (variant < 0)
+        return mk_fault_code(fault, MK_FAULT_VARIANT);
+    mk_knee_rhs_constants_variant(variant, p, stops, kc);
+    return mk_step_variant(variant, p, stops, kc, y, dt, pe_cmd, pf_cmd, rtol, atol, h_hint, k, k1_valid, k_pe,
+                           k_pf, fault);
 }
 
 /* Every knee output of mkctl.physics.simulate.KNEE_OUTPUTS (MK_KNEE_NOUT values, "stable" as 1/0) at
@@ -175,7 +183,8 @@ int mk_knee_outputs(const double *p, const double *y, double pe_cmd, double pf_c
     const int lag = mk_variant_nstate(variant) == 4;
     if (variant < 0)
         return mk_fault_code(fault, MK_FAULT_VARIANT);
-    return mk_knee_outputs_variant(variant, p, y[0], y[1], lag ? y[2] : pe_cmd, lag ? y[3] : pf_cmd, out, fault);
+    return mk_knee_outputs_once_variant(variant, p, NULL, y[0], y[1], lag ? y[2] : pe_cmd, lag ? y[3] : pf_cmd,
+                                        out, fault);
 }
 
 /* A whole record, as mkctl.physics.simulate.simulate_knee (stop_at NULL, outputs given) and knee_states
@@ -189,18 +198,22 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
                    double *h_hint, double *y, double *states, double *outputs, mk_fault *fault)
 {
     const int variant = mk_variant(p);
-    double k[7 * MK_MAX_STATES], k_pe = 0.0, k_pf = 0.0;
-    int k1_valid = 0, nstate, i, rc;
+    double k[7 * MK_MAX_STATES], k_pe = 0.0, k_pf = 0.0, kc[MK_MAX_CONSTANTS], ko[MK_MAX_CONSTANTS];
+    int k1_valid = 0, nstate, lag, i, rc;
     long j, previous = 0;
     if (variant < 0)
         return mk_fault_code(fault, MK_FAULT_VARIANT);
     nstate = mk_variant_nstate(variant);
+    lag = nstate == 4;
+    mk_knee_rhs_constants_variant(variant, p, stops, kc);
+    mk_knee_outputs_constants_variant(variant, p, NULL, ko);
     if (fault)
         fault->sample = 0;
     for (i = 0; i < nstate; i++)
         states[i] = y[i];
     if (outputs) {
-        rc = mk_knee_outputs(p, y, pe_cmd[0], pf_cmd[0], outputs, fault);
+        rc = mk_knee_outputs_variant(variant, p, NULL, ko, y[0], y[1], lag ? y[2] : pe_cmd[0],
+                                     lag ? y[3] : pf_cmd[0], outputs, fault);
         if (rc)
             return rc;
     }
@@ -212,10 +225,11 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
             y_before[i] = y[i];
         if (fault)
             fault->sample = j;
-        rc = mk_knee_step(p, stops, y, time[j] - time[previous], pe_cmd[previous], pf_cmd[previous], rtol, atol,
-                          h_hint, k, &k1_valid, &k_pe, &k_pf, fault);
+        rc = mk_step_variant(variant, p, stops, kc, y, time[j] - time[previous], pe_cmd[previous],
+                             pf_cmd[previous], rtol, atol, h_hint, k, &k1_valid, &k_pe, &k_pf, fault);
         if (!rc && outputs)
-            rc = mk_knee_outputs(p, y, pe_cmd[j], pf_cmd[j], outputs + j * MK_KNEE_NOUT, fault);
+            rc = mk_knee_outputs_variant(variant, p, NULL, ko, y[0], y[1], lag ? y[2] : pe_cmd[j],
+                                         lag ? y[3] : pf_cmd[j], outputs + j * MK_KNEE_NOUT, fault);
         if (rc) {  /* leave y and the step as they were at the previous stop */
             for (i = 0; i < nstate; i++)
                 y[i] = y_before[i];

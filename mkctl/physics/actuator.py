@@ -53,6 +53,7 @@ class _ScalarMath:
                                                                  math.atan2, math.asin, math.acos, math.hypot,
                                                                  math.exp)
     maximum = staticmethod(max)
+    pi = math.pi
 
 
 class _SymbolicMath:
@@ -64,11 +65,11 @@ def _symbolic_math():
         import sympy
         for name, function in {
             "sqrt": sympy.sqrt, "sin": sympy.sin, "cos": sympy.cos, "tanh": sympy.tanh, "arctan2": sympy.atan2,
-            "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": sympy.Max,
+            "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": sympy.Max, "pi": sympy.pi,
             "hypot": lambda a, b: sympy.sqrt(a * a + b * b),
             "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True)),
         }.items():
-            setattr(_SymbolicMath, name, staticmethod(function))
+            setattr(_SymbolicMath, name, function if name == "pi" else staticmethod(function))
     return _SymbolicMath
 
 

@@ -72,7 +72,7 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
     _check_range(beta, 0.0, np.pi, "knee angle beta", "rad")
     xp = actuator.math_for(beta)
     sin_b, cos_b = xp.sin(beta), xp.cos(beta)
-    gamma = 1.5 * np.pi - beta
+    gamma = 3 * xp.pi / 2 - beta  # xp.pi: exact for symbols, so sin(gamma) = -cos(beta) in generated code
     sin_g, cos_g = xp.sin(gamma), xp.cos(gamma)
 
     X = xp.sqrt(p.Lo**2 + p.Lu**2 - 2 * p.Lo * p.Lu * cos_b)
