@@ -162,6 +162,30 @@ def parameter_rule(name: str) -> str:
     return "any"
 
 
+def integer_rule(name: str) -> tuple[int, int, str]:
+    """(low, high, message) of an Integer parameter: the values Params accepts (a range) and its message for a
+    bad one, with "%d" for the value; read from Params itself."""
+    allowed = []
+    for value in range(-3, 6):
+        try:
+            DEFAULT.replace(**{name: value})
+            allowed.append(value)
+        except ParameterError:
+            pass
+    if not allowed or allowed != list(range(allowed[0], allowed[-1] + 1)):
+        raise NativeBuildError(f"Integer parameter {name}: Params accepts {allowed}, not a range")
+    bad = 987654
+    try:
+        DEFAULT.replace(**{name: bad})
+    except ParameterError as error:
+        message = str(error).replace("%", "%%")
+    else:
+        raise NativeBuildError(f"Integer parameter {name}: Params accepts {bad}")
+    if str(bad) not in message:
+        raise NativeBuildError(f"Integer parameter {name}: Params' message does not show the value: {message}")
+    return allowed[0], allowed[-1], message.replace(str(bad), "%d")
+
+
 # --- generated files -------------------------------------------------------------------------------------------
 
 def model_description(interface: Interface, guid: str, source_files: list[str]) -> bytes:
@@ -259,10 +283,15 @@ def variables_source(interface: Interface) -> str:
     order = [names[f].vr for f in dataclasses.asdict(DEFAULT)
              if f in names and names[f].causality == "parameter" and names[f].type == "Real"]
     inputs = [v.vr for v in interface.variables if v.causality == "input"]
+    integer_rules = [(v.vr, *integer_rule(v.name)) for v in interface.variables
+                     if v.causality == "parameter" and v.type == "Integer"]
     lines += [f"const int mk_params_order[] = {{{', '.join(map(str, order))}}};",
               f"const int mk_n_params_order = {len(order)};",
               f"const int mk_inputs[] = {{{', '.join(map(str, inputs))}}};",
-              f"const int mk_n_inputs = {len(inputs)};", "",
+              f"const int mk_n_inputs = {len(inputs)};",
+              "const mk_integer_rule mk_integer_rules[] = {",
+              *[f"    {{{vr}, {low}, {high}, {_c_string(message)}}}," for vr, low, high, message in integer_rules],
+              "    {-1, 0, 0, \"\"}", "};", f"const int mk_n_integer_rules = {len(integer_rules)};", "",
               "void mk_param_vector(const mk_data *d, double n, double *p)", "{"]
     for index, name in enumerate(PARAMETER_NAMES):
         if name == "n":
@@ -342,13 +371,20 @@ def core_source() -> str:
             geo = knee.geometry_at_X(X, params, derivatives=False)
             return [geo.alpha, geo.beta, geo.Le, geo.Lf]
 
+        def emit(name, arguments, call, bindings_, traced):
+            # codegen's form: static <name>(p, stops, k, ...) and <name>_once(p, stops, ...); parameters constant
+            return codegen.emit_function(name, arguments, call, bindings_, set(bindings), traced, "out", table)
+
         extra = [
-            codegen.emit_function("int mk_fmu_X_from_alpha(const double *p, double alpha, double *out, "
-                                  "mk_fault *fault)", {**bindings, "alpha": "alpha"},
-                                  codegen.trace(lambda a, params: [knee.X_from_alpha(a, params)], alpha, sp),
-                                  "out", table),
-            codegen.emit_function("int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
-                                  {**bindings, "X": "X"}, codegen.trace(posture, X, sp), "out", table)]
+            emit("fmu_X_from_alpha", "double alpha, double *out, mk_fault *fault", "alpha, out, fault",
+                 {**bindings, "alpha": "alpha"},
+                 codegen.trace(lambda a, params: [knee.X_from_alpha(a, params)], alpha, sp)),
+            emit("fmu_posture", "double X, double *out, mk_fault *fault", "X, out, fault", {**bindings, "X": "X"},
+                 codegen.trace(posture, X, sp)),
+            "int mk_fmu_X_from_alpha(const double *p, double alpha, double *out, mk_fault *fault)",
+            "{", "    return fmu_X_from_alpha_once(p, NULL, alpha, out, fault);", "}", "",
+            "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
+            "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", ""]
     finally:
         codegen.CheckTable.add = original
     if len(collected) != len(table.entries):

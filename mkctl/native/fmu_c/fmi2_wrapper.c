@@ -143,9 +143,12 @@ static int check_parameters(const mk_data *d, char *msg, size_t size)
             return 1;
         }
     }
-    if (d->v[VR_model] != 1 && d->v[VR_model] != 2) {
-        snprintf(msg, size, "parameter model must be 1 or 2, got %d", (int)d->v[VR_model]);
-        return 1;
+    for (k = 0; k < mk_n_integer_rules; k++) {
+        const mk_integer_rule *rule = &mk_integer_rules[k];
+        if (d->v[rule->vr] < rule->low || d->v[rule->vr] > rule->high) {
+            snprintf(msg, size, rule->message, (int)d->v[rule->vr]);
+            return 1;
+        }
     }
     if (d->v[VR_L0] >= d->v[VR_b]) {
         snprintf(msg, size, "rest length L0 = %s m must be shorter than the braid b = %s m",

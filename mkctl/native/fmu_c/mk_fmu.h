@@ -31,6 +31,14 @@ extern const int mk_params_order[];          /* the Real parameters, in the orde
 extern const int mk_n_params_order;
 extern const int mk_inputs[];                /* the inputs, checked at every doStep */
 extern const int mk_n_inputs;
+/* the Integer parameters' allowed range (low <= value <= high) and Params' message, "%d" for the value */
+typedef struct {
+    int vr;
+    int low, high;
+    const char *message;
+} mk_integer_rule;
+extern const mk_integer_rule mk_integer_rules[];
+extern const int mk_n_integer_rules;
 
 #define MK_MAX_STATES 4
 #define MK_MESSAGE 600
