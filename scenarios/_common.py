@@ -103,7 +103,7 @@ def _check_folders(args, fmus) -> None:
         require(not target.is_dir(), f"--out {args.out}: {target} is a folder, cannot write the {suffix.upper()} there")
     fmu_dir = Path(args.fmu_dir)
     require(not fmu_dir.exists() or fmu_dir.is_dir(), f"--fmu-dir {fmu_dir}: is a file, not a folder")
-    paths = [fmu_dir / FMU_FILES[which] for which in fmus]
+    paths = [fmu_file(args, which) for which in fmus]
     for path in paths:
         require(not path.exists() or zipfile.is_zipfile(path), f"--fmu-dir {fmu_dir}: {path.name} is not an FMU "
                 "(not a zip file)")
@@ -129,6 +129,9 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
     parser.add_argument("--fmu-dir", type=Path, default=ROOT / "dist",
                         help="folder holding the FMUs (default: dist; built when missing)")
     parser.add_argument("--duration", type=float, default=duration, help=f"simulated time [s] (default {duration:g})")
+    parser.add_argument("--native", action="store_true",
+                        help="drive the native FMUs of FMU_DIR/native (compiled C, built when missing) instead of "
+                             "the pythonfmu ones")
     if extra is not None:
         extra(parser)
     args = parser.parse_args(argv)
@@ -147,13 +150,22 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
 
 # --- the FMUs ---------------------------------------------------------------------------------------------
 
+def fmu_file(args, which: str) -> Path:
+    """Where the knee or actuator FMU is: FMU_DIR, or FMU_DIR/native with --native."""
+    folder = Path(args.fmu_dir) / "native" if getattr(args, "native", False) else Path(args.fmu_dir)
+    return folder / FMU_FILES[which]
+
+
 def fmu_path(args, which: str) -> Path:
-    """Path of the knee or actuator FMU, building both with build_fmu.py if it is missing."""
-    path = Path(args.fmu_dir) / FMU_FILES[which]
+    """Path of the knee or actuator FMU, building both (build_fmu.py, or mkctl.native.fmu with --native) if it is
+    missing."""
+    path = fmu_file(args, which)
     if not path.exists():
         print(f"{path} missing: building the FMUs ...")
-        done = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(args.fmu_dir), "--no-run"],
-                              capture_output=True, text=True)
+        builder = (["-m", "mkctl.native.fmu"] if getattr(args, "native", False)
+                   else [str(ROOT / "build_fmu.py"), "--no-run"])
+        done = subprocess.run([sys.executable, *builder, "--out", str(args.fmu_dir)], capture_output=True, text=True,
+                              cwd=ROOT)
         if done.returncode != 0 or not path.exists():
             lines = (done.stderr or done.stdout).strip().splitlines()
             raise ScenarioError(f"building the FMUs into {args.fmu_dir} failed: "

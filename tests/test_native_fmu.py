@@ -433,3 +433,30 @@ def test_native_knee_runs_in_libcosimpy(native_fmus, run_python):
     direct = [sim.step(1e-3, PE0 if k < 100 else pe1, PF0)[0] for k in range(500)]
     np.testing.assert_allclose(run["X"], direct, rtol=0, atol=1e-9)
     assert np.ptp(direct) > 1e-3
+
+
+# --- the scenarios run either FMU ---------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", ["pressure_step", "isotonic_sweep"])
+def test_a_scenario_gives_the_same_results_with_the_native_fmus(name, native_fmus, built_fmus, tmp_path):
+    import csv
+    import sys
+    fmu_dir = built_fmus["knee"].parent
+    (fmu_dir / "native").mkdir(exist_ok=True)
+    for which in ("knee", "actuator"):
+        shutil.copy2(native_fmus[which], fmu_dir / "native" / native_fmus[which].name)
+    tables = []
+    for native in (False, True):
+        out = tmp_path / ("native" if native else "python")
+        done = subprocess.run([sys.executable, str(ROOT / "scenarios" / f"{name}.py"), "--fmu-dir", str(fmu_dir),
+                               "--out", str(out), *(["--native"] if native else [])],
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stderr[-3000:]
+        with open(out / f"{name}.csv") as handle:
+            rows = list(csv.reader(handle))
+        tables.append((rows[0], np.array([[float(x == "True") if x in ("True", "False") else float(x) for x in row]
+                                          for row in rows[1:]])))
+    (header, python), (native_header, native) = tables
+    assert header == native_header and python.shape == native.shape and python.shape[0] > 100
+    scale = np.maximum(1.0, np.abs(python).max(axis=0))
+    assert (np.abs(native - python) <= 1e-9 * scale).all()
