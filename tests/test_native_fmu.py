@@ -311,6 +311,18 @@ def test_a_nan_input_is_discarded_with_a_message_and_the_run_carries_on(native_f
         fmu.free()
 
 
+def test_a_parameter_set_after_initialization_is_an_error_not_ignored(native_fmus, tmp_path):
+    fmu = Native(native_fmus["knee"], tmp_path)
+    try:
+        assert fmu.initialize() == 0
+        assert fmu.set("m", 5.0) == 3
+        assert "m is a fixed parameter" in fmu.messages[-1][1]
+        assert fmu.set("pe_cmd", PE0) == 0  # inputs can be set
+        assert fmu.step(0.0, 1e-3) == 0
+    finally:
+        fmu.free()
+
+
 def test_actuator_length_out_of_the_domain_is_discarded_and_the_state_kept(native_fmus, tmp_path):
     fmu = Native(native_fmus["actuator"], tmp_path)
     try:
