@@ -33,6 +33,7 @@ variant from the run-time parameter vector; a source may hold any set of variant
 """
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import sympy
@@ -178,9 +179,16 @@ def emit_function(name: str, arguments: str, call: str, bindings: dict, constant
     layout = []
     for value, low, high, _, _ in traced.checks:
         layout.append(len(exprs))
-        exprs.append(sympy.sympify(value))
+        value = sympy.sympify(value)
         if low is not None:
-            exprs += [sympy.sympify(low), sympy.sympify(high)]
+            low, high = sympy.sympify(low), sympy.sympify(high)
+            if isinstance(value, sympy.acos) and low.is_zero and high == sympy.Float(math.pi):
+                # 0 < acos(u) < pi exactly when -1 < u < 1 (acos is decreasing, acos(1) = 0, acos(-1) = pi
+                # as rounded, NaN fails both): the same check without a library call in the inner loop
+                value, low, high = value.args[0], sympy.Integer(-1), sympy.Integer(1)
+            exprs += [value, low, high]
+        else:
+            exprs.append(value)
     symbols = set().union(*(e.free_symbols for e in exprs))
     unknown = sorted(str(s) for s in symbols if s.name not in bindings)
     if unknown:

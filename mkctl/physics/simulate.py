@@ -16,6 +16,8 @@ Example
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from . import actuator, knee, stability
@@ -62,7 +64,7 @@ class KneeSimulator:
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0, pf0: float = 0.0,
                  stops: bool = True, rtol: float = 1e-10):
         self.params = params
-        self.stops = knee.stop_positions(params) if stops else None
+        self.stops = _stop_positions(params) if stops else None
         self.rtol = rtol
         X0 = default_hip_height(params) if X0 is None else float(X0)
         knee.beta_from_X(X0, params)  # raises a clear DomainError for an impossible X0
@@ -117,6 +119,32 @@ class KneeSimulator:
         return values
 
 
+#: Parameters a state at rest does not feel: damping c V and friction Fc tanh(V / vs) vanish at V = 0, and
+#: the lagged pressure equals its command. The rest posture of a record does not depend on them.
+REST_INDEPENDENT = ("c", "Fc", "vs", "tau")
+
+
+@functools.lru_cache(maxsize=256)
+def _stop_positions(params: Params) -> tuple[float, float]:
+    return knee.stop_positions(params)
+
+
+_rest_heights: dict = {}
+
+
+def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
+    """The hip height X [m] a record starts at when X0 is None: at rest in the stable equilibrium of the first
+    commands (:func:`mkctl.physics.stability.equilibrium_hip_height`). Remembered per (commands, parameters
+    that matter at rest): fits run thousands of records from the same posture with other damping or lag."""
+    key = (float(pe0), float(pf0), *(v for k, v in vars(params).items() if k not in REST_INDEPENDENT))
+    X0 = _rest_heights.get(key)
+    if X0 is None:
+        if len(_rest_heights) > 4096:
+            _rest_heights.clear()
+        X0 = _rest_heights[key] = float(stability.equilibrium_hip_height(pe0, pf0, params))
+    return X0
+
+
 def _native_core(params: Params):
     """The compiled core (:mod:`mkctl.native`) for params' structure, or None: no compiler, switched off
     (``MKCTL_NATIVE=0``), or mkctl.native absent (a pythonfmu FMU packs only the modules it imports)."""
@@ -137,7 +165,7 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
     """
     n = time.size
     if X0 is None:
-        X0 = stability.equilibrium_hip_height(pe_cmd[0], pf_cmd[0], params)
+        X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
     sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
     states = np.empty((n, sim.state.size))
     outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
