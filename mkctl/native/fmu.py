@@ -25,6 +25,7 @@ import datetime
 import functools
 import importlib.util
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -338,6 +339,27 @@ def _c_template(text: str) -> str:
 
 @functools.lru_cache(maxsize=1)
 def core_source() -> str:
+    """:func:`generate_core_source`, cached on disk beside the core's own generated sources
+    (:func:`mkctl.native.build.cache_dir`), keyed by everything it is generated from (the core's inputs and
+    this module): tracing the equations takes seconds, and every build of the FMUs needs the same text."""
+    import hashlib
+
+    from . import build
+    from .variants import ALL_VARIANTS
+    digest = hashlib.sha256(build.input_key(ALL_VARIANTS).encode())
+    digest.update(Path(__file__).read_bytes())
+    path = build.cache_dir() / f"fmu-core-{digest.hexdigest()[:20]}.c"
+    if path.is_file():
+        return path.read_text()
+    text = generate_core_source()
+    try:
+        build._write_atomic(path, text.encode())
+    except OSError:  # a read-only cache only costs time
+        pass
+    return text
+
+
+def generate_core_source() -> str:
     """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant) with the FMUs' additions, all
     generated from mkctl's equations: the hip height at a kneecap angle (knee.X_from_alpha, for the default X0),
     the posture at a hip height (knee.geometry_at_X, for the outputs that can still be given when the pressures
@@ -431,17 +453,43 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
     return units
 
 
+def _compiler_flags() -> list[str]:
+    flags = [f for f in core_compiler_flags() if f not in ("-O2", "-fPIC", "-shared")]
+    return ["-O2", "-fPIC", *flags, "-fvisibility=hidden", "-Wall"]
+
+
+def _run_compiler(command: list[str], what: str) -> None:
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise NativeBuildError(f"compiling {what} failed:\n{done.stderr.strip()[-3000:]}")
+
+
+def _core_object(sources: Path, compiler: str) -> Path:
+    """mkctl_core.c compiled once (the largest unit by far, the same in both FMUs), cached beside its source."""
+    import hashlib
+
+    from . import build
+    source = (sources / "mkctl_core.c").read_bytes()
+    key = hashlib.sha256(source + " ".join([compiler, *_compiler_flags()]).encode()).hexdigest()[:20]
+    target = build.cache_dir() / f"fmu-core-{key}.o"
+    if not target.is_file():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        temporary = target.with_name(f"{target.name}.{os.getpid()}.tmp")
+        _run_compiler([compiler, *_compiler_flags(), "-c", "-o", str(temporary), str(sources / "mkctl_core.c")],
+                      "mkctl_core.c")
+        os.replace(temporary, target)
+    return target
+
+
 def compile_binary(sources: Path, units: list[str], target: Path, compiler: str = "gcc") -> None:
     """Compile the units into a shared library (only the fmi2* functions exported)."""
     if shutil.which(compiler) is None:
         raise NativeBuildError(f"no C compiler: {compiler} is not on PATH (the native FMUs need one to build)")
     target.parent.mkdir(parents=True, exist_ok=True)
-    flags = [f for f in core_compiler_flags() if f not in ("-O2", "-fPIC", "-shared")]
-    command = [compiler, "-O2", "-fPIC", "-shared", *flags, "-fvisibility=hidden", "-Wall",
-               "-I", str(sources), "-o", str(target), *[str(sources / u) for u in units], "-lm"]
-    done = subprocess.run(command, capture_output=True, text=True)
-    if done.returncode != 0:
-        raise NativeBuildError(f"compiling {target.name} failed:\n{done.stderr.strip()[-3000:]}")
+    objects = [str(_core_object(sources, compiler))] if "mkctl_core.c" in units else []
+    own = [str(sources / u) for u in units if u != "mkctl_core.c"]
+    _run_compiler([compiler, *_compiler_flags(), "-shared", "-I", str(sources), "-o", str(target), *own, *objects,
+                   "-lm"], target.name)
 
 
 def _validate(fmu: Path) -> None:
