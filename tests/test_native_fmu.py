@@ -31,7 +31,12 @@ from mkctl.physics.simulate import default_commands
 ROOT = Path(__file__).resolve().parents[1]
 PE0, PF0 = default_commands()
 
-pytestmark = pytest.mark.skipif(shutil.which("gcc") is None, reason="gcc is not installed: no native FMUs")
+def _compiler():
+    from mkctl.native.build import find_compiler
+    return find_compiler()
+
+
+pytestmark = pytest.mark.skipif(_compiler() is None, reason="no C compiler: no native FMUs")
 
 
 @pytest.fixture(scope="session")
@@ -379,7 +384,7 @@ def test_fmu_state_and_reset_replay_identically(native_fmus, tmp_path):
 def c_host(tmp_path_factory):
     from mkctl.native.fmu import fmi2_headers
     binary = tmp_path_factory.mktemp("c_host") / "fmi2_host"
-    subprocess.run(["gcc", "-Wall", "-I", str(fmi2_headers()), "-o", str(binary), str(ROOT / "fmu" / "fmi2_host.c"),
+    subprocess.run([*_compiler(), "-Wall", "-I", str(fmi2_headers()), "-o", str(binary), str(ROOT / "fmu" / "fmi2_host.c"),
                     "-ldl"], check=True, capture_output=True)
     return binary
 

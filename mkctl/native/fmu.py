@@ -464,31 +464,34 @@ def _run_compiler(command: list[str], what: str) -> None:
         raise NativeBuildError(f"compiling {what} failed:\n{done.stderr.strip()[-3000:]}")
 
 
-def _core_object(sources: Path, compiler: str) -> Path:
+def _core_object(sources: Path, compiler: list[str]) -> Path:
     """mkctl_core.c compiled once (the largest unit by far, the same in both FMUs), cached beside its source."""
     import hashlib
 
     from . import build
     source = (sources / "mkctl_core.c").read_bytes()
-    key = hashlib.sha256(source + " ".join([compiler, *_compiler_flags()]).encode()).hexdigest()[:20]
+    key = hashlib.sha256(source + " ".join([*compiler, *_compiler_flags()]).encode()).hexdigest()[:20]
     target = build.cache_dir() / f"fmu-core-{key}.o"
     if not target.is_file():
         target.parent.mkdir(parents=True, exist_ok=True)
         temporary = target.with_name(f"{target.name}.{os.getpid()}.tmp")
-        _run_compiler([compiler, *_compiler_flags(), "-c", "-o", str(temporary), str(sources / "mkctl_core.c")],
+        _run_compiler([*compiler, *_compiler_flags(), "-c", "-o", str(temporary), str(sources / "mkctl_core.c")],
                       "mkctl_core.c")
         os.replace(temporary, target)
     return target
 
 
-def compile_binary(sources: Path, units: list[str], target: Path, compiler: str = "gcc") -> None:
-    """Compile the units into a shared library (only the fmi2* functions exported)."""
-    if shutil.which(compiler) is None:
-        raise NativeBuildError(f"no C compiler: {compiler} is not on PATH (the native FMUs need one to build)")
+def compile_binary(sources: Path, units: list[str], target: Path) -> None:
+    """Compile the units into a shared library (only the fmi2* functions exported), with the compiler the core
+    uses (:func:`mkctl.native.build.find_compiler`: $CC, else cc, gcc or clang)."""
+    from .build import find_compiler
+    found = find_compiler()
+    if found is None:
+        raise NativeBuildError("no C compiler found (CC, cc, gcc, clang): the native FMUs need one to build")
     target.parent.mkdir(parents=True, exist_ok=True)
-    objects = [str(_core_object(sources, compiler))] if "mkctl_core.c" in units else []
+    objects = [str(_core_object(sources, found))] if "mkctl_core.c" in units else []
     own = [str(sources / u) for u in units if u != "mkctl_core.c"]
-    _run_compiler([compiler, *_compiler_flags(), "-shared", "-I", str(sources), "-o", str(target), *own, *objects,
+    _run_compiler([*found, *_compiler_flags(), "-shared", "-I", str(sources), "-o", str(target), *own, *objects,
                    "-lm"], target.name)
 
 
