@@ -10,12 +10,16 @@ the compiled core of :mod:`mkctl.native` (C generated from mkctl's equations); a
 (``fmu_c/fmi2_wrapper.c``, shared) and the model's part (``fmu_c/knee_fmu.c``, ``fmu_c/actuator_fmu.c``).
 
 Each FMU carries its C sources in ``sources/`` (an FMI 2.0 source-code FMU: ``<SourceFiles>`` lists the
-compilation units; the FMI 2.0 headers are included) and the ``linux64`` binary, compiled with
-``gcc -O2 -fPIC -shared``. The host needs no Python.
+compilation units; the FMI 2.0 headers are included) and the ``linux64`` binary, compiled with the core's
+compiler and flags (``-O2 -fPIC -shared -ffp-contract=off -fno-fast-math``, only ``fmi2*`` exported). The host
+needs no Python. Building needs a C compiler and sympy; the generated core source and its object file are cached
+in mkctl's cache folder (:func:`mkctl.native.build.cache_dir`).
 
 The parameter checks of the C wrapper are those of :class:`mkctl.physics.params.Params`: the per-parameter rules
-(positive, not negative) are read from ``Params`` itself at build time (:func:`parameter_rule`), the few rules
-between parameters are written in the wrapper with Params' own messages; tests compare both on every parameter.
+(positive, not negative; the values of an Integer parameter) are read from ``Params`` itself at build time
+(:func:`parameter_rule`, :func:`integer_rule`), the two rules between parameters are written in the wrapper with
+Params' own messages; tests compare both on every parameter. Domain errors during a run carry the library's
+messages too: each traced domain check of the core gets its Python message as a template (:func:`core_source`).
 """
 from __future__ import annotations
 
