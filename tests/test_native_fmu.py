@@ -266,9 +266,10 @@ class Native:
 
 def _params_verdict(values: dict) -> str | None:
     """What the pythonfmu slave does with these parameter values: the message of Params, or None if valid."""
+    given = values
     values = {**{name: getattr(DEFAULT, name) for name in values}, **values}
-    if values.get("n") == DEFAULT.n:
-        values["n"] = None
+    if values.get("n", DEFAULT.n) == DEFAULT.n and {"b", "L0", "D0"} & set(given):
+        values["n"] = None  # n left at its start value while the geometry changes: derived
     try:
         Params(**values)
     except Exception as error:  # noqa: BLE001 - every ParameterError message is compared

@@ -96,18 +96,24 @@ class Interface:
     default_experiment: dict[str, str]
     variables: tuple[Variable, ...]
     undefined_outputs: str
+    pressure_outputs: dict[str, str]  #: {output: muscle} checked against P_rated (when the FMU has it)
 
     def by_name(self) -> dict[str, Variable]:
         return {v.name: v for v in self.variables}
 
 
 def _load_slave_class(model_name: str):
-    """The pythonfmu slave class of a model, imported from its script under a private module name."""
-    script = SLAVE_SCRIPTS[model_name]
-    spec = importlib.util.spec_from_file_location(f"_mkctl_native_{script.stem}", script)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module, getattr(module, model_name)
+    """The pythonfmu slave class of a model: from :mod:`mkctl.fmu.models` where the slaves live in the package,
+    else imported from its script in ``fmu/`` under a private module name."""
+    try:
+        from ..fmu import models
+    except ImportError:
+        script = SLAVE_SCRIPTS[model_name]
+        spec = importlib.util.spec_from_file_location(f"_mkctl_native_{script.stem}", script)
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return getattr(module, model_name)
+    return getattr(models, model_name)
 
 
 def _fmi_unit(unit: str) -> str:
@@ -120,10 +126,12 @@ def slave_interface(model_name: str, params: Params | None = None) -> Interface:
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
-    module, cls = _load_slave_class(model_name)
+    cls = _load_slave_class(model_name)
     slave = cls(instance_name="mkctl-native-build")
     starts = {}
-    if params is not None:
+    if params is not None and hasattr(cls, "start_values"):  # the slave knows its start values for a Params
+        starts = cls.start_values(params)
+    elif params is not None:
         from ..physics.simulate import default_commands, default_hip_height
         starts = {name: getattr(params, name) for name in dataclasses.asdict(params)}
         if model_name == "McKibbenKnee":
@@ -147,7 +155,7 @@ def slave_interface(model_name: str, params: Params | None = None) -> Interface:
                                                              ("tolerance", experiment.tolerance))
                           if value is not None}
     return Interface(model_name, cls.description, cls.author, default_experiment, tuple(variables),
-                     cls.undefined_outputs)
+                     cls.undefined_outputs, dict(getattr(cls, "pressure_outputs", {})))
 
 
 def parameter_rule(name: str) -> str:
@@ -296,7 +304,13 @@ def variables_source(interface: Interface) -> str:
               f"const int mk_n_inputs = {len(inputs)};",
               "const mk_integer_rule mk_integer_rules[] = {",
               *[f"    {{{vr}, {low}, {high}, {_c_string(message)}}}," for vr, low, high, message in integer_rules],
-              "    {-1, 0, 0, \"\"}", "};", f"const int mk_n_integer_rules = {len(integer_rules)};", "",
+              "    {-1, 0, 0, \"\"}", "};", f"const int mk_n_integer_rules = {len(integer_rules)};",
+              "const mk_pressure_output mk_pressure_outputs[] = {",
+              *[f"    {{{names[o].vr}, {_c_string(muscle)}}}," for o, muscle in interface.pressure_outputs.items()
+                if "P_rated" in names],
+              "    {-1, \"\"}", "};",
+              f"const int mk_n_pressure_outputs = {len(interface.pressure_outputs) if 'P_rated' in names else 0};",
+              "",
               "void mk_param_vector(const mk_data *d, double n, double *p)", "{"]
     for index, name in enumerate(PARAMETER_NAMES):
         if name == "n":

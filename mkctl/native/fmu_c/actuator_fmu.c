@@ -2,8 +2,9 @@
  *
  * The pressure lag is the only state, solved exactly over each step with the command held (the core's
  * mk_actuator_lagged_pressure); the tension (mk_actuator_tension) follows from the inputs L, Ldot and the
- * present pressure (the command itself without a lag). n left at its start value follows b, L0, D0. A step
- * that ends outside the model's domain (0 < L < b) is refused and the state kept.
+ * present pressure (the command itself without a lag). n left at its start value while b, L0 or D0 change
+ * follows them. Start inputs outside the model's domain are refused at initialization; a step that ends outside
+ * it (0 < L < b) is refused and the state kept.
  */
 #include <math.h>
 #include <stdio.h>
@@ -18,12 +19,14 @@ static void params_of(const mk_data *d, double *p) { mk_param_vector(d, d->aux[A
 
 int mk_model_start(mk_data *d, char *msg, size_t size)
 {
-    (void)msg;
-    (void)size;
-    d->aux[AUX_N] = d->v[VR_n] == mk_variables[VR_n].start
-                        ? mk_fmu_derived_turns(d->v[VR_b], d->v[VR_L0], d->v[VR_D0]) : d->v[VR_n];
+    char detail[MK_MESSAGE - 64];
+    d->aux[AUX_N] = mk_turns(d);
     d->s.ny = 1;
     d->s.y[0] = d->v[VR_p_cmd];
+    if (mk_model_outputs(d, detail, sizeof detail) != 0) { /* 0 < L < b, a finite pressure */
+        snprintf(msg, size, "the start inputs are outside the model's domain: %s", detail);
+        return 1;
+    }
     return 0;
 }
 

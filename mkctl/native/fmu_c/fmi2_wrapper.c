@@ -119,6 +119,13 @@ static int check_parameters(const mk_data *d, char *msg, size_t size)
 {
     char a[40], b[40];
     int k, vr;
+#ifdef VR_P_rated
+    if (!(isfinite(d->v[VR_P_rated]) && d->v[VR_P_rated] > 0)) { /* checked before Params, as the slave does */
+        snprintf(msg, size, "parameter P_rated must be a positive number, got %s", mk_repr(d->v[VR_P_rated], a,
+                 sizeof a));
+        return 1;
+    }
+#endif
     for (k = 0; k < mk_n_params_order; k++) {
         vr = mk_params_order[k];
         if (!finite_number(d->v[vr])) {
@@ -167,6 +174,32 @@ static int check_parameters(const mk_data *d, char *msg, size_t size)
     return 0;
 }
 
+static fmi2Status update_outputs(mk_instance *inst);
+
+/* Warn once per excursion when a muscle's pressure is above P_rated (the pythonfmu slave's _check_rating). */
+static void check_rating(mk_instance *inst, double time)
+{
+#ifdef VR_P_rated
+    mk_data *d = &inst->d;
+    int k;
+    if (mk_n_pressure_outputs == 0 || update_outputs(inst) != fmi2OK) return;
+    for (k = 0; k < mk_n_pressure_outputs && k < 4; k++) {
+        double pressure = d->v[mk_pressure_outputs[k].vr];
+        if (pressure > d->v[VR_P_rated] && !d->over_rating[k]) {
+            d->over_rating[k] = 1;
+            mk_log(inst, fmi2Warning, "t = %g s: %s pressure %s = %.4g MPa exceeds the rated pressure P_rated = "
+                   "%.4g MPa", time, mk_pressure_outputs[k].muscle, mk_variables[mk_pressure_outputs[k].vr].name,
+                   pressure / 1e6, d->v[VR_P_rated] / 1e6);
+        } else if (pressure <= d->v[VR_P_rated]) {
+            d->over_rating[k] = 0;
+        }
+    }
+#else
+    (void)inst;
+    (void)time;
+#endif
+}
+
 /* Build the run from the present values; on failure d->failed and d->error say why. */
 static int start_run(mk_instance *inst)
 {
@@ -183,7 +216,9 @@ static int start_run(mk_instance *inst)
     } else if (mk_model_start(d, d->error, sizeof d->error) != 0) {
         d->failed = 1;
     }
+    memset(d->over_rating, 0, sizeof d->over_rating);
     if (d->failed) mk_log(inst, fmi2Error, "%s", d->error);
+    else check_rating(inst, 0.0);
     return d->failed;
 }
 
@@ -506,6 +541,7 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                           communicationStepSize, msg);
         d->outputs_fresh = 0;
     }
+    check_rating(inst, currentCommunicationPoint + communicationStepSize);
     return fmi2OK;
 }
 

@@ -1,7 +1,8 @@
 /* The knee's part of the native McKibbenKnee FMU: the run of mkctl.physics.simulate.KneeSimulator, in C.
  *
- * Start (as fmu/mckibben_knee.py): n left at its start value follows b, L0, D0; X0 left at its start value is the
- * hip height at alpha = 60 deg of the geometry; the leg starts at rest, the lag pressures at the commands. The
+ * Start (as the pythonfmu knee): n left at its start value while b, L0 or D0 change follows them; X0 left at
+ * its start value is the hip height at alpha = 60 deg of the geometry; the leg starts at rest, the lag pressures
+ * at the commands. The
  * end stops of mkctl.physics.knee engage at the core's mk_stop_positions. Each doStep integrates the compiled
  * right-hand side with the core's Dormand-Prince 5(4) stepper and KneeSimulator's tolerances, the commands held;
  * a step that fails (a domain check, a collapsed step size) is refused and the state kept.
@@ -24,8 +25,7 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
     double p[MK_NPARAM], X0, low, high, stops[2];
     char a[40], detail[MK_MESSAGE - 64];
     mk_fault fault = {0, 0, 0, 0, 0, 0};
-    d->aux[AUX_N] = d->v[VR_n] == mk_variables[VR_n].start
-                        ? mk_fmu_derived_turns(d->v[VR_b], d->v[VR_L0], d->v[VR_D0]) : d->v[VR_n];
+    d->aux[AUX_N] = mk_turns(d);
     params_of(d, p);
     X0 = d->v[VR_X0];
     if (X0 == mk_variables[VR_X0].start && mk_fmu_X_from_alpha(p, MK_FMU_DEFAULT_ALPHA, &X0, &fault) != 0) {

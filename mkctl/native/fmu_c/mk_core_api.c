@@ -20,6 +20,16 @@ double mk_fmu_derived_turns(double b, double L0, double D0)
     return sqrt(b * b - L0 * L0) / (3.141592653589793 * D0);
 }
 
+double mk_turns(const mk_data *d)
+{
+    /* as the slaves do: n left at its start value while b, L0 or D0 changed follows them */
+    int geometry_changed = d->v[VR_b] != mk_variables[VR_b].start || d->v[VR_L0] != mk_variables[VR_L0].start ||
+                           d->v[VR_D0] != mk_variables[VR_D0].start;
+    if (d->v[VR_n] == mk_variables[VR_n].start && geometry_changed)
+        return mk_fmu_derived_turns(d->v[VR_b], d->v[VR_L0], d->v[VR_D0]);
+    return d->v[VR_n];
+}
+
 void mk_fault_message(const mk_fault *fault, char *msg, size_t size)
 {
     const char *t;

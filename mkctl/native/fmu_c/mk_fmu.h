@@ -39,6 +39,13 @@ typedef struct {
 } mk_integer_rule;
 extern const mk_integer_rule mk_integer_rules[];
 extern const int mk_n_integer_rules;
+/* the pressure outputs checked against P_rated (none when the FMU has no P_rated) */
+typedef struct {
+    int vr;
+    const char *muscle;
+} mk_pressure_output;
+extern const mk_pressure_output mk_pressure_outputs[];
+extern const int mk_n_pressure_outputs;
 
 #define MK_MAX_STATES 4
 #define MK_MESSAGE 600
@@ -64,6 +71,7 @@ typedef struct {
     int failed;              /* ... and that failed: error says why */
     int outputs_fresh;       /* the outputs in v[] belong to the present state and inputs */
     int outputs_failed;
+    int over_rating[4];      /* per pressure output: above P_rated now (warned once per excursion) */
     char error[MK_MESSAGE];
 } mk_data;
 
@@ -82,6 +90,9 @@ void mk_model_fallback_outputs(mk_data *d);
 /* The core's parameter vector (every field of Params in order): the FMU's values, n as given or derived,
  * the fields the FMU does not have at Params' defaults (generated in model_variables.c). */
 void mk_param_vector(const mk_data *d, double n, double *p);
+
+/* n in use: left at its start value while b, L0 or D0 changed, derived from them (derived_turns); else as given */
+double mk_turns(const mk_data *d);
 
 /* Helpers the wrapper offers the models. */
 /* Python's repr of a double (shortest round-trip digits, "1.0" not "1"), for messages that read like mkctl's. */
