@@ -266,6 +266,10 @@ class Native:
 
 def _params_verdict(values: dict) -> str | None:
     """What the pythonfmu slave does with these parameter values: the message of Params, or None if valid."""
+    if "P_rated" in values:  # the slaves' own parameter, checked before Params
+        rated = values.pop("P_rated")
+        if not (math.isfinite(rated) and rated > 0):
+            return f"invalid parameters: parameter P_rated must be a positive number, got {rated!r}"
     given = values
     values = {**{name: getattr(DEFAULT, name) for name in values}, **values}
     if values.get("n", DEFAULT.n) == DEFAULT.n and {"b", "L0", "D0"} & set(given):
@@ -286,7 +290,8 @@ CROSS_CASES = ({"L0": 0.25}, {"L0": 0.241}, {"t0": 0.0065}, {"model": 3}, {"mode
 def test_parameter_checks_are_those_of_params_with_the_same_messages(native_fmus, tmp_path, model):
     fmu = Native(native_fmus[model], tmp_path)
     parameters = [v.name for v in fmu.md.modelVariables if v.causality == "parameter" and v.name != "X0"]
-    cases = [{name: value} for name in parameters if name != "model" for value in BAD_VALUES] + list(CROSS_CASES)
+    cases = [{name: value} for name in parameters if fmu.types[name] == "Real" for value in BAD_VALUES]
+    cases += list(CROSS_CASES) + ([{"slack": 2}, {"slack": -1}] if "slack" in fmu.vr else [])
     refused = 0
     try:
         for case in cases:
@@ -498,3 +503,26 @@ def test_a_scenario_gives_the_same_results_with_the_native_fmus(name, native_fmu
     assert header == native_header and python.shape == native.shape and python.shape[0] > 100
     scale = np.maximum(1.0, np.abs(python).max(axis=0))
     assert (np.abs(native - python) <= 1e-9 * scale).all()
+
+
+def test_a_pressure_above_p_rated_is_warned_once_per_excursion(native_fmus, tmp_path):
+    fmu = Native(native_fmus["actuator"], tmp_path)
+    if "P_rated" not in fmu.vr:
+        fmu.free()
+        pytest.skip("the slaves of this checkout have no P_rated")
+    try:
+        assert fmu.fmu.fmi2SetDebugLogging(fmu.fmu.component, 1, 0, None) == 0
+        assert fmu.initialize(P_rated=5e5, p_cmd=1e5) == 0
+        warnings = lambda: [m for s, m in fmu.messages if s == 1]  # noqa: E731
+        for k, p in enumerate((6e5, 7e5, 4e5, 8e5)):  # above, still above, below, above again
+            fmu.set("p_cmd", p)
+            assert fmu.step(k * 0.1, 0.1) == 0
+        assert warnings() == [
+            "t = 0.1 s: muscle pressure P = 0.6 MPa exceeds the rated pressure P_rated = 0.5 MPa",
+            "t = 0.4 s: muscle pressure P = 0.8 MPa exceeds the rated pressure P_rated = 0.5 MPa"]
+        fmu.status("fmi2Reset")
+        fmu.messages.clear()
+        assert fmu.initialize(P_rated=-1.0) == 3
+        assert fmu.messages[-1][1] == "invalid parameters: parameter P_rated must be a positive number, got -1.0"
+    finally:
+        fmu.free()
