@@ -332,7 +332,12 @@ def test_a_nan_input_is_discarded_with_a_message_and_the_run_carries_on(native_f
         for k in range(50):
             assert fmu.step(k * 1e-3, 1e-3) == 0
         before = fmu.get("X", "V")
+        pe = fmu.get("Pe")
         fmu.set("pe_cmd", math.nan)
+        assert fmu.get("X", "V") == before and fmu.get("Pe") == pe  # not NaN: the last valid outputs, and why
+        assert fmu.messages[-1][1].startswith("outputs that depend on the pressures are undefined: pressure is not "
+                                              "a finite number")
+        assert fmu.messages[-1][1].endswith("; the outputs keep their last valid values")
         assert fmu.step(0.05, 1e-3) == 2  # fmi2Discard
         assert fmu.messages[-1] == (2, "doStep at t = 0.05 s: input pe_cmd = nan Pa is not a finite number")
         fmu.set("pe_cmd", PE0 * 1.05)

@@ -208,6 +208,7 @@ static int start_run(mk_instance *inst)
     d->started = 1;
     d->failed = 0;
     d->outputs_fresh = 0;
+    d->outputs_valid = 0;
     d->error[0] = '\0';
     memset(&d->s, 0, sizeof d->s);
     if (check_parameters(d, msg, sizeof msg) != 0) {
@@ -385,9 +386,15 @@ static fmi2Status update_outputs(mk_instance *inst)
     } else if (mk_model_outputs(d, msg, sizeof msg) != 0) {
         d->outputs_failed = 1;
     }
-    if (d->outputs_failed) {
-        mk_model_fallback_outputs(d);
-        mk_log(inst, fmi2Error, "%s: %s", MK_UNDEFINED_OUTPUTS, msg); /* always shown: not a silent NaN */
+    if (d->outputs_failed) { /* always shown: never a silent NaN */
+        if (d->outputs_valid) { /* the values in v[] are those of the last good computation */
+            mk_log(inst, fmi2Error, "%s: %s; the outputs keep their last valid values", MK_UNDEFINED_OUTPUTS, msg);
+        } else {
+            mk_model_fallback_outputs(d);
+            mk_log(inst, fmi2Error, "%s: %s", MK_UNDEFINED_OUTPUTS, msg);
+        }
+    } else {
+        d->outputs_valid = 1;
     }
     d->outputs_fresh = 1;
     return d->outputs_failed ? fmi2Warning : fmi2OK;

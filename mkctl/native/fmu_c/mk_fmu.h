@@ -71,6 +71,7 @@ typedef struct {
     int failed;              /* ... and that failed: error says why */
     int outputs_fresh;       /* the outputs in v[] belong to the present state and inputs */
     int outputs_failed;
+    int outputs_valid;       /* v[] holds outputs of a good computation since the start (kept when one fails) */
     int over_rating[4];      /* per pressure output: above P_rated now (warned once per excursion) */
     char error[MK_MESSAGE];
 } mk_data;
