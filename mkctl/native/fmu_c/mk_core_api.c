@@ -41,6 +41,8 @@ void mk_fault_message(const mk_fault *fault, char *msg, size_t size)
     case 2: snprintf(msg, size, "%s", MK_FMU_COLLAPSE_MESSAGE); return;
     case 3: snprintf(msg, size, "%s", MK_FMU_TOO_MANY_STEPS_MESSAGE); return;
     case 1: break;
+    case 4: snprintf(msg, size, "this parameter structure (model, friction, lag, slack) is not compiled into the core");
+            return;
     default: snprintf(msg, size, "the compiled core failed (fault code %d)", fault->code); return;
     }
     if (fault->check < 0 || fault->check >= mk_fmu_fault_count) {
