@@ -24,7 +24,7 @@ domain checks (every function)          the checks those functions make (``check
 The integrator itself (:file:`core_template.c`) is the algorithm of :func:`mkctl.physics.integrate.integrate`
 written in C; it holds no equation of the model.
 
-Branches on the parameter structure (``model`` 1 or 2, friction ``Fc > 0``, pressure lag ``tau > 0``) are
+Branches on the parameter structure (``model`` 1 or 2, friction ``Fc > 0``, pressure lag ``tau > 0``, ``slack``) are
 resolved by generating one *variant* per structure: the tracing parameters hold the structural values as
 numbers (``Fc`` and ``tau`` as positive symbols when on, 0 when off), so the library's own ``if`` statements
 pick the branch. The end stops are one-sided: they trace to sympy ``Piecewise``/``Max`` (C ``?:``, ``fmax``)
@@ -59,6 +59,7 @@ class SymbolicParams:
         self.model = variant.model
         self.Fc = sympy.Symbol("Fc", positive=True) if variant.friction else 0.0
         self.tau = sympy.Symbol("tau", positive=True) if variant.lag else 0.0
+        self.slack = int(variant.slack)
 
     @property
     def V_r(self):
@@ -286,7 +287,7 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
 
 def common_functions(checks: CheckTable) -> str:
     """The C of the functions that do not depend on the variant: the commands' checks, the stop positions."""
-    sp = SymbolicParams(Variant(2, False, False))
+    sp = SymbolicParams(Variant(2, False, False, False))
     parameters = _parameter_bindings()
     pe_cmd, pf_cmd = _real("pe_cmd"), _real("pf_cmd")
 

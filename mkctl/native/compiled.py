@@ -62,6 +62,11 @@ class Core:
         lib.mk_stop_positions.argtypes = [_DOUBLE_P, _DOUBLE_P, ctypes.POINTER(Fault)]
         lib.mk_knee_nstate.restype = ctypes.c_int
         lib.mk_knee_nstate.argtypes = [_DOUBLE_P]
+        lib.mk_knee_step.restype = ctypes.c_int
+        lib.mk_knee_step.argtypes = [
+            _DOUBLE_P, _DOUBLE_P, _DOUBLE_P, ctypes.c_double, ctypes.c_double, ctypes.c_double, ctypes.c_double,
+            _DOUBLE_P, _DOUBLE_P, _DOUBLE_P, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_double),
+            ctypes.POINTER(ctypes.c_double), ctypes.POINTER(Fault)]
 
     # --- single evaluations (tests, linearisation, FMU checks) ---
     def knee_rhs(self, params: Params, state, pe_cmd: float, pf_cmd: float, stops=None):
@@ -92,6 +97,27 @@ class Core:
         p, out, fault = parameter_vector(params), np.empty(2), Fault()
         self.lib.mk_stop_positions(_pointer(p), _pointer(out), ctypes.byref(fault))
         return float(out[0]), float(out[1])
+
+    def stepper(self, sim):
+        """A function ``step(dt, pe_cmd, pf_cmd)`` advancing ``sim`` (a KneeSimulator) with ``mk_knee_step``:
+        the C a native FMU's doStep calls. Returns the fault code (0: done)."""
+        p = parameter_vector(sim.params)
+        stops = None if sim.stops is None else np.array(sim.stops, dtype=float)
+        atol = np.ascontiguousarray(sim.atol, dtype=float)
+        k, k1_valid = np.zeros(7 * 4), ctypes.c_int(0)
+        k_pe, k_pf, hint = ctypes.c_double(0.0), ctypes.c_double(0.0), np.array([sim.step_hint])
+
+        def step(dt: float, pe_cmd: float, pf_cmd: float) -> int:
+            y = np.array(sim.state, dtype=float)
+            rc = self.lib.mk_knee_step(_pointer(p), None if stops is None else _pointer(stops), _pointer(y), dt,
+                                       pe_cmd, pf_cmd, sim.rtol, _pointer(atol), _pointer(hint), _pointer(k),
+                                       ctypes.byref(k1_valid), ctypes.byref(k_pe), ctypes.byref(k_pf),
+                                       ctypes.byref(Fault()))
+            if rc == 0:
+                sim.state, sim.step_hint = y, float(hint[0])
+                sim.time += dt
+            return rc
+        return step
 
     # --- whole records ---
     def run_record(self, sim, time, pe_cmd, pf_cmd, stop_at, states, outputs) -> tuple[int, int]:
