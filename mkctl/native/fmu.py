@@ -396,7 +396,7 @@ def generate_core_source() -> str:
     from ..physics.simulate import KneeSimulator
     from ..physics.stability import DEFAULT_ALPHA
     from . import codegen
-    from .variants import ALL_VARIANTS, Variant
+    from .variants import ALL_VARIANTS
 
     collected = []  # every check, in the order the CheckTable numbers them
     original = codegen.CheckTable.add
@@ -410,7 +410,7 @@ def generate_core_source() -> str:
         source, entries = codegen.generate_source(ALL_VARIANTS)
         table = codegen.CheckTable()
         table.entries = list(entries)
-        sp = codegen.SymbolicParams(Variant(2, False, False))  # the geometry does not depend on the variant
+        sp = codegen.SymbolicParams(ALL_VARIANTS[0])  # the geometry does not depend on the variant
         bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
         alpha, X = sympy.Symbol("alpha", real=True), sympy.Symbol("X", real=True)
 
