@@ -291,3 +291,56 @@ def test_the_build_is_cached_by_generated_source(tmp_path, monkeypatch):
     # the source holds the integrator's constants as integrate.py has them, not retyped ones
     from mkctl.physics import integrate
     assert repr(integrate._A[6][4]) in source and repr(integrate._E[4]) in source
+
+
+def _random_params(rng, variant) -> Params:
+    """A random parameter set of the given structure: every real parameter moved off its default."""
+    from mkctl.physics.params import DEFAULT, PARAMETER_NAMES
+    values = {}
+    for name in PARAMETER_NAMES:
+        default = getattr(DEFAULT, name)
+        if name in ("model", "slack", "n"):
+            continue
+        if name == "Fc":
+            values[name] = rng.uniform(0.5, 5.0) if variant.friction else 0.0
+        elif name == "tau":
+            values[name] = rng.uniform(0.005, 0.1) if variant.lag else 0.0
+        elif default == 0:  # an effect switched off by default (c, or one added later): on, at some value
+            values[name] = rng.uniform(0.1, 1.0) * (40.0 if name == "c" else 1.0)
+        else:
+            values[name] = default * rng.uniform(0.97, 1.03)
+    return Params(model=variant.model, slack=int(variant.slack), **values)
+
+
+def test_every_parameter_is_a_run_time_input_and_every_branch_a_variant():
+    # one library with all variants; random parameter sets of each structure, random states: the compiled
+    # right-hand side and outputs follow the library. A new parameter the equations branch on, but that no
+    # variant covers, makes this fail (the trace would have taken one branch for every value).
+    from mkctl.native.variants import ALL_VARIANTS, Variant
+    if build.find_compiler() is None:
+        pytest.skip("no C compiler here")
+    core = compiled.Core(build.build_library(ALL_VARIANTS))
+    rng = np.random.default_rng(7)
+    for variant in ALL_VARIANTS:
+        for _ in range(3):
+            params = _random_params(rng, variant)
+            assert Variant.of(params) == variant
+            stops = knee.stop_positions(params)
+            pe, pf = default_commands(params)
+            for _ in range(4):
+                X, V = rng.uniform(*stops), rng.normal(0, 0.2)
+                state = [X, V, pe * rng.uniform(0.8, 1.2), pf * rng.uniform(0, 2)][: variant.nstate]
+                pe_cmd, pf_cmd = pe * rng.uniform(0.8, 1.2), pf * rng.uniform(0, 2)
+                np.testing.assert_allclose(core.knee_rhs(params, state, pe_cmd, pf_cmd, stops),
+                                           knee.knee_derivatives(state, pe_cmd, pf_cmd, params, stops),
+                                           rtol=1e-11, atol=1e-9)
+                simulate_outputs = core.knee_outputs(params, state, pe_cmd, pf_cmd)
+                assert simulate_outputs is not None
+                P = (state[2], state[3]) if variant.lag else (pe_cmd, pf_cmd)
+                from mkctl.physics.simulate import knee_outputs
+                expected = knee_outputs(X, V, *P, params)
+                for i, name in enumerate(expected):
+                    assert simulate_outputs[i] == pytest.approx(float(expected[name]), rel=1e-10, abs=1e-9), name
+                L, Ldot = rng.uniform(0.16, 0.22), rng.normal(0, 0.01)
+                assert core.actuator("tension", params, L, pe_cmd, Ldot) == pytest.approx(
+                    float(actuator.tension(L, pe_cmd, Ldot, params)), rel=1e-11, abs=1e-9)

@@ -190,22 +190,22 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
 
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
-                  stops: bool = True, rtol: float = 1e-10) -> dict[str, np.ndarray]:
+                  stops: bool = True, rtol: float = 1e-10) -> "SimulationResult":
     """Simulate the knee over a record; commands are held from each sample to the next.
 
     Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
     the initial hip height, or None to start at rest in the stable equilibrium of the first commands.
-    Returns a dict of arrays: "time" and every name of :data:`KNEE_OUTPUTS`.
+    Returns a :class:`mkctl.physics.results.SimulationResult`: "time" and every name of :data:`KNEE_OUTPUTS` as
+    named arrays (``run.X``, or ``run["X"]`` as before).
     Runs in the compiled core (:mod:`mkctl.native`) when it is available, else in Python: same results.
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
     _, outputs = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None, True)
-    result = {"time": time}
-    for i, name in enumerate(KNEE_OUTPUTS):
-        result[name] = outputs[:, i] if name != "stable" else outputs[:, i] != 0
-    return result
+    from .results import SimulationResult  # typed result; reads like the former dict (result["X"])
+    return SimulationResult(time=time, **{name: outputs[:, i] if name != "stable" else outputs[:, i] != 0
+                                          for i, name in enumerate(KNEE_OUTPUTS)})
 
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
