@@ -26,7 +26,7 @@ from ..errors import MkctlError
 from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import Measurement
 from ..physics.params import Params
-from ..io.plotting import new_figure, save_png
+from ..io.diagnosis_report import fit_text, input_axis, plot_overlay, plot_residuals  # noqa: F401 (re-exported)
 from ..physics.simulate import knee_states
 
 
@@ -65,13 +65,6 @@ def fit_percent(measured, simulated) -> float:
     return float(100.0 * (1.0 - np.linalg.norm(y - np.asarray(simulated, dtype=float)) / spread))
 
 
-def fit_text(fit: float) -> str:
-    """``"fit 87.3 %"``, or the reason there is none: a constant measured output has no spread to explain."""
-    if not np.isfinite(fit):
-        return "fit undefined (the measured output is constant: no variation to explain)"
-    return f"fit {fit:.1f} %"
-
-
 @dataclass(frozen=True)
 class Comparison:
     """A model's simulation of a measurement, with its scores in the file's output units."""
@@ -97,44 +90,3 @@ def compare(measurement: Measurement, params: Params | None = None) -> Compariso
         raise MkctlError(f"{measurement.source}: the model cannot simulate this record: {error}") from None
     y, yhat = measurement.to_file_units(measurement.output), measurement.to_file_units(simulated)
     return Comparison(measurement, params, simulated, rmse(y, yhat), fit_percent(y, yhat))
-
-
-def input_axis(measurement: Measurement):
-    """The record's main input (pressure or extensor command, in kPa) and its label, for plots."""
-    if measurement.experiment == "isotonic":
-        return measurement.inputs["pressure"] / 1e3, "pressure [kPa]"
-    return measurement.inputs["pe_cmd"] / 1e3, "extensor command pe_cmd [kPa]"
-
-
-def plot_overlay(measurement: Measurement, curves: dict, path, title: str = "") -> Path:
-    """Measured output and simulated curves (label -> SI array) over time, with the main input below."""
-    fig, (top, bottom) = new_figure(2, 1, figsize=(9, 6), sharex=True, height_ratios=(3, 1))
-    unit = measurement.output_unit
-    top.plot(measurement.time, measurement.to_file_units(measurement.output), ".", ms=2, color="0.5",
-             label=f"measured ({Path(measurement.source).name})")
-    for label, values in curves.items():
-        top.plot(measurement.time, measurement.to_file_units(values), lw=1.2, label=label)
-    top.set_ylabel(f"{measurement.output_column} [{unit}]")
-    top.legend(loc="best", fontsize=8)
-    top.set_title(title or f"{measurement.experiment}: model vs measurement")
-    values, label = input_axis(measurement)
-    bottom.plot(measurement.time, values, color="k", lw=1)
-    bottom.set_ylabel(label, fontsize=8)
-    bottom.set_xlabel("time [s]")
-    return save_png(fig, path)
-
-
-def plot_residuals(measurement: Measurement, residuals: dict, path, title: str = "") -> Path:
-    """Residuals (label -> array in file units) over time, one panel each, with their RMSE."""
-    fig, axes = new_figure(len(residuals), 1, figsize=(9, 2.2 * len(residuals) + 0.6), sharex=True,
-                           squeeze=False)
-    for ax, (label, residual) in zip(axes[:, 0], residuals.items()):
-        ax.plot(measurement.time, residual, lw=0.8)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_ylabel(f"residual [{measurement.output_unit}]", fontsize=8)
-        ax.set_title(f"{label}: RMSE {rmse(residual, 0.0):.4g} {measurement.output_unit}",
-                     fontsize=9)
-    axes[-1, 0].set_xlabel("time [s]")
-    if title:
-        fig.suptitle(title)
-    return save_png(fig, path)

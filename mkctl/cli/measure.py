@@ -67,6 +67,10 @@ def register(subparsers) -> None:
     p.add_argument("--out", metavar="DIR", default=None,
                    help="folder for the PNGs (default: beside the JSON, or beside the file)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--fit-offset", action="store_true",
+                   help="fit a constant sensor offset of the measured output (a sensor zeroed at rest, an encoder "
+                        "mounted off by a few degrees); without it, an output the model cannot reach is not "
+                        "diagnosed (exit status 3)")
     p.set_defaults(func=run_diagnose)
 
 
@@ -129,14 +133,17 @@ def run_diagnose(args) -> int:
     if not args.out and not args.json:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
-    report = diagnose(measurement, progress)
-    report["pictures"] = save_pictures(measurement, report, folder, Path(args.file).stem)
-    for line in summary(report):
+    result = diagnose(measurement, progress, fit_offset=args.fit_offset)
+    save_pictures(measurement, result, folder, Path(args.file).stem)
+    for line in summary(result):
         print(line)
     if json_path:
         path = json_path
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(public(report), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
+        path.write_text(json.dumps(public(result), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
         print(f"report: {path}")
-    print("pictures: " + ", ".join(report["pictures"].values()))
+    print("pictures: " + ", ".join(result.pictures.values()))
+    if result.verdict == "not diagnosed":
+        print(f"mkctl diagnose: {args.file}: not diagnosed: " + "; ".join(result.problems), file=sys.stderr)
+        return 3
     return 0
