@@ -27,16 +27,30 @@ from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import Measurement
 from ..physics.params import Params
 from ..io.diagnosis_report import fit_text, input_axis, plot_overlay, plot_residuals  # noqa: F401 (re-exported)
+from ..physics import knee
 from ..physics.simulate import knee_states
+
+
+def knee_drive(measurement: Measurement, params: Params, stop: int | None = None):
+    """(pe, pf [Pa], params) that drive the knee model over a record: the commands, or, when the file holds
+    measured bladder pressures ``pe``, ``pf``, those pressures with the model's lag switched off (the
+    measured pressures are what any lag already made of the commands)."""
+    n = measurement.samples if stop is None else int(stop)
+    inputs = measurement.inputs
+    if "pe" in inputs and "pf" in inputs:
+        return inputs["pe"][:n], inputs["pf"][:n], params.replace(tau=0.0) if params.tau > 0 else params
+    return inputs["pe_cmd"][:n], inputs["pf_cmd"][:n], params
 
 
 def simulate_output(measurement: Measurement, params: Params, at=None, stop: int | None = None,
                     velocity: bool = False):
-    """The model's output [SI: m] for the measurement's inputs, at the sample indices ``at`` (default all).
+    """The model's output [SI] for the measurement's inputs, at the sample indices ``at`` (default all).
 
-    ``stop``: simulate only the first ``stop`` samples (``at`` must lie below it). With
-    ``velocity=True`` returns (output, rate of the output [m/s]) instead; for the isotonic test the rate
-    is the finite-difference slope of the simulated length.
+    The output is the file's measured quantity: the actuator length [m] (isotonic), the hip height X [m]
+    or the interior knee angle beta [rad] (knee, ``beta_deg`` files). A knee file with measured bladder
+    pressures is driven by them (:func:`knee_drive`). ``stop``: simulate only the first ``stop`` samples
+    (``at`` must lie below it). With ``velocity=True`` returns (output, rate of the output [SI/s]) instead;
+    for the isotonic test the rate is the finite-difference slope of the simulated length.
     """
     n = measurement.samples if stop is None else int(stop)
     at = np.arange(n) if at is None else np.asarray(at, dtype=int)
@@ -46,7 +60,11 @@ def simulate_output(measurement: Measurement, params: Params, at=None, stop: int
         if not velocity:
             return length[at]
         return length[at], np.gradient(length, time)[at]
-    X, V = knee_states(time, measurement.inputs["pe_cmd"][:n], measurement.inputs["pf_cmd"][:n], params, at=at)
+    pe, pf, drive = knee_drive(measurement, params, n)
+    X, V = knee_states(time, pe, pf, drive, at=at)
+    if measurement.output_quantity == "beta":
+        beta = knee.beta_from_X(X, params)
+        return (beta, V * X / (params.Lo * params.Lu * np.sin(beta))) if velocity else beta
     return (X, V) if velocity else X
 
 

@@ -53,6 +53,7 @@ from ..io import diagnosis_report
 from ..io.measurements import Measurement
 from ..physics import actuator, isotonic, knee
 from ..physics.params import UNITS, Params
+from ..results import Result
 from .compare import fit_percent, rmse, simulate_output
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide, pair_needed, to_drop
 
@@ -143,9 +144,69 @@ def experiment_to_separate(effects) -> str:
 
 
 def candidates_for(measurement: Measurement, params: Params) -> list[str]:
-    """The candidate effects the experiment can show that params do not have yet."""
+    """The candidate effects the experiment can show that params do not have yet.
+
+    A knee file with measured bladder pressures drives the model with them: its lag is judged on the
+    pressures directly (:func:`lag_from_pressures`), not as a candidate of the motion.
+    """
+    measured_pressures = "pe" in measurement.inputs and "pf" in measurement.inputs
     return [name for name, c in CANDIDATES.items()
-            if measurement.experiment in c.bounds and name not in params.effects]
+            if measurement.experiment in c.bounds and name not in params.effects
+            and not (name == "pressure_lag" and measured_pressures)]
+
+
+def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE) -> dict | None:
+    """The pressure lag judged directly on a knee file's measured bladder pressures, or None without them.
+
+    The measured pe, pf are compared with the commands through the lag ``tau dP/dt = P_cmd - P``
+    (:func:`mkctl.physics.actuator.lagged_pressure`, commands held between samples); tau is fitted like
+    any candidate (log-space search, "off" an option) on the first part of the record and judged by the
+    same rule against no lag. Returns {"accepted", "tau" [s], "uncertainty" [s], "candidate" (a report
+    row, RMSE in kPa), "reason"}; a lag the file already declares (tau in the metadata) is not judged.
+    """
+    m = measurement
+    if m.experiment != "knee" or not ("pe" in m.inputs and "pf" in m.inputs) or params.tau > 0:
+        return None
+    measured = np.concatenate([m.inputs["pe"], m.inputs["pf"]])
+    n = m.samples
+    split = m.time[0] + (1.0 - rule.holdout_fraction) * (m.time[-1] - m.time[0])
+    train_one = m.time <= split
+    train = np.concatenate([train_one, train_one])
+
+    def residual(tau):
+        if tau <= 0:
+            model = np.concatenate([m.inputs["pe_cmd"], m.inputs["pf_cmd"]])
+        else:
+            model = np.concatenate([_lagged(m.time, m.inputs["pe_cmd"], tau), _lagged(m.time, m.inputs["pf_cmd"], tau)])
+        return (measured - model) / 1e3  # kPa
+
+    def score(r, k):
+        return Score.from_residuals(r[train], r[~train], k)
+
+    off = score(residual(0.0), 0)
+    bounds = CANDIDATES["pressure_lag"].bounds["knee"]
+    tau, _ = best_value(lambda v: float(np.sum(residual(v)[train] ** 2)), bounds, off.rss_train)
+    if tau == 0.0:
+        outcome = Outcome("pressure_lag", dataclasses.replace(off, k=1), switched_off=True)
+    else:
+        outcome = Outcome("pressure_lag", score(residual(tau), 1), at_bound=at_bound(tau, bounds))
+    decision = decide(off, [outcome], rule)
+    uncertainty = None
+    if tau > 0:
+        step = tau * 1e-3
+        jac = (residual(tau + step) - residual(tau - step)) / (2 * step)
+        r = residual(tau)
+        dof = max(r.size - 1, 1)
+        rho = _lag_one_correlation(r[:n])
+        widen = (1 + rho) / (1 - rho) if rho > 0 else 1.0
+        uncertainty = float(math.sqrt(widen * (r @ r) / dof / max(jac @ jac, 1e-300)))
+    j = decision.judgements["pressure_lag"]
+    row = {"effect": "pressure_lag", "params": {"tau": tau}, "rmse_train_kPa": outcome.score.rmse_train,
+           "rmse_holdout_kPa": outcome.score.rmse_holdout, "rmse_holdout_before_kPa": off.rmse_holdout,
+           "delta_bic": j.delta_bic, "passes_bic": j.passes_bic, "passes_holdout": j.passes_holdout,
+           "switched_off": outcome.switched_off, "at_bound": outcome.at_bound}
+    return {"accepted": decision.verdict == "add", "tau": tau, "uncertainty": uncertainty, "candidate": row,
+            "reason": decision.reason}
 
 
 # --- Preparing the record: measured inputs, commands, sanity -----------------------------------------
@@ -240,7 +301,7 @@ def output_range(measurement: Measurement, params: Params) -> tuple[float, float
 
 def output_quantity(measurement: Measurement) -> str:
     """The measured quantity: ``length`` (isotonic), ``x`` or ``beta`` (knee)."""
-    return measurement.output_column.rsplit("_", 1)[0]
+    return measurement.output_quantity
 
 
 def sanity_problems(measurement: Measurement, simulated, params: Params, fit_offset: bool = False) -> list[str]:
@@ -298,9 +359,7 @@ def saturation_note(measurement: Measurement, params: Params, simulated) -> dict
         what = ("no length of the baseline carries the load there: it is pulled to its braid limit (L = b)"
                 if (where > 0).any() else "the baseline stays at its shortest length")
     else:
-        X = simulated if output_quantity(m) != "beta" else None
-        if X is None:
-            return None
+        X = simulated if output_quantity(m) != "beta" else knee.hip_height(simulated, params)
         x_low, x_high = knee.stop_positions(params)
         at_limit = (X < x_low) | (X > x_high)
         what = "the baseline's leg rests on an end stop there"
@@ -494,13 +553,14 @@ def missing_force(measurement: Measurement, params: Params):
     if window > n:
         window -= 2
     order = min(3, window - 2)
-    y = savgol_filter(m.output, window, order)
-    ydot = savgol_filter(m.output, window, order, deriv=1, delta=dt)
+    measured = knee.hip_height(m.output, params) if output_quantity(m) == "beta" else m.output
+    y = savgol_filter(measured, window, order)
+    ydot = savgol_filter(measured, window, order, deriv=1, delta=dt)
     if m.experiment == "isotonic":
         P, F = m.inputs["pressure"], m.inputs["force"]
         states = {"L": y, "Ldot": ydot, "P": P}
         return F - actuator.tension(y, P, ydot, params), states
-    yddot = savgol_filter(m.output, window, order, deriv=2, delta=dt)
+    yddot = savgol_filter(measured, window, order, deriv=2, delta=dt)
     # the pressures go through the same smoothing as the acceleration, so that a command step does not
     # show up as a force the model lacks while the smoothed acceleration ramps up to it
     pressures = _model_pressures(m, params)  # a loop over the samples when there is a lag: once
@@ -519,7 +579,9 @@ def _knee_force(states: dict, params: Params, Pe=None, Pf=None):
 
 
 def _model_pressures(m: Measurement, params: Params):
-    """The actuator pressures the model sees: the commands, or the commands through the model's lag."""
+    """The actuator pressures the model sees: the measured ones, the commands, or the commands through the lag."""
+    if "pe" in m.inputs and "pf" in m.inputs:
+        return m.inputs["pe"], m.inputs["pf"]
     pe, pf = m.inputs["pe_cmd"], m.inputs["pf_cmd"]
     if params.tau <= 0:
         return pe, pf
@@ -589,8 +651,8 @@ def _fit_line(missing, term, ref) -> dict:
 VERDICTS = ("diagnosed", "nothing missing", "undecided", "not diagnosed")
 
 
-@dataclass
-class DiagnosisResult:
+@dataclass(repr=False)
+class DiagnosisResult(Result):
     """What :func:`diagnose` found, in python-control's manner: named attributes, arrays for the pictures.
 
     ``to_dict()`` gives the JSON of model-spec section 6 (plus context), ``to_dataframe()`` one row per
@@ -621,6 +683,7 @@ class DiagnosisResult:
     output_noise: float | None = None  #: estimated noise of the measured output, file units
     saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
+    pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
@@ -634,16 +697,16 @@ class DiagnosisResult:
     def units(self) -> dict:
         return {k: UNITS[k] for k in self.params}
 
-    def __repr__(self) -> str:
-        params = ", ".join(f"{k}={v:.4g} {UNITS[k]}" for k, v in self.params.items())
-        text = (f"DiagnosisResult({Path(self.file).name}: {self.verdict}, missing={self.missing}"
-                + (f", {params}" if params else "")
-                + f", RMSE {self.rmse_before:.4g} -> {self.rmse_after:.4g} {self.output_unit}")
-        if self.undecided:
-            text += ", cannot tell " + "; ".join(" from ".join(u["effects"]) for u in self.undecided)
-        if self.problems:
-            text += f", {len(self.problems)} problem(s)"
-        return text + ")"
+    def summary_lines(self) -> list[str]:
+        """The repr: file, verdict, what is missing with its values, the error before and after."""
+        lines = [f"{Path(self.file).name}: {self.experiment}, verdict {self.verdict!r}, missing {self.missing}"]
+        for name, value in self.params.items():
+            error = self.uncertainty.get(name)
+            lines.append(f"{name} = {value:.4g}" + (f" +- {error:.2g}" if error is not None else "") + f" {UNITS[name]}")
+        lines.append(f"RMSE {self.rmse_before:.4g} -> {self.rmse_after:.4g} {self.output_unit}")
+        lines += [f"cannot tell {' from '.join(u['effects'])}" for u in self.undecided]
+        lines += [f"problem: {text}" for text in self.problems]
+        return lines
 
     def to_dict(self) -> dict:
         """The report as plain JSON values (model-spec section 6 keys first; NaN and infinity become None)."""
@@ -656,16 +719,15 @@ class DiagnosisResult:
             "fit_percent_before": self.fit_percent_before, "fit_percent_after": self.fit_percent_after,
             "stopped": self.stopped, "notes": self.notes, "input_noise": self.input_noise,
             "output_noise": self.output_noise, "saturation": self.saturation, "offset": self.offset,
+            "pressure_lag": self.pressure_lag,
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
         return _plain(data)
 
-    def to_dataframe(self):
-        """One row per candidate per round: round, effect, parameter, value, delta_bic, rmse_holdout,
-        passes_bic, passes_holdout, physical, at_bound, switched_off, added (pandas.DataFrame)."""
-        import pandas as pd
-
+    def table(self) -> list[dict]:
+        """One row per candidate per round (``to_dataframe()``): round, effect, parameter, value, delta_bic,
+        rmse_holdout, passes_bic, passes_holdout, physical, at_bound, switched_off, added."""
         rounds = self.steps + ([self.stopped] if self.stopped and self.stopped.get("candidates") else [])
         rows = []
         for number, step in enumerate(rounds, 1):
@@ -677,9 +739,7 @@ class DiagnosisResult:
                              "passes_bic": row.get("passes_bic"), "passes_holdout": row.get("passes_holdout"),
                              "physical": row.get("physical"), "at_bound": row.get("at_bound"),
                              "switched_off": row.get("switched_off"), "added": row["effect"] in added})
-        return pd.DataFrame(rows, columns=["round", "effect", "parameter", "value", "delta_bic", "rmse_holdout",
-                                           "passes_bic", "passes_holdout", "physical", "at_bound",
-                                           "switched_off", "added"])
+        return rows
 
     def __getitem__(self, key):
         """Dict-style access to the JSON keys (``result["missing"]``), for scripts written against the
@@ -969,9 +1029,21 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         offset = problem.offset(problem.measured - problem.simulate(final_params)) if fit_offset else 0.0
     full_after = simulate_output(prepared, final_params) + offset if added else full_before + offset_before
     before = full_before + offset_before
+    lag = lag_from_pressures(prepared, baseline, rule)
+    if lag is not None:
+        say("pressure lag from the measured pressures: " + ("tau = %.4g s" % lag["tau"] if lag["accepted"]
+                                                             else lag["reason"]))
+        notes.append("the file holds measured bladder pressures: the model is driven by them, and the pressure "
+                     "lag is judged on them directly (" + (f"found, tau = {lag['tau']:.4g} s" if lag["accepted"]
+                                                           else "not found: " + lag["reason"]) + ")")
+        if lag["accepted"]:
+            added = [*added, "pressure_lag"]
+            final_values = {**final_values, "tau": lag["tau"]}
+            if lag["uncertainty"] is not None:
+                uncertainty = {**uncertainty, "tau": lag["uncertainty"]}
     verdict = "undecided" if undecided else ("diagnosed" if added else "nothing missing")
     order, sigs = signatures_first if signatures_first else ([], {})
-    return DiagnosisResult(
+    return DiagnosisResult(pressure_lag=lag,
         **common, verdict=verdict, missing=list(added), params=final_values, uncertainty=uncertainty,
         rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, full_after * to_file),
         fit_percent_before=fit_percent(y, before * to_file), fit_percent_after=fit_percent(y, full_after * to_file),
