@@ -169,3 +169,18 @@ def test_best_value_switches_the_effect_off_when_nothing_beats_off():
 def test_at_bound_is_relative_to_each_end_of_the_range():
     assert rule.at_bound(1e5, (1e-2, 1e5)) and rule.at_bound(1.0001e-2, (1e-2, 1e5))
     assert not rule.at_bound(45.0, (1e-2, 1e5)) and not rule.at_bound(0.0, (1e-2, 1e5))
+
+
+def test_best_value_stops_the_grid_once_the_cost_rises_twice():
+    calls = []
+
+    def cost(v):
+        calls.append(v)
+        return (math.log10(v) - 1.0) ** 2  # minimum at 10, rising beyond
+    value, _ = best_value(cost, (1e-2, 1e6), cost_off=50.0)
+    assert value == pytest.approx(10.0, rel=1e-2)
+    grid = [v for v in calls if abs(math.log10(v) - round(math.log10(v))) < 1e-9]
+    assert max(grid) == pytest.approx(1e3)  # 1e2 and 1e3 rise above 1e1: 1e4 .. 1e6 are never simulated
+    calls.clear()
+    best_value(cost, (1e-2, 1e6), cost_off=50.0, early_stop=False)
+    assert max(calls) == pytest.approx(1e6)

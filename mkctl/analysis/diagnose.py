@@ -66,9 +66,11 @@ HOLDOUT_GAIN = RULE.holdout_gain
 #: ... and beats every other physical candidate's held-out RMSE by this fraction.
 HOLDOUT_MARGIN = RULE.holdout_margin
 #: About how many samples the knee's fits are evaluated on.
-FIT_POINTS = 300
+FIT_POINTS = 200
+#: Tolerance of the one-parameter search, in decades (0.01: 2.3 %; the joint fits refine it).
+FIT_XATOL = 0.01
 #: The knee's fits hold the commands over blocks so that they change at most about this often.
-MAX_COMMAND_CHANGES = 400
+MAX_COMMAND_CHANGES = 300
 #: Savitzky-Golay window [samples] (quadratic) that smooths a noisy measured input.
 INPUT_SMOOTHING_SAMPLES = 9
 #: An input is smoothed when its estimated noise exceeds this fraction of its range (file rounding lies below).
@@ -260,7 +262,7 @@ def block_commands(measurement: Measurement, block: int) -> Measurement:
     inputs = dict(measurement.inputs)
     n = measurement.samples
     starts = np.arange(0, n, block)
-    for name in ("pe_cmd", "pf_cmd"):
+    for name in _drive_names(measurement):
         values = np.asarray(inputs[name], dtype=float)
         means = np.add.reduceat(values, starts) / np.diff(np.r_[starts, n])
         inputs[name] = np.repeat(means, np.diff(np.r_[starts, n]))
@@ -271,8 +273,13 @@ def command_changes(measurement: Measurement) -> int:
     """How many samples change a knee command (each is a stop of the integrator)."""
     if measurement.experiment != "knee":
         return 0
-    pe, pf = measurement.inputs["pe_cmd"], measurement.inputs["pf_cmd"]
+    pe, pf = (measurement.inputs[name] for name in _drive_names(measurement))
     return int(np.count_nonzero((np.diff(pe) != 0) | (np.diff(pf) != 0)))
+
+
+def _drive_names(measurement: Measurement) -> tuple[str, str]:
+    """The inputs that drive the knee model (:func:`mkctl.analysis.compare.knee_drive`)."""
+    return ("pe", "pf") if "pe" in measurement.inputs and "pf" in measurement.inputs else ("pe_cmd", "pf_cmd")
 
 
 #: Unit mistakes a sanity check recognises: factor (file value / expected value) -> the likely cause.
@@ -321,14 +328,14 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     if not fit_offset:
         cause = None
         ratio = level / sim_level if sim_level else math.inf
-        if abs(level) < 0.05 * abs(sim_level):
-            cause = (f"the sensor looks zeroed at rest (the record sits near 0 {unit}): declare its offset in "
-                     f"the metadata ({output_quantity(m)}_offset_{unit} = ...) or fit it with --fit-offset")
-        elif ratio and math.isfinite(ratio) and ratio > 0 and abs(math.log(ratio)) > 1.0:
+        if ratio and math.isfinite(ratio) and ratio > 0 and abs(math.log(ratio)) > 1.0:
             for factor, text in _UNIT_MISTAKES.items():
                 if abs(math.log(ratio / factor)) < 0.3:
                     cause = f"likely {text}"
                     break
+        if cause is None and abs(level) < 0.05 * abs(sim_level):
+            cause = (f"the sensor looks zeroed at rest (the record sits near 0 {unit}): declare its offset in "
+                     f"the metadata ({output_quantity(m)}_offset_{unit} = ...) or fit it with --fit-offset")
         if cause is None and not (low <= level <= high):
             cause = "a unit or zero mistake, or a sensor offset (declare it in the metadata or use --fit-offset)"
         if cause is not None:
@@ -468,7 +475,7 @@ def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: flo
         r = problem.train_residual(simulated)
         return float(r @ r)
 
-    value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off)
+    value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off, xatol=FIT_XATOL)
     if progress:
         progress(f"    {candidate.effect}: {candidate.parameter} = {value:.4g} {UNITS[candidate.parameter]} "
                  f"({evaluations[0]} simulations)")
@@ -648,7 +655,7 @@ def _fit_line(missing, term, ref) -> dict:
 # --- The result -------------------------------------------------------------------------------------
 
 #: Verdicts of a diagnosis.
-VERDICTS = ("diagnosed", "nothing missing", "undecided", "not diagnosed")
+VERDICTS = ("diagnosed", "nothing missing", "undecided", "incomplete", "not diagnosed")
 
 
 @dataclass(repr=False)
@@ -802,7 +809,7 @@ def _blocked_problem(problem: _Problem, baseline: Params, full_before, out_sigma
     changes = command_changes(m)
     if changes <= MAX_COMMAND_CHANGES:
         return problem
-    tolerance = 0.3 * max(out_sigma, 1e-6 * float(np.ptp(m.output)))
+    tolerance = 0.5 * max(out_sigma, 1e-6 * float(np.ptp(m.output)))
     block = int(math.ceil(m.samples / MAX_COMMAND_CHANGES))
     while block > 1:
         blocked = block_commands(m, block)
@@ -832,12 +839,13 @@ def _fit_candidate(problem: _Problem, baseline: Params, current: _Fit, added: li
     if math.isnan(value):
         return None, value, evaluations, values
     fit = current if value == 0.0 else _evaluate(problem, cand.apply(current.params, value), values)
-    if added and fit is not None:
+    promising = fit is not None and fit is not current and fit.score.bic - current.score.bic < -BIC_THRESHOLD / 2
+    if added and promising:
         # effects interact (damping and a lag both calm the leg): refit jointly with the effects already
         # added, from this round's value and from the values each took alone in round 1
         starts = [values] if value > 0 else []
         alone = {CANDIDATES[e].parameter: individual.get(e, 0.0) for e in [*added, name]}
-        if all(v > 0 for v in alone.values()):
+        if all(v > 0 for v in alone.values()) and alone != values:
             starts.append(alone)
         for start in starts:
             joint_values, _, result, params = _joint_fit(problem, baseline, [*added, name], start, train_only=True,
@@ -880,6 +888,34 @@ def _row(name: str, fit, value: float, evaluations: int, current: _Fit, problem:
     return row, Outcome(name, score, switched_off=switched_off, at_bound=pinned)
 
 
+def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, say):
+    """The lag judged on measured pressures (or None), and the record and baseline the motion is fitted with.
+
+    With measured pressures that follow the commands through the lag (or without a lag) to within a few
+    times their noise, the motion is driven by the commands through the lag found, noise-free; pressures
+    that depart from that (a supply that sags) drive the motion themselves, smoothed.
+    """
+    lag = lag_from_pressures(m, baseline, rule)
+    if lag is None:
+        return None, m, baseline, False
+    tau = lag["tau"] if lag["accepted"] else 0.0
+    noise = max(input_noise(m.inputs["pe"]), input_noise(m.inputs["pf"])) / 1e3  # kPa
+    model_rmse = lag["candidate"]["rmse_train_kPa"]
+    found = f"found, tau = {tau:.4g} s" if lag["accepted"] else "not found: " + lag["reason"]
+    if model_rmse > 5.0 * max(noise, 1e-6):
+        notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly "
+                     f"({found}); they depart from the lagged commands by {model_rmse:.3g} kPa RMS (noise "
+                     f"{noise:.2g} kPa), so they drive the motion themselves")
+        say(notes[-1])
+        return lag, m, baseline, True
+    inputs = {k: v for k, v in m.inputs.items() if k not in ("pe", "pf")}
+    notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly ({found}); "
+                 f"they follow the commands through it to within their noise ({model_rmse:.3g} kPa RMS), so the "
+                 f"motion is driven by the commands through that lag, free of the pressure sensors' noise")
+    say(notes[-1])
+    return lag, dataclasses.replace(m, inputs=inputs), baseline.replace(tau=tau) if tau > 0 else baseline, True
+
+
 def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = None, fit_offset: bool = False,
              rule: Rule = RULE) -> DiagnosisResult:
     """Find the effects the baseline misses, fit them, and report (see the module docstring).
@@ -899,30 +935,37 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     -------
     DiagnosisResult
         ``verdict`` is ``"diagnosed"``, ``"nothing missing"``, ``"undecided"`` (the record cannot tell the
-        effects in ``undecided`` apart) or ``"not diagnosed"`` (``problems`` says why).
+        effects in ``undecided`` apart), ``"incomplete"`` (what was added leaves many times the output
+        noise: something outside the candidates is missing) or ``"not diagnosed"`` (``problems`` says why).
     """
     say = progress or (lambda text: None)
     m = measurement
-    baseline = m.params
     to_file = 1.0 / m.output_factor
-    prepared, noise_info, notes = prepare_inputs(m)
+    notes: list = []
+    lag, motion, start, lag_judged = _motion_record(m, m.params, rule, notes, say)
+    exclude = {"pressure_lag"} if lag_judged else set()
+    prepared, noise_info, input_notes = prepare_inputs(motion)
+    if lag_judged:
+        for name in ("pe", "pf"):
+            noise_info.setdefault(name, {"sigma": input_noise(m.inputs[name]) / 1e3, "unit": "kPa", "smoothed": False})
+    notes += input_notes
     out_sigma = input_noise(m.output)
-    for note in notes:
+    for note in input_notes:
         say(note)
     try:
-        full_before = simulate_output(prepared, baseline)
+        full_before = simulate_output(prepared, m.params)
     except MkctlError as error:
         raise MkctlError(f"{m.source}: the model cannot simulate this record: {error}") from None
-    saturation = saturation_note(prepared, baseline, full_before)
+    saturation = saturation_note(prepared, m.params, full_before)
     if saturation:
         notes.append(saturation["text"])
         say(saturation["text"])
     y = m.output * to_file
     common = dict(file=str(m.source), experiment=m.experiment, baseline=m.baseline,
-                  baseline_effects=list(baseline.effects), output=m.output_column, output_unit=m.output_unit,
+                  baseline_effects=list(m.params.effects), output=m.output_column, output_unit=m.output_unit,
                   samples=m.samples, input_noise=noise_info, output_noise=out_sigma * to_file,
-                  saturation=saturation, rule={**rule.as_dict(), "fit_offset": fit_offset})
-    problems = sanity_problems(m, full_before, baseline, fit_offset)
+                  saturation=saturation, rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
+    problems = sanity_problems(m, full_before, m.params, fit_offset)
     if problems:
         for text in problems:
             say("not diagnosed: " + text)
@@ -935,122 +978,221 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
                                error_steps=[before])
 
     problem = _problem(prepared, fit_offset)
-    problem = _blocked_problem(problem, baseline, full_before, out_sigma, notes, say)
+    problem = _blocked_problem(problem, start, full_before, out_sigma, notes, say)
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
-        f"(effects: {', '.join(baseline.effects) or 'none'}); fitting on {problem.grid.size} samples")
-    current = _evaluate(problem, baseline, {})
-    if current is None:
+        f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
+    first = _evaluate(problem, m.params, {})
+    if first is None:
         raise MkctlError(f"{m.source}: the model cannot simulate this record")
-    offset_before = current.offset
+    offset_before = first.offset
     full_rmse_steps = [rmse(y, (full_before + offset_before) * to_file)]
-    added: list[str] = []
-    individual: dict = {}  # each candidate's value fitted alone against the baseline (round 1)
-    steps: list[dict] = []
-    undecided: list[dict] = []
-    stopped = None
-    signatures_first = None
-
-    while True:
-        pending = candidates_for(m, current.params)
-        if not pending:
-            stopped = {"reason": "no candidate effect left for this experiment", "candidates": [], "ties": []}
-            break
-        say(f"round {len(steps) + 1}: fitting {', '.join(pending)}")
-        try:
-            sigs = signatures(prepared, current.params, pending)
-        except MkctlError:  # the measured states lie outside the model's domain: no signatures
-            sigs = {}
-        if signatures_first is None:
-            signatures_first = (list(pending), sigs)
-        rows, outcomes, fits = [], [], {}
-        for name in pending:
-            fit, value, evaluations, values = _fit_candidate(problem, baseline, current, added, individual, name, say)
-            row, outcome = _row(name, fit, value, evaluations, current, problem, sigs.get(name), to_file)
-            rows.append(row)
-            outcomes.append(outcome)
-            fits[name] = fit
-        rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
-        decision = decide(current.score, outcomes, rule)
-        context = {"bic_before": current.score.bic, "rmse_holdout_before": current.score.rmse_holdout * to_file,
-                   "candidates": rows, "ties": []}
-        together: list[str] = []
-        if decision.verdict == "undecided":
-            context["ties"] = [{"effects": [decision.effect, r], "experiment": experiment_to_separate(
-                [decision.effect, r])} for r in decision.rivals]
-            pair = _try_pairs(problem, baseline, added, decision, fits, say)
-            if pair is None:
-                effects = [decision.effect, *decision.rivals]
-                text = (f"this record cannot tell {' from '.join(e.replace('_', ' ') for e in effects)}: "
-                        f"{decision.reason}")
-                undecided.append({"effects": effects, "experiment": experiment_to_separate(effects), "text": text})
-                stopped = {"reason": text, **context}
-                say(f"  undecided: {text}")
-                break
-            rival, fit = pair
-            together = [rival]
-            fits[decision.effect] = fit
-        elif decision.verdict == "stop":
-            stopped = {"reason": decision.reason, **context}
-            say(f"  stop: {decision.reason}")
-            break
-        name = decision.effect
-        added.extend([name, *together])
-        current = fits[name]
-        dropped = []
-        while len(added) > 1 + len(together):
-            without = {}
-            for earlier in added[:-1 - len(together)]:
-                rest = [e for e in added if e != earlier]
-                rest_values = {CANDIDATES[e].parameter: current.values[CANDIDATES[e].parameter] for e in rest}
-                values, _, _, params = _joint_fit(problem, baseline, rest, rest_values, train_only=True)
-                without[earlier] = _evaluate(problem, params, values)
-            gone = to_drop(current.score, {e: f.score if f else None for e, f in without.items()}, rule)
-            if gone is None:
-                break
-            dropped.append(gone)
-            added.remove(gone)
-            current = without[gone]
-        full_rmse = rmse(y, (simulate_output(prepared, current.params) + current.offset) * to_file)
-        full_rmse_steps.append(full_rmse)
-        steps.append({"added": name, "added_with": together, "dropped": dropped, "rmse": full_rmse,
-                      "params": dict(current.values), "rmse_holdout": current.score.rmse_holdout * to_file,
-                      **context})
-        say(f"  added {' and '.join([name, *together])}" + (f", dropped {', '.join(dropped)}" if dropped else "")
-            + ": " + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items())
-            + f"; RMSE {full_rmse:.4g} {m.output_unit}")
+    current = first if start is m.params else _evaluate(problem, start, {})
+    pending_all = [e for e in candidates_for(m, start) if e not in exclude]
+    state = _Search(problem, start, pending_all, rule, to_file, say)
+    state.forward(current)
+    if state.undecided == [] and state.added and len(pending_all) >= 2:
+        inadequate = _inadequacy(problem, state.current, out_sigma)
+        if inadequate > WIDER_SEARCH_FACTOR:
+            say(f"the model leaves {inadequate:.3g} times the output noise: trying the candidates in pairs")
+            if state.wider():
+                state.forward(state.current)
+    for params in state.step_params:
+        full_rmse_steps.append(rmse(y, (simulate_output(prepared, params[0]) + params[1]) * to_file))
+    for step, value in zip(state.steps, full_rmse_steps[1:]):
+        step["rmse"] = value
+    added = list(state.added)
 
     # final joint fit on the whole record
     uncertainty: dict = {}
-    final_params, final_values, offset = baseline, {}, offset_before
+    final_params, final_values, offset = start, {}, offset_before
     if added:
         say("final fit of " + ", ".join(added) + " on the whole record")
-        final_values, uncertainty, result, final_params = _joint_fit(problem, baseline, added, current.values,
-                                                                     train_only=False)
+        final_values, uncertainty, _, final_params = _joint_fit(problem, start, added, state.current.values,
+                                                                train_only=False)
         offset = problem.offset(problem.measured - problem.simulate(final_params)) if fit_offset else 0.0
-    full_after = simulate_output(prepared, final_params) + offset if added else full_before + offset_before
+    full_after = (simulate_output(prepared, final_params) + offset if (added or start is not m.params)
+                  else full_before + offset_before)
     before = full_before + offset_before
-    lag = lag_from_pressures(prepared, baseline, rule)
-    if lag is not None:
-        say("pressure lag from the measured pressures: " + ("tau = %.4g s" % lag["tau"] if lag["accepted"]
-                                                             else lag["reason"]))
-        notes.append("the file holds measured bladder pressures: the model is driven by them, and the pressure "
-                     "lag is judged on them directly (" + (f"found, tau = {lag['tau']:.4g} s" if lag["accepted"]
-                                                           else "not found: " + lag["reason"]) + ")")
-        if lag["accepted"]:
-            added = [*added, "pressure_lag"]
-            final_values = {**final_values, "tau": lag["tau"]}
-            if lag["uncertainty"] is not None:
-                uncertainty = {**uncertainty, "tau": lag["uncertainty"]}
-    verdict = "undecided" if undecided else ("diagnosed" if added else "nothing missing")
-    order, sigs = signatures_first if signatures_first else ([], {})
-    return DiagnosisResult(pressure_lag=lag,
-        **common, verdict=verdict, missing=list(added), params=final_values, uncertainty=uncertainty,
-        rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, full_after * to_file),
+    if lag is not None and lag["accepted"]:
+        added = ["pressure_lag", *added]
+        final_values = {"tau": lag["tau"], **final_values}
+        if lag["uncertainty"] is not None:
+            uncertainty = {"tau": lag["uncertainty"], **uncertainty}
+    rmse_after = rmse(y, full_after * to_file)
+    verdict = "undecided" if state.undecided else ("diagnosed" if added else "nothing missing")
+    left = rmse_after / (out_sigma * to_file) if out_sigma > 0 else 0.0
+    if verdict == "diagnosed" and left > INCOMPLETE_FACTOR:
+        verdict = "incomplete"
+        notes.append(f"the model with {', '.join(added)} still leaves {left:.3g} times the estimated output noise "
+                     f"({out_sigma * to_file:.2g} {m.output_unit}): something outside the candidates is missing, or "
+                     f"effects this record cannot separate; do not trust the values as physical")
+        say(notes[-1])
+    order, sigs = state.signatures_first if state.signatures_first else ([], {})
+    return DiagnosisResult(
+        **common, verdict=verdict, missing=added, params=final_values, uncertainty=uncertainty,
+        rmse_before=rmse(y, before * to_file), rmse_after=rmse_after,
         fit_percent_before=fit_percent(y, before * to_file), fit_percent_after=fit_percent(y, full_after * to_file),
-        steps=steps, stopped=stopped, undecided=undecided, notes=notes,
+        steps=state.steps, stopped=state.stopped, undecided=state.undecided, notes=notes,
         offset=offset * to_file if fit_offset else None,
         simulated_before=before, simulated_after=full_after, error_steps=full_rmse_steps,
         signatures=sigs, signature_order=order)
+
+
+#: When what was added leaves more than this many times the output noise, the candidates are tried in pairs.
+WIDER_SEARCH_FACTOR = 3.0
+#: ... and when the final model still leaves more than this, the verdict is "incomplete".
+INCOMPLETE_FACTOR = 10.0
+
+
+def _inadequacy(problem: _Problem, fit: _Fit, out_sigma: float) -> float:
+    """Training RMSE of a fit in units of the estimated output noise (0 when the noise is unknown)."""
+    return fit.score.rmse_train / out_sigma if out_sigma > 0 else 0.0
+
+
+class _Search:
+    """Forward selection with the rule, and the wider search in pairs; collects the report's steps."""
+
+    def __init__(self, problem: _Problem, start: Params, pending: list, rule: Rule, to_file: float, say):
+        self.problem, self.start, self.pending_all, self.rule = problem, start, pending, rule
+        self.to_file, self.say = to_file, say
+        self.added: list[str] = []
+        self.individual: dict = {}
+        self.steps: list[dict] = []
+        self.step_params: list = []
+        self.undecided: list[dict] = []
+        self.stopped = None
+        self.signatures_first = None
+        self.current = None
+
+    def forward(self, current: _Fit) -> None:
+        problem, say, rule, to_file = self.problem, self.say, self.rule, self.to_file
+        self.current = current
+        while True:
+            pending = [e for e in self.pending_all if e not in self.added]
+            if not pending:
+                self.stopped = {"reason": "no candidate effect left for this experiment", "candidates": [], "ties": []}
+                return
+            say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
+            try:
+                sigs = signatures(problem.measurement, current.params, pending)
+            except MkctlError:  # the measured states lie outside the model's domain: no signatures
+                sigs = {}
+            if self.signatures_first is None:
+                self.signatures_first = (list(pending), sigs)
+            rows, outcomes, fits = [], [], {}
+            for name in pending:
+                fit, value, evaluations, _ = _fit_candidate(problem, self.start, current, self.added, self.individual,
+                                                            name, say)
+                row, outcome = _row(name, fit, value, evaluations, current, problem, sigs.get(name), to_file)
+                rows.append(row)
+                outcomes.append(outcome)
+                fits[name] = fit
+            rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
+            decision = decide(current.score, outcomes, rule)
+            context = {"bic_before": current.score.bic, "rmse_holdout_before": current.score.rmse_holdout * to_file,
+                       "candidates": rows, "ties": []}
+            together: list[str] = []
+            if decision.verdict == "undecided":
+                context["ties"] = [{"effects": [decision.effect, r], "experiment": experiment_to_separate(
+                    [decision.effect, r])} for r in decision.rivals]
+                pair = _try_pairs(problem, self.start, self.added, decision, fits, say)
+                if pair is None:
+                    effects = [decision.effect, *decision.rivals]
+                    text = (f"this record cannot tell {' from '.join(e.replace('_', ' ') for e in effects)}: "
+                            f"{decision.reason}")
+                    self.undecided.append({"effects": effects, "experiment": experiment_to_separate(effects),
+                                           "text": text})
+                    self.stopped = {"reason": text, **context}
+                    say(f"  undecided: {text}")
+                    return
+                rival, fit = pair
+                together = [rival]
+                fits[decision.effect] = fit
+            elif decision.verdict == "stop":
+                self.stopped = {"reason": decision.reason, **context}
+                say(f"  stop: {decision.reason}")
+                return
+            name = decision.effect
+            self.added.extend([name, *together])
+            current = self.current = fits[name]
+            dropped = self._drop(len(together) + 1)
+            current = self.current = self._refit(self.current)
+            self._record({"added": name, "added_with": together, "dropped": dropped, **context})
+
+    def _refit(self, fit: _Fit) -> _Fit:
+        """The added effects refitted jointly (full tolerance), so that the next round starts from their
+        best values and no later candidate is credited with what a better refit of these would give."""
+        values, _, _, params = _joint_fit(self.problem, self.start, self.added, fit.values, train_only=True)
+        refit = _evaluate(self.problem, params, values)
+        return refit if refit is not None and refit.rss_train < fit.rss_train else fit
+
+    def _drop(self, newest: int) -> list:
+        """Drop earlier effects that no longer earn their place (the rule's drop step)."""
+        dropped = []
+        while len(self.added) > newest:
+            without = {}
+            for earlier in self.added[:-newest]:
+                rest = [e for e in self.added if e != earlier]
+                rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
+                values, _, _, params = _joint_fit(self.problem, self.start, rest, rest_values, train_only=True)
+                without[earlier] = _evaluate(self.problem, params, values)
+            gone = to_drop(self.current.score, {e: f.score if f else None for e, f in without.items()}, self.rule)
+            if gone is None:
+                break
+            dropped.append(gone)
+            self.added.remove(gone)
+            self.current = without[gone]
+        return dropped
+
+    def _record(self, step: dict) -> None:
+        current = self.current
+        step.update({"rmse": None, "params": dict(current.values),
+                     "rmse_holdout": current.score.rmse_holdout * self.to_file})
+        self.steps.append(step)
+        self.step_params.append((current.params, current.offset))
+        added = [step["added"], *step.get("added_with", [])]
+        self.say(f"  added {' and '.join(added)}" + (f", dropped {', '.join(step['dropped'])}" if step["dropped"]
+                                                    else "") + ": "
+                 + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items()))
+
+    def wider(self) -> bool:
+        """Fit every pair of candidates jointly (from their round-1 values) and judge the best against the
+        forward model by the rule; adopt it (replacing what forward selection added) when it passes."""
+        problem, say = self.problem, self.say
+        before = self.current
+        names = [e for e in self.pending_all if self.individual.get(e, 0.0) > 0]
+        best = None
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                if {a, b} == set(self.added):
+                    continue
+                start = {CANDIDATES[e].parameter: self.individual[e] for e in (a, b)}
+                values, _, _, params = _joint_fit(problem, self.start, [a, b], start, train_only=True, rough=True)
+                fit = _evaluate(problem, params, values)
+                if fit is None:
+                    continue
+                experiment = problem.measurement.experiment
+                pinned = any(at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
+                             for e in (a, b))
+                say(f"  pair {a} + {b}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
+                    f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
+                if not pinned and (best is None or fit.score.bic < best[1].score.bic):
+                    best = ((a, b), fit)
+        if best is None:
+            return False
+        (a, b), fit = best
+        decision = decide(before.score, [Outcome(f"{a}+{b}", fit.score)], self.rule)
+        if decision.verdict != "add" or not fit.score.rss_train < before.score.rss_train:
+            say(f"  the best pair ({a} + {b}) does not pass the rule against {', '.join(self.added)}")
+            return False
+        replaced = list(self.added)
+        self.added = [a, b]
+        self.current = self._refit(fit)
+        self._record({"added": a, "added_with": [b], "dropped": [e for e in replaced if e not in (a, b)],
+                      "replaced": replaced, "bic_before": before.score.bic,
+                      "rmse_holdout_before": before.score.rmse_holdout * self.to_file, "candidates": [],
+                      "ties": [], "wider_search": True})
+        return True
 
 
 def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits: dict, say):

@@ -210,20 +210,30 @@ def at_bound(value: float, bounds: tuple[float, float], tolerance: float = 1e-3)
 
 
 def best_value(cost: Callable[[float], float], bounds: tuple[float, float], cost_off: float,
-               points_per_decade: float = 1.0, xatol: float = 1e-3) -> tuple[float, float]:
+               points_per_decade: float = 1.0, xatol: float = 1e-3, early_stop: bool = True) -> tuple[float, float]:
     """Minimise a one-parameter cost between bounds in log space, with "switched off" as an option.
 
     A grid of ``points_per_decade`` points per decade (bounds included), then bounded Brent between the
     neighbours of the best grid point. ``cost_off`` is the cost with the effect switched off (value 0):
     when no value does better, the result is 0. Infinite costs (failed simulations) are allowed.
-    Returns (value, its cost).
+    ``early_stop``: the grid is walked upwards and left once two points in a row rise above the best so
+    far (the cost of one effect's parameter is taken as unimodal in log space); the large values it
+    skips are the stiff, slow simulations (a damper of 1e4 N s/m). Returns (value, its cost).
     """
     from scipy.optimize import minimize_scalar
 
     lo_log, hi_log = math.log10(bounds[0]), math.log10(bounds[1])
     count = max(2, int(round((hi_log - lo_log) * points_per_decade)) + 1)
     logs = np.linspace(lo_log, hi_log, count)
-    costs = np.array([cost(10.0 ** x) for x in logs])
+    costs = []
+    for x in logs:  # upwards; stop once two points in a row rise above the best (the cost is unimodal)
+        costs.append(cost(10.0 ** x))
+        if early_stop and len(costs) >= 3:
+            best = min(costs[:-2])
+            if math.isfinite(best) and costs[-2] > best and costs[-1] > costs[-2]:
+                break
+    logs = logs[:len(costs)]
+    costs = np.array(costs)
     finite = np.isfinite(costs)
     if not finite.any():
         return (0.0, cost_off) if math.isfinite(cost_off) else (math.nan, math.inf)
