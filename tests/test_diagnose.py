@@ -291,3 +291,24 @@ def test_compare_scores_against_hand_computed_values(tmp_path):
 def test_elasticity_candidate_switches_model2_on():
     params = dg.CANDIDATES["elasticity"].apply(Params(model=1), 1.5e5)
     assert params.model == 2 and params.C1 == 1.5e5 and params.C2 == Params().C2
+
+
+def test_command_line_synth_realism_and_a_not_diagnosed_exit_status(tmp_path, capsys):
+    from mkctl.cli import main
+
+    zeroed = tmp_path / "zeroed.csv"
+    assert main(["synth", "knee", str(zeroed), "--samples", "300", "--rate", "100", "--shape", "ramps",
+                 "--offset", "-849.92", "--noise-tau", "0.02", "--output-column", "x_mm"]) == 0
+    out = capsys.readouterr().out
+    assert "shape ramps" in out and "coloured" in out and "sensor offset -849.92 mm" in out
+    truth = json.loads(truth_path_for(zeroed).read_text())
+    assert truth["shape"] == "ramps" and truth["offset"] == -849.92 and not truth["offset_declared"]
+    # the output sits near zero: not diagnosed, exit status 3, the cause on stderr
+    assert main(["diagnose", str(zeroed), "--quiet", "--json", str(tmp_path / "z.json")]) == 3
+    captured = capsys.readouterr()
+    assert "not diagnosed" in captured.err and "zeroed" in captured.err
+    assert json.loads((tmp_path / "z.json").read_text())["verdict"] == "not diagnosed"
+    angle = tmp_path / "angle.csv"
+    assert main(["synth", "knee", str(angle), "--samples", "200", "--rate", "100", "--output-column", "beta_deg",
+                 "--pressures", "--input-noise", "0.5"]) == 0
+    assert read_measurement(angle).output_column == "beta_deg" and "pe" in read_measurement(angle).inputs
