@@ -79,12 +79,31 @@ def test_independent_isotonic_damping_is_found_within_its_standard_error():
 
 
 def test_independent_isotonic_record_without_an_effect_gets_nothing():
-    # a damper so small that nothing of it can be seen at these rates: the record is quasi-static
-    result = diagnose(isotonic_record(1e-3, seed=3))
+    # no damper: the length balances the load at every instant, each sample's root found here
+    p = Params()
+    time, pressure, load = isotonic_inputs(500, loads=(50.0,), cycles=(20.0, 5.0))
+    length = np.array([brentq(lambda L: tension(L, P, p) - F, 0.6 * p.b, 0.999 * p.b, xtol=1e-14)
+                       for P, F in zip(pressure, load)])
+    length = length + ar1_noise(1e-5, length.size, 0.6, 3)
+    result = diagnose(measurement_from_arrays("isotonic", time, {"pressure": pressure, "force": load}, length))
     assert result.verdict == "nothing missing", result
 
 
 # --- knee --------------------------------------------------------------------------------------------
+
+def rest_height(p: Params, pe: float, pf: float) -> float:
+    """The stable rest of the leg under constant pressures: where F(X) - m g falls through zero (found on
+    a grid between the end stops, then by Brent)."""
+    def excess(X):
+        return knee.ground_force(X, pe, pf, 0.0, p) - p.m * p.g
+    low, high = knee.stop_positions(p)
+    grid = np.linspace(low + 1e-6, high - 1e-6, 400)
+    values = np.array([excess(X) for X in grid])
+    falls = np.flatnonzero((values[:-1] > 0) & (values[1:] <= 0))
+    assert falls.size == 1
+    i = falls[0]
+    return brentq(excess, grid[i], grid[i + 1], xtol=1e-14)
+
 
 def knee_record(c, tau_e, tau_f, samples=600, rate=200.0, noise_mm=0.01, rho=0.5, seed=1):
     p = Params().replace(c=c)
@@ -96,8 +115,7 @@ def knee_record(c, tau_e, tau_f, samples=600, rate=200.0, noise_mm=0.01, rho=0.5
         force = knee.ground_force(X, Pe, Pf, V, p)
         return [V, force / p.m - g, (pe - Pe) / tau_e, (pf - Pf) / tau_f]
 
-    X0 = brentq(lambda X: knee.ground_force(X, pe_cmd[0], pf_cmd[0], 0.0, p) - p.m * g,
-                *knee.stop_positions(p))
+    X0 = rest_height(p, pe_cmd[0], pf_cmd[0])
     y = np.array([X0, 0.0, pe_cmd[0], pf_cmd[0]])
     X = [X0]
     for k in range(1, samples):  # commands held from each sample to the next
@@ -136,7 +154,7 @@ def knee_record_plain(samples=600, rate=200.0):
     def rhs(t, y, pe, pf):
         return [y[1], knee.ground_force(y[0], pe, pf, y[1], p) / p.m - p.g]
 
-    X0 = brentq(lambda X: knee.ground_force(X, pe_cmd[0], pf_cmd[0], 0.0, p) - p.m * p.g, *knee.stop_positions(p))
+    X0 = rest_height(p, pe_cmd[0], pf_cmd[0])
     y = np.array([X0, 0.0])
     X = [X0]
     for k in range(1, samples):
