@@ -42,7 +42,8 @@ def register(subparsers) -> None:
     p.add_argument("--baseline", choices=["model1", "model2"], default="model2",
                    help="the baseline the file declares (default model2); hide elasticity with model1")
     p.add_argument("--noise", type=float, default=DEFAULT_NOISE_MM,
-                   help=f"standard deviation of the output noise [mm] (default {DEFAULT_NOISE_MM:g})")
+                   help=f"standard deviation of the output noise [the output column's unit: mm, or deg for beta_deg] "
+                        f"(default {DEFAULT_NOISE_MM:g})")
     p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
     p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic)")
     p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
