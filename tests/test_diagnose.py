@@ -149,7 +149,7 @@ def test_a_fit_pinned_on_its_bound_is_rejected():
 
 
 def test_a_ramp_record_with_damping_and_lag_is_right_or_undecided_never_wrong(tmp_path):
-    result, record = run(tmp_path, "knee", {"c": 45.0, "tau": 0.03}, shape="ramps", seed=4)
+    result, record = run(tmp_path, "knee", {"c": 45.0, "tau": 0.03}, shape="ramps", seed=4, samples=750, rate=250.0)
     if result.verdict == "diagnosed":
         assert sorted(result.missing) == ["pressure_lag", "viscous_damping"]
         check(result, record, result.missing)
@@ -179,7 +179,7 @@ def test_fit_offset_diagnoses_a_record_with_an_undeclared_sensor_offset(tmp_path
     assert result.offset == pytest.approx(-20.0, abs=0.01)  # mm
     assert abs(result.params["c"] - 30.0) < SE_TOLERANCE * result.uncertainty["c"] + 0.05
     # declared in the metadata instead, the reader removes it and no fit is needed
-    declared, _ = run(tmp_path, "knee", {"c": 30.0}, offset=-20.0, declare_offset=True, samples=600, rate=200.0)
+    declared, _ = run(tmp_path, "knee", {"c": 30.0}, offset=-20.0, declare_offset=True, samples=300, rate=100.0)
     assert declared.missing == ["viscous_damping"] and declared.offset is None
     # neither declared nor fitted, an offset that puts the hip where the leg cannot be is caught
     far, _ = run(tmp_path, "knee", {"c": 30.0}, offset=-800.0, samples=600, rate=200.0)

@@ -150,6 +150,11 @@ def summary(result) -> list[str]:
         return lines
     rounds = result.steps + ([result.stopped] if result.stopped and result.stopped["candidates"] else [])
     for number, step in enumerate(rounds, 1):
+        if step.get("wider_search"):
+            lines.append(f"wider search (what forward selection added left many times the noise): "
+                         f"{' + '.join([step['added'], *step['added_with']])} fitted together replace "
+                         f"{', '.join(step['replaced'])}: RMSE {step['rmse']:.4g} {unit} (whole record)")
+            continue
         lines.append(f"round {number}: candidates (best BIC first; RMSE over the compared samples, held-out "
                      f"over the last {result.rule['holdout_fraction']:.0%})")
         for row in step["candidates"]:
