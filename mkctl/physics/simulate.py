@@ -113,12 +113,13 @@ class KneeSimulator:
 
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
-                  stops: bool = True, rtol: float = 1e-10) -> dict[str, np.ndarray]:
+                  stops: bool = True, rtol: float = 1e-10) -> "SimulationResult":
     """Simulate the knee over a record; commands are held from each sample to the next.
 
     Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
     the initial hip height, or None to start at rest in the stable equilibrium of the first commands.
-    Returns a dict of arrays: "time" and every name of :data:`KNEE_OUTPUTS`.
+    Returns a :class:`mkctl.physics.results.SimulationResult`: "time" and every name of :data:`KNEE_OUTPUTS` as
+    named arrays (``run.X``, or ``run["X"]`` as before).
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
@@ -130,10 +131,8 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
     for k in range(1, time.size):
         sim.step(time[k] - time[k - 1], pe_cmd[k - 1], pf_cmd[k - 1])
         rows.append(sim.outputs(pe_cmd[k], pf_cmd[k]))
-    result = {"time": time}
-    for name in KNEE_OUTPUTS:
-        result[name] = np.array([row[name] for row in rows])
-    return result
+    from .results import SimulationResult  # typed result; reads like the former dict (result["X"])
+    return SimulationResult(time=time, **{name: np.array([row[name] for row in rows]) for name in KNEE_OUTPUTS})
 
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
