@@ -1013,6 +1013,17 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     full_after = (simulate_output(prepared, final_params) + offset if (added or start is not m.params)
                   else full_before + offset_before)
     before = full_before + offset_before
+    if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
+        # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
+        # (first order: refit at tau -+ its standard error, add the spread in quadrature)
+        spread = []
+        for sign in (-1.0, 1.0):
+            shifted = start.replace(tau=max(lag["tau"] + sign * lag["uncertainty"], 1e-6))
+            values, _, _, _ = _joint_fit(problem, shifted, added, final_values, train_only=False, rough=True)
+            spread.append(values)
+        for name in final_values:
+            moved = 0.5 * abs(spread[1][name] - spread[0][name])
+            uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), moved)
     if lag is not None and lag["accepted"]:
         added = ["pressure_lag", *added]
         final_values = {"tau": lag["tau"], **final_values}
