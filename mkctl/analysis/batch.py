@@ -126,7 +126,8 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     function : a picklable callable of one argument (a module-level function: workers import it).
     items : the arguments, each sent to a worker as is (keep them small: paths, parameter chunks).
     jobs : worker processes of the local cluster (default: the cores, :func:`default_jobs`). Ignored with
-        ``scheduler``.
+        ``scheduler``. ``jobs=0``: no Dask, one item after the other in this process (for debugging, and
+        for batches too small to pay for starting workers, about 2 s).
     scheduler : address of a running Dask scheduler (``tcp://HOST:PORT``); default: a new LocalCluster
         of processes, closed at the end.
     progress : show a progress bar (tqdm, on stderr).
@@ -139,13 +140,15 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     than Dask allows (``distributed.scheduler.allowed-failures``). Raises :class:`BatchError` if the
     scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`.
     """
-    from distributed import as_completed
-    from tqdm import tqdm
-
     items = list(items)
     outcomes: list[Outcome | None] = [None] * len(items)
     if not items:
         return []
+    if jobs == 0 and not scheduler:
+        return _run_here(function, items, progress, on_result, description)
+    from distributed import as_completed
+    from tqdm import tqdm
+
     client, cluster = _client(jobs, scheduler)
     bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr, disable=not progress,
                dynamic_ncols=True)
@@ -169,6 +172,20 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
         client.close()
         if cluster is not None:
             cluster.close()
+    return outcomes
+
+
+def _run_here(function, items, progress, on_result, description) -> list[Outcome]:
+    """``jobs=0``: the items one after the other in this process, with the same outcomes as on Dask."""
+    from tqdm import tqdm
+
+    outcomes = []
+    for i, item in enumerate(tqdm(items, desc=description, unit=description.rstrip("s") or "item",
+                                  file=sys.stderr, disable=not progress, dynamic_ncols=True)):
+        value, error, seconds = _call(function, item)
+        outcomes.append(Outcome(i, item, value, error, seconds))
+        if on_result is not None:
+            on_result(outcomes[-1])
     return outcomes
 
 
@@ -457,7 +474,7 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     start = time.perf_counter()
     run_batch(diagnose_file, paths, jobs=jobs, scheduler=scheduler, progress=progress, on_result=record,
               description="records")
-    workers = f"the scheduler at {scheduler}" if scheduler else \
+    workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \
         f"{default_jobs() if jobs is None else jobs} local processes"
     result = BatchResult(paths, reports, errors, time.perf_counter() - start, workers, out, written)
     if out is not None:
