@@ -11,7 +11,7 @@ asks of a posture held at rest:
   and the Routh-Hurwitz ``verdict`` (stable, marginal, unstable);
 - the **poles**: the mechanical pair, roots of ``s^2 - a1 s - a2 = 0`` (:func:`mkctl.physics.stability.poles`;
   ``pole1`` has the larger imaginary part), and with a pressure lag (tau > 0) the lag's pole ``-1/tau``
-  (``lag_pole``; NaN without a lag): the analytic linearization of :mod:`mkctl.analysis.control` is
+  (``lag_pole``, double: one lag per muscle; NaN without a lag): the analytic linearization of :mod:`mkctl.analysis.control` is
   block-triangular, so in open loop these are all its poles;
 - the **damping ratio** ``zeta = -a1 / (2 sqrt(-a2))`` and the natural frequency ``sqrt(-a2) / 2 pi``
   (:func:`mkctl.analysis.control.damping_ratio`; NaN where a2 >= 0: no oscillation to speak of);
@@ -69,7 +69,7 @@ QUANTITIES = {
     "pole1_im": ("1/s", "mechanical pole, imaginary part"),
     "pole2_re": ("1/s", "the other mechanical pole, real part"),
     "pole2_im": ("1/s", "the other mechanical pole, imaginary part"),
-    "lag_pole": ("1/s", "-1/tau with a pressure lag, NaN without"),
+    "lag_pole": ("1/s", "-1/tau with a pressure lag (a double pole: one lag per muscle), NaN without"),
     "damping_ratio": ("", "zeta = -a1 / (2 sqrt(-a2)); NaN where a2 >= 0"),
     "natural_frequency_hz": ("Hz", "sqrt(-a2) / 2 pi; NaN where a2 >= 0"),
     "settling_time_s": ("s", "2 % settling of X after a pe_cmd step (linear model); inf if not stable"),
@@ -581,7 +581,12 @@ def plot_map(result: SweepResult, quantity: str = "damping_ratio", x: str | None
     else:
         values = np.asarray(values, dtype=float)
         cmap, norm = "viridis", None
-    title = f"{quantity}"
+        finite = values[np.isfinite(values)]
+        if quantity == "settling_time_s" and finite.size and finite.min() > 0 and finite.max() > 10 * finite.min():
+            from matplotlib.colors import LogNorm
+
+            norm = LogNorm(finite.min(), finite.max())
+    title = f"{quantity}" + ("" if categorical or np.isfinite(values).all() else " (blank: never settles or undefined)")
     keep = np.ones(values.size, dtype=bool)
     if result.kind == "grid":
         held = []
