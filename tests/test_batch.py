@@ -78,7 +78,7 @@ def test_a_parallel_batch_gives_the_answers_of_one_by_one_and_survives_a_broken_
     table = result.to_dataframe()
     assert list(table["status"]) == ["error", "ok", "ok", "ok"]  # broken, damping, friction, plain
     assert table.loc[1, "c"] == pytest.approx(one_by_one[str((folder / "damping.csv").resolve())]["params"]["c"])
-    assert re.search(r"broken\.csv +ERROR: .*broken\.csv", result.table())
+    assert re.search(r"broken\.csv +ERROR: .*broken\.csv", result.text_table())
     figure = result.plot()
     assert [ax.get_ylabel() for ax in figure.axes] == ["c [N s/m]", "Fc [N]"]
     assert (out / "batch_parameters.png").stat().st_size > 0

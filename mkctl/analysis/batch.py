@@ -40,6 +40,7 @@ from typing import Any, Callable, Iterable
 import numpy as np
 
 from ..errors import MkctlError
+from ..results import Result
 
 #: Seconds to wait for an existing scheduler before giving up (a typo should not hang the command).
 CONNECT_TIMEOUT_S = 5.0
@@ -219,32 +220,22 @@ def expand_files(patterns: Iterable[str], suffix: str = ".csv") -> list[Path]:
     return unique
 
 
-def diagnose_file(path) -> dict:
-    """Read one measurement file and diagnose it (runs on a worker): the public report plus its time."""
+def diagnose_file(path, base=None) -> dict:
+    """Read one measurement file and diagnose it (runs on a worker): the public report plus its time.
+
+    ``base``: the parameters the file's metadata overrides (a muscle file's; default the paper's)."""
     from .diagnose import diagnose, public
     from ..io.measurements import read_measurement
+    from ..physics.params import DEFAULT
 
     start = time.perf_counter()
-    report = public(diagnose(read_measurement(path)))
+    report = public(diagnose(read_measurement(path, base=DEFAULT if base is None else base)))
     report["seconds"] = time.perf_counter() - start
     return report
 
 
-class _Result:
-    """A result object: the numbers as attributes, a readable repr, a pandas DataFrame."""
-
-    def to_dataframe(self):  # pragma: no cover - defined by each result
-        raise NotImplementedError
-
-    def _repr_lines(self) -> list[str]:  # pragma: no cover
-        return []
-
-    def __repr__(self) -> str:
-        return "\n".join(self._repr_lines())
-
-
 @dataclass(repr=False)
-class BatchResult(_Result):
+class BatchResult(Result):
     """The diagnosis of many records: one row per record, the reports, and where they were written.
 
     Attributes: ``files`` (the records, in order), ``reports`` ({file: the report of spec section 6, as
@@ -269,39 +260,39 @@ class BatchResult(_Result):
         found = {name for report in self.reports.values() for name in report.get("params", {})}
         return [name for name in order if name in found] + sorted(found - set(order))
 
-    def rows(self) -> list[dict]:
-        """The summary table as a list of dicts (the columns of :meth:`to_dataframe`)."""
+    def table(self) -> list[dict]:
+        """One row per record (for :meth:`to_dataframe`): file, status, missing effects, each parameter and its
+        standard error, RMSE before and after (in the file's output unit), seconds, error message."""
         return summary_rows(self.files, self.reports, self.errors, self.parameters)
 
     def to_dataframe(self):
-        """One row per record: file, status, missing effects, each parameter and its standard error, RMSE
-        before and after (in the file's output unit), seconds, error message."""
         import pandas as pd
 
-        return pd.DataFrame(self.rows(), columns=summary_columns(self.parameters))
+        return pd.DataFrame(self.table(), columns=summary_columns(self.parameters))
 
-    def table(self) -> str:
-        """The summary as a readable text table."""
-        return format_table(self.rows(), self.parameters)
+    to_dataframe.__doc__ = table.__doc__
+
+    def text_table(self) -> str:
+        """The summary as a readable text table (as ``mkctl diagnose FILE...`` prints it)."""
+        return format_table(self.table(), self.parameters)
 
     def plot(self, path=None):
         """Each fitted parameter with its standard error, record by record; saved as PNG if ``path`` is given.
 
         Returns the matplotlib Figure."""
-        return plot_parameters(self.rows(), self.parameters, path)
+        return plot_parameters(self.table(), self.parameters, path)
 
-    def _repr_lines(self) -> list[str]:
+    def summary_lines(self) -> list[str]:
         ok = len(self.reports)
-        lines = [f"BatchResult: {len(self.files)} records, {ok} diagnosed, {len(self.errors)} failed, "
+        lines = [f"{len(self.files)} records, {ok} diagnosed, {len(self.errors)} failed, "
                  f"{self.seconds:.1f} s on {self.workers}"]
         counts: dict = {}
         for report in self.reports.values():
             for effect in report.get("missing") or ["nothing"]:
                 counts[effect] = counts.get(effect, 0) + 1
         if counts:
-            lines.append("  missing: " + ", ".join(f"{k} in {v}" for k, v in counts.items()))
-        lines += ["  " + line for line in self.table().splitlines()]
-        return lines
+            lines.append("missing: " + ", ".join(f"{k} in {v}" for k, v in counts.items()))
+        return lines + self.text_table().splitlines()
 
 
 def summary_columns(parameters: list[str]) -> list[str]:
@@ -432,9 +423,13 @@ def _json_names(files: list[str]) -> dict:
     return names
 
 
+def _diagnose_item(item) -> dict:
+    return diagnose_file(*item)
+
+
 def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler: str | None = None,
-                   progress: bool = True, on_record: Callable[[str, dict | None, str | None], None] | None = None
-                   ) -> BatchResult:
+                   progress: bool = True, on_record: Callable[[str, dict | None, str | None], None] | None = None,
+                   base=None) -> BatchResult:
     """Diagnose many measurement files in parallel (:func:`run_batch` over :func:`diagnose_file`).
 
     Parameters
@@ -444,6 +439,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
         JSON is written as its record completes and the CSV rewritten after every record. None: write nothing.
     jobs, scheduler, progress : as in :func:`run_batch`.
     on_record : called with (file, report or None, error or None) as each record completes.
+    base : the :class:`mkctl.physics.params.Params` each file's metadata overrides (a muscle file's,
+        ``--params``); default the paper's.
 
     Returns a :class:`BatchResult`. A file that cannot be read or diagnosed is a row with its error message.
     """
@@ -472,7 +469,7 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
             on_record(file, outcome.value if outcome.ok else None, outcome.error)
 
     start = time.perf_counter()
-    run_batch(diagnose_file, paths, jobs=jobs, scheduler=scheduler, progress=progress, on_result=record,
+    run_batch(_diagnose_item, [(path, base) for path in paths], jobs=jobs, scheduler=scheduler, progress=progress, on_result=record,
               description="records")
     workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \
         f"{default_jobs() if jobs is None else jobs} local processes"

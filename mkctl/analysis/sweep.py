@@ -48,7 +48,8 @@ import numpy as np
 from ..errors import DomainError, MkctlError, ParameterError
 from ..physics import knee, stability
 from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params
-from .batch import _Result, default_jobs, run_batch
+from ..results import Result
+from .batch import default_jobs, run_batch
 
 #: Sweep names beyond the parameters: the posture and the flexor pressure, with their units and defaults.
 POSTURE_NAMES = {"alpha_deg": ("deg", math.degrees(stability.DEFAULT_ALPHA), "posture: kneecap angle alpha"),
@@ -158,7 +159,7 @@ def random_points(ranges: dict, count: int, seed: int = 0) -> dict:
 # --- One chunk of points ------------------------------------------------------------------------------
 
 def _point_params(base: Params, values: dict) -> Params:
-    overrides = {k: (int(round(v)) if k == "model" else float(v)) for k, v in values.items() if k in PARAMETER_NAMES}
+    overrides = {k: float(v) for k, v in values.items() if k in PARAMETER_NAMES}  # Params checks whole numbers
     return base.replace(**overrides) if overrides else base
 
 
@@ -409,7 +410,7 @@ def _evaluate_chunk(payload):
 
 
 @dataclass(repr=False)
-class SweepResult(_Result):
+class SweepResult(Result):
     """A sweep: the points and every quantity of :data:`QUANTITIES` per point.
 
     Attributes: ``axes`` ({name: grid values} for a grid, {name: (low, high)} for a random sample),
@@ -444,11 +445,9 @@ class SweepResult(_Result):
     def points_per_second(self) -> float:
         return self.points / self.seconds if self.seconds > 0 else math.inf
 
-    def to_dataframe(self):
-        """One row per point: the swept names, then :data:`QUANTITIES`."""
-        import pandas as pd
-
-        return pd.DataFrame(self.columns)
+    def table(self) -> dict:
+        """One row per point (for :meth:`to_dataframe`): the swept names, then :data:`QUANTITIES`."""
+        return self.columns
 
     def save(self, folder, stem: str = "sweep") -> list[Path]:
         """Write ``<stem>.csv`` and, when pyarrow is installed, ``<stem>.parquet``; returns the paths."""
@@ -473,18 +472,18 @@ class SweepResult(_Result):
         Saved as PNG at ``path`` if given."""
         return plot_map(self, quantity, x, y, path)
 
-    def _repr_lines(self) -> list[str]:
+    def summary_lines(self) -> list[str]:
         axes = ", ".join(f"{k}: {len(v)} values {min(v):g}..{max(v):g}" if self.kind == "grid"
                          else f"{k}: {v[0]:g}..{v[1]:g}" for k, v in self.axes.items())
-        lines = [f"SweepResult: {self.points} points ({self.kind}; {axes}) in {self.seconds:.2f} s "
+        lines = [f"{self.points} points ({self.kind}; {axes}) in {self.seconds:.2f} s "
                  f"({self.points_per_second:.0f} points/s) on {self.workers}"]
         if self.fixed:
-            lines.append("  fixed: " + ", ".join(f"{k} = {v:g}" for k, v in self.fixed.items()))
-        lines.append("  verdicts: " + ", ".join(f"{k} {v}" for k, v in self.counts.items()))
+            lines.append("fixed: " + ", ".join(f"{k} = {v:g}" for k, v in self.fixed.items()))
+        lines.append("verdicts: " + ", ".join(f"{k} {v}" for k, v in self.counts.items()))
         for name in ("pe_kPa", "damping_ratio", "settling_time_s", "overshoot_percent"):
             v = self.columns[name][np.isfinite(self.columns[name])]
             if v.size:
-                lines.append(f"  {name:<18} {v.min():.4g} .. {v.max():.4g} {QUANTITIES[name][0]}")
+                lines.append(f"{name:<18} {v.min():.4g} .. {v.max():.4g} {QUANTITIES[name][0]}")
         return lines
 
 
@@ -530,6 +529,8 @@ def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict |
     chunks = _chunks(points, count, chunk, workers)
     if len(chunks) == 1 and jobs is None and not scheduler:
         jobs = 0  # one chunk: starting workers (seconds) would cost more than the work
+    from . import control  # noqa: F401 - imported before the clock starts (fmpy, python-control: a second)
+
     start = time.perf_counter()
     outcomes = run_batch(_evaluate_chunk, [(s, p, fixed) for s, p in chunks], jobs=jobs, scheduler=scheduler,
                          progress=progress, description="chunks")

@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .options import UsageError, output_folder
+from .options import UsageError, base_params, output_folder
 
 
 def add_engine_options(parser) -> None:
@@ -99,8 +99,7 @@ def run_sweep(args) -> int:
         ranges = None
     result = sweep(grid, random=args.random, ranges=ranges, fixed=fixed, seed=args.seed, jobs=args.jobs,
                    scheduler=args.scheduler, progress=not args.quiet, chunk=args.chunk)
-    for line in repr(result).splitlines():
-        print(line)
+    print(repr(result))
     paths = result.save(folder)
     names = list(result.axes)
     x, y = args.axes if args.axes else (names[0], names[1] if len(names) > 1 else None)
@@ -136,8 +135,7 @@ def run_diagnose_batch(args) -> int:
             tqdm.write(f"{Path(file).name}: {what}", file=sys.stderr)
 
     result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
-                            on_record=said)
-    for line in repr(result).splitlines():
-        print(line)
+                            on_record=said, base=base_params(args))
+    print(repr(result))
     print(f"reports: {folder}/<record>.diagnosis.json; table: {folder / SUMMARY_CSV}; figure: {folder / SUMMARY_PNG}")
     return 1 if result.errors else 0
