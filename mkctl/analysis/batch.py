@@ -297,7 +297,7 @@ class BatchResult(Result):
 
 def summary_columns(parameters: list[str]) -> list[str]:
     """Columns of the batch summary table."""
-    columns = ["file", "status", "experiment", "samples", "missing"]
+    columns = ["file", "status", "experiment", "samples", "missing", "verdict"]
     for name in parameters:
         columns += [name, f"{name}_se"]
     return columns + ["rmse_before", "rmse_after", "unit", "seconds", "error"]
@@ -312,7 +312,7 @@ def summary_rows(files, reports: dict, errors: dict, parameters: list[str]) -> l
         row["file"] = file
         if report is not None:
             row.update(status="ok", experiment=report["experiment"], samples=report["samples"],
-                       missing=";".join(report["missing"]), rmse_before=report["rmse_before"],
+                       missing=";".join(report["missing"]), verdict=report.get("verdict"), rmse_before=report["rmse_before"],
                        rmse_after=report["rmse_after"], unit=report["output_unit"], seconds=report.get("seconds"))
             for name in parameters:
                 row[name] = report["params"].get(name)
