@@ -398,6 +398,7 @@ def plot_parameters(rows: list[dict], parameters: list[str], path=None):
             error = [rows[i][f"{name}_se"] or 0.0 for i in x]
             ax.errorbar(x, y, yerr=error, fmt="o", capsize=3, color="tab:blue")
             ax.set_ylabel(f"{name} [{UNITS.get(name, '')}]")
+            ax.ticklabel_format(axis="y", useOffset=False)
         failed = [i for i, row in enumerate(rows) if row["status"] == "error"]
         for i in failed:
             ax.axvspan(i - 0.4, i + 0.4, color="tab:red", alpha=0.12, lw=0)
@@ -405,7 +406,7 @@ def plot_parameters(rows: list[dict], parameters: list[str], path=None):
         ax.set_xticks(range(len(rows)), names if ax is axes[-1, 0] else [""] * len(rows), rotation=60,
                       ha="right", fontsize=7)
         ax.grid(alpha=0.3)
-    axes[0, 0].set_title("fitted parameters record by record (error bars: one standard error; red: failed)",
+    axes[0, 0].set_title("fitted parameters per record\n(error bars: one standard error; red: the record failed)",
                          fontsize=9)
     if path is not None:
         save_png(fig, path)
