@@ -204,6 +204,14 @@ def test_an_unreachable_scheduler_is_one_clear_error():
     assert time.monotonic() - start < 30  # a short connect timeout, not the default minute(s)
 
 
+def test_a_scheduler_without_workers_is_one_clear_error():
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as empty:
+        with pytest.raises(BatchError, match="has no workers"):
+            run_batch(abs, [1], scheduler=empty.scheduler_address, progress=False)
+
+
 def _mkctl(*args, cwd):
     return subprocess.run([sys.executable, "-m", "mkctl", *args], capture_output=True, text=True, cwd=cwd, env=ENV,
                           timeout=300)

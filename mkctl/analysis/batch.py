@@ -103,11 +103,18 @@ def _client(jobs: int | None, scheduler: str | None):
     if scheduler:
         try:
             with dask.config.set({"distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}):
-                return Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s"), None
+                client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
         except (OSError, TimeoutError, ValueError) as error:
             detail = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
             raise BatchError(f"cannot reach the Dask scheduler at {scheduler} within {CONNECT_TIMEOUT_S:g} s "
                              f"({detail})") from None
+        try:  # tasks would wait for ever on a cluster without workers
+            client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError):
+            client.close()
+            raise BatchError(f"the Dask scheduler at {scheduler} has no workers (start some: dask worker "
+                             f"{scheduler})") from None
+        return client, None
     jobs = default_jobs() if jobs is None else jobs
     if int(jobs) != jobs or jobs < 1:
         raise BatchError(f"--jobs must be a whole number >= 1, got {jobs!r}")
@@ -138,7 +145,7 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     Returns a list of :class:`Outcome`, one per item, in the items' order. An item whose function raised
     has ``error`` set (one line) and does not stop the others; so has an item whose worker died more often
     than Dask allows (``distributed.scheduler.allowed-failures``). Raises :class:`BatchError` if the
-    scheduler cannot be reached within :data:`CONNECT_TIMEOUT_S`.
+    scheduler cannot be reached, or has no worker, within :data:`CONNECT_TIMEOUT_S`.
     """
     items = list(items)
     outcomes: list[Outcome | None] = [None] * len(items)
