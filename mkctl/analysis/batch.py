@@ -118,7 +118,7 @@ def _client(jobs: int | None, scheduler: str | None):
     jobs = default_jobs() if jobs is None else jobs
     if int(jobs) != jobs or jobs < 1:
         raise BatchError(f"--jobs must be a whole number >= 1, got {jobs!r}")
-    cluster = LocalCluster(n_workers=int(jobs), threads_per_worker=1, processes=True, dashboard_address=None,
+    cluster = LocalCluster(n_workers=int(jobs), threads_per_worker=1, processes=True, dashboard_address=":0",
                            silence_logs=logging.ERROR)
     return Client(cluster), cluster
 
