@@ -1,9 +1,10 @@
 """``mkctl run``: the whole job in one command, into one folder with an index page.
 
-Steps, each reusing a subcommand or a scenario as a user would run it, all in this process and from the
-installed package (no file of a checkout is needed):
+Steps, each reusing a subcommand or a scenario as a user would run it, from the installed package (no file of
+a checkout is needed), in this process except the FMU build:
 
-1. build and check the FMUs (:func:`mkctl.fmu.build.build`, what ``build_fmu.py`` runs) into ``OUT/fmu``;
+1. build and check the FMUs (``python -m mkctl.fmu.build``, what ``build_fmu.py`` runs, in a fresh Python) into
+   ``OUT/fmu``;
 2. drive the knee FMU through fmpy: a pressure step from equilibrium (:mod:`mkctl.scenarios.pressure_step`);
 3. reproduce the paper's figures and claims (``mkctl paper``);
 4. the linear view: linearization, root loci against c, tau and the height gain, step responses

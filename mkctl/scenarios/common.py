@@ -19,11 +19,11 @@ are tested on their own in tests/test_fmu*.py.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import csv
-import io
 import math
 import os
+import subprocess
+import sys
 import zipfile
 from pathlib import Path
 
@@ -155,23 +155,24 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
 def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
     """Build (and, with ``run``, check by running) the knee and actuator FMUs into the folder out.
 
-    Uses :func:`mkctl.fmu.build.build`, so no file of a checkout is needed. Returns ({"knee": path,
-    "actuator": path}, what the build printed); raises :class:`ScenarioError` with the build's last message.
+    Runs :mod:`mkctl.fmu.build` of this mkctl (``python -m mkctl.fmu.build``) in a fresh Python: no file of a
+    checkout is needed, and the build does not depend on what this process has imported or changed (in a
+    long-lived process, such as a test session, an in-process build once packed an FMU fmpy could not run).
+    Returns ({"knee": path, "actuator": path}, what the build printed); raises :class:`ScenarioError` with the
+    build's last message.
     """
-    from ..fmu.build import build
-
-    buffer = io.StringIO()
-    try:
-        with contextlib.redirect_stdout(buffer):
-            built = build(Path(out), run=run)
-    except MkctlError as error:
-        raise ScenarioError(f"building the FMUs into {out} failed: {error}") from error
-    by_file = {Path(path).name: Path(path) for path in built.values()}  # keyed by model name there
-    paths = {which: by_file.get(name, Path(out) / name) for which, name in FMU_FILES.items()}
-    missing = [str(path) for path in paths.values() if not path.is_file()]
-    if missing:
-        raise ScenarioError(f"building the FMUs into {out} failed: {missing[0]} was not written")
-    return paths, buffer.getvalue()
+    out = Path(out).resolve()
+    package_parent = str(Path(__file__).resolve().parents[2])  # the folder this mkctl is imported from
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([package_parent] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
+    done = subprocess.run([sys.executable, "-m", "mkctl.fmu.build", "--out", str(out)] + ([] if run else ["--no-run"]),
+                          capture_output=True, text=True, env=env)
+    paths = {which: out / name for which, name in FMU_FILES.items()}
+    if done.returncode != 0 or not all(path.is_file() for path in paths.values()):
+        lines = (done.stderr or done.stdout).strip().splitlines()
+        raise ScenarioError(f"building the FMUs into {out} failed: "
+                            + (lines[-1] if lines else f"exit status {done.returncode}"))
+    return paths, done.stdout
 
 
 def fmu_file(args, which: str) -> Path:
