@@ -255,3 +255,17 @@ def test_at_bound_tolerance():
     assert rule.at_bound(1.0005e-2, (1e-2, 1e5)) and not rule.at_bound(1.002e-2, (1e-2, 1e5))
     assert rule.at_bound(0.9995e5, (1e-2, 1e5)) and not rule.at_bound(0.998e5, (1e-2, 1e5))
     assert rule.at_bound(1.002e-2, (1e-2, 1e5), tolerance=0.01)
+
+
+def test_bic_of_a_small_rss_and_the_decisions_carry_their_judgements():
+    assert rule.bic(0.5, 10, 0) == pytest.approx(10 * math.log(0.05))
+    assert rule.bic(0.0, 10, 0) == pytest.approx(10 * math.log(1e-301))
+    a = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.5, 1))
+    b = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -70.0, 1), 0.505, 1))
+    c = Candidate("pressure_lag", score(rms_for_delta_bic(CURRENT, -60.0, 1), 0.506, 1))
+    undecided = decide(CURRENT, [a, b, c])
+    assert undecided.rivals == ("coulomb_friction", "pressure_lag")
+    assert undecided.reason.endswith("(held-out RMSE 0.5 vs 0.505, 0.506)")
+    assert set(undecided.judgements) == {"viscous_damping", "coulomb_friction", "pressure_lag"}
+    added = decide(CURRENT, [a])
+    assert added.reason == "viscous_damping passes every criterion" and set(added.judgements) == {"viscous_damping"}
