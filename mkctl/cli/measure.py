@@ -6,14 +6,17 @@
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
   overlay and the residual as PNG.
 - ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
-  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures.
+  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures. Several
+  files, a folder or a glob run as a batch (:func:`mkctl.cli.batch.run_diagnose_batch`).
 """
 from __future__ import annotations
 
+import glob
 import json
 import sys
 from pathlib import Path
 
+from .batch import add_engine_options, run_diagnose_batch
 from .options import (add_params_option, base_params, muscle_values, output_file, output_folder,
                       parse_assignments, split_items)
 
@@ -82,16 +85,19 @@ def register(subparsers) -> None:
                     "and the held-out error support it, fit their parameters on simulation error, and report "
                     "(JSON as model-spec section 6, plus PNGs: the error step by step, before/after overlay, "
                     "residuals, signatures).")
-    p.add_argument("file", metavar="FILE.csv")
+    p.add_argument("file", metavar="FILE.csv", nargs="+",
+                   help="a measurement file; several files, folders or globs run as a batch (mkctl.cli.batch)")
     p.add_argument("--json", metavar="OUT.json", default=None, help="write the report here")
     p.add_argument("--out", metavar="DIR", default=None,
-                   help="folder for the PNGs (default: beside the JSON, or beside the file)")
+                   help="folder for the PNGs (default: beside the JSON, or beside the file); for a batch, the "
+                        "folder for the reports, the summary table and figure (default ./diagnosis)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
     p.add_argument("--fit-offset", action="store_true",
                    help="fit a constant sensor offset of the measured output (a sensor zeroed at rest, an encoder "
                         "mounted off by a few degrees); without it, an output the model cannot reach is not "
                         "diagnosed (exit status 3)")
     add_params_option(p)
+    add_engine_options(p)
     p.set_defaults(func=run_diagnose)
 
 
@@ -154,6 +160,10 @@ def run_compare(args) -> int:
 def run_diagnose(args) -> int:
     from ..analysis.diagnose import diagnose, public, save_pictures, summary
     from ..io.measurements import read_measurement
+
+    if len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0]):  # a batch
+        return run_diagnose_batch(args)
+    args.file = args.file[0]
 
     # every output path is checked before the fit, which takes seconds to minutes
     json_path = output_file(args.json, "--json") if args.json else None
