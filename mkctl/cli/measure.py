@@ -2,11 +2,15 @@
 
 - ``mkctl synth knee data.csv --hidden viscous_damping`` (``--hidden`` repeatable, or comma-separated:
   ``--hidden c=45,tau=0.05``) writes a measurement file made by the model with
-  hidden effects (and ``data.truth.json`` with what was hidden).
+  hidden effects (and ``data.truth.json`` with what was hidden); ``--shape``, ``--input-noise``,
+  ``--noise-tau``, ``--offset``/``--declare-offset``, ``--output-column beta_deg`` and ``--pressures``
+  make it as messy as a real rig.
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
   overlay and the residual as PNG.
 - ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
-  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures. Several
+  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures;
+  ``--fit-offset`` fits a constant sensor offset; a record that cannot be this model's output (a unit or
+  zero mistake) is "not diagnosed", exit status 3. Several
   files, a folder or a glob run as a batch (:func:`mkctl.cli.batch.run_diagnose_batch`).
 """
 from __future__ import annotations
