@@ -1085,7 +1085,9 @@ class _Search:
                 return
             say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
             try:
-                sigs = signatures(problem.measurement, current.params, pending)
+                record = problem.measurement if not current.offset else dataclasses.replace(
+                    problem.measurement, output=problem.measurement.output - current.offset)
+                sigs = signatures(record, current.params, pending)
             except MkctlError:  # the measured states lie outside the model's domain: no signatures
                 sigs = {}
             if self.signatures_first is None:
