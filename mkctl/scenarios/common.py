@@ -105,7 +105,7 @@ def _check_folders(args, fmus) -> None:
         require(not target.is_dir(), f"--out {args.out}: {target} is a folder, cannot write the {suffix.upper()} there")
     fmu_dir = Path(args.fmu_dir)
     require(not fmu_dir.exists() or fmu_dir.is_dir(), f"--fmu-dir {fmu_dir}: is a file, not a folder")
-    paths = [fmu_dir / FMU_FILES[which] for which in fmus]
+    paths = [fmu_file(args, which) for which in fmus]
     for path in paths:
         require(not path.exists() or zipfile.is_zipfile(path), f"--fmu-dir {fmu_dir}: {path.name} is not an FMU "
                 "(not a zip file)")
@@ -131,6 +131,9 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
     parser.add_argument("--fmu-dir", type=Path, default=Path("dist"),
                         help="folder holding the FMUs (default: dist; built when missing)")
     parser.add_argument("--duration", type=float, default=duration, help=f"simulated time [s] (default {duration:g})")
+    parser.add_argument("--native", action="store_true",
+                        help="drive the native FMUs of FMU_DIR/native (compiled C, built when missing) instead of "
+                             "the pythonfmu ones")
     if extra is not None:
         extra(parser)
     args = parser.parse_args(argv)
@@ -171,12 +174,26 @@ def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
     return paths, buffer.getvalue()
 
 
+def fmu_file(args, which: str) -> Path:
+    """Where the knee or actuator FMU is: FMU_DIR, or FMU_DIR/native with --native."""
+    folder = Path(args.fmu_dir) / "native" if getattr(args, "native", False) else Path(args.fmu_dir)
+    return folder / FMU_FILES[which]
+
+
 def fmu_path(args, which: str) -> Path:
-    """Path of the knee or actuator FMU, building both (:func:`build_fmus`) if it is missing."""
-    path = Path(args.fmu_dir) / FMU_FILES[which]
+    """Path of the knee or actuator FMU, building both (:func:`build_fmus`, or the native ones with --native) if
+    it is missing."""
+    path = fmu_file(args, which)
     if not path.exists():
         print(f"{path} missing: building the FMUs ...")
-        build_fmus(args.fmu_dir, run=False)
+        if getattr(args, "native", False):
+            from ..native.fmu import build_native
+            try:
+                build_native(Path(args.fmu_dir))
+            except MkctlError as error:
+                raise ScenarioError(f"building the native FMUs into {args.fmu_dir} failed: {error}") from error
+        else:
+            build_fmus(args.fmu_dir, run=False)
     return path
 
 
