@@ -10,9 +10,10 @@ call it. Modules, from the bottom up:
 - :mod:`mkctl.physics.integrate`, :mod:`mkctl.physics.simulate`, :mod:`mkctl.physics.isotonic`: time simulation.
 """
 from .errors import DomainError, MeasurementFileError, MkctlError, ParameterError
+from .io.muscle import read_muscle, write_muscle
 from .physics.params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, Params
 
 __version__ = "0.1.0"
 
-__all__ = ["DEFAULT", "PARAMETER_NAMES", "TABLE_I", "TABLE_II", "Params", "DomainError",
+__all__ = ["DEFAULT", "PARAMETER_NAMES", "TABLE_I", "TABLE_II", "Params", "read_muscle", "write_muscle", "DomainError",
            "MeasurementFileError", "MkctlError", "ParameterError", "__version__"]

@@ -16,7 +16,7 @@ import numpy as np
 from ..analysis import control_defaults
 from ..physics.params import DEFAULT, RATED_PRESSURE
 from ..physics.simulate import DEFAULT_ALPHA, DEFAULT_PF
-from .options import UsageError, output_folder, parse_assignments
+from .options import UsageError, add_params_option, base_params, output_folder, parse_assignments
 
 
 class _LazyControl:
@@ -50,6 +50,7 @@ def _add_common(parser, needs_damping: bool) -> None:
     parser.add_argument("--tau", type=float, metavar="S", help="pressure lag time constant (default 0: no lag)")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="any parameter in SI units, e.g. --set m=2.5 (repeatable)")
+    add_params_option(parser)
     parser.add_argument("--out", type=Path, default=Path("control_plots"), help="folder for the PNGs "
                         "(default %(default)s)")
 
@@ -108,7 +109,7 @@ def _setup(args, needs_damping: bool):
         raise UsageError(f"--pf {args.pf:g}: the flexor pressure is a gauge pressure and must be >= 0 kPa "
                          "(a muscle below atmospheric pressure does not pull)")
     overrides = parse_assignments(args.set)
-    params = DEFAULT.replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
+    params = base_params(args).replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
     alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else DEFAULT_ALPHA)
     op = mc.operating_point(alpha, X=args.X, pf=args.pf * 1e3, params=params)
     c = args.c if args.c is not None else overrides.get("c")

@@ -14,7 +14,8 @@ import json
 import sys
 from pathlib import Path
 
-from .options import output_file, output_folder, parse_assignments, split_items
+from .options import (add_params_option, base_params, muscle_values, output_file, output_folder,
+                      parse_assignments, split_items)
 
 
 def register(subparsers) -> None:
@@ -46,6 +47,7 @@ def register(subparsers) -> None:
     p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic)")
     p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
     p.add_argument("--no-truth", action="store_true", help="do not write <stem>.truth.json")
+    add_params_option(p)
     p.set_defaults(func=run_synth)
 
     p = subparsers.add_parser(
@@ -54,6 +56,7 @@ def register(subparsers) -> None:
                     "|y - mean(y)|) and save <stem>_compare_overlay.png and <stem>_compare_residual.png.")
     p.add_argument("file", metavar="FILE.csv")
     p.add_argument("--out", metavar="DIR", default=None, help="folder for the PNGs (default: beside the file)")
+    add_params_option(p)
     p.set_defaults(func=run_compare)
 
     p = subparsers.add_parser(
@@ -67,6 +70,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", metavar="DIR", default=None,
                    help="folder for the PNGs (default: beside the JSON, or beside the file)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_params_option(p)
     p.set_defaults(func=run_diagnose)
 
 
@@ -79,7 +83,9 @@ def run_synth(args) -> int:
     output_file(args.output, "output file")
     if not args.no_truth:
         output_file(truth_path_for(args.output), "truth file")
-    record = synthesize(args.experiment, split_items(args.hidden), parse_assignments(split_items(args.param), "--param"),
+    known = muscle_values(args)
+    known.update(parse_assignments(split_items(args.param), "--param"))
+    record = synthesize(args.experiment, split_items(args.hidden), known,
                         args.baseline, args.noise, args.seed, args.samples, args.rate)
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
@@ -96,7 +102,7 @@ def run_compare(args) -> int:
     from ..io.measurements import read_measurement
 
     folder = output_folder(args.out, "--out") if args.out else Path(args.file).resolve().parent
-    measurement = read_measurement(args.file)
+    measurement = read_measurement(args.file, base=base_params(args))
     if not args.out:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     result = compare(measurement)
@@ -125,7 +131,7 @@ def run_diagnose(args) -> int:
         folder = Path(args.json).resolve().parent
     else:
         folder = Path(args.file).resolve().parent
-    measurement = read_measurement(args.file)
+    measurement = read_measurement(args.file, base=base_params(args))
     if not args.out and not args.json:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))

@@ -124,3 +124,29 @@ def run_reporting_errors(prog: str, run, *args) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130
+
+
+# --- parameters: a muscle file first, then NAME=VALUE items on top -----------------------------------
+
+def add_params_option(parser) -> None:
+    """Add ``--params MUSCLE.json`` (model-spec section 5b) to a subcommand's parser."""
+    parser.add_argument("--params", type=Path, default=None, metavar="MUSCLE.json",
+                        help="a muscle file (from mkctl calibrate): its parameters replace the paper's defaults; "
+                             "values given with --set/--param win over it")
+
+
+def base_params(args):
+    """The parameter set a command starts from: the ``--params`` muscle file, or the paper's defaults."""
+    from ..io.muscle import read_muscle
+    from ..physics.params import DEFAULT
+    path = getattr(args, "params", None)
+    return DEFAULT if path is None else read_muscle(path)
+
+
+def muscle_values(args) -> dict[str, float]:
+    """The ``--params`` muscle file's values that differ from the paper's defaults (SI, by name), e.g. to write
+    them as known parameters into a measurement file's metadata; empty without ``--params``."""
+    from ..physics.params import DEFAULT
+    params = base_params(args)
+    return {name: value for name, value in params.as_dict().items()
+            if name != "model" and value != getattr(DEFAULT, name)}

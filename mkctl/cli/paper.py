@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 from ..physics.params import DEFAULT, PARAMETER_NAMES
-from .options import output_folder, parse_assignments
+from .options import add_params_option, base_params, output_folder, parse_assignments
 
 
 def register(subparsers) -> None:
@@ -27,6 +27,7 @@ def register(subparsers) -> None:
     parser.add_argument("--set", dest="overrides", action="append", default=[], metavar="NAME=VALUE",
                         help="override a parameter in SI units, e.g. --set c=45 (repeatable; names: "
                              + ", ".join(PARAMETER_NAMES) + ")")
+    add_params_option(parser)
     parser.add_argument("--quiet", action="store_true", help="do not report progress on stderr")
     parser.set_defaults(func=run_paper)
 
@@ -35,7 +36,7 @@ def run_paper(args: argparse.Namespace) -> int:
     overrides = parse_assignments(args.overrides)
     if args.mass is not None:
         overrides["m"] = args.mass
-    params = DEFAULT.replace(**overrides) if overrides else DEFAULT
+    params = base_params(args).replace(**overrides)
     progress = None if args.quiet else (lambda message: print(f"mkctl paper: {message}", file=sys.stderr))
     output_folder(args.out, "--out")
     from ..analysis import paper  # here, not at the top: it imports matplotlib, which other commands need not wait for

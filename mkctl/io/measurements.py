@@ -10,15 +10,24 @@ then one row of numbers per sample::
     0.000,1693.66,100,849.92
     ...
 
-- ``experiment`` (required): ``isotonic`` or ``knee``. ``baseline``: ``model1`` or ``model2`` (default).
-  Any parameter name of :data:`mkctl.physics.params.PARAMETER_NAMES` overrides the default (SI units); an
-  effect parameter (``c = 45``) makes that effect part of the baseline with that known value. The
-  baseline model is chosen with ``baseline``, not ``model``. Lines starting with ``#`` that hold no
-  ``=`` are free comments.
-- Columns are named ``<quantity>_<unit>``, in any order (:data:`EXPERIMENTS` lists the quantities). The
-  unit suffix says how to convert to SI: time ``s, ms``; pressure ``Pa, kPa, MPa, bar``; force ``N, kN``;
-  length ``m, cm, mm`` (suffixes are case-insensitive). Further columns (a second sensor, a note) are
-  allowed and ignored; their cells are not read.
+- ``experiment`` (required): ``isotonic``, ``knee`` or ``isometric`` (:data:`EXPERIMENTS` lists their
+  columns). ``baseline``: ``model1`` or ``model2`` (default). Any parameter name of
+  :data:`mkctl.physics.params.PARAMETER_NAMES` overrides the default (SI units); an effect parameter
+  (``c = 45``) makes that effect part of the baseline with that known value. The baseline model is chosen
+  with ``baseline``, not ``model``. Metadata is checked as a whole once it is all read, so a file that sets
+  both ``L0`` and ``b`` is judged on the pair. Lines starting with ``#`` that hold no ``=`` are free comments.
+- A constant sensor offset of any column may be declared as ``<quantity>_offset_<unit> = value``
+  (``x_offset_mm = 12``, ``beta_offset_deg = -1.5``, ``force_offset_N = 0.4``): the sensor read
+  ``true + offset``, and the reader subtracts it.
+- Columns are named ``<quantity>_<unit>``, in any order. The unit suffix says how to convert to SI:
+  time ``s, ms``; pressure ``Pa, kPa, MPa, bar, psi``; force ``N, kN``; length ``m, cm, mm, in``; angle
+  ``deg, rad`` (suffixes are case-insensitive). Further columns (a second sensor, a note) are allowed and
+  ignored; their cells are not read.
+- A knee file has one measured output: ``x`` (hip height) or ``beta`` (the interior knee angle, what a joint
+  encoder reads), and may hold measured bladder pressures ``pe``, ``pf`` beside the commands.
+- An isometric file (blocked-force test) has ``length, pressure, force``, optionally ``time`` first and a
+  ``branch`` column (``up``/``down``); without it the branch follows from the pressure's direction in time
+  order within each length (which needs ``time``).
 - Every required cell must be a finite number and time must increase strictly. At least two rows.
 
 A file that breaks a rule raises :class:`mkctl.errors.MeasurementFileError` with a one-line message
@@ -28,6 +37,7 @@ that names the file, the line (1-based) and the problem, e.g.
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import NamedTuple
@@ -35,7 +45,7 @@ from typing import NamedTuple
 import numpy as np
 
 from ..errors import MeasurementFileError, ParameterError
-from ..physics.params import PARAMETER_NAMES, Params
+from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
 
 
 class Quantity(NamedTuple):
@@ -47,12 +57,23 @@ class Quantity(NamedTuple):
 
 
 class Experiment(NamedTuple):
-    """The columns of one experiment: the inputs in order, then the measured output."""
+    """The columns of one experiment: inputs (time first), the measured output and its alternatives."""
 
     name: str
-    inputs: tuple[Quantity, ...]
-    output: Quantity
+    inputs: tuple[Quantity, ...]  #: time first, then the inputs every file has
+    outputs: tuple[Quantity, ...]  #: the measured output: a file has exactly one of these (first: canonical)
+    optional: tuple[Quantity, ...]  #: further measured columns a file may have
     description: str
+    time_required: bool = True
+
+    @property
+    def output(self) -> Quantity:
+        """The canonical measured output."""
+        return self.outputs[0]
+
+    @property
+    def quantities(self) -> tuple[Quantity, ...]:
+        return (*self.inputs, *self.outputs, *self.optional)
 
 
 #: The experiments of model-spec section 5.
@@ -60,30 +81,43 @@ EXPERIMENTS = {
     "isotonic": Experiment(
         "isotonic",
         (Quantity("time", "time", "s"), Quantity("pressure", "pressure", "kPa"), Quantity("force", "force", "N")),
-        Quantity("length", "length", "mm"),
+        (Quantity("length", "length", "mm"),), (),
         "an actuator under a hanging load, pressure swept slowly (Fig. 5); pressure measured in the bladder",
     ),
     "knee": Experiment(
         "knee",
         (Quantity("time", "time", "s"), Quantity("pe_cmd", "pressure", "kPa"), Quantity("pf_cmd", "pressure", "kPa")),
-        Quantity("x", "length", "mm"),
-        "the robot leg of Fig. 6 driven by pressure commands, starting at rest in equilibrium",
+        (Quantity("x", "length", "mm"), Quantity("beta", "angle", "deg")),
+        (Quantity("pe", "pressure", "kPa"), Quantity("pf", "pressure", "kPa")),
+        "the robot leg of Fig. 6 driven by pressure commands, starting at rest in equilibrium; measured: the hip "
+        "height x or the knee angle beta, optionally the bladder pressures pe, pf",
+    ),
+    "isometric": Experiment(
+        "isometric",
+        (Quantity("time", "time", "s"), Quantity("length", "length", "mm"), Quantity("pressure", "pressure", "kPa")),
+        (Quantity("force", "force", "N"),), (),
+        "a blocked-force test: the muscle clamped at fixed lengths, pressure stepped up and down, tension measured",
+        time_required=False,
     ),
 }
 
 #: Unit suffixes accepted for each kind of quantity, with the factor that converts to SI.
 UNIT_FACTORS = {
     "time": {"s": 1.0, "ms": 1e-3},
-    "pressure": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "bar": 1e5},
+    "pressure": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "bar": 1e5, "psi": 6894.757293168361},
     "force": {"N": 1.0, "kN": 1e3},
-    "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
+    "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254},
+    "angle": {"rad": 1.0, "deg": math.pi / 180.0},
 }
 
 #: Baselines a file may name, and the model number (params.model) each one means.
 BASELINES = {"model1": 1, "model2": 2}
 
-#: Metadata keys besides the parameter names.
+#: Metadata keys besides the parameter names and the sensor offsets.
 METADATA_KEYS = ("experiment", "baseline")
+
+#: Values of an isometric file's ``branch`` column, and the sign each one stands for (+1: pressure rising).
+BRANCHES = {"up": 1, "down": -1}
 
 
 def unit_factor(kind: str, unit: str) -> float | None:
@@ -98,9 +132,12 @@ def unit_factor(kind: str, unit: str) -> float | None:
 class Measurement:
     """One measured record, in SI units, with the baseline it is to be compared with.
 
-    ``inputs`` maps each input quantity's name (``time`` excluded) to its SI array; ``output`` is the
-    measured output in SI; ``output_column`` and ``output_factor`` say how the file showed it
-    (``output / output_factor`` gives the file's numbers back).
+    ``inputs`` maps each input quantity's name (``time`` excluded) to its SI array, measured pressures of a knee
+    file (``pe``, ``pf``) included when the file has them; ``output`` is the measured output in SI (m, rad or N),
+    offset removed; ``output_quantity`` names it (``x``, ``beta``, ``length``, ``force``); ``output_column`` and
+    ``output_factor`` say how the file showed it (``output / output_factor`` gives the file's numbers back,
+    offset removed). ``offsets`` holds the declared sensor offsets (SI, by quantity). ``branch``: for an
+    isometric record, +1 where the pressure rises ("up"), -1 where it falls ("down").
     """
 
     experiment: str
@@ -114,6 +151,14 @@ class Measurement:
     output_factor: float
     source: str = "<memory>"
     extra_columns: tuple = field(default=())
+    output_quantity: str = ""
+    offsets: dict = field(default_factory=dict)
+    branch: np.ndarray | None = None
+    has_time: bool = True
+
+    def __post_init__(self):
+        if not self.output_quantity:
+            object.__setattr__(self, "output_quantity", self.output_column.rsplit("_", 1)[0])
 
     @property
     def samples(self) -> int:
@@ -129,8 +174,14 @@ class Measurement:
         return np.asarray(values_si, dtype=float) / self.output_factor
 
 
-def read_measurement(path) -> Measurement:
-    """Read a measurement file (model-spec section 5); raise MeasurementFileError for any broken rule."""
+# --- reading --------------------------------------------------------------------------------------
+
+def read_measurement(path, base: Params = DEFAULT) -> Measurement:
+    """Read a measurement file (model-spec section 5); raise MeasurementFileError for any broken rule.
+
+    ``base``: the parameters the file's metadata overrides (default: the paper's; a muscle file's with
+    ``--params``).
+    """
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8-sig")
@@ -142,28 +193,61 @@ def read_measurement(path) -> Measurement:
         raise MeasurementFileError(f"{path}: not a text file (it is not UTF-8)") from None
     except OSError as error:
         raise MeasurementFileError(f"{path}: cannot be read ({error.strerror})") from None
-    return parse_measurement(text, str(path))
+    return parse_measurement(text, str(path), base)
 
 
-def parse_measurement(text: str, source: str = "<text>") -> Measurement:
-    """Parse the text of a measurement file; ``source`` names it in error messages."""
-    def fail(line_number, message):
-        where = f"{source} line {line_number}" if line_number else source
+class _Fail:
+    """Raises a one-line MeasurementFileError naming the source and the line."""
+
+    def __init__(self, source: str):
+        self.source = source
+
+    def __call__(self, line_number, message):
+        where = f"{self.source} line {line_number}" if line_number else self.source
         raise MeasurementFileError(f"{where}: {message}")
 
+
+def parse_measurement(text: str, source: str = "<text>", base: Params = DEFAULT) -> Measurement:
+    """Parse the text of a measurement file; ``source`` names it in error messages; ``base`` as in
+    :func:`read_measurement`."""
+    fail = _Fail(source)
     lines = text.splitlines()
     if not any(line.strip() for line in lines):
         fail(1, "the file is empty (no metadata, header or data)")
+    metadata, header_index = _read_metadata(lines, fail)
+    experiment, baseline, params, overrides, offset_items = _check_metadata(metadata, header_index, base, fail)
+    columns, output, extra, header = _read_header(lines[header_index], header_index + 1, experiment, fail)
+    offsets = _offsets(offset_items, experiment, columns, fail)
+    data, branch, row_lines = _read_rows(lines, header_index, header, columns, experiment, fail)
 
+    def column(name):
+        values = data[name] - offsets.get(name, 0.0)
+        return values
+
+    has_time = "time" in columns
+    time = data["time"] if has_time else np.arange(len(row_lines), dtype=float)
+    inputs = {q.name: column(q.name) for q in experiment.inputs[1:]}
+    inputs.update({q.name: column(q.name) for q in experiment.optional if q.name in columns})
+    if experiment.name == "isometric":
+        branch = _isometric_branch(branch, inputs, has_time, row_lines, header_index, fail)
+    out_position, out_factor = columns[output.name]
+    return Measurement(
+        experiment=experiment.name, baseline=baseline, params=params, overrides=overrides, time=time,
+        inputs=inputs, output=column(output.name), output_column=header[out_position], output_factor=out_factor,
+        source=source, extra_columns=tuple(extra), output_quantity=output.name, offsets=offsets, branch=branch,
+        has_time=has_time,
+    )
+
+
+def _read_metadata(lines, fail) -> tuple[dict, int]:
+    """The ``# key = value`` lines before the header: {key: (value, line number)}, and the header's index."""
     metadata: dict[str, tuple[str, int]] = {}
-    header_index = None
     for index, raw in enumerate(lines):
         line = raw.strip()
         if not line:
             continue
         if not line.startswith("#"):
-            header_index = index
-            break
+            return metadata, index
         body = line[1:].strip()
         if "=" not in body:
             continue  # a free comment
@@ -174,66 +258,73 @@ def parse_measurement(text: str, source: str = "<text>") -> Measurement:
             fail(index + 1, f"metadata key {key!r} given twice (first on line {metadata[key][1]})")
         if key == "model":
             fail(index + 1, "choose the model with 'baseline = model1' or 'baseline = model2', not 'model'")
-        if key not in METADATA_KEYS and key not in PARAMETER_NAMES:
-            fail(index + 1, f"unknown metadata key {key!r} (known: experiment, baseline and the parameter "
-                            f"names {', '.join(n for n in PARAMETER_NAMES if n != 'model')})")
+        if key not in METADATA_KEYS and key not in PARAMETER_NAMES and "_offset_" not in key:
+            fail(index + 1, f"unknown metadata key {key!r} (known: experiment, baseline, <column>_offset_<unit> "
+                            f"and the parameter names {', '.join(n for n in PARAMETER_NAMES if n != 'model')})")
         metadata[key] = (value, index + 1)
-    if header_index is None:
-        fail(len(lines) + 1, "no header row after the metadata (the file holds only '#' lines)")
+    fail(len(lines) + 1, "no header row after the metadata (the file holds only '#' lines)")
 
-    # experiment and baseline
+
+def _check_metadata(metadata: dict, header_index: int, base: Params, fail):
+    """Experiment, baseline and parameters, checked as a whole after all metadata is read."""
     if "experiment" not in metadata:
-        fail(header_index + 1, "metadata '# experiment = isotonic' or '# experiment = knee' is missing "
-                               "before the header")
+        fail(header_index + 1, "metadata '# experiment = " + " | ".join(EXPERIMENTS) + "' is missing before "
+                               "the header")
     name, name_line = metadata["experiment"]
     if name not in EXPERIMENTS:
         fail(name_line, f"unknown experiment {name!r} (known: {', '.join(EXPERIMENTS)})")
-    experiment = EXPERIMENTS[name]
     baseline, baseline_line = metadata.get("baseline", ("model2", None))
     if baseline not in BASELINES:
         fail(baseline_line, f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
-
-    # parameters
     overrides: dict[str, float] = {}
+    offsets: dict[str, tuple[float, int, str]] = {}
     for key, (value, line_number) in metadata.items():
         if key in METADATA_KEYS:
             continue
         number = _to_float(value)
+        what = "offset" if key not in PARAMETER_NAMES else "parameter"
         if number is None:
-            fail(line_number, f"parameter {key!r} is not a number: {value!r}")
-        try:
-            Params().replace(**{key: number})
-        except ParameterError as error:
-            fail(line_number, str(error))
-        overrides[key] = number
+            fail(line_number, f"{what} {key!r} is not a number: {value!r}")
+        if not math.isfinite(number):
+            fail(line_number, f"{what} {key!r} is not a finite number: {value!r}")
+        if key in PARAMETER_NAMES:
+            overrides[key] = number
+        else:
+            offsets[key] = (number, line_number, key)
     try:
-        params = Params().replace(model=BASELINES[baseline], **overrides)
+        params = base.replace(model=BASELINES[baseline], **overrides)
     except ParameterError as error:
-        fail(None, f"metadata: {error}")
+        # name the lines that set the parameters the error speaks of, so that a pair (L0 and b) is found
+        lines = sorted(metadata[k][1] for k in overrides if re.search(rf"\b{k}\b", str(error)))
+        fail(lines[0] if len(lines) == 1 else None,
+             f"{error}" + (f" (set on lines {', '.join(map(str, lines))})" if len(lines) > 1 else ""))
+    return EXPERIMENTS[name], baseline, params, overrides, offsets
 
-    # header
-    header_line = header_index + 1
-    header_text = lines[header_index]
+
+def _read_header(header_text: str, header_line: int, experiment: Experiment, fail):
+    """Columns {quantity: (index, factor)}, the output quantity the file has, extra columns, header cells."""
     if "," not in header_text:
         for separator, label in ((";", "semicolons"), ("\t", "tabs")):
             if separator in header_text:
                 fail(header_line, f"not comma-separated: the header row is separated by {label}; measurement "
                                   "files use commas between columns and '.' as the decimal point")
     header = [cell.strip() for cell in header_text.split(",")]
-    columns: dict[str, tuple[int, float]] = {}  # quantity name -> (column index, factor to SI)
-    names = [q.name for q in (*experiment.inputs, experiment.output)]
-    kinds = {q.name: q.kind for q in (*experiment.inputs, experiment.output)}
+    kinds = {q.name: q.kind for q in experiment.quantities}
+    columns: dict[str, tuple[int, float]] = {}
     extra = []
     for position, cell in enumerate(header):
         if not cell:
             fail(header_line, f"header cell {position + 1} is empty")
         if header.index(cell) != position:
             fail(header_line, f"column {cell!r} appears twice")
+        if experiment.name == "isometric" and cell == "branch":
+            columns["branch"] = (position, 1.0)
+            continue
         quantity, _, unit = cell.rpartition("_")
-        if cell in names:
+        if cell in kinds:
             fail(header_line, f"column {cell!r} has no unit suffix (for example "
                               f"'{cell}_{_canonical_unit(experiment, cell)}')")
-        if quantity not in names:
+        if quantity not in kinds:
             extra.append(cell)
             continue
         factor = unit_factor(kinds[quantity], unit)
@@ -243,19 +334,53 @@ def parse_measurement(text: str, source: str = "<text>") -> Measurement:
         if quantity in columns:
             fail(header_line, f"two columns for {quantity}: {header[columns[quantity][0]]!r} and {cell!r}")
         columns[quantity] = (position, factor)
-    missing = [q for q in names if q not in columns]
+    required = [q for q in experiment.inputs if q.name in columns or q.name != "time" or experiment.time_required]
+    missing = [q for q in required if q.name not in columns]
+    outputs = [q for q in experiment.outputs if q.name in columns]
+    if not missing and not outputs:
+        missing = [experiment.output]
     if missing:
         expected = ", ".join(f"{q.name}_{q.unit}" for q in (*experiment.inputs, experiment.output))
-        column = f"{missing[0]}_{_canonical_unit(experiment, missing[0])}"
-        article = "an" if name[0] in "aeiou" else "a"
-        units = "/".join(UNIT_FACTORS[kinds[missing[0]]])
-        fail(header_line, f"missing column {column!r} (any unit {units} will do; {article} {name} file "
-                          f"needs {expected})")
+        alternatives = " or ".join(f"{q.name}_{q.unit}" for q in experiment.outputs)
+        q = missing[0]
+        article = "an" if experiment.name[0] in "aeiou" else "a"
+        if q in experiment.outputs and len(experiment.outputs) > 1:
+            fail(header_line, f"missing the measured output: a column {alternatives} (any unit of its kind will "
+                              f"do; {article} {experiment.name} file needs {expected})")
+        fail(header_line, f"missing column {q.name + '_' + q.unit!r} (any unit {'/'.join(UNIT_FACTORS[q.kind])} "
+                          f"will do; {article} {experiment.name} file needs {expected})")
+    if len(outputs) > 1:
+        fail(header_line, f"two measured outputs {header[columns[outputs[0].name][0]]!r} and "
+                          f"{header[columns[outputs[1].name][0]]!r}: a {experiment.name} file has one of them")
+    return columns, outputs[0], extra, header
 
-    # data rows
+
+def _offsets(items: dict, experiment: Experiment, columns: dict, fail) -> dict[str, float]:
+    """Declared sensor offsets ``<quantity>_offset_<unit>``, in SI, by quantity."""
+    kinds = {q.name: q.kind for q in experiment.quantities}
+    offsets = {}
+    for key, (value, line_number, _) in items.items():
+        quantity, _, unit = key.partition("_offset_")
+        if quantity not in kinds:
+            fail(line_number, f"unknown metadata key {key!r}: an offset is <quantity>_offset_<unit> with a "
+                              f"quantity of this file ({', '.join(q for q in kinds if q in columns and q != 'time')})")
+        factor = unit_factor(kinds[quantity], unit)
+        if factor is None:
+            fail(line_number, f"offset {key!r}: unknown unit {unit!r} for {quantity} "
+                              f"(use {', '.join(UNIT_FACTORS[kinds[quantity]])})")
+        if quantity not in columns:
+            fail(line_number, f"offset {key!r} for a column the file does not have")
+        offsets[quantity] = value * factor
+    return offsets
+
+
+def _read_rows(lines, header_index: int, header, columns: dict, experiment: Experiment, fail):
+    """Numbers by quantity (SI, before offsets), the branch cells (isometric) and each row's line number."""
+    names = [q for q in columns if q != "branch"]
     rows: list[list[float]] = []
+    branches: list[int] = []
     row_lines: list[int] = []
-    previous_time_cell = ""  # the time cell of the row before, for the "time does not increase" message
+    previous_time_cell = ""
     for index in range(header_index + 1, len(lines)):
         line = lines[index].strip()
         if not line:
@@ -275,37 +400,58 @@ def parse_measurement(text: str, source: str = "<text>") -> Measurement:
             if not math.isfinite(number):
                 fail(index + 1, f"column {header[position]!r} is not a finite number: {cell!r}")
             values.append(number * factor)
-        time_cell = cells[columns["time"][0]]
-        if rows and values[0] <= rows[-1][0]:
-            fail(index + 1, f"time does not increase: {header[columns['time'][0]]} = {time_cell} after "
-                            f"{previous_time_cell} on line {row_lines[-1]}")
+        if "branch" in columns:
+            cell = cells[columns["branch"][0]].lower()
+            if cell not in BRANCHES:
+                fail(index + 1, f"column 'branch' must be up or down, got {cells[columns['branch'][0]]!r}")
+            branches.append(BRANCHES[cell])
+        if "time" in columns:
+            position = columns["time"][0]
+            t = values[names.index("time")]
+            if rows and t <= rows[-1][names.index("time")]:
+                fail(index + 1, f"time does not increase: {header[position]} = {cells[position]} after "
+                                f"{previous_time_cell} on line {row_lines[-1]}")
+            previous_time_cell = cells[position]
         rows.append(values)
         row_lines.append(index + 1)
-        previous_time_cell = time_cell
     if len(rows) < 2:
-        fail(row_lines[-1] if rows else header_line + 1,
-             f"a record needs at least 2 data rows after the header (line {header_line}), found {len(rows)}")
+        fail(row_lines[-1] if rows else header_index + 2,
+             f"a record needs at least 2 data rows after the header (line {header_index + 1}), found {len(rows)}")
+    table = np.array(rows, dtype=float)
+    data = {name: table[:, i].copy() for i, name in enumerate(names)}
+    return data, (np.array(branches) if branches else None), row_lines
 
-    data = np.array(rows, dtype=float)
-    output_position = names.index(experiment.output.name)
-    out_index, out_factor = columns[experiment.output.name]
-    return Measurement(
-        experiment=name,
-        baseline=baseline,
-        params=params,
-        overrides=overrides,
-        time=data[:, 0].copy(),
-        inputs={q.name: data[:, i + 1].copy() for i, q in enumerate(experiment.inputs[1:])},
-        output=data[:, output_position].copy(),
-        output_column=header[out_index],
-        output_factor=out_factor,
-        source=source,
-        extra_columns=tuple(extra),
-    )
+
+def _isometric_branch(branch, inputs: dict, has_time: bool, row_lines, header_index, fail) -> np.ndarray:
+    """The branch of every isometric row: the file's, or inferred from the pressure's direction per length."""
+    length, pressure = inputs["length"], inputs["pressure"]
+    if np.ptp(pressure) == 0:
+        fail(header_index + 1, "an isometric file needs more than one pressure (it holds only "
+                               f"{pressure[0] / 1e3:g} kPa): the force must be measured as the pressure changes")
+    if branch is not None:
+        return branch
+    if not has_time:
+        fail(header_index + 1, "an isometric file without a 'branch' column needs 'time_s' to tell the rising "
+                               "pressure (up) from the falling one (down)")
+    inferred = np.zeros(length.size, dtype=int)
+    for value in np.unique(length):
+        rows = np.flatnonzero(length == value)
+        p = pressure[rows]
+        step = np.diff(p)
+        direction = np.sign(np.concatenate([step[:1], step]))  # the first row follows the second's direction
+        # a held pressure (no change) keeps the direction it came with
+        for i in range(1, direction.size):
+            if direction[i] == 0:
+                direction[i] = direction[i - 1]
+        if direction.size and direction[0] == 0:
+            nonzero = direction[direction != 0]
+            direction[direction == 0] = nonzero[0] if nonzero.size else 1
+        inferred[rows] = direction
+    return inferred
 
 
 def _canonical_unit(experiment: Experiment, quantity: str) -> str:
-    return next(q.unit for q in (*experiment.inputs, experiment.output) if q.name == quantity)
+    return next(q.unit for q in experiment.quantities if q.name == quantity)
 
 
 def _to_float(text: str) -> float | None:
@@ -314,6 +460,41 @@ def _to_float(text: str) -> float | None:
     except ValueError:
         return None
 
+
+# --- records from arrays (notebooks) ---------------------------------------------------------------
+
+def measurement_from_arrays(experiment: str, time, inputs: dict, output, output_column: str | None = None,
+                            params: dict | None = None, baseline: str = "model2", branch=None,
+                            base: Params = DEFAULT, source: str = "<arrays>") -> Measurement:
+    """A :class:`Measurement` from SI arrays, checked by the same rules as a file (it is written to text and
+    parsed, so nothing can differ from reading a file).
+
+    Parameters: experiment ``isotonic | knee | isometric``; time [s] (None for an isometric record with
+    ``branch``); inputs {name: SI array} (``pressure, force``; ``pe_cmd, pf_cmd`` and optionally ``pe, pf``;
+    ``length, pressure``); output, the measured output in SI; output_column, which output column it is
+    (default the experiment's canonical one, e.g. ``x_mm``; ``beta_deg`` for a knee angle); params: known
+    parameters (SI) as in a file's metadata; branch: isometric +1/-1 (or "up"/"down") per row.
+    """
+    import io
+    text = io.StringIO()
+    write_measurement(text, experiment, time, inputs, output, metadata=params, baseline=baseline,
+                      output_column=output_column, branch=branch)
+    return parse_measurement(text.getvalue(), source, base)
+
+
+def measurement_from_dataframe(frame, experiment: str, params: dict | None = None, baseline: str = "model2",
+                               base: Params = DEFAULT, source: str = "<DataFrame>") -> Measurement:
+    """A :class:`Measurement` from a pandas DataFrame whose columns are named as in a file (``time_s``,
+    ``pe_cmd_kPa``, ``x_mm``, ...; units from the suffixes), with metadata given as arguments."""
+    lines = [f"# experiment = {experiment}", f"# baseline = {baseline}"]
+    lines += [f"# {key} = {value!r}" for key, value in (params or {}).items()]
+    lines.append(",".join(str(c) for c in frame.columns))
+    for row in frame.itertuples(index=False):
+        lines.append(",".join(repr(float(v)) if not isinstance(v, str) else v for v in row))
+    return parse_measurement("\n".join(lines) + "\n", source, base)
+
+
+# --- writing --------------------------------------------------------------------------------------
 
 #: Significant digits of the numbers :func:`write_measurement` writes.
 DIGITS = 12
@@ -326,19 +507,38 @@ def round_to_file(values, quantity: Quantity):
     return np.array([float(f"{v:.{DIGITS}g}") for v in scaled]) * factor
 
 
-def write_measurement(path, experiment: str, time, inputs: dict, output, metadata: dict | None = None,
-                      baseline: str | None = None, comments: tuple[str, ...] = ()) -> Path:
-    """Write a measurement file in the canonical units (s, kPa, N, mm); arrays are SI.
+def _quantity(experiment: Experiment, column: str) -> Quantity:
+    """The output quantity named by a column such as ``x_mm`` or ``beta_deg`` (its unit becomes canonical)."""
+    name, _, unit = column.rpartition("_")
+    for q in experiment.outputs:
+        if q.name == name:
+            if unit_factor(q.kind, unit) is None:
+                raise MeasurementFileError(f"output column {column!r}: unknown unit {unit!r} for {name}")
+            exact = next(u for u in UNIT_FACTORS[q.kind] if u.lower() == unit.lower())
+            return Quantity(name, q.kind, exact)
+    names = ", ".join(f"{q.name}_{q.unit}" for q in experiment.outputs)
+    raise MeasurementFileError(f"{column!r} is not an output of a {experiment.name} file (use {names})")
 
-    ``inputs`` maps the experiment's input names (``pressure, force`` or ``pe_cmd, pf_cmd``) to arrays;
-    ``metadata`` holds parameter overrides (SI) for the baseline; ``comments`` become free ``#`` lines.
-    Returns the path written.
+
+def write_measurement(path, experiment: str, time, inputs: dict, output, metadata: dict | None = None,
+                      baseline: str | None = None, comments: tuple[str, ...] = (), output_column: str | None = None,
+                      branch=None):
+    """Write a measurement file in the canonical units (s, kPa, N, mm, deg); arrays are SI.
+
+    ``inputs`` maps the experiment's input names (``pressure, force``; ``pe_cmd, pf_cmd`` and optionally the
+    measured ``pe, pf``; ``length, pressure``) to arrays; ``output_column`` picks the output (default the
+    canonical one; ``beta_deg`` for a knee angle); ``metadata`` holds parameter overrides (SI) and offsets;
+    ``comments`` become free ``#`` lines; ``time`` may be None for an isometric record with ``branch``
+    (+1/-1 or "up"/"down" per row). ``path`` may be an open text stream. Returns the path written.
     """
     if experiment not in EXPERIMENTS:
         raise MeasurementFileError(f"unknown experiment {experiment!r} (known: {', '.join(EXPERIMENTS)})")
     spec = EXPERIMENTS[experiment]
-    quantities = (*spec.inputs, spec.output)
-    arrays = [np.asarray(time, dtype=float)] + [np.asarray(inputs[q.name], dtype=float) for q in spec.inputs[1:]]
+    out = spec.output if output_column is None else _quantity(spec, output_column)
+    quantities = [q for q in spec.inputs if q.name != "time" or time is not None]
+    quantities += [q for q in spec.optional if q.name in inputs]
+    arrays = [np.asarray(time if q.name == "time" else inputs[q.name], dtype=float) for q in quantities]
+    quantities.append(out)
     arrays.append(np.asarray(output, dtype=float))
     scaled = np.column_stack([a / UNIT_FACTORS[q.kind][q.unit] for a, q in zip(arrays, quantities)])
     number = "{:.%dg}" % DIGITS
@@ -348,8 +548,21 @@ def write_measurement(path, experiment: str, time, inputs: dict, output, metadat
         lines.append(f"# baseline = {baseline}")
     for key, value in (metadata or {}).items():
         lines.append(f"# {key} = {value!r}")
-    lines.append(",".join(f"{q.name}_{q.unit}" for q in quantities))
-    lines.extend(",".join(number.format(v) for v in row) for row in scaled)
+    header = [f"{q.name}_{q.unit}" for q in quantities]
+    branch_cells = None
+    if branch is not None:
+        signs = {1: "up", -1: "down", "up": "up", "down": "down"}
+        branch_cells = [signs[b if isinstance(b, str) else int(b)] for b in branch]
+        header.append("branch")
+    lines.append(",".join(header))
+    for i, row in enumerate(scaled):
+        cells = [number.format(v) for v in row]
+        if branch_cells is not None:
+            cells.append(branch_cells[i])
+        lines.append(",".join(cells))
+    if hasattr(path, "write"):
+        path.write("\n".join(lines) + "\n")
+        return path
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")

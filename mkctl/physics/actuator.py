@@ -229,15 +229,38 @@ def velocity_tension_dLdot(Ldot, params: Params = DEFAULT):
     return params.c + params.Fc / params.vs * (1 - math_for(Ldot).tanh(Ldot / params.vs) ** 2)  # sech^2, no overflow
 
 
-def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
-    """Total tension [N]: the static model (1 or 2) plus damping and friction, as params switch them on.
+def slack_tension(f, slack: int):
+    """The slack effect (model-spec section 4): ``max(f, 0)`` when slack = 1, f unchanged when 0 [N].
 
-    ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``.
+    A braided muscle cannot push: where the model's tension f [N] is negative (a shortened muscle at low
+    pressure), the real muscle goes slack and carries nothing. Applied last, to the whole tension.
+    """
+    if not slack:
+        return f
+    if type(f) is float:
+        return f if f > 0.0 else 0.0
+    return np.maximum(f, 0.0)
+
+
+def slack_factor(f, slack: int):
+    """d(slack_tension)/df [-]: 0 where a slack muscle carries nothing (f <= 0), else 1."""
+    if not slack:
+        return 1.0
+    if type(f) is float:
+        return 1.0 if f > 0.0 else 0.0
+    return (np.asarray(f) > 0.0).astype(float)
+
+
+def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
+    """Total tension [N]: the static model (1 or 2) plus damping and friction, then slack, as params say.
+
+    ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``, and with slack = 1
+    ``f = max(f, 0)`` (model-spec section 4). Parameters: L [m], P gauge pressure [Pa], Ldot [m/s].
     """
     Ldot = as_values(Ldot)
     if not np.isfinite(Ldot).all():
         raise DomainError("lengthening rate Ldot is not a finite number (NaN or infinite)")
-    return static_tension(L, P, params) + velocity_tension(Ldot, params)
+    return slack_tension(static_tension(L, P, params) + velocity_tension(Ldot, params), params.slack)
 
 
 def pressure_rate(P, P_cmd, tau: float):

@@ -209,8 +209,8 @@ def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeFo
     p = params
     Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
     Le_dot, Lf_dot = -geo.G_e * V, geo.G_f * V  # virtual work: dLe/dX = -G_e, dLf/dX = G_f
-    fe = actuator.static_tension(geo.Le, Pe, p) + actuator.velocity_tension(Le_dot, p)
-    ff = actuator.static_tension(geo.Lf, Pf, p) + actuator.velocity_tension(Lf_dot, p)
+    fe = actuator.slack_tension(actuator.static_tension(geo.Le, Pe, p) + actuator.velocity_tension(Le_dot, p), p.slack)
+    ff = actuator.slack_tension(actuator.static_tension(geo.Lf, Pf, p) + actuator.velocity_tension(Lf_dot, p), p.slack)
     return KneeForce(geo.G_e * fe - geo.G_f * ff, fe, ff, Le_dot, Lf_dot)
 
 
@@ -231,6 +231,7 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) 
 
     Uses ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V), the derivatives of
     the static models (:func:`mkctl.physics.actuator.static_tension_dL`, ``_dP``) and of the velocity terms.
+    With slack, a muscle that carries nothing (f <= 0) contributes nothing to any derivative.
     """
     p = params
     force = knee_force(geo, V, Pe, Pf, p)
@@ -238,14 +239,15 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) 
     dX = geo.dX_dbeta
     Ge_x, Gf_x = geo.dGe_dbeta / dX, geo.dGf_dbeta / dX  # dG/dX
     Le_x, Lf_x = geo.dLe_dbeta / dX, geo.dLf_dbeta / dX  # dL/dX
-    dfe_dLdot = actuator.velocity_tension_dLdot(force.Le_dot, p)
-    dff_dLdot = actuator.velocity_tension_dLdot(force.Lf_dot, p)
-    dfe_dX = actuator.static_tension_dL(geo.Le, Pe, p) * Le_x + dfe_dLdot * (-Ge_x * V)
-    dff_dX = actuator.static_tension_dL(geo.Lf, Pf, p) * Lf_x + dff_dLdot * (Gf_x * V)
+    taut_e, taut_f = actuator.slack_factor(force.fe, p.slack), actuator.slack_factor(force.ff, p.slack)
+    dfe_dLdot = taut_e * actuator.velocity_tension_dLdot(force.Le_dot, p)
+    dff_dLdot = taut_f * actuator.velocity_tension_dLdot(force.Lf_dot, p)
+    dfe_dX = taut_e * actuator.static_tension_dL(geo.Le, Pe, p) * Le_x + dfe_dLdot * (-Ge_x * V)
+    dff_dX = taut_f * actuator.static_tension_dL(geo.Lf, Pf, p) * Lf_x + dff_dLdot * (Gf_x * V)
     dF_dX = Ge_x * force.fe + geo.G_e * dfe_dX - Gf_x * force.ff - geo.G_f * dff_dX
     dF_dV = geo.G_e * dfe_dLdot * Le_x - geo.G_f * dff_dLdot * Lf_x
-    dF_dPe = geo.G_e * actuator.static_tension_dP(geo.Le, p)
-    dF_dPf = -geo.G_f * actuator.static_tension_dP(geo.Lf, p)
+    dF_dPe = geo.G_e * taut_e * actuator.static_tension_dP(geo.Le, p)
+    dF_dPf = -geo.G_f * taut_f * actuator.static_tension_dP(geo.Lf, p)
     return KneeForcePartials(force.F, dF_dX, dF_dV, dF_dPe, dF_dPf, force.fe, force.ff)
 
 

@@ -66,6 +66,7 @@ EFFECTS_TABLE = MappingProxyType({
     "Fc": Quantity(0.0, "N", "Coulomb friction of each actuator: f += Fc tanh(Ldot / vs)"),
     "vs": Quantity(1e-3, "m/s", "velocity scale of the smoothed Coulomb friction (not fitted)"),
     "tau": Quantity(0.0, "s", "pressure lag time constant: tau dP/dt = P_cmd - P"),
+    "slack": Quantity(0, "1", "1: a braided muscle cannot push, f = max(f, 0) (a switch, not fitted)"),
 })
 
 #: Typical rated gauge pressure of a real McKibben muscle [Pa]; the model itself has no limit (spec section 3
@@ -78,6 +79,7 @@ EFFECT_PARAMETERS = MappingProxyType({
     "viscous_damping": ("c",),
     "coulomb_friction": ("Fc",),
     "pressure_lag": ("tau",),
+    "slack": ("slack",),
 })
 
 #: Units of every parameter name (derived ones included), for files, FMUs and plots.
@@ -85,6 +87,9 @@ UNITS = MappingProxyType({
     **{k: q.unit for k, q in {**TABLE_I, **TABLE_II, **EFFECTS_TABLE}.items()},
     "n": "1", "model": "1",
 })
+
+#: Parameters that are whole numbers (switches), not real values.
+INTEGER_PARAMETERS = ("model", "slack")
 
 
 def derived_turns(b: float, L0: float, D0: float) -> float:
@@ -107,7 +112,8 @@ def rubber_volume(t0: float, D0: float, L0: float) -> float:
 class Params:
     """Every parameter of the actuator, the knee and the effects, in SI units.
 
-    Defaults are Table I, Table II and "effects off" (c = Fc = tau = 0), with model 2 (elasticity on).
+    Defaults are Table I, Table II and "effects off" (c = Fc = tau = 0, slack = 0), with model 2 (elasticity
+    on). ``model`` (1 or 2) and ``slack`` (0 or 1) are whole numbers; everything else is a float.
     ``n`` is derived from b, L0 and D0 unless given. Invalid values raise :class:`ParameterError`.
     """
 
@@ -137,6 +143,7 @@ class Params:
     Fc: float = EFFECTS_TABLE["Fc"].value
     vs: float = EFFECTS_TABLE["vs"].value
     tau: float = EFFECTS_TABLE["tau"].value
+    slack: int = 0
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
@@ -145,7 +152,9 @@ class Params:
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise ParameterError(f"parameter {field.name} must be a finite number, got {value!r}")
-            object.__setattr__(self, field.name, int(value) if field.name == "model" else float(value))
+            if field.name in INTEGER_PARAMETERS and value != int(value):
+                raise ParameterError(f"parameter {field.name} must be a whole number, got {value!r}")
+            object.__setattr__(self, field.name, int(value) if field.name in INTEGER_PARAMETERS else float(value))
         positive = ("b", "L0", "D0", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "r", "g", "vs")
         for name in positive:
             if getattr(self, name) <= 0:
@@ -155,6 +164,8 @@ class Params:
                 raise ParameterError(f"parameter {name} must not be negative, got {getattr(self, name)!r}")
         if self.model not in (1, 2):
             raise ParameterError(f"parameter model must be 1 or 2, got {self.model!r}")
+        if self.slack not in (0, 1):
+            raise ParameterError(f"parameter slack must be 0 (off) or 1 (on), got {self.slack!r}")
         if self.L0 >= self.b:
             raise ParameterError(f"rest length L0 = {self.L0} m must be shorter than the braid b = {self.b} m")
         if self.t0 >= self.D0 / 2:
@@ -177,6 +188,7 @@ class Params:
             "viscous_damping": self.c > 0,
             "coulomb_friction": self.Fc > 0,
             "pressure_lag": self.tau > 0,
+            "slack": self.slack == 1,
         }
         return tuple(name for name, active in on.items() if active)
 

@@ -59,10 +59,16 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
     """Extensor pressure Pe [Pa] that holds the hip at rest at kneecap angle alpha [rad] with flexor Pf [Pa].
 
     F is affine in Pe, so ``Pe = (m g - F(alpha, 0, Pf)) / (dF/dPe)``: the set V = 0 of Fig. 7.
+    With slack (model-spec section 4) the extensor that holds the hip is taut, so its tension stays affine
+    in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``.
     """
     geo = knee.geometry_at_alpha(alpha, params)
-    partials = knee.knee_force_partials(geo, 0.0, 0.0, Pf, params)
-    return (params.m * params.g - partials.F) / partials.dF_dPe
+    taut = params.replace(slack=0) if params.slack else params
+    partials = knee.knee_force_partials(geo, 0.0, 0.0, Pf, taut)
+    F = partials.F
+    if params.slack:
+        F = F + geo.G_f * np.minimum(partials.ff, 0.0)  # a slack flexor does not push the hip up
+    return (params.m * params.g - F) / partials.dF_dPe
 
 
 def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
