@@ -59,6 +59,7 @@ from ..errors import DomainError, MkctlError, ParameterError
 from ..physics import actuator
 from ..physics.isometric import isometric_tension
 from ..physics.params import PARAMETER_NAMES, UNITS, Params
+from ..results import Result
 from .diagnose import BIC_THRESHOLD, HOLDOUT_GAIN
 
 #: Parameters always fitted (model-spec section 5b: the ones a user cannot measure).
@@ -314,8 +315,8 @@ def starting_points(records: list[ForceRecord], start: Params, names: tuple) -> 
 
 # --- The result --------------------------------------------------------------------------------------
 
-@dataclass
-class CalibrationResult:
+@dataclass(repr=False)
+class CalibrationResult(Result):
     """What :func:`calibrate` found: the calibrated muscle, its uncertainty, and the error fall step by step.
 
     Numbers are SI; NRMS values are fractions (0.02 = 2 % of the measured force range).
@@ -343,19 +344,21 @@ class CalibrationResult:
     records: list = field(repr=False, default_factory=list)
     curves: dict = field(repr=False, default_factory=dict)  #: step label -> (Params, offset)
 
-    def __repr__(self) -> str:
-        fitted = ", ".join(f"{k}={v:.4g}" + (f"±{self.stderr[k]:.2g}" if k in self.stderr else "")
+    def summary_lines(self) -> list[str]:
+        fitted = ", ".join(f"{k} = {v:.4g}" + (f" +- {self.stderr[k]:.2g}" if k in self.stderr else "")
                            for k, v in self.fitted.items())
-        return (f"CalibrationResult(effects={self.effects}, nrms {self.nrms_before:.2%} -> {self.nrms_after:.2%}, "
-                f"{fitted}, not_identifiable={self.not_identifiable})")
+        lines = [f"effects {', '.join(self.effects) or 'none'}; NRMS {self.nrms_before:.2%} (static fit) -> "
+                 f"{self.nrms_after:.2%}", fitted]
+        if self.not_identifiable:
+            lines.append("not identifiable: " + "; ".join(" with ".join(g) for g in self.not_identifiable))
+        if self.at_bound:
+            lines.append("on a bound: " + ", ".join(self.at_bound))
+        return lines
 
-    def to_dataframe(self):
-        """The steps as a pandas DataFrame: step, effects, NRMS, RMS [N], BIC and held-out RMS where known."""
-        import pandas as pd
-
-        rows = [{"step": s["label"], "effects": ", ".join(s["effects"]), "nrms": s["nrms"], "rms_N": s["rms"],
+    def table(self):
+        """The steps: step, effects, NRMS, RMS [N], BIC (training part) and held-out RMS [N] where known."""
+        return [{"step": s["label"], "effects": ", ".join(s["effects"]), "nrms": s["nrms"], "rms_N": s["rms"],
                  "bic": s.get("bic"), "rms_holdout_N": s.get("rms_holdout")} for s in self.steps]
-        return pd.DataFrame(rows)
 
     def to_dict(self) -> dict:
         """The muscle file's content (model-spec section 5b), plain JSON values."""
@@ -606,8 +609,8 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     params_final = current.params
     braid = math.sqrt(params_final.b ** 2 - params_final.L0 ** 2) / (math.pi * params_final.n)
     curves["final"] = (params_final, current.values.get("offset", 0.0))
-    if abs(nrms_after - steps[-1]["nrms"]) > 1e-12:
-        steps.append({"label": "final (identifiable)", "effects": list(added), "nrms": nrms_after,
+    if abs(nrms_after - steps[-1]["nrms"]) > 1e-3 * steps[-1]["nrms"]:  # holding a parameter cost something
+        steps.append({"label": "final (" + ", ".join(held) + " held)", "effects": list(added), "nrms": nrms_after,
                       "rms": nrms_after * force_range, "params": dict(current.values)})
     return CalibrationResult(
         params=params_final, fitted=fitted, stderr=stderr, not_identifiable=[list(g) for g in groups], held=held,
@@ -672,3 +675,121 @@ def _stop_reason(best: dict) -> str:
         parts.append(f"{'it' if parts else 'the best candidate (' + best['effect'] + ')'} does not lower the "
                      f"held-out error by {HOLDOUT_GAIN:.0%}")
     return "; ".join(parts) or "nothing more helps"
+
+
+# --- Pictures and the table --------------------------------------------------------------------------
+
+def plot_fits(result: CalibrationResult, folder, stem: str) -> list[Path]:
+    """Data and fits per length: one PNG per record (``<stem>_fit.png``, or ``<stem>_fit_<i>.png`` for
+    several). Isometric: tension against pressure at each clamped length, both branches, with the static
+    fit and the final model (:func:`mkctl.analysis.compare.plot_isometric`). Isotonic: the measured
+    length against pressure per load, with the final model's quasi-static simulation."""
+    from .compare import plot_isometric
+
+    folder = Path(folder)
+    paths = []
+    curves = {"static fit (no effects)": result.curves["static fit"]}
+    if result.effects:
+        curves["calibrated: + " + ", ".join(result.effects)] = result.curves["final"]
+    else:
+        curves = {"calibrated (no effects added)": result.curves["final"]}
+    for number, record in enumerate(result.records):
+        name = f"{stem}_fit.png" if len(result.records) == 1 else f"{stem}_fit_{number + 1}.png"
+        title = f"{Path(record.source).name}: blocked force, data and fits (NRMS {result.nrms_before:.2%} -> " \
+                f"{result.nrms_after:.2%})"
+        if record.experiment == "isometric":
+            paths.append(plot_isometric(record.length, record.pressure, record.force, record.sign, curves,
+                                        folder / name, title, L0=result.params.L0))
+        else:
+            paths.append(_plot_isotonic(record, result, folder / name))
+    return paths
+
+
+def _plot_isotonic(record: ForceRecord, result: CalibrationResult, path) -> Path:
+    from ..io.plotting import new_figure, save_png
+    from ..physics.isotonic import simulate_isotonic
+
+    fig, ax = new_figure(figsize=(6.5, 4.2))
+    loads = np.unique(np.round(record.force, 9))
+    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
+    for color, load in zip(colors * 10, loads):
+        pick = np.isclose(record.force, load)
+        ax.plot(record.pressure[pick] / 1e3, record.length[pick] * 1e3, ".", ms=2, color=color, alpha=0.4,
+                label=f"measured, {load:g} N")
+        if record.time is not None:
+            try:
+                simulated = simulate_isotonic(record.time[pick], record.pressure[pick], record.force[pick],
+                                              result.params)
+                ax.plot(record.pressure[pick] / 1e3, simulated * 1e3, "-", color=color, lw=1.0,
+                        label=f"calibrated model, {load:g} N")
+            except MkctlError:
+                pass
+    ax.set_xlabel("pressure [kPa]")
+    ax.set_ylabel("length [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title(f"{Path(record.source).name}: isotonic, data and calibrated model", fontsize=9)
+    return save_png(fig, path, dpi=150)
+
+
+def plot_error_fall(result: CalibrationResult, path) -> Path:
+    """The error fall: NRMS of each step (start, static fit, each added effect) as bars, log scale."""
+    from matplotlib.ticker import FuncFormatter
+
+    from ..io.plotting import new_figure, save_png
+
+    steps = [s for s in result.steps if s["nrms"] is not None]
+    labels = [s["label"] for s in steps]
+    values = [100 * s["nrms"] for s in steps]
+    fig, ax = new_figure(figsize=(max(4.5, 1.5 * len(labels) + 1.5), 3.8))
+    colors = ["0.75" if s["label"] == "start" else "0.45" if s["label"] == "static fit" else "tab:blue" for s in steps]
+    bars = ax.bar(range(len(values)), values, color=colors)
+    for bar, value in zip(bars, values):
+        ax.annotate(f"{value:.3g} %", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom",
+                    fontsize=8)
+    ax.set_xticks(range(len(values)), labels, fontsize=8)
+    ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+    ax.set_ylabel("NRMS force error [% of the force range]")
+    ax.set_title("calibration: the error falls step by step", fontsize=10)
+    return save_png(fig, path, dpi=150)
+
+
+def summary(result: CalibrationResult) -> list[str]:
+    """The result as lines of text: the steps' table, the parameters with standard errors, and the notes."""
+    lines = [f"{result.points} points from {len(result.sources)} file(s): {', '.join(result.sources)}",
+             f"{'step':<24} {'NRMS':>8} {'RMS [N]':>9} {'dBIC':>9} {'held-out RMS [N]':>17}"]
+    previous_bic = None
+    for step in result.steps:
+        nrms = "n/a" if step["nrms"] is None else f"{step['nrms']:.2%}"
+        rms = "" if step["rms"] is None else f"{step['rms']:.4g}"
+        bic = step.get("bic")
+        delta = "" if bic is None or previous_bic is None else f"{bic - previous_bic:+.1f}"
+        previous_bic = bic if bic is not None else previous_bic
+        hold = "" if step.get("rms_holdout") is None else f"{step['rms_holdout']:.4g}"
+        lines.append(f"{step['label']:<24} {nrms:>8} {rms:>9} {delta:>9} {hold:>17}")
+        stop = step.get("stop")
+        if stop:
+            for row in stop["candidates"]:
+                lines.append(f"  (not added) {row['effect']:<18} dBIC {row['delta_bic']:+.1f}, held-out RMS "
+                             f"{row['rms_holdout']:.4g} N")
+            lines.append(f"  stop: {stop['reason']}")
+    lines.append("effects added: " + (", ".join(result.effects) or "none"))
+    for name, value in result.fitted.items():
+        unit = {"1": ""}.get(UNITS.get(name, "N"), UNITS.get(name, "N"))
+        if name in result.stderr:
+            text = f"{value:.6g} +- {result.stderr[name]:.2g} {unit}"
+        elif name in result.held:
+            text = f"{value:.6g} {unit} (held: not identifiable)"
+        else:
+            text = f"{value:.6g} {unit} (not identifiable on its own)"
+        flag = "  <- on its bound" if name in result.at_bound else ""
+        lines.append(f"  {name:<7} = {text}{flag}")
+    if result.not_identifiable:
+        lines.append("not identifiable from these data: " + "; ".join(" with ".join(g) for g in result.not_identifiable))
+    lines.append(f"braid diameter at rest sqrt(b^2 - L0^2) / (pi n) = {result.braid_diameter * 1e3:.3f} mm "
+                 f"(bladder D0 = {result.params.D0 * 1e3:.3f} mm)")
+    for note in result.notes:
+        lines.append("note: " + note)
+    return lines

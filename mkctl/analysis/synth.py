@@ -22,7 +22,7 @@ Default inputs (chosen to excite what each experiment can show):
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -140,8 +140,9 @@ class SyntheticRecord:
     inputs: dict
     output_clean: np.ndarray  #: the truth's output [m]
     output: np.ndarray  #: with noise [m]
-    noise: float  #: standard deviation in the output column's unit (mm)
+    noise: float  #: standard deviation in the output column's unit (mm; N for isometric)
     seed: int
+    offsets: dict = field(default_factory=dict)  #: hidden sensor offsets (SI, by quantity): readings = true + offset
 
     @property
     def hidden_effects(self) -> list[str]:
@@ -150,7 +151,7 @@ class SyntheticRecord:
 
 
 def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline: str = "model2",
-               noise: float = DEFAULT_NOISE_MM, seed: int = 0, samples: int | None = None,
+               noise: float | None = DEFAULT_NOISE_MM, seed: int = 0, samples: int | None = None,
                rate: float = DEFAULT_RATE) -> SyntheticRecord:
     """Simulate a record of ``experiment`` with the truth = baseline + hidden, and add noise.
 
@@ -163,11 +164,15 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         raise ParameterError(f"unknown experiment {experiment!r} (known: {', '.join(EXPERIMENTS)})")
     if baseline not in BASELINES:
         raise ParameterError(f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
-    if not (noise >= 0 and np.isfinite(noise)):
+    if noise is not None and not (noise >= 0 and np.isfinite(noise)):
         raise ParameterError(f"noise must be a finite number >= 0 mm, got {noise!r}")
     known = dict(known or {})
     if "model" in known:
         raise ParameterError("choose the model with the baseline (model1 or model2), not 'model'")
+    if experiment == "isometric":
+        return synthesize_isometric(hidden, known, DEFAULT_NOISE_N if noise is None else noise, seed=seed,
+                                    samples=ISOMETRIC_SAMPLES if samples is None else samples, baseline=baseline)
+    noise = DEFAULT_NOISE_MM if noise is None else noise
     hidden = dict(hidden) if isinstance(hidden, dict) else hidden_values(hidden)
     if hidden.get("model") == 2 and baseline == "model2":
         raise ParameterError("elasticity is already in the model2 baseline: hide it with --baseline model1")
@@ -201,7 +206,8 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
     """Write the record as a measurement file and (optionally) its truth as ``<stem>.truth.json``."""
     path = write_measurement(path, record.experiment, record.time, record.inputs, record.output,
                              metadata=record.known, baseline=record.baseline,
-                             comments=("synthetic record from mkctl synth (the virtual test bench)",))
+                             comments=("synthetic record from mkctl synth (the virtual test bench)",),
+                             branch=record.inputs.get("branch"))
     truth_path = None
     if truth_file:
         truth_path = truth_path_for(path)
@@ -213,7 +219,8 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
             "hidden": {k: v for k, v in record.hidden.items() if k != "model"},
             "known": record.known,
             "noise": record.noise,
-            "noise_unit": "mm",
+            "noise_unit": "N" if record.experiment == "isometric" else "mm",
+            "sensor_offsets": record.offsets,
             "seed": record.seed,
             "samples": int(record.time.size),
         }, indent=2) + "\n", encoding="utf-8")
@@ -224,3 +231,84 @@ def truth_path_for(path) -> Path:
     """Where :func:`write_synthetic` puts the hidden truth of a file: ``<stem>.truth.json`` beside it."""
     path = Path(path)
     return path.with_name(path.stem + ".truth.json")
+
+
+# --- The isometric (blocked-force) bench -------------------------------------------------------------
+
+#: Isometric bench: clamped lengths as fractions of L0, the pressure range [Pa] stepped up then down at
+#: each length, and the force noise's default standard deviation [N].
+ISOMETRIC_LENGTHS = (0.75, 0.83, 0.91, 0.98)
+ISOMETRIC_PRESSURES = (0.0, 600e3)
+ISOMETRIC_SAMPLES = 400
+DEFAULT_NOISE_N = 0.5
+#: Seconds between two points of the isometric bench (each a settled, quasi-static reading).
+ISOMETRIC_PERIOD = 1.0
+
+
+def isometric_inputs(samples: int = ISOMETRIC_SAMPLES, lengths=None, pressures=ISOMETRIC_PRESSURES,
+                     params: Params = Params()):
+    """(time [s], length [m], pressure [Pa], branch) of the default blocked-force test.
+
+    The muscle is clamped at each length in turn (default ``ISOMETRIC_LENGTHS`` times L0, shortest first);
+    at each the pressure is stepped evenly from the low to the high end of ``pressures`` (branch +1, up)
+    and back (branch -1, down), ``samples / len(lengths)`` points per length, one point a second.
+    """
+    _check_samples(samples)
+    lengths = np.asarray([f * params.L0 for f in ISOMETRIC_LENGTHS] if lengths is None else lengths, dtype=float)
+    per_length = int(samples) // lengths.size
+    if per_length < 4:
+        raise ParameterError(f"{samples} samples over {lengths.size} lengths leave fewer than 4 per length")
+    up = per_length - per_length // 2
+    low, high = pressures
+    ramp_up = np.linspace(low, high, up)
+    ramp_down = np.linspace(high, low, per_length - up + 1)[1:]
+    pressure = np.tile(np.concatenate([ramp_up, ramp_down]), lengths.size)
+    branch = np.tile(np.concatenate([np.ones(up), -np.ones(per_length - up)]), lengths.size)
+    length = np.repeat(lengths, per_length)
+    time = np.arange(length.size) * ISOMETRIC_PERIOD
+    return time, length, pressure, branch
+
+
+def synthesize_isometric(hidden=None, known: dict | None = None, noise: float = DEFAULT_NOISE_N, offset: float = 0.0,
+                         seed: int = 0, samples: int = ISOMETRIC_SAMPLES, lengths=None, baseline: str = "model2"):
+    """A blocked-force record made by the truth (baseline + hidden), with force noise and a sensor offset.
+
+    Parameters: hidden, a list for :func:`hidden_values` (``slack`` means slack = 1, ``coulomb_friction``
+    Fc = 2 N, ``force_offset=VALUE`` a force sensor offset [N]) or a dict {parameter: value}; known, parameters the file declares (SI); noise, the force
+    noise's standard deviation [N]; offset, the force sensor's zero offset [N] added to every reading;
+    seed, the noise's seed; samples and lengths [m] as for :func:`isometric_inputs`.
+    Returns a SyntheticRecord with ``inputs = {"length", "pressure", "branch"}`` and the force [N] as output
+    (``offsets = {"force": offset}`` when there is one).
+    """
+    from ..physics.isometric import isometric_tension
+
+    if not (noise >= 0 and np.isfinite(noise)):
+        raise ParameterError(f"noise must be a finite number >= 0 N, got {noise!r}")
+    known = dict(known or {})
+    if isinstance(hidden, dict):
+        hidden = dict(hidden)
+    else:
+        items = list(hidden or ())
+        sensor = [i for i in items if isinstance(i, str) and i.replace(" ", "").startswith("force_offset=")]
+        for item in sensor:
+            text = item.split("=", 1)[1].strip()
+            try:
+                offset = float(text)
+            except ValueError:
+                raise ParameterError(f"hidden force_offset is not a number of N: {text!r}") from None
+        hidden = hidden_values([i for i in items if i != "slack" and i not in sensor])
+        if "slack" in items:
+            hidden["slack"] = 1
+    if not np.isfinite(offset):
+        raise ParameterError(f"force_offset must be a finite number of N, got {offset!r}")
+    truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
+    time, length, pressure, branch = isometric_inputs(samples, lengths, params=truth)
+    time, rounded = as_written("isometric", time, {"length": length, "pressure": pressure})
+    length, pressure = rounded["length"], rounded["pressure"]
+    clean = isometric_tension(length, pressure, branch, truth)
+    measured = clean + offset
+    if noise > 0:
+        measured = measured + np.random.default_rng(seed).normal(0.0, noise, clean.size)
+    inputs = {"length": length, "pressure": pressure, "branch": branch}
+    return SyntheticRecord("isometric", baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
+                           {"force": float(offset)} if offset else {})

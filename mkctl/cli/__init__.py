@@ -10,10 +10,10 @@ import argparse
 import sys
 
 from .options import OneLineParser, run_reporting_errors
-from . import control, measure, paper, run
+from . import calibrate, control, measure, paper, run
 
 #: Subcommand modules, in the order ``mkctl --help`` lists them.
-COMMANDS = [run, paper, control, measure]
+COMMANDS = [run, paper, control, measure, calibrate]
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -27,9 +27,11 @@ def register(subparsers) -> None:
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
-    p.add_argument("experiment", choices=["knee", "isotonic"],
-                   help="what to simulate: knee (the robot leg driven by pressure steps) or isotonic (one actuator "
-                        "under hanging loads, pressure swept)")
+    p.add_argument("experiment", choices=["knee", "isotonic", "isometric"],
+                   help="what to simulate: knee (the robot leg driven by pressure steps), isotonic (one actuator "
+                        "under hanging loads, pressure swept) or isometric (a blocked-force bench: the muscle "
+                        "clamped at 4 lengths, pressure stepped up and down; --hidden force_offset=N adds a "
+                        "force sensor offset)")
     p.add_argument("output", metavar="OUT.csv", help="the measurement file to write (<stem>.truth.json goes beside it)")
     p.add_argument("--hidden", action="append", default=[], metavar="EFFECT|NAME=VALUE",
                    help="an effect hidden in the data (repeatable, or comma-separated): an effect name (" + ", ".join(
@@ -41,10 +43,11 @@ def register(subparsers) -> None:
                         "e.g. --param m=2.5")
     p.add_argument("--baseline", choices=["model1", "model2"], default="model2",
                    help="the baseline the file declares (default model2); hide elasticity with model1")
-    p.add_argument("--noise", type=float, default=DEFAULT_NOISE_MM,
-                   help=f"standard deviation of the output noise [mm] (default {DEFAULT_NOISE_MM:g})")
+    p.add_argument("--noise", type=float, default=None,
+                   help=f"standard deviation of the output noise [mm; N for isometric] (default {DEFAULT_NOISE_MM:g} "
+                        "mm, isometric 0.5 N)")
     p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
-    p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic)")
+    p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic, 400 isometric)")
     p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
     p.add_argument("--no-truth", action="store_true", help="do not write <stem>.truth.json")
     add_params_option(p)
@@ -90,10 +93,12 @@ def run_synth(args) -> int:
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
     effects = ", ".join(record.hidden_effects) or "none"
+    hidden = ", ".join([hidden] * bool(hidden) + [f"{k} sensor offset {v:g} " + ("N" if k == "force" else "SI") for k, v in record.offsets.items()])
     print(f"wrote {path}: {record.experiment}, {record.time.size} samples over {record.time[-1]:g} s, "
           f"baseline {record.baseline}")
     print(f"hidden effects: {effects}" + (f" ({hidden})" if hidden else ""))
-    print(f"noise {record.noise:g} mm, seed {record.seed}" + (f"; the truth is in {truth}" if truth else ""))
+    unit = "N" if record.experiment == "isometric" else "mm"
+    print(f"noise {record.noise:g} {unit}, seed {record.seed}" + (f"; the truth is in {truth}" if truth else ""))
     return 0
 
 
