@@ -160,6 +160,25 @@ def motion_direction(time, length, window: int = 11):
     return np.where(slope > threshold, 1.0, np.where(slope < -threshold, -1.0, 0.0))
 
 
+#: The braid length of the base a file is read against (:func:`read_records`): long enough for any muscle, so
+#: that a file giving only its L0 (longer than Table I's b) is not judged against Table I's braid.
+READING_BRAID = 100.0
+
+
+def reading_base(params: Params | None = None) -> Params:
+    """The parameter set calibrate reads files against: ``params`` (default Table I) with a braid of
+    :data:`READING_BRAID`, because b is what calibrate fits, not something the file must agree with."""
+    return (params or Params()).replace(b=READING_BRAID, n=None)
+
+
+def read_records(paths, params: Params | None = None) -> list:
+    """Read measurement files for :func:`calibrate` (see :func:`reading_base`)."""
+    from ..io.measurements import read_measurement
+
+    base = reading_base(params)
+    return [read_measurement(path, base=base) for path in paths]
+
+
 def check_records(records: list[ForceRecord]) -> None:
     """Raise :class:`CalibrationError` for records no muscle can be calibrated on (one line each)."""
     if not records:
@@ -341,6 +360,7 @@ class CalibrationResult(Result):
     sources: list  #: the records' sources
     points: int
     notes: list  #: plain sentences: defaults used, bounds hit, what the data cannot tell
+    stopped: dict | None = None  #: why no further effect was added: reason and the candidates of that round
     records: list = field(repr=False, default_factory=list)
     curves: dict = field(repr=False, default_factory=dict)  #: step label -> (Params, offset)
 
@@ -382,6 +402,7 @@ class CalibrationResult(Result):
             "sources": list(self.sources),
             "points": self.points,
             "notes": list(self.notes),
+            "stopped": self.stopped,
             "steps": [{k: v for k, v in s.items()} for s in self.steps],
         })
 
@@ -516,6 +537,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     static_starts = starting_points(records, start, names)
     say(f"static fit of {', '.join(names)} from {len(static_starts)} starting points")
     current, current_model, k_now = fit_with([], start, static_starts)
+    _check_converged(current, "the static fit", max_evaluations, force_range)
     train_fit, _, _ = fit_with([], start, [current.values], train)
     added: list[str] = []
     nrms_before = _nrms(current.residual, force_range)
@@ -532,6 +554,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     bic_now, hold_now = scores(train_fit, k_now)
     steps[-1].update({"bic": bic_now, "rms_holdout": hold_now})
     pending = [e for e in CANDIDATES if e in effects]
+    stopped = None
     while pending:
         rows = []
         for effect in pending:
@@ -555,12 +578,13 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         best = rows[0]
         public_rows = [{k: v for k, v in r.items() if not k.startswith("_")} for r in rows]
         if not (best["passes_bic"] and best["passes_holdout"]):
-            steps[-1]["stop"] = {"candidates": public_rows, "reason": _stop_reason(best)}
+            stopped = steps[-1]["stop"] = {"candidates": public_rows, "reason": _stop_reason(best)}
             say(f"  stop: {_stop_reason(best)}")
             break
         added.append(best["effect"])
         pending.remove(best["effect"])
         current, current_model, k_now = fit_with(added, current.params, [best["_fit"].values, current.values])
+        _check_converged(current, f"the fit with {', '.join(added)}", max_evaluations, force_range)
         bic_now, hold_now = best["bic"], best["rms_holdout"]
         nrms = _nrms(current.residual, force_range)
         label = "+ " + best["effect"]
@@ -569,11 +593,6 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
                       "bic": bic_now, "rms_holdout": hold_now, "params": dict(current.values),
                       "candidates": public_rows})
         say(f"added {best['effect']}: NRMS {nrms:.2%}")
-
-    if not current.converged:
-        best = ", ".join(f"{k} = {v:.4g}" for k, v in current.values.items())
-        raise CalibrationError(f"the fit did not converge within {max_evaluations} evaluations per parameter; the best "
-                               f"it reached: NRMS {_nrms(current.residual, force_range):.2%} with {best}")
 
     # uncertainty and what the data cannot separate
     stderr, correlation, groups = _uncertainty(current, current_model)
@@ -617,7 +636,16 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         at_bound=at_bound, effects=list(added), nrms_start=nrms_start, nrms_before=nrms_before, nrms_after=nrms_after,
         rms_after=nrms_after * force_range, steps=steps, correlation=correlation, braid_diameter=braid,
         converged=current.converged, evaluations=evaluations, sources=[r.source for r in records],
-        points=int(force.size), notes=notes, records=records, curves=curves)
+        points=int(force.size), notes=notes, stopped=stopped, records=records, curves=curves)
+
+
+def _check_converged(fit: _Fit, what: str, max_evaluations: int, force_range: float) -> None:
+    """Raise :class:`CalibrationError` naming the best point reached when no least-squares run converged."""
+    if fit.converged:
+        return
+    best = ", ".join(f"{k} = {v:.4g}" for k, v in fit.values.items())
+    raise CalibrationError(f"{what} did not converge within {max_evaluations} evaluations per parameter and run; the "
+                           f"best it reached: NRMS {_nrms(fit.residual, force_range):.2%} with {best}")
 
 
 def _uncertainty(fit: _Fit, model: _Model):

@@ -146,7 +146,10 @@ class SyntheticRecord:
 
     @property
     def hidden_effects(self) -> list[str]:
-        baseline = Params().replace(model=BASELINES[self.baseline], **self.known)
+        # hidden static parameters (a calibration's b, n) belong to the muscle, not to an effect
+        effect_parameters = {p for e, ps in EFFECT_PARAMETERS.items() if e != "elasticity" for p in ps}
+        muscle = {k: v for k, v in self.hidden.items() if k not in effect_parameters and k != "model"}
+        baseline = Params().replace(model=BASELINES[self.baseline], **self.known, **muscle)
         return [e for e in self.truth.effects if e not in baseline.effects]
 
 

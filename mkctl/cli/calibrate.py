@@ -46,8 +46,7 @@ def register(subparsers) -> None:
 
 
 def run_calibrate(args) -> int:
-    from ..analysis.calibrate import calibrate, plot_error_fall, plot_fits, summary
-    from ..io.measurements import read_measurement
+    from ..analysis.calibrate import calibrate, plot_error_fall, plot_fits, read_records, summary
     from ..io.muscle import write_muscle
 
     out = output_file(args.out, "--out")
@@ -56,8 +55,7 @@ def run_calibrate(args) -> int:
         raise UsageError(f"--max-evaluations must be at least 1, got {args.max_evaluations}")
     effects = [] if args.effects.strip().lower() == "none" else split_items([args.effects])
     start = base_params(args) if args.params is not None else None
-    measurements = [read_measurement(path, base=start) if start is not None else read_measurement(path)
-                    for path in args.files]
+    measurements = read_records(args.files, start)
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
     result = calibrate(measurements, fit=split_items(args.fit), params=start, link_n=args.link_n, effects=effects,
                        max_evaluations=args.max_evaluations, progress=progress)
