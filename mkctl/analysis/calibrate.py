@@ -294,7 +294,7 @@ def _least_squares(model: _Model, starts: list[dict], lows, highs, mask=None, ma
         result = least_squares(lambda x: model.residual(x)[keep], x0, bounds=(lo, hi), x_scale="jac",
                                method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10,
                                max_nfev=max_evaluations * (len(model.names) + 1))
-        total += result.nfev
+        total += result.nfev + (result.njev or 0) * len(model.names)  # finite-difference Jacobians included
         rss = float(result.fun @ result.fun)
         if best is None or rss < best[0] - 1e-12 * max(rss, 1.0) or (not best[1].status > 0 and result.status > 0
                                                                       and rss <= best[0] * (1 + 1e-9)):
@@ -619,9 +619,17 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         value, tolerance = current.values[name], 1e-6 * SCALES[name]
         if value - low <= tolerance or high - value <= tolerance:
             at_bound.append(name)
+            current.values[name] = float(low if value - low <= tolerance else high)  # 0, not 4e-14
+    if at_bound:
+        current.params = current.params.replace(**{n: current.values[n] for n in at_bound if n != "offset"})
     for name in at_bound:
-        notes.append(f"{name} ended on its bound ({current.values[name]:.4g} {UNITS.get(name, 'N')}): the data push it "
-                     "out of the physical range; its standard error means little")
+        value = current.values[name]
+        if value == 0:
+            notes.append(f"{name} ended on its lower bound 0: the data show none of it (its standard error says how "
+                         "much they would still allow)")
+        else:
+            notes.append(f"{name} ended on its bound ({value:.4g} {UNITS.get(name, 'N')}): the data push it out of "
+                         "the physical range; its standard error means little")
     nrms_after = _nrms(current.residual, force_range)
     fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
               if n in current.values}

@@ -36,7 +36,7 @@ UP, DOWN = 1, -1
 def check_branch(branch):
     """The branch as a float array (or float) of +1 / -1; raise :class:`DomainError` for any other value."""
     values = np.asarray(branch, dtype=float)
-    bad = ~np.isin(values, (UP, DOWN))
+    bad = np.abs(values) != 1  # neither +1 nor -1 (NaN too)
     if np.any(bad):
         raise DomainError(f"branch must be +1 (up: pressure rising) or -1 (down: pressure falling), "
                           f"got {values[bad].flat[0]!r}")
