@@ -88,3 +88,34 @@ def test_force_against_pressure_figure(tmp_path):
                           record.inputs["branch"], {"truth": Params(slack=1), "model 2": Params()},
                           tmp_path / "iso.png", L0=0.208)
     assert path.stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("hidden, expected", [
+    (["slack", "coulomb_friction"], {"slack", "coulomb_friction"}),
+    (["coulomb_friction"], {"coulomb_friction"}),
+    ([], set()),
+])
+def test_diagnose_finds_the_isometric_effects(tmp_path, hidden, expected):
+    from mkctl.analysis.diagnose import diagnose, save_pictures
+
+    path, _ = write_synthetic(tmp_path / "iso.csv", synthesize_isometric(hidden, noise=0.5, seed=3))
+    m = read_measurement(path)
+    report = diagnose(m)
+    assert set(report["missing"]) == expected
+    if "coulomb_friction" in expected:
+        assert report["params"]["Fc"] == pytest.approx(2.0, abs=4 * report["uncertainty"]["Fc"])
+    assert report["rmse_after"] < 0.6  # the 0.5 N noise
+    pictures = save_pictures(m, report, tmp_path)
+    assert "isometric" in pictures
+
+
+def test_compare_cli_draws_tension_against_pressure(tmp_path):
+    import subprocess
+    import sys
+
+    path, _ = write_synthetic(tmp_path / "iso.csv", synthesize_isometric(["slack"], noise=0.5))
+    done = subprocess.run([sys.executable, "-m", "mkctl", "compare", str(path)], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "iso_compare_isometric.png").exists()
+    # the file hides slack; the baseline (no slack) pushes at the short length: RMSE well above the noise
+    assert float(done.stdout.split("RMSE ")[1].split()[0]) > 1.0

@@ -45,6 +45,7 @@ import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
 from ..physics import actuator, knee
+from ..physics.isometric import isometric_tension
 from .compare import fit_percent, fit_text, plot_overlay, plot_residuals, rmse, simulate_output
 from ..errors import MkctlError
 from ..io.measurements import Measurement
@@ -77,23 +78,30 @@ class Candidate:
         """params with this effect switched on at ``value``."""
         if self.effect == "elasticity":
             return params.replace(model=2, C1=value)
+        if self.effect == "slack":  # a switch: any value searched (its bounds are [1, 1 + 1e-6]) means on
+            return params.replace(slack=1 if value > 0 else 0)
         return params.replace(**{self.parameter: value})
 
 
 #: The candidates, in the spec's order. Elasticity fits C1 with C2 kept at its (Table I) value: C2 is
 #: 150 times smaller and its share of the tension is not separable from C1's in these experiments.
 CANDIDATES = {
-    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7)},
+    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)},
                             "the rubber's tension (model 2 minus model 1) at the measured length",
                             "model 2 instead of model 1: the rubber's Mooney-Rivlin tension"),
     "viscous_damping": Candidate("viscous_damping", "c", {"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
                                  "the damping force per N s/m at the measured velocity", "f += c Ldot"),
-    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0)},
+    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0),
+                                                             "isometric": (1e-3, 100.0)},
                                   "the friction force per N at the measured direction of motion",
                                   "f += Fc tanh(Ldot / vs) (a play operator in the isotonic test)"),
     "pressure_lag": Candidate("pressure_lag", "tau", {"knee": (1e-3, 2.0)},
                               "the force a lag of 1 s takes away at the measured pressure-command rate",
                               "tau dP/dt = P_cmd - P"),
+    # slack is a switch (0 or 1): its one-point search interval just compares on with off
+    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6)},
+                       "the model's tension, where it is negative (a slack muscle carries nothing there)",
+                       "f = max(f, 0), applied last: a braided muscle cannot push"),
 }
 
 #: The experiment that tells two candidates apart, for near-ties.
@@ -116,6 +124,12 @@ DISCRIMINATING_EXPERIMENTS = {
         "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps apart",
     frozenset({"elasticity", "pressure_lag"}):
         "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
+    frozenset({"elasticity", "slack"}):
+        "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, elasticity bends the whole curve",
+    frozenset({"coulomb_friction", "slack"}):
+        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
+        "everywhere, slack only flattens them at zero",
 }
 
 _LN10 = math.log(10.0)
@@ -147,7 +161,7 @@ class _Problem:
 
 def _problem(measurement: Measurement) -> _Problem:
     n = measurement.samples
-    stride = 1 if measurement.experiment == "isotonic" else max(1, n // FIT_POINTS)
+    stride = 1 if measurement.experiment in ("isotonic", "isometric") else max(1, n // FIT_POINTS)
     grid = np.arange(0, n, stride)
     if grid[-1] != n - 1:
         grid = np.append(grid, n - 1)
@@ -295,6 +309,9 @@ def missing_force(measurement: Measurement, params: Params):
     from scipy.signal import savgol_filter
 
     m = measurement
+    if m.experiment == "isometric":  # nothing moves: the measured tension against the model's, point by point
+        L, P = m.inputs["length"], m.inputs["pressure"]
+        return m.output - isometric_tension(L, P, m.branch, params), {"L": L, "P": P, "branch": m.branch}
     n = m.samples
     dt = float(np.mean(np.diff(m.time)))
     window = (ISOTONIC_SMOOTHING_SAMPLES if m.experiment == "isotonic" else int(round(KNEE_SMOOTHING_S / dt)))
@@ -350,7 +367,10 @@ _REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0}
 #: How the signature pictures label their x axis.
 _AXIS = {"viscous_damping": "velocity [mm/s]", "coulomb_friction": "velocity [mm/s]",
          "pressure_lag": "extensor pressure rate (smoothed) [kPa/s]",
-         "elasticity": "rubber tension of the model's C1, C2 [N]"}
+         "elasticity": "rubber tension of the model's C1, C2 [N]",
+         "slack": "tension the slack muscle would not carry [N]",
+         ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling pressure",
+         ("isometric", "elasticity"): "rubber tension of the model's C1, C2 [N]"}
 
 
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
@@ -366,8 +386,17 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
     m = measurement
     missing, states = missing_force(m, params)
     isotonic = m.experiment == "isotonic"
-    speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
     out = {}
+    if m.experiment == "isometric":  # the candidate's change of the tension at the clamped points
+        for name in names:
+            cand = CANDIDATES[name]
+            ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
+            args = (states["L"], states["P"], states["branch"])
+            term = isometric_tension(*args, cand.apply(params, ref)) - isometric_tension(*args, params)
+            x = -states["branch"] if name == "coulomb_friction" else term
+            out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
+        return out
+    speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
     for name in names:
         cand = CANDIDATES[name]
         ref = params.C1 if name == "elasticity" else _REFERENCE[cand.parameter]
@@ -651,6 +680,17 @@ def save_pictures(measurement: Measurement, report: dict, folder, stem: str | No
         f"after ({after_label})": (measurement.output - curves["after"]) * to_file,
     }, folder / f"{stem}_residuals.png")
 
+    if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
+        from .compare import plot_isometric
+        after = measurement.params
+        for effect in report["missing"]:
+            after = CANDIDATES[effect].apply(after, report["params"][CANDIDATES[effect].parameter])
+        paths["isometric"] = plot_isometric(measurement.inputs["length"], measurement.inputs["pressure"],
+                                            measurement.output, measurement.branch,
+                                            {"baseline": measurement.params, after_label: after},
+                                            folder / f"{stem}_isometric.png", "before and after the diagnosis",
+                                            L0=measurement.params.L0)
+
     if curves["signatures"] is not None:
         order, sigs = curves["signatures"]
         names = [name for name in order if name in sigs]
@@ -661,7 +701,7 @@ def save_pictures(measurement: Measurement, report: dict, folder, stem: str | No
                 ax.plot(sig["x"], sig["missing"], ".", ms=2, color="0.6", alpha=0.4)
                 ax.plot(*_binned(sig["x"], sig["missing"]), "o-", color="tab:red", ms=4)
                 ax.axhline(0, color="k", lw=0.5)
-                ax.set_xlabel(_AXIS[name], fontsize=7)
+                ax.set_xlabel(_AXIS.get((measurement.experiment, name), _AXIS[name]), fontsize=7)
                 ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)
             axes[0, 0].set_ylabel("force the baseline lacks [N]")
             fig.suptitle("signatures: the force the baseline lacks (equation error at the smoothed measured states)",

@@ -121,6 +121,13 @@ def run_compare(args) -> int:
     residual = plot_residuals(measurement, {"measured - baseline": result.residual},
                               folder / f"{stem}_compare_residual.png")
     print(f"saved {overlay} and {residual}")
+    if measurement.experiment == "isometric":
+        from ..analysis.compare import plot_isometric
+        figure = plot_isometric(measurement.inputs["length"], measurement.inputs["pressure"], measurement.output,
+                                measurement.branch, {f"baseline {measurement.baseline}": measurement.params},
+                                folder / f"{stem}_compare_isometric.png", f"{stem}: tension against pressure",
+                                L0=measurement.params.L0)
+        print(f"saved {figure}")
     return 0
 
 
