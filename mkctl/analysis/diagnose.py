@@ -127,6 +127,12 @@ DISCRIMINATING_EXPERIMENTS = {
     frozenset({"elasticity", "slack"}):
         "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
         "positive, elasticity bends the whole curve",
+    frozenset({"viscous_damping", "slack"}):
+        "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
+        "needs motion",
+    frozenset({"pressure_lag", "slack"}):
+        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, a lag only delays each reading",
     frozenset({"coulomb_friction", "slack"}):
         "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
         "everywhere, slack only flattens them at zero",
