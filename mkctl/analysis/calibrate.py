@@ -47,7 +47,6 @@ bound is listed in ``at_bound``.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,7 +57,7 @@ from scipy.optimize import least_squares
 from ..errors import DomainError, MkctlError, ParameterError
 from ..physics import actuator
 from ..physics.isometric import isometric_tension
-from ..physics.params import PARAMETER_NAMES, UNITS, Params
+from ..physics.params import UNITS, Params
 from ..results import Result
 from .diagnose import BIC_THRESHOLD, HOLDOUT_GAIN
 
