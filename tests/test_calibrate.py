@@ -229,3 +229,15 @@ def test_cli_says_when_the_fit_does_not_converge(bench_file, tmp_path):
     assert "did not converge" in done.stderr and "best it reached" in done.stderr
     assert len(done.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "m.json").exists()
+
+
+def test_isotonic_record_alone_recovers_the_muscle_and_its_friction():
+    # the isotonic test in force units: the load against the model's tension at the measured length, with the
+    # friction band's edge where the length moves; Table I's muscle with Fc = 2 N, 0.01 mm length noise
+    from mkctl.io.measurements import measurement_from_arrays
+
+    tonic = synthesize("isotonic", {"Fc": 2.0}, noise=0.01, seed=13)
+    m = measurement_from_arrays("isotonic", tonic.time, tonic.inputs, tonic.output)
+    result = calibrate([m])
+    assert result.effects == ["coulomb_friction"]
+    assert_within_stderr(result, {"b": Params().b, "n": Params().n, "Fc": 2.0})

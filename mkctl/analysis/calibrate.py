@@ -156,7 +156,15 @@ def motion_direction(time, length, window: int = 11):
     sigma = 1.4826 * float(np.median(np.abs(scatter - np.median(scatter))))
     slope_noise = sigma * math.sqrt(12.0 / (window ** 3 - window)) / dt
     threshold = max(3.0 * slope_noise, 1e-12)
-    return np.where(slope > threshold, 1.0, np.where(slope < -threshold, -1.0, 0.0))
+    sign = np.where(slope > threshold, 1.0, np.where(slope < -threshold, -1.0, 0.0))
+    # the smoothing window straddles each start and stop of the motion: near one, the sign is not to be
+    # trusted, so a point counts as moving only if its whole window moves the same way
+    half = window // 2
+    padded = np.pad(sign, half, constant_values=0.0)
+    steady = np.ones(n, dtype=bool)
+    for shift in range(2 * half + 1):
+        steady &= padded[shift:shift + n] == sign
+    return np.where(steady, sign, 0.0)
 
 
 #: The braid length of the base a file is read against (:func:`read_records`): long enough for any muscle, so
