@@ -140,7 +140,9 @@ def motion_direction(time, length, window: int = 11):
     """+1 where the measured length grows, -1 where it shrinks, 0 where it does not move beyond its noise.
 
     The slope is a Savitzky-Golay (order 1) slope over ``window`` samples; "moving" means more than three
-    times the slope's noise, estimated from the scatter of the length about its smoothed self.
+    times the slope's noise, estimated from the scatter of the length about its smoothed self, over the
+    whole window around the point (near a start or a stop of the motion the window straddles both, and
+    the point counts as not moving: its load may lie anywhere in the friction band).
     """
     from scipy.signal import savgol_filter
 
