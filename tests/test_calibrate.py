@@ -241,3 +241,15 @@ def test_isotonic_record_alone_recovers_the_muscle_and_its_friction():
     result = calibrate([m])
     assert result.effects == ["coulomb_friction"]
     assert_within_stderr(result, {"b": Params().b, "n": Params().n, "Fc": 2.0})
+
+
+def test_fitting_the_geometry_too_says_what_other_fits_are_as_good():
+    # L0, D0 and t0 free as well: the rubber's terms can trade them against C1, and force data cannot tell
+    result = calibrate([record({"slack": 1}, seed=14, noise=1.0)], fit=["L0", "D0", "t0"])
+    assert result.effects == ["slack"]
+    unsure = set(result.ambiguous) | {n for g in result.not_identifiable for n in g}
+    assert {"L0", "D0"} & unsure
+    assert not unsure & set(result.stderr)  # nothing it cannot pin down gets a standard error
+    # n, which the pressure term fixes, remains recovered, and b close (it may be grouped with D0)
+    assert_within_stderr(result, {"n": 3.5})
+    assert result.fitted["b"] == pytest.approx(0.30, rel=0.01)

@@ -34,6 +34,12 @@ the end caps), and tying them would leave the pressure term one degree of freedo
 Lopez's correction factor plays this part in theirs). The result reports that braid diameter next to
 D0. ``link_n=True`` ties n to b, L0, D0 as model-spec section 2 does (n is then not fitted).
 
+Once the effects are chosen, the final model is fitted again from every starting point: a run that ends
+as well (RSS within ``EQUALLY_GOOD`` s^2 of the best) but more than 3 standard errors away in some
+parameter means the data do not pin that parameter down; it is reported in ``ambiguous`` with the other
+values, and gets no standard error (typically L0 and D0 when they are fitted too: the rubber's terms
+trade them against C1).
+
 Uncertainty: ``cov = s^2 (J^T J)^-1`` with ``s^2 = RSS / (N - k)`` and J the Jacobian of the force
 residuals at the optimum; the standard errors are its diagonal's roots. Two fitted parameters whose
 estimates correlate by more than ``IDENTIFIABLE_CORRELATION`` (|r| > 0.99) cannot be separated by these
@@ -289,11 +295,12 @@ class _Fit:
     names: tuple
     converged: bool
     evaluations: int
+    ends: list = field(default_factory=list)  #: (rss, values) where each start's run ended
 
 
 def _least_squares(model: _Model, starts: list[dict], lows, highs, mask=None, max_evaluations=MAX_EVALUATIONS):
     """The best of bounded least-squares runs from each start (on the points in mask, default all)."""
-    best, total = None, 0
+    best, total, ends = None, 0, []
     keep = slice(None) if mask is None else mask
     for start in starts:
         x0 = np.array([start[n] for n in model.names]) / model.scales
@@ -301,17 +308,19 @@ def _least_squares(model: _Model, starts: list[dict], lows, highs, mask=None, ma
         span = hi - lo
         x0 = np.clip(x0, lo + 1e-6 * np.where(np.isfinite(span), span, 1), hi - 1e-6 * np.where(np.isfinite(span), span, 1))
         result = least_squares(lambda x: model.residual(x)[keep], x0, bounds=(lo, hi), x_scale="jac",
-                               method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10,
+                               method="trf", xtol=1e-8, ftol=1e-9, gtol=1e-8,
                                max_nfev=max_evaluations * (len(model.names) + 1))
         total += result.nfev + (result.njev or 0) * len(model.names)  # finite-difference Jacobians included
         rss = float(result.fun @ result.fun)
+        ends.append((rss, model.values_at(result.x)))
         if best is None or rss < best[0] - 1e-12 * max(rss, 1.0) or (not best[1].status > 0 and result.status > 0
                                                                       and rss <= best[0] * (1 + 1e-9)):
             best = (rss, result)
     rss, result = best
     values = model.values_at(result.x)
     residual = model.residual_values(values)
-    return _Fit(values, model.params_at(values), residual, rss, result, model.names, bool(result.status > 0), total)
+    return _Fit(values, model.params_at(values), residual, rss, result, model.names, bool(result.status > 0), total,
+                ends)
 
 
 def starting_points(records: list[ForceRecord], start: Params, names: tuple) -> list[dict]:
@@ -354,6 +363,7 @@ class CalibrationResult(Result):
     fitted: dict  #: the fitted values by name (SI), ``offset`` [N] included when fitted
     stderr: dict  #: standard errors by name; absent for parameters in ``not_identifiable``
     not_identifiable: list  #: groups of names the data cannot separate, e.g. [["C1", "C2"]]
+    ambiguous: dict  #: names that another, equally good fit puts elsewhere: {name: [other values]}
     held: dict  #: names held at their starting value because they are not identifiable
     at_bound: list  #: fitted names that ended on a bound
     effects: list  #: effects added, in order
@@ -403,6 +413,7 @@ class CalibrationResult(Result):
             "fitted": dict(self.fitted),
             "stderr": dict(self.stderr),
             "not_identifiable": [list(g) for g in self.not_identifiable],
+            "ambiguous": dict(self.ambiguous),
             "held": dict(self.held),
             "at_bound": list(self.at_bound),
             "correlation": self.correlation,
@@ -603,8 +614,20 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
                       "candidates": public_rows})
         say(f"added {best['effect']}: NRMS {nrms:.2%}")
 
+    # several starting points once more for the final model: another muscle that fits as well?
+    final_starts = [{**s_, **{k: v for k, v in current.values.items() if k not in s_}} for s_ in static_starts]
+    again, again_model, _ = fit_with(added, current.params, [current.values, *final_starts])
+    if again.converged and again.rss < current.rss:
+        current, current_model = again, again_model
     # uncertainty and what the data cannot separate
     stderr, correlation, groups = _uncertainty(current, current_model)
+    ambiguous = _ambiguous(current, again.ends, stderr, force.size)
+    if ambiguous:
+        notes.append("another muscle fits these data as well (within 2 standard errors of the fit's RSS): "
+                     + "; ".join(f"{k} = {current.values[k]:.4g} or {', '.join(f'{v:.4g}' for v in vs)} "
+                                 f"{UNITS.get(k, 'N')}" for k, vs in ambiguous.items())
+                     + ": the data do not pin these down, so no standard error is given for them")
+        stderr = {k: v for k, v in stderr.items() if k not in ambiguous}
     held = {}
     if groups:
         for group in groups:
@@ -621,7 +644,9 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         evaluations += refit.evaluations
         current = refit
         current.values.update({k: v for k, v in held.items()})
-        stderr = {k: v for k, v in _uncertainty(refit, model)[0].items() if not any(k in g for g in groups)}
+        stderr, _, more = _uncertainty(refit, model)
+        groups += [g for g in more if g not in groups]  # what the refit still cannot separate
+        stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
     at_bound = []
     lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, current.params, current.names) for n in current.names]))
     for name, low, high in zip(current.names, lows, highs):
@@ -649,11 +674,35 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         steps.append({"label": "final (" + ", ".join(held) + " held)", "effects": list(added), "nrms": nrms_after,
                       "rms": nrms_after * force_range, "params": dict(current.values)})
     return CalibrationResult(
-        params=params_final, fitted=fitted, stderr=stderr, not_identifiable=[list(g) for g in groups], held=held,
+        params=params_final, fitted=fitted, stderr=stderr, not_identifiable=[list(g) for g in groups], ambiguous=ambiguous,
+        held=held,
         at_bound=at_bound, effects=list(added), nrms_start=nrms_start, nrms_before=nrms_before, nrms_after=nrms_after,
         rms_after=nrms_after * force_range, steps=steps, correlation=correlation, braid_diameter=braid,
         converged=current.converged, evaluations=evaluations, sources=[r.source for r in records],
         points=int(force.size), notes=notes, stopped=stopped, records=records, curves=curves)
+
+
+#: Two fits whose RSS differ by less than this many times the noise variance s^2 fit equally well.
+EQUALLY_GOOD = 4.0
+
+
+def _ambiguous(fit: _Fit, ends: list, stderr: dict, points: int) -> dict:
+    """Names whose value differs by more than 3 standard errors between the fit and another run's end that
+    fits as well (RSS within EQUALLY_GOOD s^2): {name: [other values]}."""
+    k = len(fit.names)
+    if points <= k:
+        return {}
+    s2 = fit.rss / (points - k)
+    out: dict = {}
+    for rss, values in ends:
+        if rss - fit.rss > EQUALLY_GOOD * s2:
+            continue
+        for name, error in stderr.items():
+            other = values.get(name)
+            if other is not None and abs(other - fit.values[name]) > 3 * error:
+                if all(abs(other - v) > 3 * error for v in out.get(name, [])):
+                    out.setdefault(name, []).append(float(other))
+    return out
 
 
 def _check_converged(fit: _Fit, what: str, max_evaluations: int, force_range: float) -> None:
@@ -825,6 +874,9 @@ def summary(result: CalibrationResult) -> list[str]:
         unit = {"1": ""}.get(UNITS.get(name, "N"), UNITS.get(name, "N"))
         if name in result.stderr:
             text = f"{value:.6g} +- {result.stderr[name]:.2g} {unit}"
+        elif name in result.ambiguous:
+            others = ", ".join(f"{v:.4g}" for v in result.ambiguous[name])
+            text = f"{value:.6g} {unit} (ambiguous: fits as good put it at {others})"
         elif name in result.held:
             text = f"{value:.6g} {unit} (held: not identifiable)"
         else:
