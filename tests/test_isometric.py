@@ -119,3 +119,21 @@ def test_compare_cli_draws_tension_against_pressure(tmp_path):
     assert (tmp_path / "iso_compare_isometric.png").exists()
     # the file hides slack; the baseline (no slack) pushes at the short length: RMSE well above the noise
     assert float(done.stdout.split("RMSE ")[1].split()[0]) > 1.0
+
+
+def test_synth_cli_writes_an_isometric_bench(tmp_path):
+    import subprocess
+    import sys
+
+    done = subprocess.run([sys.executable, "-m", "mkctl", "synth", "isometric", str(tmp_path / "b.csv"), "--hidden",
+                           "slack,force_offset=2", "--noise", "0"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "noise 0 N" in done.stdout and "force sensor offset 2 N" in done.stdout
+    truth = json.loads((tmp_path / "b.truth.json").read_text())
+    assert truth["hidden_effects"] == ["slack"] and truth["sensor_offsets"] == {"force": 2.0}
+    m = read_measurement(tmp_path / "b.csv")
+    expected = isometric_tension(m.inputs["length"], m.inputs["pressure"], m.branch, Params(slack=1)) + 2.0
+    assert np.allclose(m.output, expected, atol=1e-9)
+    bad = subprocess.run([sys.executable, "-m", "mkctl", "synth", "isometric", str(tmp_path / "c.csv"), "--hidden",
+                          "force_offset=lots"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "force_offset" in bad.stderr and "Traceback" not in bad.stderr
