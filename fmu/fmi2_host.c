@@ -6,7 +6,8 @@
  *   OUT_VR   value reference of the Real output to print after every step
  *   VR=VALUE Real start values (parameters or inputs) to set before initialization
  * Prints "time value" lines on stdout and the FMU's log messages on stderr; exits 0 only if every call
- * returned fmi2OK and the run reached STOP.
+ * returned fmi2OK and the run reached STOP. It frees the instance and returns from main: the process
+ * exit runs every library's exit handlers (see docs/fmu.md, "Exit").
  *
  * Build: gcc -I <fmpy>/c-code -o fmi2_host fmi2_host.c -ldl
  * Run (pythonfmu FMUs need libpython in the process, and Python's own modules):
@@ -19,7 +20,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "fmi2Functions.h"
 
@@ -140,9 +140,5 @@ int main(int argc, char *argv[])
     }
     CHECK(terminate(fmu));
     free_instance(fmu);
-    /* End here, without the libraries' exit handlers: numpy's bundled libgfortran (loaded by the FMU's Python)
-     * aborted in its exit handler in about a third of the runs of this host ("free(): corrupted unsorted
-     * chunks", depending on the heap layout), after every FMI call had returned. See docs/fmu.md. */
-    fflush(NULL);
-    _exit(0);
+    return 0; /* the library stays loaded until exit, as in fmpy */
 }

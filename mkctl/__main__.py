@@ -3,4 +3,6 @@ import sys
 
 from .cli import main
 
-sys.exit(main())
+# guarded: Dask's worker processes start by importing the main module again
+if __name__ == "__main__":
+    sys.exit(main())

@@ -29,8 +29,8 @@ SIGMAS = 3.5  # a true value further than this many standard errors away fails
 
 def record(hidden=(), noise=1.0, seed=0, offset=0.0):
     rec = synthesize_isometric({**MUSCLE, **dict(hidden)}, known=KNOWN, noise=noise, seed=seed, offset=offset)
-    return isometric_record(rec.inputs["length"], rec.inputs["pressure"], rec.output, rec.inputs["branch"],
-                            rec.known, source=f"synthetic seed {seed}")
+    return isometric_record(rec.inputs["length"], rec.inputs["pressure"], rec.output + rec.offset,
+                            rec.inputs["branch"], rec.known, source=f"synthetic seed {seed}")
 
 
 def assert_within_stderr(result, truth: dict):

@@ -7,6 +7,7 @@ from pathlib import Path
 import control as ct
 import numpy as np
 import pytest
+from scipy.optimize import brentq
 
 from mkctl.analysis import control as mc
 from mkctl.physics import knee, stability
@@ -21,7 +22,7 @@ ALPHA60 = math.radians(60)
 @pytest.fixture(scope="module")
 def op60():
     """alpha = 60 deg, Pf = 100 kPa, damped to zeta = 0.3."""
-    op = mc.operating_point(ALPHA60, pf=100e3)
+    op = mc.operating_point(ALPHA60, Pf=100e3)
     return op.with_params(c=mc.damping_for_zeta(0.3, op))
 
 
@@ -49,24 +50,24 @@ def test_nlsys_has_named_signals_and_is_eq17():
 @pytest.mark.parametrize("alpha_deg", [20, 45, 60, 72])
 def test_operating_point_matches_the_closed_form_equilibrium(params, alpha_deg):
     alpha = math.radians(alpha_deg)
-    op = mc.operating_point(alpha, pf=150e3, params=params)
-    assert op.pe == pytest.approx(float(stability.equilibrium_pressure(alpha, 150e3, params)), rel=1e-9)
+    op = mc.operating_point(alpha, Pf=150e3, params=params)
+    assert op.Pe == pytest.approx(float(stability.equilibrium_pressure(alpha, 150e3, params)), rel=1e-9)
     assert op.X == pytest.approx(float(knee.X_from_alpha(alpha, params)), rel=1e-14)
-    rhs = knee.knee_derivatives(op.states, op.pe, op.pf, params)
+    rhs = knee.knee_derivatives(op.states, op.Pe, op.Pf, params)
     assert np.abs(rhs).max() < 1e-6
     if params.tau > 0:
-        assert op.states[2:] == pytest.approx([op.pe, op.pf], rel=1e-9)
+        assert op.states[2:] == pytest.approx([op.Pe, op.Pf], rel=1e-9)
 
 
 def test_operating_point_from_hip_height_and_bad_postures():
-    op = mc.operating_point(X=0.83, pf=100e3)
+    op = mc.operating_point(X=0.83, Pf=100e3)
     assert op.X == 0.83 and op.alpha == pytest.approx(float(knee.alpha_from_X(0.83)), rel=1e-12)
     with pytest.raises(DomainError, match="end stops"):
         mc.operating_point(math.radians(80))
     with pytest.raises(MkctlError, match="exactly one"):
         mc.operating_point(ALPHA60, X=0.85)
     with pytest.raises(MkctlError):
-        mc.operating_point(ALPHA60, pf=float("nan"))
+        mc.operating_point(ALPHA60, Pf=float("nan"))
 
 
 # --- linearizations ---
@@ -75,7 +76,7 @@ def test_operating_point_from_hip_height_and_bad_postures():
                                     Params(c=20.0, Fc=3.0, vs=0.01)])
 @pytest.mark.parametrize("alpha_deg", [20, 45, 60, 72])
 def test_python_control_linearize_agrees_with_the_analytic_jacobian(params, alpha_deg):
-    op = mc.operating_point(math.radians(alpha_deg), pf=100e3, params=params)
+    op = mc.operating_point(math.radians(alpha_deg), Pf=100e3, params=params)
     analytic = mc.analytic_linearization(op)
     numerical = mc.numerical_linearization(op)
     assert numerical.state_labels == analytic.state_labels == list(op.state_names)
@@ -87,7 +88,7 @@ def test_python_control_linearize_agrees_with_the_analytic_jacobian(params, alph
 def test_analytic_linearization_carries_a1_a2_and_the_lag_block(op60):
     op = op60.with_params(tau=0.04)
     lin = mc.analytic_linearization(op)
-    a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
+    a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0, op.params)
     assert lin.A[1, 0] == pytest.approx(float(a2), rel=1e-12)
     assert lin.A[1, 1] == pytest.approx(float(a1), rel=1e-12)
     np.testing.assert_array_equal(lin.A[2:, 2:], -np.eye(2) / 0.04)
@@ -98,7 +99,7 @@ def test_analytic_linearization_carries_a1_a2_and_the_lag_block(op60):
 # --- Eq. 19: damping ---
 
 def test_model2_alone_leaves_the_poles_on_the_imaginary_axis_and_damping_moves_them_left():
-    op = mc.operating_point(ALPHA60, pf=100e3)
+    op = mc.operating_point(ALPHA60, Pf=100e3)
     poles = mc.analytic_linearization(op).poles()
     a2 = mc.analytic_linearization(op).A[1, 0]
     assert np.abs(poles.real).max() < 1e-12
@@ -113,17 +114,17 @@ def test_model2_alone_leaves_the_poles_on_the_imaginary_axis_and_damping_moves_t
 @pytest.mark.parametrize("alpha_deg", [55, 60, 70])
 @pytest.mark.parametrize("zeta", [0.1, 0.3, 0.7])
 def test_damping_for_zeta_gives_that_damping_ratio_in_the_eigenvalues(alpha_deg, zeta):
-    op = mc.operating_point(math.radians(alpha_deg), pf=100e3)
+    op = mc.operating_point(math.radians(alpha_deg), Pf=100e3)
     c = mc.damping_for_zeta(zeta, op)
     # eigenvalues of python-control's numerical linearization of the damped nonlinear system
     eig = mc.numerical_linearization(op.with_params(c=c)).poles()
     assert -eig.real / np.abs(eig) == pytest.approx([zeta, zeta], rel=1e-5)
-    assert mc.damping_ratio(*stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0,
+    assert mc.damping_ratio(*stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0,
                                                                    op.params.replace(c=c))) == pytest.approx(zeta)
 
 
 def test_damping_for_zeta_refuses_an_unstable_posture_and_a_bad_ratio():
-    op = mc.operating_point(math.radians(30), pf=100e3)  # a2 > 0 there (h > 0, Eq. 20 fails)
+    op = mc.operating_point(math.radians(30), Pf=100e3)  # a2 > 0 there (h > 0, Eq. 20 fails)
     with pytest.raises(mc.ControlAnalysisError, match="a2 = .* >= 0"):
         mc.damping_for_zeta(0.3, op)
     with pytest.raises(mc.ControlAnalysisError, match="zeta"):
@@ -218,7 +219,7 @@ def test_large_step_shows_the_nonlinearity_and_settles_at_the_library_equilibriu
     result = mc.step_responses(op60, 100e3, duration=3.0, fmu=Path("no/such.fmu"))
     assert "not found" in result["fmu_note"]
     assert np.abs(result["linear"] - result["nonlinear"]).max() > 0.2 * np.abs(result["nonlinear"]).max()
-    X_end = stability.equilibrium_hip_height(op60.pe + 100e3, op60.pf, op60.params)
+    X_end = stability.equilibrium_hip_height(op60.Pe + 100e3, op60.Pf, op60.params)
     assert result["nonlinear"][-1] + op60.X == pytest.approx(X_end, abs=2e-6)
 
 
@@ -230,10 +231,49 @@ def run_cli(args, capsys):
     return code, out.out, out.err
 
 
+def finite_difference_linearization(alpha, pf, params):
+    """The rest state and the linearization at alpha [rad], pf [Pa] from Eq. 17's right-hand side alone
+    (:func:`mkctl.physics.knee.knee_derivatives`, no stops): pe from its affine dependence on the pressure, the
+    Jacobian by central differences. Independent of mkctl.analysis.control and of the library's partials."""
+    X = float(knee.X_from_alpha(alpha, params))
+    accel = lambda x, v, pe, pf_: knee.knee_derivatives([x, v], pe, pf_, params)[1]  # noqa: E731
+    pe = -accel(X, 0.0, 0.0, pf) * 1e6 / (accel(X, 0.0, 1e6, pf) - accel(X, 0.0, 0.0, pf))
+    hX, hV, hP = 1e-7, 1e-6, 10.0
+    a2 = (accel(X + hX, 0.0, pe, pf) - accel(X - hX, 0.0, pe, pf)) / (2 * hX)
+    a1 = (accel(X, hV, pe, pf) - accel(X, -hV, pe, pf)) / (2 * hV)
+    b = [(accel(X, 0.0, pe + hP, pf) - accel(X, 0.0, pe - hP, pf)) / (2 * hP),
+         (accel(X, 0.0, pe, pf + hP) - accel(X, 0.0, pe, pf - hP)) / (2 * hP)]
+    unit_c = params.replace(c=1.0, Fc=0.0)  # a1 per unit c: -(G_e^2 + G_f^2) / m
+    per_c = (knee.knee_derivatives([X, hV], pe, pf, unit_c)[1] - knee.knee_derivatives([X, -hV], pe, pf, unit_c)[1]) \
+        / (2 * hV)
+    return {"X": X, "pe": pe, "a2": a2, "a1": a1, "b": b, "a1_per_c": per_c}
+
+
+def printed_matrix(text, name):
+    """The numbers of ``NAME =\n[[...]\n [...]]`` as printed by numpy."""
+    block = re.search(name + r" =\n(\[\[.*?\]\])", text, re.S).group(1)
+    return np.array([[float(v) for v in row.split()] for row in re.findall(r"\[([^\[\]]+)\]", block)])
+
+
 def test_cli_linearize(tmp_path, capsys):
-    code, out, _ = run_cli(["linearize", "--out", str(tmp_path), "--no-fmu"], capsys)
+    code, out, _ = run_cli(["linearize", "--out", str(tmp_path), "--no-fmu", "--zeta", "0.4"], capsys)
     assert code == 0
-    assert "Eq. 19 fails" in out and "c = 193.4" in out
+    ref = finite_difference_linearization(ALPHA60, 100e3, Params())
+    assert float(re.search(r"X = (\S+) m", out).group(1)) == pytest.approx(ref["X"], abs=1e-6)
+    assert float(re.search(r"pe = (\S+) kPa", out).group(1)) * 1e3 == pytest.approx(ref["pe"], abs=1.0)
+    A, B = printed_matrix(out, "A"), printed_matrix(out, "B")
+    np.testing.assert_allclose(A, [[0.0, 1.0], [ref["a2"], ref["a1"]]], rtol=1e-5, atol=1e-9)
+    np.testing.assert_allclose(B, [[0.0, 0.0], ref["b"]], rtol=1e-5)
+    assert "Eq. 19 fails" in out and "Eq. 20 holds" in out  # a1 = 0, a2 < 0
+    assert ref["a1"] == 0.0 and ref["a2"] < 0
+    w_n = math.sqrt(-ref["a2"])
+    assert float(re.search(r"w_n = (\S+) rad/s", out).group(1)) == pytest.approx(w_n, rel=1e-4)
+    # the damping for zeta: the c whose a1 = -2 zeta w_n
+    c = float(re.search(r"zeta = 0.4: c = (\S+) N s/m", out).group(1))
+    assert c * ref["a1_per_c"] == pytest.approx(-2 * 0.4 * w_n, rel=1e-5)
+    poles = re.search(r"-> poles (\S+)-(\S+)j", out)
+    assert float(poles.group(1)) == pytest.approx(-0.4 * w_n, rel=1e-3)
+    assert float(poles.group(2)) == pytest.approx(w_n * math.sqrt(1 - 0.4 ** 2), rel=1e-3)
     error = float(re.search(r"linearize vs analytic: relative error (\S+)", out).group(1))
     assert error < 1e-6
     assert (tmp_path / "poles.png").stat().st_size > 0
@@ -252,11 +292,55 @@ def test_cli_rootlocus(vary, png, tmp_path, capsys):
                                                     tau=0.05)), rel=1e-4)
 
 
+def second_order_step_info(zeta, w_n, t):
+    """Rise time (10-90 %), overshoot [%] and 2 % settling time of the unit step of w_n^2 / (s^2 + 2 zeta w_n s +
+    w_n^2), from its closed form sampled at t: the textbook reference for the linear response."""
+    wd = w_n * math.sqrt(1 - zeta ** 2)
+    y = 1 - np.exp(-zeta * w_n * t) * (np.cos(wd * t) + zeta / math.sqrt(1 - zeta ** 2) * np.sin(wd * t))
+    rise = t[np.argmax(y >= 0.9)] - t[np.argmax(y >= 0.1)]
+    outside = np.flatnonzero(np.abs(y - 1) > 0.02)
+    return rise, 100 * math.exp(-zeta * math.pi / math.sqrt(1 - zeta ** 2)), t[outside[-1] + 1]
+
+
 def test_cli_step(tmp_path, capsys):
     code, out, _ = run_cli(["step", "--out", str(tmp_path), "--no-fmu", "--duration", "1.5"], capsys)
     assert code == 0
     assert (tmp_path / "step_small.png").exists() and (tmp_path / "step_large.png").exists()
-    assert "overshoot" in out
+    ref = finite_difference_linearization(ALPHA60, 100e3, Params())
+    w_n = math.sqrt(-ref["a2"])
+    c = -2 * 0.3 * w_n / ref["a1_per_c"]  # zeta = 0.3, the default
+    assert float(re.search(r"c = (\S+) N s/m", out).group(1)) == pytest.approx(c, rel=1e-3)
+    printed = {}
+    for size, block in re.findall(r"(small|large) step of pe_cmd[^\n]*\n((?:  [^\n]*\n?)*)", out):
+        for name, *numbers in re.findall(r"  (\w+)\s*: rise (\S+) s, overshoot (\S+) %, settling (\S+) s, "
+                                         r"final X - X_op = (\S+) mm", block):
+            printed[size, name] = tuple(float(v) for v in numbers)
+    assert set(printed) == {(s, n) for s in ("small", "large") for n in ("linear", "nonlinear")}
+    # linear: the textbook second-order step (zeta = 0.3 exactly), scaled by the DC gain b / -a2
+    t = np.linspace(0.0, 1.4, 1401)  # from the step at 0.1 s to the end at 1.5 s, dt = 1 ms
+    rise, overshoot, settling = second_order_step_info(0.3, w_n, t)
+    for size, dpe in (("small", 1e3), ("large", 100e3)):
+        lin = printed[(size, "linear")]
+        assert lin[0] == pytest.approx(rise, abs=1.5e-3)
+        assert lin[1] == pytest.approx(overshoot, rel=2e-3)
+        assert lin[2] == pytest.approx(settling, abs=1.5e-3)
+        assert lin[3] == pytest.approx(1e3 * dpe * ref["b"][0] / -ref["a2"], rel=2e-3)
+    # nonlinear: Eq. 17 integrated here by scipy (its own integrator), from rest, the step at 0.1 s
+    from scipy.integrate import solve_ivp
+
+    params = Params(c=c)
+    stops = knee.stop_positions(params)
+    for size, dpe in (("small", 1e3), ("large", 100e3)):
+        pe1 = ref["pe"] + dpe
+        run = solve_ivp(lambda _, y: knee.knee_derivatives(y, pe1, 100e3, params, stops), (0.0, t[-1]),
+                        [ref["X"], 0.0], t_eval=t, rtol=1e-10, atol=1e-12, method="DOP853")
+        y = run.y[0] - ref["X"]
+        final = brentq(lambda x: knee.ground_force(x, pe1, 100e3, 0.0, params) - params.m * params.g,
+                       ref["X"] - 0.02, ref["X"] + 0.02) - ref["X"]
+        nonlin = printed[(size, "nonlinear")]
+        assert nonlin[1] == pytest.approx(100 * (y.max() - final) / final, rel=2e-3)
+        assert nonlin[0] == pytest.approx(t[np.argmax(y >= 0.9 * final)] - t[np.argmax(y >= 0.1 * final)], abs=1.5e-3)
+        assert nonlin[3] == pytest.approx(1e3 * y[-1], rel=2e-3)  # the last sample, as printed
 
 
 @pytest.mark.parametrize("args,message", [
@@ -312,10 +396,11 @@ def test_cli_fmu_given_explicitly_must_be_an_fmu(command, tmp_path, capsys):
 def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeypatch):
     from mkctl.analysis import control_defaults
 
-    monkeypatch.setattr(control_defaults, "DEFAULT_FMU", tmp_path / "not_built.fmu")
+    monkeypatch.chdir(tmp_path)  # a folder with no dist/: the command's default FMU is not built here
     code, out, err = run_cli(["linearize", "--out", str(tmp_path)], capsys)
     assert code == 0 and err == ""
-    assert f"note: FMU {tmp_path / 'not_built.fmu'} not found" in out and "FMU linearization" not in out
+    assert "note: FMU dist/McKibbenKnee.fmu not found" in out and "FMU linearization" not in out
+    assert not hasattr(control_defaults, "DEFAULT_FMU")  # no library default that depends on the working folder
 
 
 def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
@@ -334,8 +419,8 @@ def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
 
 def test_operating_point_refuses_negative_gauge_pressure():
     with pytest.raises(DomainError, match="pf = -500 kPa is below 0"):
-        mc.operating_point(ALPHA60, pf=-500e3)
-    assert mc.operating_point(ALPHA60, pf=0.0).pe > 0  # 0 kPa (atmospheric) is allowed
+        mc.operating_point(ALPHA60, Pf=-500e3)
+    assert mc.operating_point(ALPHA60, Pf=0.0).Pe > 0  # 0 kPa (atmospheric) is allowed
 
 
 def test_cli_huge_pressure_gets_a_note_not_a_crash(tmp_path, capsys):
@@ -378,3 +463,11 @@ def test_docs_examples_run(tmp_path, monkeypatch, capsys):
     for block in blocks:
         exec(compile(block, "<docs/control.md>", "exec"), {"__name__": "__docs__"})
     assert capsys.readouterr().out.strip()
+
+
+def test_the_operating_point_uses_the_fmu_names_and_keeps_the_former_ones():
+    op = mc.operating_point(ALPHA60, Pf=150e3)
+    assert (op.Pe, op.Pf) == (op.pe, op.pf) == tuple(op.inputs)  # the FMU's Pe, Pf; pe, pf: the former names
+    former = mc.operating_point(ALPHA60, pf=150e3)
+    assert (former.Pe, former.Pf) == (op.Pe, op.Pf)
+    assert op.Pe == pytest.approx(float(stability.equilibrium_pressure(ALPHA60, 150e3)), rel=1e-9)

@@ -62,14 +62,15 @@ def test_bench_inputs_step_up_then_down_at_each_length():
 
 
 def test_synthetic_record_is_the_truth_plus_offset_and_survives_the_file(tmp_path):
-    record = synthesize_isometric(["slack", "coulomb_friction", "force_offset=1.5"], noise=0.0)
+    record = synthesize_isometric(["slack", "coulomb_friction"], noise=0.0, offset=1.5)
     truth = Params(slack=1, Fc=2.0)
     assert record.truth == truth
     expected = isometric_tension(record.inputs["length"], record.inputs["pressure"], record.inputs["branch"], truth)
-    assert np.allclose(record.output, expected + 1.5, atol=1e-12)
+    assert np.allclose(record.output, expected, atol=1e-12)  # the offset is added when written
     assert (record.output_clean[record.inputs["length"] < 0.16] >= 0).all()
     path, truth_path = write_synthetic(tmp_path / "iso.csv", record)
-    assert json.loads(truth_path.read_text())["sensor_offsets"] == {"force": 1.5}
+    truth_json = json.loads(truth_path.read_text())
+    assert truth_json["offset"] == 1.5 and truth_json["noise_unit"] == "N"
     m = read_measurement(path)
     assert m.experiment == "isometric"
     assert np.array_equal(m.branch, record.inputs["branch"])
@@ -126,14 +127,14 @@ def test_synth_cli_writes_an_isometric_bench(tmp_path):
     import sys
 
     done = subprocess.run([sys.executable, "-m", "mkctl", "synth", "isometric", str(tmp_path / "b.csv"), "--hidden",
-                           "slack,force_offset=2", "--noise", "0"], capture_output=True, text=True)
+                           "slack", "--offset", "2", "--noise", "0"], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
-    assert "noise 0 N" in done.stdout and "force sensor offset 2 N" in done.stdout
+    assert "noise 0 N" in done.stdout and "sensor offset 2 N" in done.stdout
     truth = json.loads((tmp_path / "b.truth.json").read_text())
-    assert truth["hidden_effects"] == ["slack"] and truth["sensor_offsets"] == {"force": 2.0}
+    assert truth["hidden_effects"] == ["slack"] and truth["offset"] == 2.0
     m = read_measurement(tmp_path / "b.csv")
     expected = isometric_tension(m.inputs["length"], m.inputs["pressure"], m.branch, Params(slack=1)) + 2.0
     assert np.allclose(m.output, expected, atol=1e-9)
-    bad = subprocess.run([sys.executable, "-m", "mkctl", "synth", "isometric", str(tmp_path / "c.csv"), "--hidden",
-                          "force_offset=lots"], capture_output=True, text=True)
-    assert bad.returncode == 2 and "force_offset" in bad.stderr and "Traceback" not in bad.stderr
+    bad = subprocess.run([sys.executable, "-m", "mkctl", "synth", "isometric", str(tmp_path / "c.csv"), "--offset",
+                          "nan"], capture_output=True, text=True)
+    assert bad.returncode == 2 and "offset" in bad.stderr and "Traceback" not in bad.stderr

@@ -194,3 +194,20 @@ def test_equilibrium_range_passed_down_is_the_one_used():
     # a range that ends below the loss of stability has no sign change of h in it: the range given is used
     with pytest.raises(DomainError):
         paper.stability_loss_alpha(100e3, eq_range=(eq_range[0], loss - 0.05))
+
+
+def test_the_claims_registry_is_in_report_order_and_each_claim_runs_alone(claims):
+    assert list(paper.CLAIMS) == [c.key for c in paper.paper_claims(
+        DEFAULT, paper.claims_grid(DEFAULT, n_alpha=30, n_pe=4, n_pf=2))]
+    assert set(paper.CLAIMS) == CLAIM_KEYS
+    grid = paper.claims_grid(DEFAULT, **COARSE)
+    for key, entry in paper.CLAIMS.items():
+        # a fresh context: the claim computes what it needs itself, and the result is the one of the full run
+        alone = entry.check(paper.ClaimContext(DEFAULT, grid))
+        assert alone == claims[key], key
+        assert paper.paper_claims(DEFAULT, grid, keys=[key]) == [claims[key]]
+
+
+def test_an_unknown_claim_key_is_named():
+    with pytest.raises(KeyError, match="no claim 'nope'"):
+        paper.paper_claims(DEFAULT, paper.claims_grid(DEFAULT, n_alpha=30, n_pe=4, n_pf=2), keys=["nope"])

@@ -128,8 +128,7 @@ def test_unusable_folders_are_one_line_exit_2(name, tmp_path):
 REFUSED = """
 import sys
 sys.path.insert(0, sys.argv[1])
-import _common
-import isotonic_sweep
+from mkctl.scenarios import common as _common, isotonic_sweep
 
 def knee(argv):  # X0 outside the model's domain: the knee FMU refuses its first step
     _common.simulate(sys.argv[3], 0.1, 1e-3, None, {"X0": 5.0})
@@ -148,7 +147,7 @@ sys.exit(_common.main_guard({"knee": knee, "actuator": actuator}[sys.argv[2]]))
 @pytest.mark.parametrize("which, expected", [("knee", "invalid start X0"),
                                              ("actuator", "parameter Fc must not be negative")])
 def test_a_refused_step_reports_the_fmus_own_message(which, expected, built_fmus, tmp_path):
-    done = subprocess.run([sys.executable, "-c", REFUSED, str(SCENARIOS), which, str(built_fmus[which])],
+    done = subprocess.run([sys.executable, "-c", REFUSED, str(ROOT), which, str(built_fmus[which])],
                           capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert_one_line_error(done, "refused", expected)
 
@@ -157,7 +156,7 @@ CLEANUP = """
 import sys
 from pathlib import Path
 sys.path.insert(0, sys.argv[1])
-import isotonic_sweep
+from mkctl.scenarios import isotonic_sweep
 
 fmu = isotonic_sweep.ActuatorFMU(sys.argv[2], {"Fc": 3.0})
 unzipped = Path(fmu._unzipdir)
@@ -170,7 +169,7 @@ print(existed, unzipped.exists(), f > 0, P > 0)
 
 
 def test_actuator_fmu_removes_its_extracted_folder_and_exits_cleanly(built_fmus, tmp_path):
-    done = subprocess.run([sys.executable, "-c", CLEANUP, str(SCENARIOS), str(built_fmus["actuator"])],
+    done = subprocess.run([sys.executable, "-c", CLEANUP, str(ROOT), str(built_fmus["actuator"])],
                           capture_output=True, text=True, cwd=tmp_path, timeout=120)
     assert done.returncode == 0, done.stderr[-3000:]  # freed without unloading the binary: no abort at exit
     assert done.stdout.split() == ["True", "False", "True", "True"]

@@ -26,18 +26,33 @@ from ..errors import MkctlError
 from ..physics.isometric import isometric_tension
 from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import Measurement
-from ..physics.params import Params
 from ..io.plotting import new_figure, save_png
+from ..physics.params import Params
+from ..io.diagnosis_report import fit_text, input_axis, plot_overlay, plot_residuals  # noqa: F401 (re-exported)
+from ..physics import knee
 from ..physics.simulate import knee_states
+
+
+def knee_drive(measurement: Measurement, params: Params, stop: int | None = None):
+    """(pe, pf [Pa], params) that drive the knee model over a record: the commands, or, when the file holds
+    measured bladder pressures ``pe``, ``pf``, those pressures with the model's lag switched off (the
+    measured pressures are what any lag already made of the commands)."""
+    n = measurement.samples if stop is None else int(stop)
+    inputs = measurement.inputs
+    if "pe" in inputs and "pf" in inputs:
+        return inputs["pe"][:n], inputs["pf"][:n], params.replace(tau=0.0) if params.tau > 0 else params
+    return inputs["pe_cmd"][:n], inputs["pf_cmd"][:n], params
 
 
 def simulate_output(measurement: Measurement, params: Params, at=None, stop: int | None = None,
                     velocity: bool = False):
-    """The model's output [SI: m] for the measurement's inputs, at the sample indices ``at`` (default all).
+    """The model's output [SI] for the measurement's inputs, at the sample indices ``at`` (default all).
 
-    ``stop``: simulate only the first ``stop`` samples (``at`` must lie below it). With
-    ``velocity=True`` returns (output, rate of the output [m/s]) instead; for the isotonic test the rate
-    is the finite-difference slope of the simulated length.
+    The output is the file's measured quantity: the actuator length [m] (isotonic), the hip height X [m]
+    or the interior knee angle beta [rad] (knee, ``beta_deg`` files). A knee file with measured bladder
+    pressures is driven by them (:func:`knee_drive`). ``stop``: simulate only the first ``stop`` samples
+    (``at`` must lie below it). With ``velocity=True`` returns (output, rate of the output [SI/s]) instead;
+    for the isotonic test the rate is the finite-difference slope of the simulated length.
     """
     n = measurement.samples if stop is None else int(stop)
     at = np.arange(n) if at is None else np.asarray(at, dtype=int)
@@ -51,7 +66,11 @@ def simulate_output(measurement: Measurement, params: Params, at=None, stop: int
         if not velocity:
             return length[at]
         return length[at], np.gradient(length, time)[at]
-    X, V = knee_states(time, measurement.inputs["pe_cmd"][:n], measurement.inputs["pf_cmd"][:n], params, at=at)
+    pe, pf, drive = knee_drive(measurement, params, n)
+    X, V = knee_states(time, pe, pf, drive, at=at)
+    if measurement.output_quantity == "beta":
+        beta = knee.beta_from_X(X, params)
+        return (beta, V * X / (params.Lo * params.Lu * np.sin(beta))) if velocity else beta
     return (X, V) if velocity else X
 
 
@@ -68,13 +87,6 @@ def fit_percent(measured, simulated) -> float:
         return float("nan")
     spread = np.linalg.norm(y - y.mean())
     return float(100.0 * (1.0 - np.linalg.norm(y - np.asarray(simulated, dtype=float)) / spread))
-
-
-def fit_text(fit: float) -> str:
-    """``"fit 87.3 %"``, or the reason there is none: a constant measured output has no spread to explain."""
-    if not np.isfinite(fit):
-        return "fit undefined (the measured output is constant: no variation to explain)"
-    return f"fit {fit:.1f} %"
 
 
 @dataclass(frozen=True)
@@ -102,47 +114,6 @@ def compare(measurement: Measurement, params: Params | None = None) -> Compariso
         raise MkctlError(f"{measurement.source}: the model cannot simulate this record: {error}") from None
     y, yhat = measurement.to_file_units(measurement.output), measurement.to_file_units(simulated)
     return Comparison(measurement, params, simulated, rmse(y, yhat), fit_percent(y, yhat))
-
-
-def input_axis(measurement: Measurement):
-    """The record's main input (pressure or extensor command, in kPa) and its label, for plots."""
-    if measurement.experiment in ("isotonic", "isometric"):
-        return measurement.inputs["pressure"] / 1e3, "pressure [kPa]"
-    return measurement.inputs["pe_cmd"] / 1e3, "extensor command pe_cmd [kPa]"
-
-
-def plot_overlay(measurement: Measurement, curves: dict, path, title: str = "") -> Path:
-    """Measured output and simulated curves (label -> SI array) over time, with the main input below."""
-    fig, (top, bottom) = new_figure(2, 1, figsize=(9, 6), sharex=True, height_ratios=(3, 1))
-    unit = measurement.output_unit
-    top.plot(measurement.time, measurement.to_file_units(measurement.output), ".", ms=2, color="0.5",
-             label=f"measured ({Path(measurement.source).name})")
-    for label, values in curves.items():
-        top.plot(measurement.time, measurement.to_file_units(values), lw=1.2, label=label)
-    top.set_ylabel(f"{measurement.output_column} [{unit}]")
-    top.legend(loc="best", fontsize=8)
-    top.set_title(title or f"{measurement.experiment}: model vs measurement")
-    values, label = input_axis(measurement)
-    bottom.plot(measurement.time, values, color="k", lw=1)
-    bottom.set_ylabel(label, fontsize=8)
-    bottom.set_xlabel("time [s]")
-    return save_png(fig, path)
-
-
-def plot_residuals(measurement: Measurement, residuals: dict, path, title: str = "") -> Path:
-    """Residuals (label -> array in file units) over time, one panel each, with their RMSE."""
-    fig, axes = new_figure(len(residuals), 1, figsize=(9, 2.2 * len(residuals) + 0.6), sharex=True,
-                           squeeze=False)
-    for ax, (label, residual) in zip(axes[:, 0], residuals.items()):
-        ax.plot(measurement.time, residual, lw=0.8)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_ylabel(f"residual [{measurement.output_unit}]", fontsize=8)
-        ax.set_title(f"{label}: RMSE {rmse(residual, 0.0):.4g} {measurement.output_unit}",
-                     fontsize=9)
-    axes[-1, 0].set_xlabel("time [s]")
-    if title:
-        fig.suptitle(title)
-    return save_png(fig, path)
 
 
 def plot_isometric(length, pressure, force, branch, curves: dict, path, title: str = "", L0: float | None = None,

@@ -28,7 +28,7 @@ Example
 -------
 >>> import numpy as np
 >>> from mkctl.analysis import control as mc
->>> op = mc.operating_point(np.radians(60), pf=100e3)
+>>> op = mc.operating_point(np.radians(60), Pf=100e3)
 >>> sys = mc.analytic_linearization(op)
 >>> sys.state_labels, sys.input_labels
 (['X', 'V'], ['pe_cmd', 'pf_cmd'])
@@ -36,7 +36,7 @@ Example
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import control as ct
@@ -47,7 +47,8 @@ from ..physics import knee, stability
 from ..errors import DomainError, MkctlError
 from ..fmu.probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
-from .control_defaults import DEFAULT_FMU, DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
+from ..results import Result
+from .control_defaults import DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
 from ..physics.simulate import DEFAULT_PF, knee_states
 
 __all__ = [
@@ -55,8 +56,8 @@ __all__ = [
     "operating_point", "analytic_linearization", "numerical_linearization", "fmu_linearization",
     "damping_ratio", "natural_frequency", "damping_for_zeta", "damping_loop", "damping_root_locus",
     "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
-    "step_responses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
-    "plot_step", "DEFAULT_FMU", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
+    "step_responses", "StepResponses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
+    "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
 ]
 
 #: Input names of every system built here.
@@ -106,10 +107,20 @@ class KneeOperatingPoint:
     params: Params
     alpha: float  #: kneecap angle [rad]
     X: float  #: hip height [m]
-    pe: float  #: extensor pressure (and command) [Pa]
-    pf: float  #: flexor pressure (and command) [Pa]
+    Pe: float  #: extensor pressure [Pa] (the FMU's output ``Pe``; at rest also the command ``pe_cmd``)
+    Pf: float  #: flexor pressure [Pa] (the FMU's output ``Pf``; at rest also the command ``pf_cmd``)
     states: np.ndarray = field(repr=False)  #: SI, in the order of :attr:`state_names`
     inputs: np.ndarray = field(repr=False)  #: (pe_cmd, pf_cmd) [Pa]
+
+    @property
+    def pe(self) -> float:
+        """The former name of :attr:`Pe` (kept for old callers)."""
+        return self.Pe
+
+    @property
+    def pf(self) -> float:
+        """The former name of :attr:`Pf` (kept for old callers)."""
+        return self.Pf
 
     @property
     def state_names(self) -> tuple[str, ...]:
@@ -125,8 +136,8 @@ class KneeOperatingPoint:
             raise ControlAnalysisError(f"{sorted(bad)[0]} moves the equilibrium: find a new operating point")
         params = self.params.replace(**overrides)
         lag = params.tau > 0
-        states = np.array([self.X, 0.0, self.pe, self.pf] if lag else [self.X, 0.0])
-        return KneeOperatingPoint(params, self.alpha, self.X, self.pe, self.pf, states, self.inputs.copy())
+        states = np.array([self.X, 0.0, self.Pe, self.Pf] if lag else [self.X, 0.0])
+        return KneeOperatingPoint(params, self.alpha, self.X, self.Pe, self.Pf, states, self.inputs.copy())
 
 
 def _posture(alpha, X, params) -> tuple[float, float]:
@@ -139,14 +150,35 @@ def _posture(alpha, X, params) -> tuple[float, float]:
     return alpha, X
 
 
-def operating_point(alpha: float | None = None, *, X: float | None = None, pf: float = DEFAULT_PF,
-                    params: Params = DEFAULT) -> KneeOperatingPoint:
-    """The rest state at posture alpha [rad] or hip height X [m] with flexor pressure pf [Pa].
+def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: float = DEFAULT_PF,
+                    params: Params = DEFAULT, pf: float | None = None) -> KneeOperatingPoint:
+    """The rest state of Eq. 17 (V = 0, F = m g) at a posture, found by python-control.
 
-    Found by python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd
-    and the other states free), in scaled units. Raises :class:`ControlAnalysisError` if it fails.
+    python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd and the other
+    states free), in the units of :data:`LINEARIZE_SCALE`; a test checks it against the closed form
+    :func:`mkctl.physics.stability.equilibrium_pressure`.
+
+    Parameters
+    ----------
+    alpha : float, optional
+        Kneecap angle [rad], strictly between the end stops; or give ``X``, the hip height [m].
+    Pf : float
+        Flexor gauge pressure (and command) [Pa], >= 0 (``pf``: its former name, still accepted).
+    params : Params
+        The model.
+
+    Returns
+    -------
+    KneeOperatingPoint
+        alpha [rad], X [m], Pe and Pf [Pa] (pressures equal the commands at rest), the states and inputs.
+
+    Raises
+    ------
+    DomainError, ControlAnalysisError
+        For a posture outside the stops, a bad pf, no solution, or one that needs pe < 0.
     """
     alpha, X = _posture(alpha, X, params)
+    pf = Pf if pf is None else pf
     if not math.isfinite(pf):
         raise DomainError(f"flexor pressure pf = {pf!r} Pa is not a finite number")
     if pf < 0:
@@ -190,10 +222,16 @@ def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
 def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") -> ct.StateSpace:
     """The linearization at op from the analytic partials of :func:`mkctl.physics.knee.knee_force_partials`.
 
-    Named states, inputs and outputs as in :func:`knee_nlsys`; A[1, 0] = a2 and A[1, 1] = a1 of Eq. 18.
+    Without a lag ``A = [[0, 1], [a2, a1]]`` (Eq. 18; a2 = dF/dX / m [1/s^2], a1 = dF/dV / m [1/s]) and
+    ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]`` [m/(s^2 Pa)]; with a lag tau [s] the states Pe, Pf follow
+    ``tau dP/dt = P_cmd - P`` (model-spec section 4) and the pressure columns move into A (module docstring).
+
+    Parameters: op, the operating point; name of the system. Returns a ``control.StateSpace`` with named
+    states (X [m], V [m/s], Pe, Pf [Pa]), inputs (pe_cmd, pf_cmd [Pa]) and outputs (the states).
+    References: seed paper Eq. 17-20.
     """
     p = op.params
-    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.pe, op.pf, p)
+    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.Pe, op.Pf, p)
     row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
     gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
     if p.tau > 0:
@@ -223,7 +261,7 @@ def numerical_linearization(op: KneeOperatingPoint, scale: dict | None = None, e
     return _named_ss(A, B, op.params, name)
 
 
-def fmu_linearization(op: KneeOperatingPoint, fmu=DEFAULT_FMU, dt: float = probe.DT,
+def fmu_linearization(op: KneeOperatingPoint, fmu, dt: float = probe.DT,
                       hX: float = probe.HX, hP: float = probe.HP, name: str = "knee_fmu") -> ct.StateSpace:
     """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu.probe`).
 
@@ -253,22 +291,27 @@ def damping_ratio(a1, a2) -> np.ndarray:
 def velocity_gain(op: KneeOperatingPoint) -> float:
     """``(G_e^2 + G_f^2) / m`` [1/kg]: a1 = -c times this, at the posture of op (from the library's dF/dV)."""
     unit_damping = op.params.replace(c=1.0, Fc=0.0)
-    partials = knee.knee_force_partials(knee.geometry_at_X(op.X, unit_damping), 0.0, op.pe, op.pf, unit_damping)
+    partials = knee.knee_force_partials(knee.geometry_at_X(op.X, unit_damping), 0.0, op.Pe, op.Pf, unit_damping)
     return float(-partials.dF_dV) / op.params.m
 
 
 def damping_for_zeta(zeta: float, op: KneeOperatingPoint) -> float:
-    """The viscous damping c [N s/m] that gives damping ratio zeta at op: ``2 zeta m sqrt(-a2)/(G_e^2+G_f^2)``.
+    """The viscous damping c that gives damping ratio zeta at op.
 
-    a2 does not depend on c at rest, so this is exact. Raises :class:`ControlAnalysisError` where a2 >= 0
-    (the posture is not held by a restoring force: no damping ratio exists) or zeta < 0.
+    With ``a1 = -c (G_e^2 + G_f^2) / m`` (model-spec section 4) and ``zeta = -a1 / (2 sqrt(-a2))``:
+
+    .. math:: c = \\frac{2 \\zeta m \\sqrt{-a_2}}{G_e^2 + G_f^2}
+
+    a2 does not depend on c at rest, so this is exact. Parameters: zeta [-], >= 0; op. Returns c [N s/m].
+    Raises :class:`ControlAnalysisError` where a2 >= 0 (the posture is not held by a restoring force: no
+    damping ratio exists) or zeta < 0. References: seed paper Eq. 18-19.
     """
     if not (math.isfinite(zeta) and zeta >= 0):
         raise ControlAnalysisError(f"damping ratio zeta = {zeta!r} must be a number >= 0")
-    _, a2 = stability.routh_hurwitz_coefficients(op.X, op.pe, op.pf, 0.0, op.params)
+    _, a2 = stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0, op.params)
     if not a2 < 0:
         raise ControlAnalysisError(f"a2 = {float(a2):.4g} 1/s^2 >= 0 at alpha = {math.degrees(op.alpha):.4g} deg, "
-                                   f"pf = {op.pf / 1e3:g} kPa: the posture is unstable (Eq. 20 fails) and no damping gives "
+                                   f"pf = {op.Pf / 1e3:g} kPa: the posture is unstable (Eq. 20 fails) and no damping gives "
                                    "it a damping ratio")
     return 2 * zeta * math.sqrt(-float(a2)) / velocity_gain(op)
 
@@ -412,24 +455,92 @@ def _response_info(time, y, final=None):
     return {k: float(info[k]) for k in ("RiseTime", "Overshoot", "SettlingTime", "Peak", "SteadyStateValue")}
 
 
+@dataclass(repr=False, eq=False)
+class StepResponses(Result):
+    """Hip-height responses to one step of pe_cmd, from three models on one time grid (:func:`step_responses`).
+
+    Arrays are X - X_op [m] on ``time`` [s]; ``fmu`` is None when the FMU was not run (``fmu_note`` says why).
+    ``info`` holds python-control's ``step_info`` per model present ("RiseTime" [s], "Overshoot" [%],
+    "SettlingTime" [s], "Peak" [m], "SteadyStateValue" [m]), measured from the step. ``end_stop`` names the end
+    stop the nonlinear model ran onto, and when (None if it stayed between them). ``result[name]`` reads a
+    field as the former dict did.
+    """
+
+    time: np.ndarray  #: sample times [s]
+    linear: np.ndarray  #: the linearization's response X - X_op [m]
+    nonlinear: np.ndarray  #: the nonlinear model's response X - X_op [m] (end stops included)
+    fmu: np.ndarray | None  #: the knee FMU's response X - X_op [m], or None
+    dpe: float  #: the step of pe_cmd [Pa]
+    t_step: float  #: when the step comes [s]
+    info: dict = field(default_factory=dict)  #: {model: step_info dict}
+    end_stop: str | None = None  #: which end stop the nonlinear model reached, and when
+    fmu_note: str | None = None  #: why there is no FMU response
+
+    MODELS = ("linear", "nonlinear", "fmu")
+
+    def __getitem__(self, name: str):
+        if name not in {f.name for f in fields(self)}:
+            raise KeyError(name)
+        return getattr(self, name)
+
+    def summary_lines(self) -> list[str]:
+        lines = [f"step of pe_cmd by {self.dpe / 1e3:+g} kPa at t = {self.t_step:g} s, {self.time.size} samples "
+                 f"to t = {self.time[-1]:g} s"]
+        for name in self.MODELS:
+            if name in self.info:
+                i = self.info[name]
+                lines.append(f"{name}: rise {i['RiseTime']:.4g} s, overshoot {i['Overshoot']:.4g} %, settling "
+                             f"{i['SettlingTime']:.4g} s, final X - X_op = {1e3 * self[name][-1]:+.4g} mm")
+        lines += [note for note in (self.end_stop and f"note: hit the {self.end_stop}", self.fmu_note) if note]
+        return lines
+
+    def table(self) -> dict[str, np.ndarray]:
+        """Columns ``time`` [s] and one X - X_op [m] per model present."""
+        return {"time": self.time, **{name: self[name] for name in self.MODELS if self[name] is not None}}
+
+
 def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = STEP_TIME,
-                   dt: float = 1e-3, fmu=DEFAULT_FMU):
+                   dt: float = 1e-3, fmu=None):
     """Hip height response to a step of the extensor command pe_cmd by dpe [Pa] at t_step [s], from rest at op.
 
-    Three models on one time grid (sampling dt [s]): the linearization (:func:`analytic_linearization`,
-    python-control ``step_response``), the nonlinear model (:class:`mkctl.physics.simulate.KneeSimulator`, end stops
-    included) and, if ``fmu`` is a path to an existing file, the knee FMU through fmpy's ``simulate_fmu``.
-    Returns a dict: "time" [s]; "linear", "nonlinear", "fmu" (None without FMU): X - X_op [m];
-    "info": step_info of each, measured from t_step, with the known final values (the linear model's DC
-    gain; the library's equilibrium at the new pressure); "fmu_note": why the FMU is missing, if it is;
-    "end_stop": which end stop the nonlinear model ran onto, and when (None if it stayed between them).
-    A step that takes pe below 0 (gauge) raises :class:`ControlAnalysisError`.
+    Three models on one time grid: the linearization (:func:`analytic_linearization`, python-control
+    ``step_response`` of ``X/pe_cmd``, Eq. 18 with the input column ``dF/dPe / m``), the nonlinear model (Eq. 17,
+    :func:`mkctl.physics.simulate.knee_states`, end stops included) and, if ``fmu`` is a path to an existing
+    file, the knee FMU through fmpy's ``simulate_fmu`` (model-spec section 7).
+
+    Parameters
+    ----------
+    op : KneeOperatingPoint
+        The rest state the step starts from.
+    dpe : float
+        Step of pe_cmd [Pa], non-zero; pe + dpe must stay >= 0 (gauge pressure).
+    duration : float
+        Length of the response [s], > t_step.
+    t_step : float
+        Time of the step [s] (default :data:`~mkctl.analysis.control_defaults.STEP_TIME`).
+    dt : float
+        Sampling interval [s].
+    fmu : path or None
+        The knee FMU, or None to leave it out (a path to a missing file: left out, with a note).
+
+    Returns
+    -------
+    StepResponses
+        ``time`` [s]; ``linear``, ``nonlinear``, ``fmu`` (None without FMU): X - X_op [m]; ``info``: step_info
+        of each, measured from t_step, with the known final values (the linear model's DC gain
+        ``dpe (dF/dPe) / (-dF/dX)``; the library's stable equilibrium at the new pressure); ``fmu_note``; and
+        ``end_stop``. Reads like the former dict: ``result["info"]``.
+
+    Raises
+    ------
+    ControlAnalysisError
+        For a step, duration or dt that cannot be simulated, or when the nonlinear model fails.
     """
     if not (math.isfinite(dpe) and dpe != 0):
         raise ControlAnalysisError(f"pressure step dpe = {dpe!r} Pa must be a non-zero number")
-    if op.pe + dpe < 0:
-        raise ControlAnalysisError(f"a step by {dpe / 1e3:+g} kPa takes the extensor pressure from {op.pe / 1e3:.4g} "
-                                   f"to {(op.pe + dpe) / 1e3:.4g} kPa, below 0 (gauge): a muscle cannot push")
+    if op.Pe + dpe < 0:
+        raise ControlAnalysisError(f"a step by {dpe / 1e3:+g} kPa takes the extensor pressure from {op.Pe / 1e3:.4g} "
+                                   f"to {(op.Pe + dpe) / 1e3:.4g} kPa, below 0 (gauge): a muscle cannot push")
     if not (math.isfinite(duration) and duration > 0):
         raise ControlAnalysisError(f"duration {duration!r} s must be a positive number")
     if not (math.isfinite(t_step) and 0 <= t_step < duration):
@@ -449,33 +560,34 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     lin_out[after] = dpe * np.asarray(resp.outputs).ravel()
 
     try:
-        nonlin, _ = knee_states(time, np.where(after, op.pe + dpe, op.pe), op.pf, p, X0=op.X)
+        nonlin, _ = knee_states(time, np.where(after, op.Pe + dpe, op.Pe), op.Pf, p, X0=op.X)
     except MkctlError as error:
         raise ControlAnalysisError(f"the nonlinear model failed: {error}") from error
     nonlin = nonlin - op.X
 
-    result = {"time": time, "linear": lin_out, "nonlinear": nonlin, "fmu": None, "fmu_note": None,
-              "dpe": dpe, "t_step": t_step, "end_stop": _end_stop(time, nonlin + op.X, p)}
+    fmu_out, fmu_note = None, None
     if fmu is not None and Path(fmu).is_file():
-        run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.pe + dpe, op.pf), t_step,
+        run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.Pe + dpe, op.Pf), t_step,
                                 duration, dt)
-        result["fmu"] = np.interp(time, run["time"], run["X"]) - op.X
+        fmu_out = np.interp(time, run["time"], run["X"]) - op.X
     elif fmu is not None:
-        result["fmu_note"] = f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
+        fmu_note = f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
     else:
-        result["fmu_note"] = "FMU response not asked for"
+        fmu_note = "FMU response not asked for"
+    result = StepResponses(time, lin_out, nonlin, fmu_out, dpe, t_step, end_stop=_end_stop(time, nonlin + op.X, p),
+                           fmu_note=fmu_note)
     # final values: the linear model's DC gain; for the nonlinear model and the FMU the library's stable
     # equilibrium at the new pressure, if there is one (a leg that falls to a stop ends where it ends)
     finals = {"linear": dpe * float(ct.dcgain(lin[0, 0]))}
     try:
-        finals["nonlinear"] = finals["fmu"] = stability.equilibrium_hip_height(op.pe + dpe, op.pf, p) - op.X
+        finals["nonlinear"] = finals["fmu"] = stability.equilibrium_hip_height(op.Pe + dpe, op.Pf, p) - op.X
         if abs(finals["nonlinear"] - nonlin[-1]) > 0.5 * abs(nonlin[-1] - nonlin[0]):
             raise DomainError("the run went elsewhere")
     except DomainError:
         finals["nonlinear"] = finals["fmu"] = None
-    result["info"] = {
+    result.info = {
         name: _response_info(time[after] - t_step, result[name][after], finals[name])
-        for name in ("linear", "nonlinear", "fmu") if result[name] is not None
+        for name in StepResponses.MODELS if result[name] is not None
     }
     return result
 
@@ -518,7 +630,7 @@ def plot_damping_locus(op: KneeOperatingPoint, c_values, c_marked: float | None 
         ax.plot(marked.real, marked.imag, "ko", mfc="none", ms=9, label=f"c = {c_marked:.4g} N s/m (zeta = {zeta:.3g})")
     ax.legend(fontsize=8, loc="best")
     _pole_axes(ax, f"Root locus against damping c (velocity feedback), alpha = {math.degrees(op.alpha):.4g} deg, "
-                   f"pf = {op.pf / 1e3:g} kPa")
+                   f"pf = {op.Pf / 1e3:g} kPa")
     return save_png(fig, path) if path else fig
 
 
@@ -555,7 +667,7 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
     axes[2].legend(fontsize=8)
     axes[2].set_title("the lag's cost: without lag no finite critical gain", fontsize=10)
     fig.suptitle(f"Pressure lag sweep tau = {taus[0]:.3g} .. {taus[-1]:.3g} s at "
-                 f"alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m",
+                 f"alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m",
                  fontsize=10)
     return save_png(fig, path) if path else fig
 
@@ -610,7 +722,7 @@ def plot_step(result: dict, op: KneeOperatingPoint, path=None):
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     ax.set_title(f"Step of pe_cmd by {result['dpe'] / 1e3:+g} kPa at alpha = {math.degrees(op.alpha):.4g} deg, "
-                 f"pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s", fontsize=9)
+                 f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s", fontsize=9)
     return save_png(fig, path) if path else fig
 
 

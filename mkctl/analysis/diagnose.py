@@ -1,67 +1,81 @@
 """Diagnosis: which effect of model-spec section 4 is the model missing, and with what parameter?
 
-Given a measurement (:mod:`mkctl.io.measurements`), :func:`diagnose` starts from the file's baseline and
-adds effects one at a time, forward stepwise, while the evidence supports it:
+Given a measurement (:mod:`mkctl.io.measurements`), :func:`diagnose` checks the record, then starts from
+the file's baseline and adds effects one at a time, forward stepwise, while the evidence supports it:
 
+0. **Prepare and check.** Measured inputs are measurements: the noise of each (the isotonic test's
+   bladder pressure and load, the knee's measured pressures) is estimated from its high-frequency part
+   (:func:`input_noise`), and an input noisier than its file's rounding is smoothed (:func:`smooth_input`)
+   before anything is simulated, so that an effect cannot win by filtering sensor noise. A knee record
+   whose commands change at many samples (a chirp) is fitted with the commands averaged over short
+   blocks, checked against the full commands to stay well below the output noise. Then the baseline is
+   simulated; where it leaves its domain it saturates physically (the braid limit, the end stops) and
+   the report says where it could not follow. An output whose level or range the model cannot reach
+   (a zeroed sensor, metres under a millimetre header) stops the diagnosis with the likely cause
+   (verdict ``"not diagnosed"``), unless a constant sensor offset is fitted on request (``fit_offset``).
 1. **Split** the record in time: the first 70 % trains, the last 30 % is held out. (Simulations always
    start at the beginning of the record; a held-out error is a prediction from the trained parameters.)
 2. **Candidates** are the effects the experiment can show that the model does not have yet
    (:data:`CANDIDATES`): the isotonic test shows elasticity, Coulomb friction and viscous damping (its
    pressure is measured in the bladder, so a lag cannot show); the knee shows all four.
-3. **Fit** each candidate's one parameter on simulation error over the training part: the model is
-   simulated on the file's inputs and compared with the measured output, never with differentiated
-   data. The search runs in log space between bounds (:data:`CANDIDATES`): a grid of one point per
-   decade, then bounded Brent around the best grid point. "Off" (value 0) is an option too: a
-   candidate the data do not call for comes back as 0. Already added parameters stay at their values.
-4. **Score** each fitted candidate by the Bayesian information criterion on the training part,
-   ``BIC = n ln(RSS / n) + k ln n`` (k: parameters fitted so far), and by its RMSE on the held-out part.
-5. **Accept** the best-BIC candidate only if it lowers BIC by more than :data:`BIC_THRESHOLD` (10:
-   "very strong" evidence, Kass & Raftery 1995) *and* lowers the held-out RMSE by at least
-   :data:`HOLDOUT_GAIN` (2 %). Then refit all added parameters jointly (``least_squares``) and repeat.
-   Stop when no candidate passes both tests. In data without a missing effect every candidate comes
-   back switched off (or tiny), RSS does not move and the ``k ln n`` penalty keeps BIC from improving:
-   nothing is added.
-6. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
-   the Jacobian of the residuals at the optimum, ``cov = s^2 (J^T J)^-1`` with ``s^2 = RSS / (n - k)``.
+3. **Fit** each candidate's one parameter on simulation error over the training part
+   (:func:`mkctl.analysis.diagnosis_rule.best_value`: log-space grid, bounded Brent, "off" as an
+   option). From the second round on, each is refitted jointly with the effects already added.
+4. **Judge** with the rule of :mod:`mkctl.analysis.diagnosis_rule`: physical (not switched off, not on
+   a bound), BIC lower by more than 10, held-out RMSE lower by 2 %, and held-out RMSE better than every
+   other physical candidate's by 2 %. When the best does not beat a rival, the two are fitted together:
+   if each is needed beside the other both are added, otherwise the diagnosis stops with the verdict
+   ``"undecided"``, saying plainly which effects this record cannot tell apart and which experiment
+   would (:data:`DISCRIMINATING_EXPERIMENTS`). After an acceptance, earlier effects that no longer earn
+   their place are dropped.
+5. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
+   the Jacobian of the residuals, ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS / (n - k)``, widened for
+   correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
 
-To explain the choice, every round also reports each candidate's *signature*: the correlation of the
-current residual with the physical quantity the effect acts through (velocity for damping, direction
-of motion for friction, the pressure-command rate for the lag, the rubber's tension for elasticity),
-and near-ties (BIC within :data:`TIE_BIC`) together with the experiment that would tell them apart.
-
-For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points; the
-integrator still runs through every change of the commands, see :func:`mkctl.analysis.compare.simulate_output`),
-so n in BIC is the number of those samples. RMSE in the steps and before/after is over every sample.
-All RMSE are in the units of the file's output column; parameters are SI.
+The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
+For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points), so n in
+BIC is the number of those samples. RMSE in the steps and before/after is over every sample. All RMSE
+are in the units of the file's output column; parameters are SI.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
-from scipy.optimize import least_squares, minimize_scalar
+from scipy.optimize import least_squares
 
-from ..physics import actuator, knee
-from ..physics.isometric import isometric_tension
-from .compare import fit_percent, fit_text, plot_overlay, plot_residuals, rmse, simulate_output
 from ..errors import MkctlError
+from ..io import diagnosis_report
 from ..io.measurements import Measurement
+from ..physics import actuator, isotonic, knee
+from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, Params
-from ..io.plotting import new_figure, save_png
+from ..results import Result
+from .compare import fit_percent, rmse, simulate_output
+from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide, pair_needed, to_drop
 
 #: Share of the record (at its end) held out from fitting.
-HOLDOUT_FRACTION = 0.3
+HOLDOUT_FRACTION = RULE.holdout_fraction
 #: An effect is added only if it lowers BIC by more than this.
-BIC_THRESHOLD = 10.0
+BIC_THRESHOLD = RULE.bic_threshold
 #: ... and lowers the held-out RMSE by at least this fraction.
-HOLDOUT_GAIN = 0.02
-#: Candidates whose BIC lie within this of the best are reported as a near-tie.
-TIE_BIC = 10.0
+HOLDOUT_GAIN = RULE.holdout_gain
+#: ... and beats every other physical candidate's held-out RMSE by this fraction.
+HOLDOUT_MARGIN = RULE.holdout_margin
 #: About how many samples the knee's fits are evaluated on.
-FIT_POINTS = 300
+FIT_POINTS = 200
+#: Tolerance of the one-parameter search, in decades (0.01: 2.3 %; the joint fits refine it).
+FIT_XATOL = 0.01
+#: The knee's fits hold the commands over blocks so that they change at most about this often.
+MAX_COMMAND_CHANGES = 300
+#: Savitzky-Golay window [samples] (quadratic) that smooths a noisy measured input.
+INPUT_SMOOTHING_SAMPLES = 9
+#: An input is smoothed when its estimated noise exceeds this fraction of its range (file rounding lies below).
+INPUT_NOISE_FLOOR = 1e-4
 
 
 @dataclass(frozen=True)
@@ -73,6 +87,11 @@ class Candidate:
     bounds: dict  #: experiment -> (lower, upper) [SI], searched in log space
     regressor: str  #: the force term its signature is checked against
     why: str
+
+    @property
+    def switch(self) -> bool:
+        """An effect that is on or off (slack): its search interval is one point, never a bound it hits."""
+        return self.effect == "slack"
 
     def apply(self, params: Params, value: float) -> Params:
         """params with this effect switched on at ``value``."""
@@ -104,15 +123,16 @@ CANDIDATES = {
                        "f = max(f, 0), applied last: a braided muscle cannot push"),
 }
 
-#: The experiment that tells two candidates apart, for near-ties.
+#: The experiment that tells two candidates apart, for records that cannot.
 DISCRIMINATING_EXPERIMENTS = {
     frozenset({"viscous_damping", "pressure_lag"}):
         "a pressure step with the leg clamped (a lag delays the force even without motion, damping needs "
         "motion), or a slow command ramp followed by a fast step (damping grows with speed, a lag delays "
-        "both by tau)",
+        "both by tau); with measured bladder pressures (pe_kPa, pf_kPa) the lag shows directly",
     frozenset({"viscous_damping", "coulomb_friction"}):
-        "an isotonic sweep at two rates: friction leaves a rate-independent hysteresis loop, damping's "
-        "loop shrinks to nothing at low rates",
+        "a pressure step instead of a ramp, or sweeps at two rates: friction leaves a rate-independent "
+        "hysteresis loop (and stops a step's ringing at a fixed amplitude), damping's loop shrinks to "
+        "nothing at low rates (and its ringing decays in proportion)",
     frozenset({"coulomb_friction", "pressure_lag"}):
         "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only "
         "delays the response by tau",
@@ -127,32 +147,292 @@ DISCRIMINATING_EXPERIMENTS = {
     frozenset({"elasticity", "slack"}):
         "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
         "positive, elasticity bends the whole curve",
+    frozenset({"coulomb_friction", "slack"}):
+        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
+        "everywhere, slack only flattens them at zero",
     frozenset({"viscous_damping", "slack"}):
         "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
         "needs motion",
     frozenset({"pressure_lag", "slack"}):
         "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
         "positive, a lag only delays each reading",
-    frozenset({"coulomb_friction", "slack"}):
-        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
-        "everywhere, slack only flattens them at zero",
 }
 
 _LN10 = math.log(10.0)
 _FAILED = object()
 
 
+def experiment_to_separate(effects) -> str:
+    """The experiment that would tell the given effects apart (each pair's, joined)."""
+    effects = list(effects)
+    texts = [DISCRIMINATING_EXPERIMENTS.get(frozenset({a, b}), "")
+             for i, a in enumerate(effects) for b in effects[i + 1:]]
+    return "; ".join(t for t in texts if t)
+
+
+def candidates_for(measurement: Measurement, params: Params) -> list[str]:
+    """The candidate effects the experiment can show that params do not have yet.
+
+    A knee file with measured bladder pressures drives the model with them: its lag is judged on the
+    pressures directly (:func:`lag_from_pressures`), not as a candidate of the motion.
+    """
+    measured_pressures = "pe" in measurement.inputs and "pf" in measurement.inputs
+    return [name for name, c in CANDIDATES.items()
+            if measurement.experiment in c.bounds and name not in params.effects
+            and not (name == "pressure_lag" and measured_pressures)]
+
+
+def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE) -> dict | None:
+    """The pressure lag judged directly on a knee file's measured bladder pressures, or None without them.
+
+    The measured pe, pf are compared with the commands through the lag ``tau dP/dt = P_cmd - P``
+    (:func:`mkctl.physics.actuator.lagged_pressure`, commands held between samples); tau is fitted like
+    any candidate (log-space search, "off" an option) on the first part of the record and judged by the
+    same rule against no lag. Returns {"accepted", "tau" [s], "uncertainty" [s], "candidate" (a report
+    row, RMSE in kPa), "reason"}; a lag the file already declares (tau in the metadata) is not judged.
+    """
+    m = measurement
+    if m.experiment != "knee" or not ("pe" in m.inputs and "pf" in m.inputs) or params.tau > 0:
+        return None
+    measured = np.concatenate([m.inputs["pe"], m.inputs["pf"]])
+    n = m.samples
+    split = m.time[0] + (1.0 - rule.holdout_fraction) * (m.time[-1] - m.time[0])
+    train_one = m.time <= split
+    train = np.concatenate([train_one, train_one])
+
+    def residual(tau):
+        if tau <= 0:
+            model = np.concatenate([m.inputs["pe_cmd"], m.inputs["pf_cmd"]])
+        else:
+            model = np.concatenate([_lagged(m.time, m.inputs["pe_cmd"], tau), _lagged(m.time, m.inputs["pf_cmd"], tau)])
+        return (measured - model) / 1e3  # kPa
+
+    def score(r, k):
+        return Score.from_residuals(r[train], r[~train], k)
+
+    off = score(residual(0.0), 0)
+    bounds = CANDIDATES["pressure_lag"].bounds["knee"]
+    tau, _ = best_value(lambda v: float(np.sum(residual(v)[train] ** 2)), bounds, off.rss_train)
+    if tau == 0.0:
+        outcome = Outcome("pressure_lag", dataclasses.replace(off, k=1), switched_off=True)
+    else:
+        outcome = Outcome("pressure_lag", score(residual(tau), 1), at_bound=at_bound(tau, bounds))
+    decision = decide(off, [outcome], rule)
+    uncertainty = None
+    if tau > 0:
+        step = tau * 1e-3
+        jac = (residual(tau + step) - residual(tau - step)) / (2 * step)
+        r = residual(tau)
+        dof = max(r.size - 1, 1)
+        rho = _lag_one_correlation(r[:n])
+        widen = (1 + rho) / (1 - rho) if rho > 0 else 1.0
+        uncertainty = float(math.sqrt(widen * (r @ r) / dof / max(jac @ jac, 1e-300)))
+    j = decision.judgements["pressure_lag"]
+    row = {"effect": "pressure_lag", "params": {"tau": tau}, "rmse_train_kPa": outcome.score.rmse_train,
+           "rmse_holdout_kPa": outcome.score.rmse_holdout, "rmse_holdout_before_kPa": off.rmse_holdout,
+           "delta_bic": j.delta_bic, "passes_bic": j.passes_bic, "passes_holdout": j.passes_holdout,
+           "switched_off": outcome.switched_off, "at_bound": outcome.at_bound}
+    return {"accepted": decision.verdict == "add", "tau": tau, "uncertainty": uncertainty, "candidate": row,
+            "reason": decision.reason}
+
+
+# --- Preparing the record: measured inputs, commands, sanity -----------------------------------------
+
+def input_noise(signal) -> float:
+    """Noise standard deviation of a sampled signal, in its units, from its second differences.
+
+    ``sigma = 1.4826 MAD(d2) / sqrt(6)`` with ``d2_k = x_{k+1} - 2 x_k + x_{k-1}``: white noise of
+    standard deviation sigma gives var(d2) = 6 sigma^2, while a smooth signal (a ramp, a slow sweep)
+    leaves d2 near zero, and steps and kinks touch too few samples to move the median.
+    """
+    x = np.asarray(signal, dtype=float)
+    if x.size < 12:
+        return 0.0
+    d2 = np.diff(x, 2)
+    return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0))
+
+
+def smooth_input(signal, sigma: float, window: int = INPUT_SMOOTHING_SAMPLES) -> np.ndarray:
+    """A noisy measured input smoothed by a quadratic Savitzky-Golay filter, steps kept sharp.
+
+    Steps (a load hung on, a pressure step) are found where a first difference departs from its
+    neighbours' median by more than 8 sigma sqrt(2), and each piece between steps is smoothed apart.
+    """
+    from scipy.ndimage import median_filter
+    from scipy.signal import savgol_filter
+
+    x = np.asarray(signal, dtype=float)
+    d = np.diff(x)
+    jumps = np.flatnonzero(np.abs(d - median_filter(d, 5, mode="nearest")) > 8.0 * sigma * math.sqrt(2.0)) + 1
+    out = x.copy()
+    for a, b in zip(np.r_[0, jumps], np.r_[jumps, x.size]):
+        length = b - a
+        w = min(window, length if length % 2 else length - 1)
+        if w >= 5:
+            out[a:b] = savgol_filter(x[a:b], w, 2, mode="interp")
+    return out
+
+
+def measured_inputs(measurement: Measurement) -> list[str]:
+    """The inputs of the record that a sensor read (not commands): these may be noisy."""
+    if measurement.experiment == "isotonic":
+        return [name for name in ("pressure", "force") if name in measurement.inputs]
+    return [name for name in ("pe", "pf") if name in measurement.inputs]
+
+
+def block_commands(measurement: Measurement, block: int) -> Measurement:
+    """The knee record with its commands averaged over blocks of ``block`` samples, held over each block."""
+    if block <= 1:
+        return measurement
+    inputs = dict(measurement.inputs)
+    n = measurement.samples
+    starts = np.arange(0, n, block)
+    for name in _drive_names(measurement):
+        values = np.asarray(inputs[name], dtype=float)
+        means = np.add.reduceat(values, starts) / np.diff(np.r_[starts, n])
+        inputs[name] = np.repeat(means, np.diff(np.r_[starts, n]))
+    return dataclasses.replace(measurement, inputs=inputs)
+
+
+def command_changes(measurement: Measurement) -> int:
+    """How many samples change a knee command (each is a stop of the integrator)."""
+    if measurement.experiment != "knee":
+        return 0
+    pe, pf = (measurement.inputs[name] for name in _drive_names(measurement))
+    return int(np.count_nonzero((np.diff(pe) != 0) | (np.diff(pf) != 0)))
+
+
+def _drive_names(measurement: Measurement) -> tuple[str, str]:
+    """The inputs that drive the knee model (:func:`mkctl.analysis.compare.knee_drive`)."""
+    return ("pe", "pf") if "pe" in measurement.inputs and "pf" in measurement.inputs else ("pe_cmd", "pf_cmd")
+
+
+#: Unit mistakes a sanity check recognises: factor (file value / expected value) -> the likely cause.
+_UNIT_MISTAKES = {1e-3: "metres written under a millimetre header", 1e-1: "centimetres written under a "
+                  "millimetre header", 1 / 25.4: "inches written under a millimetre header",
+                  1e3: "micrometres written under a millimetre header (or millimetres under a metre header)",
+                  10.0: "millimetres written under a centimetre header", 25.4: "millimetres written under an "
+                  "inch header", math.pi / 180: "radians written under a degree header",
+                  180 / math.pi: "degrees written under a radian header"}
+
+
+def output_range(measurement: Measurement, params: Params) -> tuple[float, float]:
+    """The range [SI] the model's output can physically take: the actuator between its shortest length and
+    the braid limit (isotonic), the hip height or knee angle between the end stops (knee), a little wider."""
+    if measurement.experiment == "isotonic":
+        low, high = isotonic.length_limits(params)
+        return 0.0, high
+    if measurement.experiment == "isometric":  # the tension between no pressure and twice the highest one
+        L, P = measurement.inputs["length"], measurement.inputs["pressure"]
+        ends = [actuator.static_tension(L, p, params) for p in (0.0 * P, 2.0 * np.max(np.abs(P)) + 0.0 * P)]
+        low, high = float(min(np.min(ends[0]), 0.0)), float(np.max(ends[1]))
+        return low - 0.1 * (high - low), high + 0.1 * (high - low)
+    x_low, x_high = knee.stop_positions(params)
+    span = x_high - x_low
+    low, high = x_low - 0.1 * span, x_high + 0.1 * span
+    if output_quantity(measurement) == "beta":
+        return float(knee.beta_from_X(max(low, abs(params.Lo - params.Lu) * 1.0001), params)), \
+            float(knee.beta_from_X(min(high, (params.Lo + params.Lu) * 0.9999), params))
+    return low, high
+
+
+def output_quantity(measurement: Measurement) -> str:
+    """The measured quantity: ``length`` (isotonic), ``x`` or ``beta`` (knee)."""
+    return measurement.output_quantity
+
+
+def sanity_problems(measurement: Measurement, simulated, params: Params, fit_offset: bool = False) -> list[str]:
+    """Reasons the measured output cannot be this model's output (a unit or zero mistake), or [].
+
+    The level must lie in the range the model can reach (:func:`output_range`) unless an offset is
+    fitted; the measured range of motion must not be a unit factor away from the simulated one.
+    """
+    m = measurement
+    y = np.asarray(m.output, dtype=float)
+    sim = np.asarray(simulated, dtype=float)
+    column, unit = m.output_column, m.output_unit
+    problems = []
+    low, high = output_range(m, params)
+    level, sim_level = float(np.median(y)), float(np.median(sim))
+    to_file = 1.0 / m.output_factor
+    if not fit_offset:
+        cause = None
+        ratio = level / sim_level if sim_level else math.inf
+        if ratio and math.isfinite(ratio) and ratio > 0 and abs(math.log(ratio)) > 1.0:
+            for factor, text in _UNIT_MISTAKES.items():
+                if abs(math.log(ratio / factor)) < 0.3:
+                    cause = f"likely {text}"
+                    break
+        if cause is None and abs(level) < 0.05 * abs(sim_level):
+            cause = (f"the sensor looks zeroed at rest (the record sits near 0 {unit}): declare its offset in "
+                     f"the metadata ({output_quantity(m)}_offset_{unit} = ...) or fit it with --fit-offset")
+        if cause is None and not (low <= level <= high):
+            cause = "a unit or zero mistake, or a sensor offset (declare it in the metadata or use --fit-offset)"
+        if cause is not None:
+            problems.append(f"the measured {column} sits at {level * to_file:.4g} {unit} where the model can "
+                            f"reach {low * to_file:.4g} to {high * to_file:.4g} {unit} and the baseline sits at "
+                            f"{sim_level * to_file:.4g} {unit}: {cause}")
+    if problems:
+        return problems
+    spread, sim_spread = float(np.ptp(y)), float(np.ptp(sim))
+    if spread > 0 and sim_spread > 0:
+        ratio = spread / sim_spread
+        for factor, text in _UNIT_MISTAKES.items():
+            if factor in (math.pi / 180, 180 / math.pi) and output_quantity(m) != "beta":
+                continue
+            if abs(factor - 1) > 0.5 and abs(math.log(ratio / factor)) < 0.25 and abs(math.log(ratio)) > 1.5:
+                problems.append(f"the measured {column} moves over {spread * to_file:.4g} {unit}, "
+                                f"{ratio:.3g} times the model's {sim_spread * to_file:.4g} {unit}: likely {text}")
+                break
+    return problems
+
+
+def saturation_note(measurement: Measurement, params: Params, simulated) -> dict | None:
+    """Where the baseline could not follow the record (it went to a physical limit), or None."""
+    m = measurement
+    if m.experiment == "isometric":  # a clamped muscle has no limit to run into
+        return None
+    if m.experiment == "isotonic":
+        where = isotonic.saturation(m.inputs["pressure"], m.inputs["force"], params)
+        at_limit = where != 0
+        what = ("no length of the baseline carries the load there: it is pulled to its braid limit (L = b)"
+                if (where > 0).any() else "the baseline stays at its shortest length")
+    else:
+        X = simulated if output_quantity(m) != "beta" else knee.hip_height(simulated, params)
+        x_low, x_high = knee.stop_positions(params)
+        at_limit = (X < x_low) | (X > x_high)
+        what = "the baseline's leg rests on an end stop there"
+    count = int(np.count_nonzero(at_limit))
+    if count == 0:
+        return None
+    t = m.time[at_limit]
+    return {"samples": count, "fraction": count / m.samples, "from_s": float(t[0]), "to_s": float(t[-1]),
+            "text": f"the baseline could not follow {count} samples ({count / m.samples:.0%}, "
+                    f"t = {t[0]:.3g}-{t[-1]:.3g} s): {what}; the large error there points at what it lacks"}
+
+# --- The fitting problem -----------------------------------------------------------------------------
+
 @dataclass
 class _Problem:
-    """The measurement, the samples the fits look at, and the train/hold-out split."""
+    """The record as the fits see it: (smoothed, blocked) inputs, the samples compared, the split, and
+    whether a constant sensor offset is profiled out of every residual."""
 
-    measurement: Measurement
+    measurement: Measurement  #: with the inputs the fits use
     grid: np.ndarray  #: sample indices fits are evaluated on
     train: np.ndarray  #: bool over grid: in the training part
     n_train: int  #: samples (of the record) the training simulations run over
+    fit_offset: bool = False
+
+    @property
+    def measured(self) -> np.ndarray:
+        return self.measurement.output[self.grid]
+
+    @property
+    def extra_parameters(self) -> int:
+        return 1 if self.fit_offset else 0
 
     def simulate(self, params: Params, train_only: bool = False):
-        """Model output [m] on the grid (the training grid only if train_only), or _FAILED."""
+        """Model output [SI] on the grid (the training grid only if train_only), or _FAILED."""
         try:
             if train_only:
                 return simulate_output(self.measurement, params, self.grid[self.train], stop=self.n_train)
@@ -160,12 +440,23 @@ class _Problem:
         except MkctlError:
             return _FAILED
 
-    def residual(self, simulated, train_only: bool = False):
-        measured = self.measurement.output[self.grid[self.train] if train_only else self.grid]
-        return measured - simulated
+    def offset(self, residual_train) -> float:
+        """The constant sensor offset that the training residual calls for (0 unless fit_offset)."""
+        return float(np.mean(residual_train)) if self.fit_offset else 0.0
+
+    def train_residual(self, simulated_train) -> np.ndarray:
+        r = self.measured[self.train] - simulated_train
+        return r - self.offset(r)
+
+    def score(self, simulated, k: int) -> tuple[Score, float]:
+        """The score of a simulation over the whole grid (k effect parameters), and the offset used."""
+        r = self.measured - simulated
+        offset = self.offset(r[self.train])
+        r = r - offset
+        return Score.from_residuals(r[self.train], r[~self.train], k + self.extra_parameters), offset
 
 
-def _problem(measurement: Measurement) -> _Problem:
+def _problem(measurement: Measurement, fit_offset: bool) -> _Problem:
     n = measurement.samples
     stride = 1 if measurement.experiment in ("isotonic", "isometric") else max(1, n // FIT_POINTS)
     grid = np.arange(0, n, stride)
@@ -177,33 +468,22 @@ def _problem(measurement: Measurement) -> _Problem:
     train = grid < n_train
     if train.sum() < 5 or (~train).sum() < 3:
         raise MkctlError(f"{measurement.source}: too few samples to diagnose ({n}); need at least 20")
-    return _Problem(measurement, grid, train, n_train)
-
-
-def candidates_for(measurement: Measurement, params: Params) -> list[str]:
-    """The candidate effects the experiment can show that params do not have yet."""
-    return [name for name, c in CANDIDATES.items()
-            if measurement.experiment in c.bounds and name not in params.effects]
-
-
-def _bic(rss: float, n: int, k: int) -> float:
-    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+    return _Problem(measurement, grid, train, n_train, fit_offset)
 
 
 @dataclass
 class _Fit:
-    """A model on the problem: its parameters and its errors (SI, on the grid)."""
+    """A model on the problem: its parameters, score and simulation (SI, on the grid)."""
 
     params: Params
     values: dict  #: fitted parameter values by name
-    rss_train: float
-    n_train: int
-    rmse_holdout: float  #: [m]
-    rmse_grid: float  #: [m], whole record on the grid
-    simulated: np.ndarray  #: grid output [m]
+    score: Score
+    offset: float  #: the fitted sensor offset [SI] (0 unless fit_offset)
+    simulated: np.ndarray  #: grid output [SI]
 
-    def bic(self, k: int) -> float:
-        return _bic(self.rss_train, self.n_train, k)
+    @property
+    def rss_train(self) -> float:
+        return self.score.rss_train
 
 
 def _evaluate(problem: _Problem, params: Params, values: dict):
@@ -211,46 +491,23 @@ def _evaluate(problem: _Problem, params: Params, values: dict):
     simulated = problem.simulate(params)
     if simulated is _FAILED:
         return None
-    measured = problem.measurement.output[problem.grid]
-    r_train = problem.residual(simulated)[problem.train]
-    hold = ~problem.train
-    return _Fit(params, dict(values), float(r_train @ r_train), int(problem.train.sum()),
-                rmse(measured[hold], simulated[hold]), rmse(measured, simulated), simulated)
+    score, offset = problem.score(simulated, len(values))
+    return _Fit(params, dict(values), score, offset, simulated)
 
 
 def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: float, progress) -> tuple[float, int]:
-    """Best value of the candidate's parameter on the training part (log-space grid + bounded Brent).
-
-    The effect switched off (value 0, training RSS ``rss_off``) is one of the options: a candidate the
-    data do not call for comes back as 0, not as a small but visible value at its lower bound.
-    """
-    low, high = candidate.bounds[problem.measurement.experiment]
-    measured = problem.measurement.output[problem.grid[problem.train]]
+    """Best value of the candidate's parameter on the training part, 0 when off does as well."""
     evaluations = [0]
 
-    def cost(log_value):
+    def cost(value):
         evaluations[0] += 1
-        simulated = problem.simulate(candidate.apply(base, 10.0 ** log_value), train_only=True)
+        simulated = problem.simulate(candidate.apply(base, value), train_only=True)
         if simulated is _FAILED:
             return math.inf
-        r = measured - simulated
+        r = problem.train_residual(simulated)
         return float(r @ r)
 
-    logs = np.arange(math.log10(low), math.log10(high) + 1e-9, 1.0)
-    if logs[-1] < math.log10(high) - 1e-9:
-        logs = np.append(logs, math.log10(high))
-    costs = np.array([cost(x) for x in logs])
-    if not np.isfinite(costs).any():
-        return math.nan, evaluations[0]
-    penalty = 10.0 * np.max(costs[np.isfinite(costs)]) + 1.0  # Brent needs finite values
-    i = int(np.argmin(costs))
-    lo, hi = logs[max(i - 1, 0)], logs[min(i + 1, logs.size - 1)]
-    result = minimize_scalar(lambda x: min(cost(x), penalty), bounds=(lo, hi), method="bounded",
-                             options={"xatol": 1e-3})
-    best_cost, best = (float(result.fun), float(result.x)) if result.fun <= costs[i] else (costs[i], float(logs[i]))
-    value = 10.0 ** best
-    if best_cost >= rss_off:  # the effect switched off does at least as well: its fitted value is 0
-        value = 0.0
+    value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off, xatol=FIT_XATOL)
     if progress:
         progress(f"    {candidate.effect}: {candidate.parameter} = {value:.4g} {UNITS[candidate.parameter]} "
                  f"({evaluations[0]} simulations)")
@@ -267,8 +524,8 @@ def _joint_fit(problem: _Problem, base: Params, effects: list[str], start: dict,
     cands = [CANDIDATES[e] for e in effects]
     lows = np.log10([c.bounds[experiment][0] for c in cands])
     highs = np.log10([c.bounds[experiment][1] for c in cands])
-    x0 = np.clip(np.log10([start[c.parameter] for c in cands]), lows + 1e-9, highs - 1e-9)
-    measured = problem.measurement.output[problem.grid[problem.train] if train_only else problem.grid]
+    x0 = np.clip(np.log10([max(start[c.parameter], 1e-300) for c in cands]), lows + 1e-9, highs - 1e-9)
+    size = int(problem.train.sum()) if train_only else problem.grid.size
 
     def params_at(x):
         params = base
@@ -279,22 +536,34 @@ def _joint_fit(problem: _Problem, base: Params, effects: list[str], start: dict,
     def residual(x):
         simulated = problem.simulate(params_at(x), train_only=train_only)
         if simulated is _FAILED:
-            return np.full(measured.size, 1.0)  # 1 m everywhere: far worse than any fit
-        return measured - simulated
+            return np.full(size, 1.0)  # 1 m everywhere: far worse than any fit
+        if train_only:
+            return problem.train_residual(simulated)
+        r = problem.measured - simulated
+        return r - problem.offset(r)
 
     tolerance = 1e-4 if rough else 1e-6
     result = least_squares(residual, x0, bounds=(lows, highs), x_scale=1.0, diff_step=1e-4, xtol=tolerance,
                            ftol=tolerance * 1e-2, max_nfev=(6 if rough else 25) * (len(cands) + 1))
     values = {c.parameter: float(10.0 ** v) for c, v in zip(cands, result.x)}
-    n, k = measured.size, len(cands)
+    n, k = size, len(cands) + problem.extra_parameters
     rss = float(result.fun @ result.fun)
     errors = {}
-    jac = result.jac
     if n > k:
-        cov = rss / (n - k) * np.linalg.pinv(jac.T @ jac)
+        rho = _lag_one_correlation(result.fun)
+        widen = (1 + rho) / (1 - rho) if rho > 0 else 1.0
+        cov = widen * rss / (n - k) * np.linalg.pinv(result.jac.T @ result.jac)
         for i, c in enumerate(cands):
             errors[c.parameter] = float(values[c.parameter] * _LN10 * math.sqrt(max(cov[i, i], 0.0)))
     return values, errors, result, params_at(result.x)
+
+
+def _lag_one_correlation(residual) -> float:
+    r = np.asarray(residual, dtype=float) - np.mean(residual)
+    denominator = float(r @ r)
+    if r.size < 3 or denominator == 0:
+        return 0.0
+    return float(min(0.95, (r[1:] @ r[:-1]) / denominator))
 
 
 # --- Signatures: the force the model lacks, against what each effect acts through ------------------
@@ -326,13 +595,14 @@ def missing_force(measurement: Measurement, params: Params):
     if window > n:
         window -= 2
     order = min(3, window - 2)
-    y = savgol_filter(m.output, window, order)
-    ydot = savgol_filter(m.output, window, order, deriv=1, delta=dt)
+    measured = knee.hip_height(m.output, params) if output_quantity(m) == "beta" else m.output
+    y = savgol_filter(measured, window, order)
+    ydot = savgol_filter(measured, window, order, deriv=1, delta=dt)
     if m.experiment == "isotonic":
         P, F = m.inputs["pressure"], m.inputs["force"]
         states = {"L": y, "Ldot": ydot, "P": P}
         return F - actuator.tension(y, P, ydot, params), states
-    yddot = savgol_filter(m.output, window, order, deriv=2, delta=dt)
+    yddot = savgol_filter(measured, window, order, deriv=2, delta=dt)
     # the pressures go through the same smoothing as the acceleration, so that a command step does not
     # show up as a force the model lacks while the smoothed acceleration ramps up to it
     pressures = _model_pressures(m, params)  # a loop over the samples when there is a lag: once
@@ -351,7 +621,9 @@ def _knee_force(states: dict, params: Params, Pe=None, Pf=None):
 
 
 def _model_pressures(m: Measurement, params: Params):
-    """The actuator pressures the model sees: the commands, or the commands through the model's lag."""
+    """The actuator pressures the model sees: the measured ones, the commands, or the commands through the lag."""
+    if "pe" in m.inputs and "pf" in m.inputs:
+        return m.inputs["pe"], m.inputs["pf"]
     pe, pf = m.inputs["pe_cmd"], m.inputs["pf_cmd"]
     if params.tau <= 0:
         return pe, pf
@@ -370,15 +642,6 @@ def _lagged(time, command, tau):
 
 #: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1).
 _REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0}
-#: How the signature pictures label their x axis.
-_AXIS = {"viscous_damping": "velocity [mm/s]", "coulomb_friction": "velocity [mm/s]",
-         "pressure_lag": "extensor pressure rate (smoothed) [kPa/s]",
-         "elasticity": "rubber tension of the model's C1, C2 [N]",
-         "slack": "tension the slack muscle would not carry [N]",
-         ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling pressure",
-         ("isometric", "elasticity"): "rubber tension of the model's C1, C2 [N]"}
-
-
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
     """Each candidate's signature in the force the model lacks (see :func:`missing_force`).
 
@@ -433,333 +696,580 @@ def _fit_line(missing, term, ref) -> dict:
     return {"correlation": r, "estimate": slope * ref}
 
 
-def _binned(x, y, bins: int = 12):
-    """Mean of y in bins of equal counts of x (for the signature pictures)."""
-    order = np.argsort(x)
-    groups = np.array_split(order, bins)
-    return ([float(np.mean(x[g])) for g in groups if g.size], [float(np.mean(y[g])) for g in groups if g.size])
+# --- The result -------------------------------------------------------------------------------------
 
+#: Verdicts of a diagnosis.
+VERDICTS = ("diagnosed", "nothing missing", "undecided", "incomplete", "not diagnosed")
+
+
+@dataclass(repr=False)
+class DiagnosisResult(Result):
+    """What :func:`diagnose` found, in python-control's manner: named attributes, arrays for the pictures.
+
+    ``to_dict()`` gives the JSON of model-spec section 6 (plus context), ``to_dataframe()`` one row per
+    candidate per round. RMSE are in the units of the file's output column, parameters SI.
+    """
+
+    file: str
+    experiment: str
+    baseline: str
+    baseline_effects: list
+    output: str  #: the output column's name (``x_mm``)
+    output_unit: str
+    samples: int
+    verdict: str  #: one of :data:`VERDICTS`
+    missing: list  #: effects added, in order
+    params: dict  #: their fitted values (final joint fit on the whole record), SI
+    uncertainty: dict  #: standard error of each fitted parameter, SI
+    rmse_before: float
+    rmse_after: float
+    fit_percent_before: float
+    fit_percent_after: float
+    steps: list = field(default_factory=list)  #: one dict per accepted step (see docs/diagnosis.md)
+    stopped: dict | None = None  #: the last round, that added nothing: reason, candidates, ties
+    undecided: list = field(default_factory=list)  #: [{"effects": [...], "experiment": ...}]
+    problems: list = field(default_factory=list)  #: why the record was not diagnosed (sanity checks)
+    notes: list = field(default_factory=list)  #: what was done to the record before fitting, in words
+    input_noise: dict = field(default_factory=dict)  #: input -> {"sigma", "unit", "smoothed"}
+    output_noise: float | None = None  #: estimated noise of the measured output, file units
+    saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
+    offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
+    pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    rule: dict = field(default_factory=dict)
+    pictures: dict = field(default_factory=dict)
+    # arrays for the pictures (SI), not part of the JSON
+    simulated_before: np.ndarray | None = field(default=None, repr=False)
+    simulated_after: np.ndarray | None = field(default=None, repr=False)
+    error_steps: list = field(default_factory=list, repr=False)  #: RMSE after each step, file units
+    signatures: dict = field(default_factory=dict, repr=False)  #: first round's signatures
+    signature_order: list = field(default_factory=list, repr=False)
+
+    @property
+    def units(self) -> dict:
+        return {k: UNITS[k] for k in self.params}
+
+    def summary_lines(self) -> list[str]:
+        """The repr: file, verdict, what is missing with its values, the error before and after."""
+        lines = [f"{Path(self.file).name}: {self.experiment}, verdict {self.verdict!r}, missing {self.missing}"]
+        for name, value in self.params.items():
+            error = self.uncertainty.get(name)
+            lines.append(f"{name} = {value:.4g}" + (f" +- {error:.2g}" if error is not None else "") + f" {UNITS[name]}")
+        lines.append(f"RMSE {self.rmse_before:.4g} -> {self.rmse_after:.4g} {self.output_unit}")
+        lines += [f"cannot tell {' from '.join(u['effects'])}" for u in self.undecided]
+        lines += [f"problem: {text}" for text in self.problems]
+        return lines
+
+    def to_dict(self) -> dict:
+        """The report as plain JSON values (model-spec section 6 keys first; NaN and infinity become None)."""
+        data = {
+            "experiment": self.experiment, "baseline": self.baseline, "output": self.output,
+            "rmse_before": self.rmse_before, "rmse_after": self.rmse_after, "missing": list(self.missing),
+            "params": dict(self.params), "steps": self.steps,
+            "verdict": self.verdict, "undecided": self.undecided, "problems": self.problems,
+            "uncertainty": dict(self.uncertainty), "units": self.units,
+            "fit_percent_before": self.fit_percent_before, "fit_percent_after": self.fit_percent_after,
+            "stopped": self.stopped, "notes": self.notes, "input_noise": self.input_noise,
+            "output_noise": self.output_noise, "saturation": self.saturation, "offset": self.offset,
+            "pressure_lag": self.pressure_lag,
+            "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
+            "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
+        }
+        return _plain(data)
+
+    def table(self) -> list[dict]:
+        """One row per candidate per round (``to_dataframe()``): round, effect, parameter, value, delta_bic,
+        rmse_holdout, passes_bic, passes_holdout, physical, at_bound, switched_off, added."""
+        rounds = self.steps + ([self.stopped] if self.stopped and self.stopped.get("candidates") else [])
+        rows = []
+        for number, step in enumerate(rounds, 1):
+            added = [step.get("added"), *step.get("added_with", [])]
+            for row in step["candidates"]:
+                (name, value), = row["params"].items()
+                rows.append({"round": number, "effect": row["effect"], "parameter": name, "value": value,
+                             "delta_bic": row.get("delta_bic"), "rmse_holdout": row.get("rmse_holdout"),
+                             "passes_bic": row.get("passes_bic"), "passes_holdout": row.get("passes_holdout"),
+                             "physical": row.get("physical"), "at_bound": row.get("at_bound"),
+                             "switched_off": row.get("switched_off"), "added": row["effect"] in added})
+        return rows
+
+    def __getitem__(self, key):
+        """Dict-style access to the JSON keys (``result["missing"]``), for scripts written against the
+        dict this function used to return."""
+        return self.to_dict()[key]
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.ndarray):
+        return _plain(value.tolist())
+    return value
+
+
+def public(result: DiagnosisResult) -> dict:
+    """The result as plain JSON values: ``result.to_dict()``."""
+    return result.to_dict()
+
+
+summary = diagnosis_report.summary
+save_pictures = diagnosis_report.save_pictures
 
 # --- The loop --------------------------------------------------------------------------------------
 
-def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = None) -> dict:
-    """Find the effects the baseline misses, fit them, and report (a dict shaped as spec section 6).
+def prepare_inputs(measurement: Measurement) -> tuple[Measurement, dict, list]:
+    """The record with its noisy measured inputs smoothed: (record, {input: noise info}, notes)."""
+    inputs = dict(measurement.inputs)
+    info, notes = {}, []
+    for name in measured_inputs(measurement):
+        values = np.asarray(inputs[name], dtype=float)
+        sigma = input_noise(values)
+        spread = float(np.ptp(values))
+        smoothed = bool(sigma > INPUT_NOISE_FLOOR * spread and spread > 0)
+        kind = "force" if name == "force" else "pressure"
+        unit, factor = ("N", 1.0) if kind == "force" else ("kPa", 1e3)
+        info[name] = {"sigma": sigma / factor, "unit": unit, "smoothed": smoothed}
+        if smoothed:
+            inputs[name] = smooth_input(values, sigma)
+            notes.append(f"the measured {name} is noisy (about {sigma / factor:.3g} {unit} standard deviation, "
+                         f"from its high-frequency part): the model is driven by it smoothed "
+                         f"({INPUT_SMOOTHING_SAMPLES}-sample quadratic Savitzky-Golay, steps kept), so that "
+                         f"no effect can win by filtering sensor noise")
+    if notes:
+        measurement = dataclasses.replace(measurement, inputs=inputs)
+    return measurement, info, notes
 
-    ``progress`` receives one line per stage (for a long run on the command line).
+
+def _blocked_problem(problem: _Problem, baseline: Params, full_before, out_sigma: float, notes: list, say) -> _Problem:
+    """The problem with the knee's commands held over blocks when they change at many samples."""
+    m = problem.measurement
+    changes = command_changes(m)
+    if changes <= MAX_COMMAND_CHANGES:
+        return problem
+    tolerance = 0.5 * max(out_sigma, 1e-6 * float(np.ptp(m.output)))
+    block = int(math.ceil(m.samples / MAX_COMMAND_CHANGES))
+    while block > 1:
+        blocked = block_commands(m, block)
+        try:
+            moved = rmse(simulate_output(blocked, baseline, problem.grid), full_before[problem.grid])
+        except MkctlError:
+            moved = math.inf
+        if moved <= tolerance:
+            to_file = 1.0 / m.output_factor
+            notes.append(f"the commands change at {changes} samples: the fits hold them over blocks of {block} "
+                         f"samples (their mean), which moves the baseline by {moved * to_file:.2g} "
+                         f"{m.output_unit} RMS, below the output noise; reported errors use every sample")
+            say(notes[-1])
+            return dataclasses.replace(problem, measurement=blocked)
+        block //= 2
+    return problem
+
+
+def _fit_candidate(problem: _Problem, baseline: Params, current: _Fit, added: list, individual: dict, name: str,
+                   say):
+    """Fit one candidate against the current model; returns (fit or None, value, simulations, values)."""
+    cand = CANDIDATES[name]
+    value, evaluations = _fit_one(problem, current.params, cand, current.rss_train, say)
+    if not added:
+        individual[name] = value
+    values = {**current.values, cand.parameter: value}
+    if math.isnan(value):
+        return None, value, evaluations, values
+    fit = current if value == 0.0 else _evaluate(problem, cand.apply(current.params, value), values)
+    promising = fit is not None and fit is not current and fit.score.bic - current.score.bic < -BIC_THRESHOLD / 2
+    if added and promising:
+        # effects interact (damping and a lag both calm the leg): refit jointly with the effects already
+        # added, from this round's value and from the values each took alone in round 1
+        starts = [values] if value > 0 else []
+        alone = {CANDIDATES[e].parameter: individual.get(e, 0.0) for e in [*added, name]}
+        if all(v > 0 for v in alone.values()) and alone != values:
+            starts.append(alone)
+        for start in starts:
+            joint_values, _, result, params = _joint_fit(problem, baseline, [*added, name], start, train_only=True,
+                                                         rough=True)
+            evaluations += result.nfev + 1
+            joint = _evaluate(problem, params, joint_values)
+            if joint is not None and joint.rss_train < fit.rss_train:
+                fit, values = joint, joint_values
+    if fit is not None and fit is not current:
+        value = values[cand.parameter]
+    return fit, value, evaluations + 1, values
+
+
+def _row(name: str, fit, value: float, evaluations: int, current: _Fit, problem: _Problem, sig, to_file: float):
+    """A candidate's line in the report, and its outcome for the rule."""
+    cand = CANDIDATES[name]
+    bounds = cand.bounds[problem.measurement.experiment]
+    row = {"effect": name, "params": {cand.parameter: value}, "simulations": evaluations,
+           "signature": None if sig is None else {k: sig[k] for k in ("against", "correlation", "estimate")}}
+    if fit is None:
+        row.update({"rmse": None, "bic": None, "delta_bic": None, "failed": True, "physical": False})
+        return row, Outcome(name, None)
+    switched_off = fit is current
+    score = fit.score if not switched_off else dataclasses.replace(current.score, k=current.score.k + 1)
+    pinned = at_bound(value, bounds) and not cand.switch
+    row.update({
+        "params_with_added": dict(fit.values) if not switched_off else dict(current.values),
+        "rmse": rmse(problem.measured, fit.simulated + fit.offset) * to_file,
+        "rmse_train": score.rmse_train * to_file,
+        "rmse_holdout": score.rmse_holdout * to_file,
+        "bic": score.bic,
+        "delta_bic": score.bic - current.score.bic,
+        "explained_fraction": 1.0 - score.rss_train / current.rss_train if current.rss_train > 0 else 0.0,
+        "switched_off": switched_off,
+        "at_bound": pinned,
+        "physical": not switched_off and not pinned,
+        "passes_bic": bool(score.bic - current.score.bic < -BIC_THRESHOLD),
+        "passes_holdout": bool(score.rmse_holdout < (1.0 - HOLDOUT_GAIN) * current.score.rmse_holdout),
+    })
+    return row, Outcome(name, score, switched_off=switched_off, at_bound=pinned)
+
+
+def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, say):
+    """The lag judged on measured pressures (or None), and the record and baseline the motion is fitted with.
+
+    With measured pressures that follow the commands through the lag (or without a lag) to within a few
+    times their noise, the motion is driven by the commands through the lag found, noise-free; pressures
+    that depart from that (a supply that sags) drive the motion themselves, smoothed.
+    """
+    lag = lag_from_pressures(m, baseline, rule)
+    if lag is None:
+        return None, m, baseline, False
+    tau = lag["tau"] if lag["accepted"] else 0.0
+    noise = max(input_noise(m.inputs["pe"]), input_noise(m.inputs["pf"])) / 1e3  # kPa
+    model_rmse = lag["candidate"]["rmse_train_kPa"]
+    found = f"found, tau = {tau:.4g} s" if lag["accepted"] else "not found: " + lag["reason"]
+    if model_rmse > 5.0 * max(noise, 1e-6):
+        notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly "
+                     f"({found}); they depart from the lagged commands by {model_rmse:.3g} kPa RMS (noise "
+                     f"{noise:.2g} kPa), so they drive the motion themselves")
+        say(notes[-1])
+        return lag, m, baseline, True
+    inputs = {k: v for k, v in m.inputs.items() if k not in ("pe", "pf")}
+    notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly ({found}); "
+                 f"they follow the commands through it to within their noise ({model_rmse:.3g} kPa RMS), so the "
+                 f"motion is driven by the commands through that lag, free of the pressure sensors' noise")
+    say(notes[-1])
+    return lag, dataclasses.replace(m, inputs=inputs), baseline.replace(tau=tau) if tau > 0 else baseline, True
+
+
+def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = None, fit_offset: bool = False,
+             rule: Rule = RULE) -> DiagnosisResult:
+    """Find the effects the baseline misses, fit them, and report (see the module docstring).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The record (:func:`mkctl.io.measurements.read_measurement`).
+    progress : callable, optional
+        Receives one line per stage (for a long run on the command line).
+    fit_offset : bool
+        Fit a constant sensor offset of the measured output (profiled out of every residual).
+    rule : Rule
+        The acceptance rule's thresholds (:data:`mkctl.analysis.diagnosis_rule.RULE`).
+
+    Returns
+    -------
+    DiagnosisResult
+        ``verdict`` is ``"diagnosed"``, ``"nothing missing"``, ``"undecided"`` (the record cannot tell the
+        effects in ``undecided`` apart), ``"incomplete"`` (what was added leaves many times the output
+        noise: something outside the candidates is missing) or ``"not diagnosed"`` (``problems`` says why).
     """
     say = progress or (lambda text: None)
     m = measurement
-    problem = _problem(m)
-    baseline = m.params
     to_file = 1.0 / m.output_factor
-    say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
-        f"(effects: {', '.join(baseline.effects) or 'none'}); fitting on {problem.grid.size} samples")
-
+    notes: list = []
+    lag, motion, start, lag_judged = _motion_record(m, m.params, rule, notes, say)
+    exclude = {"pressure_lag"} if lag_judged else set()
+    prepared, noise_info, input_notes = prepare_inputs(motion)
+    if lag_judged:
+        for name in ("pe", "pf"):
+            noise_info.setdefault(name, {"sigma": input_noise(m.inputs[name]) / 1e3, "unit": "kPa", "smoothed": False})
+    notes += input_notes
+    out_sigma = input_noise(m.output)
+    for note in input_notes:
+        say(note)
     try:
-        full_before = simulate_output(m, baseline)
+        full_before = simulate_output(prepared, m.params)
     except MkctlError as error:
         raise MkctlError(f"{m.source}: the model cannot simulate this record: {error}") from None
-    current = _evaluate(problem, baseline, {})
-    added: list[str] = []
-    individual: dict = {}  # each candidate's value fitted alone against the baseline (round 1)
-    steps: list[dict] = []
-    stopped = None
-    signatures_first = None
-    full_rmse_steps = [rmse(m.output, full_before) * to_file]
+    saturation = saturation_note(prepared, m.params, full_before)
+    if saturation:
+        notes.append(saturation["text"])
+        say(saturation["text"])
+    y = m.output * to_file
+    common = dict(file=str(m.source), experiment=m.experiment, baseline=m.baseline,
+                  baseline_effects=list(m.params.effects), output=m.output_column, output_unit=m.output_unit,
+                  samples=m.samples, input_noise=noise_info, output_noise=out_sigma * to_file,
+                  saturation=saturation, rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
+    problems = sanity_problems(m, full_before, m.params, fit_offset)
+    if problems:
+        for text in problems:
+            say("not diagnosed: " + text)
+        before = rmse(y, full_before * to_file)
+        fit_before = fit_percent(y, full_before * to_file)
+        return DiagnosisResult(**common, verdict="not diagnosed", missing=[], params={}, uncertainty={},
+                               rmse_before=before, rmse_after=before, fit_percent_before=fit_before,
+                               fit_percent_after=fit_before, problems=problems, notes=notes,
+                               simulated_before=full_before, simulated_after=full_before,
+                               error_steps=[before])
 
-    while True:
-        pending = candidates_for(m, current.params)
-        if not pending:
-            stopped = {"reason": "no candidate effect left for this experiment", "candidates": [], "ties": []}
-            break
-        say(f"round {len(steps) + 1}: fitting {', '.join(pending)}")
-        try:
-            sigs = signatures(m, current.params, pending)
-        except MkctlError:  # the measured states lie outside the model's domain: no signatures
-            sigs = {}
-        k_now = len(added)
-        bic_now = current.bic(k_now)
-        rows = []
-        for name in pending:
-            cand = CANDIDATES[name]
-            value, evaluations = _fit_one(problem, current.params, cand, current.rss_train, say)
-            if not added:
-                individual[name] = value
-            values = {**current.values, cand.parameter: value}
-            if math.isnan(value):
-                fit = None
-            elif value == 0.0:
-                fit = current
-            else:
-                fit = _evaluate(problem, cand.apply(current.params, value), values)
-            if added and fit is not None:
-                # effects interact (damping and a lag both calm the leg): refit jointly with the effects
-                # already added, from this round's value and from the values each took alone in round 1
-                starts = [values] if value > 0 else []
-                alone = {CANDIDATES[e].parameter: individual.get(e, 0.0) for e in [*added, name]}
-                if all(v > 0 for v in alone.values()):
-                    starts.append(alone)
-                for start_values in starts:
-                    joint_values, _, result, params = _joint_fit(problem, baseline, [*added, name], start_values,
-                                                                 train_only=True, rough=True)
-                    evaluations += result.nfev + 1
-                    joint = _evaluate(problem, params, joint_values)
-                    if joint is not None and joint.rss_train < fit.rss_train:
-                        fit, values = joint, joint_values
-            value = values[cand.parameter] if fit is not None and fit is not current else value
-            sig = sigs.get(name)
-            row = {"effect": name, "params": {cand.parameter: value}, "simulations": evaluations + 1,
-                   "signature": None if sig is None else {k: sig[k] for k in ("against", "correlation", "estimate")}}
-            if fit is None:
-                row.update({"rmse": None, "bic": None, "delta_bic": None, "failed": True})
-            else:
-                low, high = cand.bounds[m.experiment]
-                bic = fit.bic(k_now + 1)
-                row.update({
-                    "params_with_added": dict(values) if fit is not current else dict(current.values),
-                    "rmse": fit.rmse_grid * to_file,
-                    "rmse_train": math.sqrt(fit.rss_train / fit.n_train) * to_file,
-                    "rmse_holdout": fit.rmse_holdout * to_file,
-                    "bic": bic,
-                    "delta_bic": bic - bic_now,
-                    "explained_fraction": 1.0 - fit.rss_train / current.rss_train if current.rss_train > 0 else 0.0,
-                    "switched_off": value == 0.0,
-                    "at_bound": bool(value != 0.0 and (value <= low * 1.0001 or value >= high * 0.9999)),
-                    "passes_bic": bool(bic - bic_now < -BIC_THRESHOLD),
-                    "passes_holdout": bool(fit.rmse_holdout < (1.0 - HOLDOUT_GAIN) * current.rmse_holdout),
-                })
-                row["_fit"] = fit
-            rows.append(row)
-        rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
-        ties = _ties(rows)
-        if signatures_first is None:
-            signatures_first = ([r["effect"] for r in rows], sigs)
-        best = rows[0]
-        accepted = best["bic"] is not None and best["passes_bic"] and best["passes_holdout"]
-        public_rows = [{k: v for k, v in r.items() if not k.startswith("_")} for r in rows]
-        context = {"bic_before": bic_now, "rmse_holdout_before": current.rmse_holdout * to_file,
-                   "candidates": public_rows, "ties": ties}
-        if not accepted:
-            stopped = {"reason": _stop_reason(best), **context}
-            say(f"  stop: {stopped['reason']}")
-            break
-        name = best["effect"]
-        added.append(name)
-        current = best["_fit"]
-        dropped = []
-        for earlier in list(added[:-1]):  # does every earlier effect still earn its place?
-            rest = [e for e in added if e != earlier]
-            rest_values = {CANDIDATES[e].parameter: current.values[CANDIDATES[e].parameter] for e in rest}
-            values, _, _, params = _joint_fit(problem, baseline, rest, rest_values, train_only=True)
-            without = _evaluate(problem, params, values)
-            if without is not None and without.bic(len(rest)) < current.bic(len(added)) + BIC_THRESHOLD:
-                dropped.append(earlier)
-                added, current = rest, without
-        full_rmse = rmse(m.output, simulate_output(m, current.params)) * to_file
-        full_rmse_steps.append(full_rmse)
-        steps.append({"added": name, "dropped": dropped, "rmse": full_rmse, "params": dict(current.values),
-                      "rmse_holdout": current.rmse_holdout * to_file, **context})
-        say(f"  added {name}" + (f", dropped {', '.join(dropped)}" if dropped else "") + ": "
-            + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items())
-            + f"; RMSE {full_rmse:.4g} {m.output_unit}")
+    problem = _problem(prepared, fit_offset)
+    problem = _blocked_problem(problem, start, full_before, out_sigma, notes, say)
+    say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
+        f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
+    first = _evaluate(problem, m.params, {})
+    if first is None:
+        raise MkctlError(f"{m.source}: the model cannot simulate this record")
+    offset_before = first.offset
+    full_rmse_steps = [rmse(y, (full_before + offset_before) * to_file)]
+    current = first if start is m.params else _evaluate(problem, start, {})
+    pending_all = [e for e in candidates_for(m, start) if e not in exclude]
+    state = _Search(problem, start, pending_all, rule, to_file, say)
+    state.forward(current)
+    if state.undecided == [] and state.added and len(pending_all) >= 2:
+        inadequate = _inadequacy(problem, state.current, out_sigma)
+        if inadequate > WIDER_SEARCH_FACTOR:
+            say(f"the model leaves {inadequate:.3g} times the output noise: trying the candidates in pairs")
+            if state.wider():
+                state.forward(state.current)
+    for params in state.step_params:
+        full_rmse_steps.append(rmse(y, (simulate_output(prepared, params[0]) + params[1]) * to_file))
+    for step, value in zip(state.steps, full_rmse_steps[1:]):
+        step["rmse"] = value
+    added = list(state.added)
 
     # final joint fit on the whole record
     uncertainty: dict = {}
-    final_params, final_values = baseline, {}
+    final_params, final_values, offset = start, {}, offset_before
     if added:
         say("final fit of " + ", ".join(added) + " on the whole record")
-        final_values, uncertainty, _, final_params = _joint_fit(problem, baseline, added, current.values,
+        final_values, uncertainty, _, final_params = _joint_fit(problem, start, added, state.current.values,
                                                                 train_only=False)
-    full_after = simulate_output(m, final_params) if added else full_before
-    y = m.output * to_file
-    report = {
-        "file": str(m.source),
-        "experiment": m.experiment,
-        "baseline": m.baseline,
-        "baseline_effects": list(baseline.effects),
-        "output": m.output_column,
-        "output_unit": m.output_unit,
-        "samples": m.samples,
-        "rmse_before": rmse(y, full_before * to_file),
-        "rmse_after": rmse(y, full_after * to_file),
-        "fit_percent_before": fit_percent(y, full_before * to_file),
-        "fit_percent_after": fit_percent(y, full_after * to_file),
-        "missing": list(added),
-        "params": final_values,
-        "uncertainty": uncertainty,
-        "units": {k: UNITS[k] for k in final_values},
-        "steps": steps,
-        "stopped": stopped,
-        "rule": {
-            "holdout_fraction": HOLDOUT_FRACTION,
-            "bic_threshold": BIC_THRESHOLD,
-            "holdout_gain": HOLDOUT_GAIN,
-            "tie_bic": TIE_BIC,
-            "fit_samples": int(problem.grid.size),
-            "train_samples": int(problem.train.sum()),
-            "text": f"add the best-BIC candidate while it lowers BIC (training part, n ln(RSS/n) + k ln n) "
-                    f"by more than {BIC_THRESHOLD:g} and the held-out RMSE (last "
-                    f"{HOLDOUT_FRACTION:.0%} of the record) by at least {HOLDOUT_GAIN:.0%}",
-        },
-    }
-    report["_curves"] = {"before": full_before, "after": full_after, "steps": full_rmse_steps,
-                         "signatures": signatures_first}
-    return report
+        offset = problem.offset(problem.measured - problem.simulate(final_params)) if fit_offset else 0.0
+    full_after = (simulate_output(prepared, final_params) + offset if (added or start is not m.params)
+                  else full_before + offset_before)
+    before = full_before + offset_before
+    if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
+        # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
+        # (first order: refit at tau -+ its standard error, add the spread in quadrature)
+        spread = []
+        for sign in (-1.0, 1.0):
+            shifted = start.replace(tau=max(lag["tau"] + sign * lag["uncertainty"], 1e-6))
+            values, _, _, _ = _joint_fit(problem, shifted, added, final_values, train_only=False, rough=True)
+            spread.append(values)
+        for name in final_values:
+            moved = 0.5 * abs(spread[1][name] - spread[0][name])
+            uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), moved)
+    if lag is not None and lag["accepted"]:
+        added = ["pressure_lag", *added]
+        final_values = {"tau": lag["tau"], **final_values}
+        if lag["uncertainty"] is not None:
+            uncertainty = {"tau": lag["uncertainty"], **uncertainty}
+    rmse_after = rmse(y, full_after * to_file)
+    verdict = "undecided" if state.undecided else ("diagnosed" if added else "nothing missing")
+    left = rmse_after / (out_sigma * to_file) if out_sigma > 0 else 0.0
+    if verdict == "diagnosed" and left > INCOMPLETE_FACTOR:
+        verdict = "incomplete"
+        notes.append(f"the model with {', '.join(added)} still leaves {left:.3g} times the estimated output noise "
+                     f"({out_sigma * to_file:.2g} {m.output_unit}): something outside the candidates is missing, or "
+                     f"effects this record cannot separate; do not trust the values as physical")
+        say(notes[-1])
+    order, sigs = state.signatures_first if state.signatures_first else ([], {})
+    return DiagnosisResult(
+        **common, verdict=verdict, missing=added, params=final_values, uncertainty=uncertainty,
+        rmse_before=rmse(y, before * to_file), rmse_after=rmse_after,
+        fit_percent_before=fit_percent(y, before * to_file), fit_percent_after=fit_percent(y, full_after * to_file),
+        steps=state.steps, stopped=state.stopped, undecided=state.undecided, notes=notes,
+        offset=offset * to_file if fit_offset else None,
+        simulated_before=before, simulated_after=full_after, error_steps=full_rmse_steps,
+        signatures=sigs, signature_order=order)
 
 
-def _ties(rows) -> list[dict]:
-    """Near-ties among the candidates that would each pass BIC: within TIE_BIC of the best."""
-    passing = [r for r in rows if r["bic"] is not None and r.get("passes_bic")]
-    if len(passing) < 2:
-        return []
-    best = passing[0]
-    ties = []
-    for other in passing[1:]:
-        gap = other["bic"] - best["bic"]
-        if gap <= TIE_BIC:
-            pair = frozenset({best["effect"], other["effect"]})
-            ties.append({"effects": [best["effect"], other["effect"]], "bic_difference": gap,
-                         "experiment": DISCRIMINATING_EXPERIMENTS.get(pair, "")})
-    return ties
+#: When what was added leaves more than this many times the output noise, the candidates are tried in pairs.
+WIDER_SEARCH_FACTOR = 3.0
+#: ... and when the final model still leaves more than this, the verdict is "incomplete".
+INCOMPLETE_FACTOR = 10.0
 
 
-def _stop_reason(best) -> str:
-    if best["bic"] is None:
-        return "no candidate could be simulated on this record"
-    parts = []
-    if not best["passes_bic"]:
-        parts.append(f"the best candidate ({best['effect']}) changes BIC by only {best['delta_bic']:+.1f} "
-                     f"(needs < {-BIC_THRESHOLD:g})")
-    if not best["passes_holdout"]:
-        parts.append(f"{'it' if parts else 'the best candidate (' + best['effect'] + ')'} does not lower the "
-                     f"held-out RMSE by {HOLDOUT_GAIN:.0%}")
-    return "; ".join(parts) or "nothing more helps"
+def _inadequacy(problem: _Problem, fit: _Fit, out_sigma: float) -> float:
+    """Training RMSE of a fit in units of the estimated output noise (0 when the noise is unknown)."""
+    return fit.score.rmse_train / out_sigma if out_sigma > 0 else 0.0
 
 
-def public(report: dict) -> dict:
-    """The report without its arrays, as plain JSON values (a NaN or infinity becomes None)."""
-    def clean(value):
-        if isinstance(value, dict):
-            return {k: clean(v) for k, v in value.items() if not str(k).startswith("_")}
-        if isinstance(value, (list, tuple)):
-            return [clean(v) for v in value]
-        if isinstance(value, (bool, np.bool_)):
-            return bool(value)
-        if isinstance(value, (int, np.integer)):
-            return int(value)
-        if isinstance(value, (float, np.floating)):
-            return float(value) if math.isfinite(value) else None
-        return value
+class _Search:
+    """Forward selection with the rule, and the wider search in pairs; collects the report's steps."""
 
-    return clean(report)
+    def __init__(self, problem: _Problem, start: Params, pending: list, rule: Rule, to_file: float, say):
+        self.problem, self.start, self.pending_all, self.rule = problem, start, pending, rule
+        self.to_file, self.say = to_file, say
+        self.added: list[str] = []
+        self.individual: dict = {}
+        self.steps: list[dict] = []
+        self.step_params: list = []
+        self.undecided: list[dict] = []
+        self.stopped = None
+        self.signatures_first = None
+        self.current = None
+
+    def forward(self, current: _Fit) -> None:
+        problem, say, rule, to_file = self.problem, self.say, self.rule, self.to_file
+        self.current = current
+        while True:
+            pending = [e for e in self.pending_all if e not in self.added]
+            if not pending:
+                self.stopped = {"reason": "no candidate effect left for this experiment", "candidates": [], "ties": []}
+                return
+            say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
+            try:
+                sigs = signatures(problem.measurement, current.params, pending)
+            except MkctlError:  # the measured states lie outside the model's domain: no signatures
+                sigs = {}
+            if self.signatures_first is None:
+                self.signatures_first = (list(pending), sigs)
+            rows, outcomes, fits = [], [], {}
+            for name in pending:
+                fit, value, evaluations, _ = _fit_candidate(problem, self.start, current, self.added, self.individual,
+                                                            name, say)
+                row, outcome = _row(name, fit, value, evaluations, current, problem, sigs.get(name), to_file)
+                rows.append(row)
+                outcomes.append(outcome)
+                fits[name] = fit
+            rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
+            decision = decide(current.score, outcomes, rule)
+            context = {"bic_before": current.score.bic, "rmse_holdout_before": current.score.rmse_holdout * to_file,
+                       "candidates": rows, "ties": []}
+            together: list[str] = []
+            if decision.verdict == "undecided":
+                context["ties"] = [{"effects": [decision.effect, r], "experiment": experiment_to_separate(
+                    [decision.effect, r])} for r in decision.rivals]
+                pair = _try_pairs(problem, self.start, self.added, decision, fits, say)
+                if pair is None:
+                    effects = [decision.effect, *decision.rivals]
+                    text = (f"this record cannot tell {' from '.join(e.replace('_', ' ') for e in effects)}: "
+                            f"{decision.reason}")
+                    self.undecided.append({"effects": effects, "experiment": experiment_to_separate(effects),
+                                           "text": text})
+                    self.stopped = {"reason": text, **context}
+                    say(f"  undecided: {text}")
+                    return
+                rival, fit = pair
+                together = [rival]
+                fits[decision.effect] = fit
+            elif decision.verdict == "stop":
+                self.stopped = {"reason": decision.reason, **context}
+                say(f"  stop: {decision.reason}")
+                return
+            name = decision.effect
+            self.added.extend([name, *together])
+            current = self.current = fits[name]
+            dropped = self._drop(len(together) + 1)
+            current = self.current = self._refit(self.current)
+            self._record({"added": name, "added_with": together, "dropped": dropped, **context})
+
+    def _refit(self, fit: _Fit) -> _Fit:
+        """The added effects refitted jointly (full tolerance), so that the next round starts from their
+        best values and no later candidate is credited with what a better refit of these would give."""
+        values, _, _, params = _joint_fit(self.problem, self.start, self.added, fit.values, train_only=True)
+        refit = _evaluate(self.problem, params, values)
+        return refit if refit is not None and refit.rss_train < fit.rss_train else fit
+
+    def _drop(self, newest: int) -> list:
+        """Drop earlier effects that no longer earn their place (the rule's drop step)."""
+        dropped = []
+        while len(self.added) > newest:
+            without = {}
+            for earlier in self.added[:-newest]:
+                rest = [e for e in self.added if e != earlier]
+                rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
+                values, _, _, params = _joint_fit(self.problem, self.start, rest, rest_values, train_only=True)
+                without[earlier] = _evaluate(self.problem, params, values)
+            gone = to_drop(self.current.score, {e: f.score if f else None for e, f in without.items()}, self.rule)
+            if gone is None:
+                break
+            dropped.append(gone)
+            self.added.remove(gone)
+            self.current = without[gone]
+        return dropped
+
+    def _record(self, step: dict) -> None:
+        current = self.current
+        step.update({"rmse": None, "params": dict(current.values),
+                     "rmse_holdout": current.score.rmse_holdout * self.to_file})
+        self.steps.append(step)
+        self.step_params.append((current.params, current.offset))
+        added = [step["added"], *step.get("added_with", [])]
+        self.say(f"  added {' and '.join(added)}" + (f", dropped {', '.join(step['dropped'])}" if step["dropped"]
+                                                    else "") + ": "
+                 + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items()))
+
+    def wider(self) -> bool:
+        """Fit every pair of candidates jointly (from their round-1 values) and judge the best against the
+        forward model by the rule; adopt it (replacing what forward selection added) when it passes."""
+        problem, say = self.problem, self.say
+        before = self.current
+        names = [e for e in self.pending_all if self.individual.get(e, 0.0) > 0]
+        best = None
+        for i, a in enumerate(names):
+            for b in names[i + 1:]:
+                if {a, b} == set(self.added):
+                    continue
+                start = {CANDIDATES[e].parameter: self.individual[e] for e in (a, b)}
+                values, _, _, params = _joint_fit(problem, self.start, [a, b], start, train_only=True, rough=True)
+                fit = _evaluate(problem, params, values)
+                if fit is None:
+                    continue
+                experiment = problem.measurement.experiment
+                pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
+                                 and not CANDIDATES[e].switch)
+                             for e in (a, b))
+                say(f"  pair {a} + {b}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
+                    f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
+                if not pinned and (best is None or fit.score.bic < best[1].score.bic):
+                    best = ((a, b), fit)
+        if best is None:
+            return False
+        (a, b), fit = best
+        decision = decide(before.score, [Outcome(f"{a}+{b}", fit.score)], self.rule)
+        if decision.verdict != "add" or not fit.score.rss_train < before.score.rss_train:
+            say(f"  the best pair ({a} + {b}) does not pass the rule against {', '.join(self.added)}")
+            return False
+        replaced = list(self.added)
+        self.added = [a, b]
+        self.current = self._refit(fit)
+        self._record({"added": a, "added_with": [b], "dropped": [e for e in replaced if e not in (a, b)],
+                      "replaced": replaced, "bic_before": before.score.bic,
+                      "rmse_holdout_before": before.score.rmse_holdout * self.to_file, "candidates": [],
+                      "ties": [], "wider_search": True})
+        return True
 
 
-# --- Pictures --------------------------------------------------------------------------------------
-
-def save_pictures(measurement: Measurement, report: dict, folder, stem: str | None = None) -> dict:
-    """Save the diagnosis pictures as PNG; returns {what: path}."""
-    folder = Path(folder)
-    stem = stem or Path(measurement.source).stem
-    curves = report["_curves"]
-    unit = measurement.output_unit
-    paths = {}
-
-    labels = ["baseline"] + [f"+ {s['added']}" for s in report["steps"]]
-    fig, ax = new_figure(figsize=(max(4.5, 1.6 * len(labels) + 2), 3.8))
-    values = curves["steps"]
-    bars = ax.bar(range(len(values)), values, color=["0.6"] + ["tab:blue"] * (len(values) - 1))
-    ax.plot(range(len(values)), values, "k.-", lw=0.8)
-    for bar, value in zip(bars, values):
-        ax.annotate(f"{value:.3g}", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom", fontsize=8)
-    ax.set_xticks(range(len(values)), labels, fontsize=8)
-    ax.set_yscale("log")
-    ax.set_ylabel(f"RMSE [{unit}] (log)")
-    ax.set_title("the error falls as effects are added")
-    paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
-
-    after_label = "baseline + " + ", ".join(report["missing"]) if report["missing"] else "baseline (nothing added)"
-    paths["overlay"] = plot_overlay(measurement, {"baseline": curves["before"], after_label: curves["after"]},
-                                    folder / f"{stem}_overlay.png", "before and after the diagnosis")
-    to_file = 1.0 / measurement.output_factor
-    paths["residuals"] = plot_residuals(measurement, {
-        "before (baseline)": (measurement.output - curves["before"]) * to_file,
-        f"after ({after_label})": (measurement.output - curves["after"]) * to_file,
-    }, folder / f"{stem}_residuals.png")
-
-    if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
-        from .compare import plot_isometric
-        after = measurement.params
-        for effect in report["missing"]:
-            after = CANDIDATES[effect].apply(after, report["params"][CANDIDATES[effect].parameter])
-        paths["isometric"] = plot_isometric(measurement.inputs["length"], measurement.inputs["pressure"],
-                                            measurement.output, measurement.branch,
-                                            {"baseline": measurement.params, after_label: after},
-                                            folder / f"{stem}_isometric.png", "before and after the diagnosis",
-                                            L0=measurement.params.L0)
-
-    if curves["signatures"] is not None:
-        order, sigs = curves["signatures"]
-        names = [name for name in order if name in sigs]
-        if names:
-            fig, axes = new_figure(1, len(names), figsize=(3.6 * len(names), 3.4), squeeze=False)
-            for ax, name in zip(axes[0], names):
-                sig = sigs[name]
-                ax.plot(sig["x"], sig["missing"], ".", ms=2, color="0.6", alpha=0.4)
-                ax.plot(*_binned(sig["x"], sig["missing"]), "o-", color="tab:red", ms=4)
-                ax.axhline(0, color="k", lw=0.5)
-                ax.set_xlabel(_AXIS.get((measurement.experiment, name), _AXIS[name]), fontsize=7)
-                ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)
-            axes[0, 0].set_ylabel("force the baseline lacks [N]")
-            fig.suptitle("signatures: the force the baseline lacks (equation error at the smoothed measured states)",
-                         fontsize=9)
-            paths["signatures"] = save_png(fig, folder / f"{stem}_signatures.png")
-    return {k: str(v) for k, v in paths.items()}
-
-
-def summary(report: dict) -> list[str]:
-    """A readable summary of a diagnosis report, line by line."""
-    unit = report["output_unit"]
-    lines = [f"{report['file']}: {report['experiment']}, {report['samples']} samples, baseline "
-             f"{report['baseline']} ({', '.join(report['baseline_effects']) or 'no effects'})",
-             f"baseline: RMSE {report['rmse_before']:.4g} {unit} (whole record), "
-             f"{fit_text(report['fit_percent_before'])}"]
-    rounds = report["steps"] + ([report["stopped"]] if report["stopped"] and report["stopped"]["candidates"] else [])
-    fit_samples = report["rule"]["fit_samples"]
-    partial = fit_samples < report["samples"]
-    for number, step in enumerate(rounds, 1):
-        lines.append(f"round {number}: candidates (best first; RMSE over "
-                     + (f"the {fit_samples} fit samples" if partial else "the whole record")
-                     + f", held-out over the last {report['rule']['holdout_fraction']:.0%})")
-        for row in step["candidates"]:
-            if row["bic"] is None:
-                lines.append(f"  {row['effect']:<17} could not be simulated")
-                continue
-            (name, value), = row["params"].items()
-            sig = row.get("signature") or {}
-            estimate = sig.get("estimate")
-            lines.append(f"  {row['effect']:<17} {name} = {value:<10.4g} dBIC {row['delta_bic']:+9.1f}  "
-                         f"RMSE {row['rmse']:.4g}  held-out {row['rmse_holdout']:.4g} {unit}  "
-                         f"signature r = {sig.get('correlation', 0.0):+.2f}"
-                         + (f" (slope says {name} ~ {estimate:.3g})" if estimate is not None else ""))
-        for tie in step["ties"]:
-            lines.append(f"  near-tie: {' ~ '.join(tie['effects'])} (BIC {tie['bic_difference']:.1f} apart); "
-                         f"to tell them apart: {tie['experiment']}")
-        if step.get("added"):
-            dropped = f" (dropped {', '.join(step['dropped'])}: no longer needed)" if step.get("dropped") else ""
-            lines.append(f"  -> added {step['added']}{dropped}: RMSE {step['rmse']:.4g} {unit} (whole record, "
-                         f"{report['samples']} samples)")
-        else:
-            lines.append(f"  -> stop: {step['reason']}")
-    if report["stopped"] and not report["stopped"]["candidates"]:
-        lines.append(f"stop: {report['stopped']['reason']}")
-    if report["missing"]:
-        lines.append("missing: " + ", ".join(report["missing"]))
-        for name, value in report["params"].items():
-            error = report["uncertainty"].get(name)
-            plus = f" +- {error:.2g}" if error is not None else ""
-            lines.append(f"  {name} = {value:.4g}{plus} {UNITS[name]}")
-    else:
-        lines.append("missing: nothing (no candidate effect is supported by the data)")
-    lines.append(f"after: RMSE {report['rmse_after']:.4g} {unit} (whole record), "
-                 f"{fit_text(report['fit_percent_after'])}")
-    return lines
+def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits: dict, say):
+    """Fit the best candidate together with each rival; (rival, fit) of the first pair that needs both."""
+    best = decision.effect
+    for rival in decision.rivals:
+        if fits.get(best) is None or fits.get(rival) is None:
+            continue
+        effects = [*added, best, rival]
+        start = {**fits[best].values, **fits[rival].values}
+        if any(start.get(CANDIDATES[e].parameter, 0.0) <= 0 for e in effects):
+            continue
+        values, _, _, params = _joint_fit(problem, baseline, effects, start, train_only=True)
+        both = _evaluate(problem, params, values)
+        if both is None:
+            continue
+        experiment = problem.measurement.experiment
+        pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
+                                 and not CANDIDATES[e].switch) for e in effects)
+        say(f"  {best} and {rival} together: dBIC {both.score.bic - fits[best].score.bic:+.1f} against {best} "
+            f"alone" + (" (a parameter on its bound)" if pinned else ""))
+        if not pinned and pair_needed([fits[best].score, fits[rival].score], both.score):
+            return rival, both
+    return None

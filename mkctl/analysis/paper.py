@@ -5,7 +5,10 @@
 - Fig. 7: the h = 0 sheet (Eq. 22-23) and the equilibrium set (V = 0, F = m g) over (alpha, Pe', Pf'),
   with the curve where they meet: where stability is lost on the equilibrium set.
 - The claims of Section VI, each with the number from the model that supports or refutes it
-  (:func:`paper_claims`, :func:`claims_markdown`).
+  (:func:`paper_claims`, :func:`claims_markdown`). Each claim is one small function registered in
+  :data:`CLAIMS` with :func:`claim`, in the report's order; they share a :class:`ClaimContext`, whose
+  quantities (h over the grid, the equilibrium samples, the loss of stability, the terms of Eq. 23) are
+  computed on first use, so that one claim can run alone.
 
 Nothing here writes an equation: h, the two surfaces, a1, a2 and the geometry come from
 :mod:`mkctl.physics.stability` and :mod:`mkctl.physics.knee`; the four terms of Eq. 24-25 are the library's actuator
@@ -26,6 +29,7 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Callable, NamedTuple
 
@@ -34,7 +38,7 @@ from scipy.optimize import brentq
 
 from ..physics import actuator, isotonic, knee, stability
 from ..errors import DomainError
-from ..physics.params import DEFAULT, Params
+from ..physics.params import DEFAULT, RATED_PRESSURE, Params
 
 #: Constant loads of Fig. 5 [N] and its pressure sweep [Pa].
 FIG5_LOADS = (10.0, 30.0, 60.0, 100.0)
@@ -44,8 +48,9 @@ PE_MAX = 3.0e6
 PF_MAX = 600e3
 #: Flexor pressures at which the claims report the equilibrium set [Pa].
 REPORT_PF = (0.0, 100e3, 300e3)
-#: The largest gauge pressure a typical commercial McKibben muscle is rated for [Pa] (6 bar).
-REAL_MUSCLE_PRESSURE = 600e3
+#: The largest gauge pressure a typical commercial McKibben muscle is rated for [Pa] (6 bar):
+#: :data:`mkctl.physics.params.RATED_PRESSURE`, under the name this module has always used.
+REAL_MUSCLE_PRESSURE = RATED_PRESSURE
 #: Viscous damping [N s/m] used for the "damping makes a1 < 0" claim when params has none (c = 0).
 DEMO_DAMPING = 45.0
 
@@ -472,44 +477,126 @@ def _equilibrium_samples(params: Params, grid: ClaimsGrid, reachable: bool, eq_r
     return A[keep], Pf[keep], Pe[keep]
 
 
-def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, report_pf=REPORT_PF,
-                 progress: Progress = None, eq_range: tuple[float, float] | None = None) -> list[Claim]:
-    """Check each claim of Section VI against the model on ``grid`` (default :func:`claims_grid`).
+class ClaimContext:
+    """What the claims share: the parameters, the grid and the quantities several claims read.
 
-    Every number is computed here from the library at run time. Angles in the evidence are in degrees.
-    ``eq_range``: the precomputed :func:`equilibrium_alpha_range` (computed here when None).
+    Each shared quantity is computed on first use and kept (``functools.cached_property``), so a claim
+    function run alone computes what it needs, and :func:`paper_claims` computes each quantity once.
     """
-    say = progress or (lambda message: None)
-    eq_range = equilibrium_alpha_range(params) if eq_range is None else eq_range
-    grid = claims_grid(params) if grid is None else grid
-    A, E, F = np.meshgrid(grid.alpha, grid.Pe, grid.Pf, indexing="ij")
-    stops = (knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH)
-    in_stops = (A >= stops[0]) & (A <= stops[1])
-    top = straight_leg_alpha(params)
-    grid_text = (f"grid: {grid.alpha.size} alpha in ({_deg(grid.alpha[0])}, {_deg(grid.alpha[-1])}) deg x "
-                 f"{grid.Pe.size} Pe' in {_kpa(grid.Pe[0])}..{_kpa(grid.Pe[-1])} x {grid.Pf.size} Pf' in "
-                 f"{_kpa(grid.Pf[0])}..{_kpa(grid.Pf[-1])}")
-    claims = []
 
-    say("claims: h along alpha")
-    h = stability.h_function(A, E, F, params)
-    slope = stability.h_slope(A, E, F, params)
-    decreasing = slope < 0
-    frac_all, frac_stops = float(decreasing.mean()), float(decreasing[in_stops].mean())
+    def __init__(self, params: Params = DEFAULT, grid: ClaimsGrid | None = None, report_pf=REPORT_PF,
+                 eq_range: tuple[float, float] | None = None):
+        self.params = params
+        self.grid = claims_grid(params) if grid is None else grid
+        self.report_pf = tuple(report_pf)
+        self.eq_range = equilibrium_alpha_range(params) if eq_range is None else eq_range
+        self.stops = (knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH)  #: end stops [rad]
+
+    @cached_property
+    def mesh(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(alpha [rad], Pe [Pa], Pf [Pa]) over the whole grid, indexed (alpha, Pe, Pf)."""
+        return np.meshgrid(self.grid.alpha, self.grid.Pe, self.grid.Pf, indexing="ij")
+
+    @cached_property
+    def in_stops(self) -> np.ndarray:
+        """Where the grid's alpha lies between the end stops."""
+        A = self.mesh[0]
+        return (A >= self.stops[0]) & (A <= self.stops[1])
+
+    @cached_property
+    def top(self) -> float:
+        """alpha of the straight leg [rad] (:func:`straight_leg_alpha`)."""
+        return straight_leg_alpha(self.params)
+
+    @property
+    def grid_text(self) -> str:
+        g = self.grid
+        return (f"grid: {g.alpha.size} alpha in ({_deg(g.alpha[0])}, {_deg(g.alpha[-1])}) deg x "
+                f"{g.Pe.size} Pe' in {_kpa(g.Pe[0])}..{_kpa(g.Pe[-1])} x {g.Pf.size} Pf' in "
+                f"{_kpa(g.Pf[0])}..{_kpa(g.Pf[-1])}")
+
+    @cached_property
+    def h(self) -> np.ndarray:
+        """h of Eq. 22-23 over the grid [N/rad]."""
+        return stability.h_function(*self.mesh, self.params)
+
+    @cached_property
+    def equilibria(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(alpha, Pf, Pe) on the whole equilibrium set (:func:`_equilibrium_samples`)."""
+        return _equilibrium_samples(self.params, self.grid, reachable=False, eq_range=self.eq_range)
+
+    @cached_property
+    def reachable(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(alpha, Pf, Pe) on the equilibrium set between the end stops."""
+        return _equilibrium_samples(self.params, self.grid, reachable=True, eq_range=self.eq_range)
+
+    @cached_property
+    def loss(self) -> dict[float, float | None]:
+        """{Pf [Pa]: alpha [rad] where stability is lost (:func:`stability_loss_alpha`), or None} per report Pf."""
+        loss = {}
+        for pf in self.report_pf:
+            try:
+                loss[pf] = stability_loss_alpha(pf, self.params, eq_range=self.eq_range)
+            except DomainError:
+                loss[pf] = None
+        return loss
+
+    @property
+    def loss_found(self) -> dict[float, float]:
+        return {pf: a for pf, a in self.loss.items() if a is not None}
+
+    @cached_property
+    def terms(self) -> Eq23Terms:
+        """The terms of Eq. 23 over the grid (:func:`eq23_terms`)."""
+        return eq23_terms(*self.mesh, self.params)
+
+
+class ClaimCheck(NamedTuple):
+    """One entry of :data:`CLAIMS`: the function that checks a claim and the progress message shown before it."""
+
+    check: Callable[[ClaimContext], Claim]
+    progress: str | None
+
+
+#: The claims of Section VI in the order of the report: key -> :class:`ClaimCheck`. Add one with :func:`claim`.
+CLAIMS: dict[str, ClaimCheck] = {}
+
+
+def claim(key: str, progress: str | None = None):
+    """Register the decorated ``function(context: ClaimContext) -> Claim`` as the check of claim ``key``,
+    after those registered before it. ``progress``: a message to show before it runs (a new group of claims)."""
+    def register(function):
+        if key in CLAIMS:
+            raise ValueError(f"claim {key!r} is registered twice")
+        CLAIMS[key] = ClaimCheck(function, progress)
+        return function
+    return register
+
+
+@claim("h_decreasing", progress="claims: h along alpha")
+def claim_h_decreasing(ctx: ClaimContext) -> Claim:
+    """Sec. VI-B: h decreases along alpha; checked by the sign of dh/dalpha (:func:`stability.h_slope`)."""
+    A = ctx.mesh[0]
+    decreasing = stability.h_slope(*ctx.mesh, ctx.params) < 0
+    frac_all, frac_stops = float(decreasing.mean()), float(decreasing[ctx.in_stops].mean())
     rising_alpha = A[~decreasing]
     above = float(np.degrees(rising_alpha.max())) if rising_alpha.size else None
-    claims.append(Claim(
+    return Claim(
         "h_decreasing", "h(alpha, Pe', Pf') decreases monotonically along alpha",
         "Sec. VI-B, Eq. 22-23",
         f"dh/dalpha < 0 at {100 * frac_all:.1f} % of the grid ({100 * frac_stops:.1f} % between the end stops)"
         + (f"; where it fails, alpha <= {above:.1f} deg (a deeply bent knee): h rises there" if above is not None
-           else "") + f". {grid_text}",
+           else "") + f". {ctx.grid_text}",
         _verdict(frac_all),
         {"fraction_decreasing": frac_all, "fraction_decreasing_within_stops": frac_stops,
-         "max_alpha_not_decreasing_deg": above}))
+         "max_alpha_not_decreasing_deg": above})
 
-    say("claims: h = 0 sheets")
-    negative = np.signbit(h)
+
+@claim("one_sheet", progress="claims: h = 0 sheets")
+def claim_one_sheet(ctx: ClaimContext) -> Claim:
+    """Sec. VI-B footnote: one reachable h = 0 sheet; counts the sign changes of h along alpha per (Pe, Pf)."""
+    A, stops, top = ctx.mesh[0], ctx.stops, ctx.top
+    negative = np.signbit(ctx.h)
     changes = negative[1:] != negative[:-1]  # between alpha samples, per (Pe, Pf) column
     count = changes.sum(axis=0)
     mid = 0.5 * (A[1:] + A[:-1])
@@ -522,7 +609,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
     downward = changes & ~negative[:-1] & negative[1:]  # + below, - above: the sheet the paper means
     frac_down = float(downward.sum() / max(changes.sum(), 1))
     frac_one = 1.0 - float((count_within >= 2).sum()) / columns
-    claims.append(Claim(
+    return Claim(
         "one_sheet", "in 0 < alpha < pi/2 there is one physically reachable h = 0 sheet "
                      "(a second one lies outside the knee's range)", "Sec. VI-B and its footnote",
         f"alpha only reaches {np.degrees(top):.2f} deg (straight leg); beyond it the leg would bend backwards, "
@@ -536,10 +623,15 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         "supported" if n2 == 0 else "partly",
         {"columns": columns, "columns_no_crossing": n0, "columns_one_crossing": n1, "columns_two_or_more": n2,
          "columns_two_or_more_within_stops": int((count_within >= 2).sum()), "fraction_one_within_stops": frac_one,
-         "straight_leg_alpha_deg": _deg(top), "fraction_crossings_plus_to_minus": frac_down}))
+         "straight_leg_alpha_deg": _deg(top), "fraction_crossings_plus_to_minus": frac_down})
 
-    say("claims: stability on the equilibrium set")
-    eq_alpha, eq_pf, eq_pe = _equilibrium_samples(params, grid, reachable=False, eq_range=eq_range)
+
+@claim("above_stable", progress="claims: stability on the equilibrium set")
+def claim_above_stable(ctx: ClaimContext) -> Claim:
+    """Sec. VI-B, Eq. 20, 22: equilibria above the h = 0 sheet are stable; a2 < 0 (Eq. 20) against the side of
+    the sheet found by scanning h along alpha."""
+    params, grid = ctx.params, ctx.grid
+    eq_alpha, eq_pf, eq_pe = ctx.equilibria
     _, a2 = stability.routh_hurwitz_coefficients(knee.X_from_alpha(eq_alpha, params), eq_pe, eq_pf, 0.0, params)
     stable = a2 < 0
     # "above the sheet": alpha beyond the highest + -> - crossing of h along alpha at that (Pe, Pf)
@@ -555,7 +647,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
     spacing = float(np.diff(grid.alpha).max())
     resolved = np.abs(eq_alpha - sheet_alpha) > spacing  # decidable at the grid's resolution
     agree = float((is_above == stable)[resolved].mean())
-    claims.append(Claim(
+    return Claim(
         "above_stable", "equilibria above the h = 0 sheet (larger alpha) are stable, those below unstable",
         "Sec. VI-B, Eq. 20, 22",
         f"of {eq_alpha.size} equilibria sampled (alpha up to {_deg(eq_alpha.max())} deg, Pf' 0..{_kpa(grid.Pf[-1])}), "
@@ -563,16 +655,13 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         f"with a2 < 0 at {100 * agree:.1f} % of the {int(resolved.sum())} resolved by the grid",
         _verdict(agree),
         {"equilibria": int(eq_alpha.size), "stable": int(stable.sum()), "unstable": int((~stable).sum()),
-         "agreement": agree}))
+         "agreement": agree})
 
-    say("claims: where stability is lost")
-    loss = {}
-    for pf in report_pf:
-        try:
-            loss[pf] = stability_loss_alpha(pf, params, eq_range=eq_range)
-        except DomainError:
-            loss[pf] = None
-    found = {pf: a for pf, a in loss.items() if a is not None}
+
+@claim("stability_lost", progress="claims: where stability is lost")
+def claim_stability_lost(ctx: ClaimContext) -> Claim:
+    """Fig. 7: the equilibrium set meets h = 0; checks |h| and |F - m g| at the crossing (Eq. 17, 22)."""
+    params, loss, found = ctx.params, ctx.loss, ctx.loss_found
     missing = [pf for pf, a in loss.items() if a is None]
     loss_pe = {pf: float(stability.equilibrium_pressure(a, pf, params)) for pf, a in found.items()}
     h_res = max((abs(float(stability.h_function(a, loss_pe[pf], pf, params))) for pf, a in found.items()),
@@ -583,7 +672,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
                           f"Pe' = {_kpa(loss_pe[pf])}) at Pf' = {_kpa(pf)}" for pf, a in found.items())
     tolerance = 1e-6 * params.m * params.g
     on_both = bool(found) and h_res < tolerance and f_res < tolerance
-    claims.append(Claim(
+    return Claim(
         "stability_lost", "the equilibrium set crosses the h = 0 sheet: stability is lost where they meet",
         "Fig. 7",
         (f"{loss_text}; there |h| <= {h_res:.1e} N/rad and |F - mg| <= {f_res:.1e} N. It is the minimum of Pe' "
@@ -592,16 +681,22 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         + (f"; no crossing at Pf' = {', '.join(_kpa(pf) for pf in missing)}" if missing and found else ""),
         ("supported" if not missing else "partly") if on_both else "refuted",
         {"loss_alpha_deg": {str(pf): (_deg(a) if a is not None else None) for pf, a in loss.items()},
-         "loss_Pe_Pa": {str(pf): loss_pe.get(pf) for pf in loss}, "max_abs_h": h_res, "max_abs_F_minus_mg": f_res}))
+         "loss_Pe_Pa": {str(pf): loss_pe.get(pf) for pf in loss}, "max_abs_h": h_res, "max_abs_F_minus_mg": f_res})
 
-    reach_alpha, reach_pf, reach_pe = _equilibrium_samples(params, grid, reachable=True, eq_range=eq_range)
+
+@claim("below_unreachable")
+def claim_below_unreachable(ctx: ClaimContext) -> Claim:
+    """Sec. VI-B: equilibria below the sheet cannot be realized; counts unstable (h > 0) equilibria between the
+    end stops."""
+    params, stops, found = ctx.params, ctx.stops, ctx.loss_found
+    reach_alpha, reach_pf, reach_pe = ctx.reachable
     reach_h = stability.h_function(reach_alpha, reach_pe, reach_pf, params)
     unstable = reach_h > 0
     le_bent = float(knee.geometry_at_alpha(alpha_domain(params, 2)[0], params).Le)
     frac_unstable = float(unstable.mean()) if reach_h.size else 0.0
     unstable_range = (f"they lie at alpha {_deg(reach_alpha[unstable].min())}..{_deg(reach_alpha[unstable].max())} "
                       "deg" if unstable.any() else "there are none")
-    claims.append(Claim(
+    return Claim(
         "below_unreachable", "equilibria below the sheet need a knee bent further than the mechanism allows, so "
                              "they cannot be realized", "Sec. VI-B",
         f"{100 * frac_unstable:.1f} % of the equilibria between the end stops ({np.degrees(stops[0]):g} and "
@@ -613,70 +708,104 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         "refuted" if unstable.any() else "supported",
         {"loss_alpha_deg": {str(pf): _deg(a) for pf, a in found.items()},
          "stop_low_deg": _deg(stops[0]), "stop_high_deg": _deg(stops[1]),
-         "fraction_unstable_within_stops": frac_unstable}))
+         "fraction_unstable_within_stops": frac_unstable})
 
-    say("claims: Eq. 24-25")
-    terms = eq23_terms(A, E, F, params)
-    pe_on, pf_on = E > 0, F > 0
+
+def _rubber_text(params: Params) -> str:
+    return "" if params.model == 2 else " (model 1: no rubber, the rubber terms are 0)"
+
+
+@claim("eq24", progress="claims: Eq. 24-25")
+def claim_eq24(ctx: ClaimContext) -> Claim:
+    """Eq. 24: the extensor's pressure and rubber terms of Eq. 23 are negative (:func:`eq23_terms`)."""
+    terms, pe_on = ctx.terms, ctx.mesh[1] > 0
     e_p, e_w = float((terms.extensor_pressure[pe_on] < 0).mean()), float((terms.extensor_rubber < 0).mean())
-    f_p, f_w = float((terms.flexor_pressure[pf_on] > 0).mean()), float((terms.flexor_rubber > 0).mean())
-    rubber_text = ("" if params.model == 2 else " (model 1: no rubber, the rubber terms are 0)")
-    claims.append(Claim(
+    return Claim(
         "eq24", "-Pe' d/dalpha dV_b/dL_e < 0 and V_r d/dalpha dW/dL_e < 0", "Eq. 24",
         f"pressure term < 0 at {100 * e_p:.1f} % of the grid with Pe' > 0 (range "
         f"{terms.extensor_pressure[pe_on].min():.3g}..{terms.extensor_pressure[pe_on].max():.3g} N/rad); rubber "
         f"term < 0 at {100 * e_w:.1f} % (range {terms.extensor_rubber.min():.3g}..{terms.extensor_rubber.max():.3g} "
-        f"N/rad){rubber_text}. The extensor shortens as alpha grows (dL_e/dalpha < 0) while both its pressure gain "
-        "and dW/dL rise with length",
+        f"N/rad){_rubber_text(ctx.params)}. The extensor shortens as alpha grows (dL_e/dalpha < 0) while both its "
+        "pressure gain and dW/dL rise with length",
         _verdict(min(e_p, e_w)),
-        {"fraction_pressure_negative": e_p, "fraction_rubber_negative": e_w}))
-    claims.append(Claim(
+        {"fraction_pressure_negative": e_p, "fraction_rubber_negative": e_w})
+
+
+@claim("eq25")
+def claim_eq25(ctx: ClaimContext) -> Claim:
+    """Eq. 25: the flexor's pressure and rubber terms of Eq. 23 are positive (:func:`eq23_terms`)."""
+    terms, pf_on = ctx.terms, ctx.mesh[2] > 0
+    f_p, f_w = float((terms.flexor_pressure[pf_on] > 0).mean()), float((terms.flexor_rubber > 0).mean())
+    return Claim(
         "eq25", "-Pf' d/dalpha dV_b/dL_f > 0 and V_r d/dalpha dW/dL_f > 0", "Eq. 25",
         f"pressure term > 0 at {100 * f_p:.1f} % of the grid with Pf' > 0 (range "
         f"{terms.flexor_pressure[pf_on].min():.3g}..{terms.flexor_pressure[pf_on].max():.3g} N/rad; it is 0 at "
         f"Pf' = 0); rubber term > 0 at {100 * f_w:.1f} % (range {terms.flexor_rubber.min():.3g}.."
-        f"{terms.flexor_rubber.max():.3g} N/rad){rubber_text}. The flexor lengthens as alpha grows",
+        f"{terms.flexor_rubber.max():.3g} N/rad){_rubber_text(ctx.params)}. The flexor lengthens as alpha grows",
         _verdict(min(f_p, f_w)),
-        {"fraction_pressure_positive": f_p, "fraction_rubber_positive": f_w}))
+        {"fraction_pressure_positive": f_p, "fraction_rubber_positive": f_w})
+
+
+@claim("actuator_terms_negative")
+def claim_actuator_terms_negative(ctx: ClaimContext) -> Claim:
+    """Eq. 23-25: the actuator expressions of Eq. 23 sum to a negative number (:func:`eq23_terms`)."""
+    terms = ctx.terms
     sum_neg = float((terms.actuator_sum < 0).mean())
     geo_pos = float((terms.geometric > 0).mean())
-    claims.append(Claim(
+    return Claim(
         "actuator_terms_negative", "so the second and third expressions of Eq. 23 sum to a negative number",
         "Eq. 23-25",
         f"G_e (Eq. 24 terms) - G_f (Eq. 25 terms) < 0 at {100 * sum_neg:.1f} % of the grid; h > 0 (unstable) "
         f"where the first expressions dG_e/dalpha f_e - dG_f/dalpha f_f (> 0 at {100 * geo_pos:.1f} % of the grid) "
         "outweigh them: G_e grows steeply with alpha",
         _verdict(sum_neg),
-        {"fraction_sum_negative": sum_neg, "fraction_geometric_positive": geo_pos}))
+        {"fraction_sum_negative": sum_neg, "fraction_geometric_positive": geo_pos})
 
-    say("claims: velocity condition")
+
+@claim("a1_zero", progress="claims: velocity condition")
+def claim_a1_zero(ctx: ClaimContext) -> Claim:
+    """Eq. 19, 26: model 2 has a1 = 0; a1 of Eq. 18 between the end stops with c = Fc = 0."""
+    params = ctx.params
+    reach_alpha, reach_pf, reach_pe = ctx.reachable
     undamped = params.replace(c=0.0, Fc=0.0)
     a1, _ = stability.routh_hurwitz_coefficients(knee.X_from_alpha(reach_alpha, params), reach_pe, reach_pf, 0.0,
                                                  undamped)
-    claims.append(Claim(
+    return Claim(
         "a1_zero", "model 2 has no velocity dependence: a1 = 0, so Eq. 19 (a1 < 0) fails", "Eq. 19, 26",
         f"max |a1| = {float(np.abs(a1).max()):.3g} 1/s over {reach_alpha.size} equilibria between the end stops "
         "(c = Fc = 0): the poles sit on the imaginary axis, marginal at best",
         "supported" if np.all(a1 == 0) else "refuted",
-        {"max_abs_a1": float(np.abs(a1).max()), "equilibria": int(reach_alpha.size)}))
+        {"max_abs_a1": float(np.abs(a1).max()), "equilibria": int(reach_alpha.size)})
+
+
+@claim("a1_damped")
+def claim_a1_damped(ctx: ClaimContext) -> Claim:
+    """Eq. 19: viscous damping c (params.c, else :data:`DEMO_DAMPING`) makes a1 = -c (G_e^2 + G_f^2)/m < 0."""
+    params = ctx.params
+    reach_alpha, reach_pf, reach_pe = ctx.reachable
     c = params.c if params.c > 0 else DEMO_DAMPING
     damped = params.replace(c=c, Fc=0.0)  # damping alone: the claim is about the viscous term
     a1d, a2d = stability.routh_hurwitz_coefficients(knee.X_from_alpha(reach_alpha, params), reach_pe, reach_pf,
                                                     0.0, damped)
-    claims.append(Claim(
+    return Claim(
         "a1_damped", "a dissipation term (viscous damping) makes a1 < 0, so Eq. 19 holds", "Eq. 19, Sec. VI-B end",
         f"with c = {c:g} N s/m (and no friction): a1 ranges {float(a1d.min()):.3g}..{float(a1d.max()):.3g} 1/s (a1 = -c (G_e^2 + "
         f"G_f^2)/m); all {int((a1d < 0).sum())} of {reach_alpha.size} equilibria between the stops have a1 < 0"
         f", and {int(((a1d < 0) & (a2d < 0)).sum())} are asymptotically stable (a2 < 0 too)",
         _verdict(float((a1d < 0).mean())),
         {"c": c, "a1_min": float(a1d.min()), "a1_max": float(a1d.max()),
-         "stable_with_damping": int(((a1d < 0) & (a2d < 0)).sum())}))
+         "stable_with_damping": int(((a1d < 0) & (a2d < 0)).sum())})
 
-    say("claims: pressures the hip mass needs")
+
+@claim("mass_pressure", progress="claims: pressures the hip mass needs")
+def claim_mass_pressure(ctx: ClaimContext) -> Claim:
+    """Table II, spec section 3: the hip mass needs an extensor pressure far above a real muscle's rating
+    (:data:`REAL_MUSCLE_PRESSURE`); the stable equilibrium pressures between the end stops (Eq. 17, 22)."""
+    params, grid = ctx.params, ctx.grid
     needs = {}
-    low, high = reachable_alpha_range(params, eq_range)
+    low, high = reachable_alpha_range(params, ctx.eq_range)
     span = np.linspace(low, high, grid.alpha.size)
-    for pf in report_pf:
+    for pf in ctx.report_pf:
         pe = stability.equilibrium_pressure(span, pf, params)
         held = (pe >= 0) & (stability.h_function(span, pe, pf, params) < 0)  # stable, with a real pressure
         at_70 = (float(stability.equilibrium_pressure(np.radians(70.0), pf, params))
@@ -692,7 +821,7 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
                                  + (f" ({v[2] / 1e6:.2f} MPa at alpha = 70 deg)" if math.isfinite(v[2]) else ""))
         for pf, v in needs.items())
     least = min((v[0] for v in needs.values() if v is not None), default=math.nan)
-    claims.append(Claim(
+    return Claim(
         "mass_pressure", f"the hip mass m = {params.m:g} kg (Table II: 10 kg) needs Pe' far above a real "
                          f"muscle's ~{REAL_MUSCLE_PRESSURE / 1e6:g} MPa (spec section 3 note: roughly 1.2-2 MPa)",
         "Table II, spec sec. 3",
@@ -703,7 +832,48 @@ def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, repor
         {"Pe_min_Pa": {str(pf): (v[0] if v else None) for pf, v in needs.items()},
          "Pe_max_Pa": {str(pf): (v[1] if v else None) for pf, v in needs.items()},
          "Pe_at_70deg_Pa": {str(pf): (v[2] if v else None) for pf, v in needs.items()},
-         "max_mass_at_real_pressure_kg": m_real}))
+         "max_mass_at_real_pressure_kg": m_real})
+
+
+def paper_claims(params: Params = DEFAULT, grid: ClaimsGrid | None = None, report_pf=REPORT_PF,
+                 progress: Progress = None, eq_range: tuple[float, float] | None = None,
+                 keys=None) -> list[Claim]:
+    """Check the claims of Section VI against the model, in the order of :data:`CLAIMS`.
+
+    Parameters
+    ----------
+    params : Params
+        The model.
+    grid : ClaimsGrid, optional
+        The (alpha [rad], Pe [Pa], Pf [Pa]) grid the claims are checked on (default :func:`claims_grid`).
+    report_pf : sequence of float
+        Flexor pressures [Pa] at which the equilibrium set is reported.
+    progress : callable, optional
+        Called with a short message before each group of claims.
+    eq_range : (float, float), optional
+        The precomputed :func:`equilibrium_alpha_range` [rad] (computed here when None).
+    keys : iterable of str, optional
+        Only these claims (keys of :data:`CLAIMS`), still in registry order; default all.
+
+    Returns
+    -------
+    list of Claim
+        One per claim checked. Every number is computed from the library at run time; angles in the
+        evidence are in degrees.
+    """
+    say = progress or (lambda message: None)
+    wanted = list(CLAIMS) if keys is None else list(keys)
+    unknown = [k for k in wanted if k not in CLAIMS]
+    if unknown:
+        raise KeyError(f"no claim {unknown[0]!r}; the claims are {', '.join(CLAIMS)}")
+    ctx = ClaimContext(params, grid, report_pf, eq_range)
+    claims = []
+    for key, (check, message) in CLAIMS.items():
+        if key not in wanted:
+            continue
+        if message:
+            say(message)
+        claims.append(check(ctx))
     return claims
 
 

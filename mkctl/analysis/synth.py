@@ -16,13 +16,26 @@ Default inputs (chosen to excite what each experiment can show):
   600 kPa and back twice: slowly (20 s) and fast (5 s). Friction leaves the same loop at both rates,
   damping a loop that grows with the rate. 150 kPa is low enough to show the rubber's elasticity and
   high enough that model 1 still carries 80 N.
-- Noise: Gaussian, added to the measured output only, with the given standard deviation in the output
-  column's unit (mm), from ``numpy.random.default_rng(seed)``.
+- Command shapes (``shape``): the knee's extensor command as ``steps`` (above), ``ramps`` (the same levels
+  reached by linear ramps over :data:`RAMP_FRACTION` of the record each) or a ``chirp`` (a sine of
+  :data:`CHIRP_AMPLITUDE` of the holding pressure whose frequency rises linearly from 0.2 to 3 Hz after the
+  first 5 % of the record: the command changes at every sample). The isotonic pressure as ``sweeps``
+  (above) or ``steps`` (the same sweeps held on :data:`ISOTONIC_LEVELS` levels).
+- Output noise: Gaussian with the given standard deviation in the output column's unit (mm, or deg for
+  ``beta_deg``), white, or coloured (first-order autoregressive with correlation time ``noise_tau`` [s],
+  the same standard deviation), from ``numpy.random.default_rng(seed)``.
+- Measured inputs: the isotonic bladder pressure, and the knee's bladder pressures when ``pressures`` is
+  set (written as ``pe_kPa``, ``pf_kPa``: the truth's pressures after any lag), get Gaussian sensor noise
+  of ``input_noise`` kPa; the truth is simulated with the clean pressures.
+- A sensor offset: ``offset`` (output column's unit) is added to the written output; with
+  ``declare_offset`` the file declares it (``x_offset_mm = ...``) and a reader removes it, without it the
+  file holds the offset like a sensor zeroed elsewhere.
 """
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, field
+import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -48,25 +61,58 @@ KNEE_STEPS = ((0.05, 1.04), (0.275, 0.97), (0.50, 1.03), (0.725, 0.98))
 ISOTONIC_LOADS = (20.0, 50.0, 80.0)
 ISOTONIC_PRESSURES = (150e3, 600e3)
 ISOTONIC_CYCLES = (20.0, 5.0)
+#: Isotonic ``steps`` shape: the sweep held on this many pressure levels.
+ISOTONIC_LEVELS = 8
+#: Share of the record each knee ramp takes (``ramps`` shape).
+RAMP_FRACTION = 0.1
+#: Knee chirp: amplitude (fraction of the holding pressure) and frequency range [Hz].
+CHIRP_AMPLITUDE = 0.03
+CHIRP_FREQUENCIES = (0.2, 3.0)
+#: Command shapes of each experiment (the first is the default).
+SHAPES = {"knee": ("steps", "ramps", "chirp"), "isotonic": ("sweeps", "steps")}
 
 
-def knee_inputs(samples: int = DEFAULT_SAMPLES["knee"], rate: float = DEFAULT_RATE, params: Params = Params()):
-    """(time [s], pe_cmd [Pa], pf_cmd [Pa]) of the default knee experiment (see the module docstring)."""
+def knee_inputs(samples: int = DEFAULT_SAMPLES["knee"], rate: float = DEFAULT_RATE, params: Params = Params(),
+                shape: str = "steps"):
+    """(time [s], pe_cmd [Pa], pf_cmd [Pa]) of the knee experiment: steps, ramps or a chirp (module docstring)."""
     _check_samples(samples)
+    _check_shape("knee", shape)
     if not rate > 0:
         raise ParameterError(f"sample rate must be positive, got {rate!r} Hz")
     time = np.arange(samples) / rate
     pe0, pf0 = default_commands(params)
+    end = time[-1]
     pe = np.full(samples, pe0)
-    for fraction, factor in KNEE_STEPS:
-        pe[time >= fraction * time[-1]] = pe0 * factor
+    if shape == "steps":
+        for fraction, factor in KNEE_STEPS:
+            pe[time >= fraction * end] = pe0 * factor
+    elif shape == "ramps":
+        level = 1.0
+        for fraction, factor in KNEE_STEPS:
+            start, stop = fraction * end, (fraction + RAMP_FRACTION) * end
+            u = np.clip((time - start) / (stop - start), 0.0, 1.0)
+            pe = np.where(time >= start, pe0 * (level + (factor - level) * u), pe)
+            level = factor
+    else:  # chirp: frequency rising linearly from f0 to f1 after the first 5 %
+        f0, f1 = CHIRP_FREQUENCIES
+        start = 0.05 * end
+        tau = np.clip(time - start, 0.0, None)
+        duration = end - start
+        phase = 2 * np.pi * (f0 * tau + 0.5 * (f1 - f0) / duration * tau * tau)
+        pe = pe0 * (1.0 + CHIRP_AMPLITUDE * np.sin(phase))
     return time, pe, np.full(samples, pf0)
 
 
+def _check_shape(experiment: str, shape: str):
+    if shape not in SHAPES[experiment]:
+        raise ParameterError(f"unknown command shape {shape!r} for {experiment} (known: {', '.join(SHAPES[experiment])})")
+
+
 def isotonic_inputs(samples: int = DEFAULT_SAMPLES["isotonic"], loads=ISOTONIC_LOADS,
-                    pressures=ISOTONIC_PRESSURES, cycles=ISOTONIC_CYCLES):
-    """(time [s], pressure [Pa], load [N]) of the default isotonic experiment: triangular sweeps."""
+                    pressures=ISOTONIC_PRESSURES, cycles=ISOTONIC_CYCLES, shape: str = "sweeps"):
+    """(time [s], pressure [Pa], load [N]) of the isotonic experiment: triangular sweeps, or held on levels."""
     _check_samples(samples)
+    _check_shape("isotonic", shape)
     low, high = pressures
     period = sum(cycles)
     time = np.linspace(0.0, period * len(loads), samples)
@@ -79,6 +125,9 @@ def isotonic_inputs(samples: int = DEFAULT_SAMPLES["isotonic"], loads=ISOTONIC_L
         u = (phase[inside] - start) / duration  # 0 -> 1 over the cycle
         pressure[inside] = low + (high - low) * (1.0 - np.abs(2.0 * u - 1.0))
         start += duration
+    if shape == "steps":
+        step = (high - low) / (ISOTONIC_LEVELS - 1)
+        pressure = low + step * np.round((pressure - low) / step)
     return time, pressure, load
 
 
@@ -138,11 +187,17 @@ class SyntheticRecord:
     truth: Params
     time: np.ndarray
     inputs: dict
-    output_clean: np.ndarray  #: the truth's output [m]
-    output: np.ndarray  #: with noise [m]
-    noise: float  #: standard deviation in the output column's unit (mm; N for isometric)
+    output_clean: np.ndarray  #: the truth's output [SI: m, or rad for beta_deg]
+    output: np.ndarray  #: with noise [SI], without the sensor offset
+    noise: float  #: standard deviation in the output column's unit (mm or deg)
     seed: int
-    offsets: dict = field(default_factory=dict)  #: hidden sensor offsets (SI, by quantity): readings = true + offset
+    output_column: str = ""  #: ``length_mm``, ``x_mm`` or ``beta_deg``
+    shape: str = ""
+    input_noise: float = 0.0  #: standard deviation of the measured pressures' noise [kPa]
+    noise_tau: float = 0.0  #: correlation time of the output noise [s] (0: white)
+    offset: float = 0.0  #: sensor offset in the output column's unit, added to what the file holds
+    declare_offset: bool = False  #: whether the file's metadata declares the offset
+    inputs_clean: dict | None = None  #: the inputs before sensor noise (SI)
 
     @property
     def hidden_effects(self) -> list[str]:
@@ -155,60 +210,148 @@ class SyntheticRecord:
 
 def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline: str = "model2",
                noise: float | None = DEFAULT_NOISE_MM, seed: int = 0, samples: int | None = None,
-               rate: float = DEFAULT_RATE) -> SyntheticRecord:
+               rate: float = DEFAULT_RATE, *, shape: str | None = None, output: str | None = None,
+               input_noise: float = 0.0, noise_tau: float = 0.0, offset: float = 0.0,
+               declare_offset: bool = False, pressures: bool = False) -> SyntheticRecord:
     """Simulate a record of ``experiment`` with the truth = baseline + hidden, and add noise.
 
-    Parameters: hidden, a list for :func:`hidden_values` or a dict {parameter: value}; known, parameter
-    overrides (SI) that the file declares; baseline ``model1`` or ``model2``; noise, the output noise's
-    standard deviation [mm]; seed for the noise; samples (default 3000 knee, 2000 isotonic); rate, the
-    knee's sample rate [Hz].
+    Parameters
+    ----------
+    experiment : ``knee``, ``isotonic`` or ``isometric`` (:func:`synthesize_isometric`)
+    hidden : list for :func:`hidden_values`, or dict {parameter: value} (SI)
+    known : dict
+        Parameter overrides (SI) that the file declares.
+    baseline : ``model1`` or ``model2``
+    noise : float
+        Output noise standard deviation [output column's unit: mm, deg for ``beta_deg``, N for isometric];
+        None: the experiment's default.
+    seed : int
+        Seed of every noise.
+    samples : int
+        Default 3000 (knee), 2000 (isotonic).
+    rate : float
+        The knee's sample rate [Hz].
+    shape : str
+        Command shape (:data:`SHAPES`; default steps for the knee, sweeps for the isotonic test).
+    output : str
+        Output column: ``x_mm`` (default) or ``beta_deg`` for the knee; ``length_mm`` for the isotonic test.
+    input_noise : float
+        Sensor noise of the measured pressures [kPa] (isotonic pressure; knee ``pe``, ``pf`` if written).
+    noise_tau : float
+        Correlation time of the output noise [s]; 0 for white noise.
+    offset : float
+        Sensor offset added to the written output [output column's unit].
+    declare_offset : bool
+        Declare the offset in the file's metadata (the reader then removes it).
+    pressures : bool
+        Knee: also write the measured bladder pressures ``pe_kPa``, ``pf_kPa``.
     """
-    if experiment not in EXPERIMENTS:
-        raise ParameterError(f"unknown experiment {experiment!r} (known: {', '.join(EXPERIMENTS)})")
+    if experiment == "isometric":  # the blocked-force bench (noise in N)
+        return synthesize_isometric(hidden, known, DEFAULT_NOISE_N if noise is None else noise, offset=offset,
+                                    seed=seed, samples=ISOMETRIC_SAMPLES if samples is None else samples,
+                                    baseline=baseline, declare_offset=declare_offset)
+    noise = DEFAULT_NOISE_MM if noise is None else noise
+    if experiment not in ("knee", "isotonic"):
+        raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
         raise ParameterError(f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
-    if noise is not None and not (noise >= 0 and np.isfinite(noise)):
-        raise ParameterError(f"noise must be a finite number >= 0 mm, got {noise!r}")
+    for name, value in (("noise", noise), ("input noise", input_noise), ("noise correlation time", noise_tau)):
+        if not (value >= 0 and np.isfinite(value)):
+            raise ParameterError(f"{name} must be a finite number >= 0, got {value!r}")
+    if not np.isfinite(offset):
+        raise ParameterError(f"offset must be a finite number, got {offset!r}")
+    spec = EXPERIMENTS[experiment]
+    output_column = output or f"{spec.output.name}_{spec.output.unit}"
+    out_quantity = _output_quantity(spec, output_column)
+    if pressures and experiment != "knee":
+        raise ParameterError("measured pressures (pe, pf) belong to a knee record; the isotonic pressure is measured "
+                             "anyway")
     known = dict(known or {})
     if "model" in known:
         raise ParameterError("choose the model with the baseline (model1 or model2), not 'model'")
-    if experiment == "isometric":
-        return synthesize_isometric(hidden, known, DEFAULT_NOISE_N if noise is None else noise, seed=seed,
-                                    samples=ISOMETRIC_SAMPLES if samples is None else samples, baseline=baseline)
-    noise = DEFAULT_NOISE_MM if noise is None else noise
     hidden = dict(hidden) if isinstance(hidden, dict) else hidden_values(hidden)
     if hidden.get("model") == 2 and baseline == "model2":
         raise ParameterError("elasticity is already in the model2 baseline: hide it with --baseline model1")
     truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
     samples = DEFAULT_SAMPLES[experiment] if samples is None else samples
+    shape = shape or SHAPES[experiment][0]
+    rng = np.random.default_rng(seed)
     if experiment == "knee":
-        time, pe, pf = knee_inputs(samples, rate, truth)
+        time, pe, pf = knee_inputs(samples, rate, truth, shape)
         inputs = {"pe_cmd": pe, "pf_cmd": pf}
     else:
-        time, pressure, load = isotonic_inputs(samples)
+        time, pressure, load = isotonic_inputs(samples, shape=shape)
         inputs = {"pressure": pressure, "force": load}
     # simulate the inputs exactly as the file will hold them (rounded to its digits)
     time, inputs = as_written(experiment, time, inputs)
+    clean_inputs = dict(inputs)
     if experiment == "knee":
-        clean = simulate_knee(time, inputs["pe_cmd"], inputs["pf_cmd"], truth)["X"]
+        run = simulate_knee(time, inputs["pe_cmd"], inputs["pf_cmd"], truth)
+        clean = run["beta"] if out_quantity.name == "beta" else run["X"]
+        if pressures:
+            clean_inputs.update({"pe": run["Pe"], "pf": run["Pf"]})
+            inputs.update({name: clean_inputs[name] + _sensor_noise(rng, input_noise * 1e3, time.size)
+                           for name in ("pe", "pf")})
     else:
         clean = simulate_isotonic(time, inputs["pressure"], inputs["force"], truth)
-    std = noise * UNIT_FACTORS["length"]["mm"]
-    measured = clean + np.random.default_rng(seed).normal(0.0, std, clean.size) if std > 0 else clean.copy()
-    return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed)
+        if input_noise > 0:
+            inputs["pressure"] = inputs["pressure"] + _sensor_noise(rng, input_noise * 1e3, time.size)
+    factor = UNIT_FACTORS[out_quantity.kind][out_quantity.unit]
+    measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
+    return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
+                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs)
+
+
+def _output_quantity(spec, column: str):
+    name, _, unit = column.rpartition("_")
+    for q in spec.outputs:
+        if q.name == name and unit in UNIT_FACTORS[q.kind]:
+            return type(q)(name, q.kind, unit)
+    names = ", ".join(f"{q.name}_{q.unit}" for q in spec.outputs)
+    raise ParameterError(f"output {column!r} is not an output of a {spec.name} record (use {names})")
+
+
+def _sensor_noise(rng, std: float, size: int) -> np.ndarray:
+    return rng.normal(0.0, std, size) if std > 0 else np.zeros(size)
+
+
+def colored_noise(rng, std: float, time, tau: float = 0.0) -> np.ndarray:
+    """Gaussian noise of standard deviation ``std``: white (tau = 0) or first-order autoregressive with
+    correlation time tau [s] (``e_k = a e_{k-1} + sqrt(1 - a^2) w_k``, ``a = exp(-dt / tau)``)."""
+    time = np.asarray(time, dtype=float)
+    if std <= 0:
+        return np.zeros(time.size)
+    white = rng.normal(0.0, 1.0, time.size)
+    if tau <= 0:
+        return std * white
+    from scipy.signal import lfilter
+
+    dt = float(np.mean(np.diff(time)))
+    a = math.exp(-dt / tau)
+    e = lfilter([math.sqrt(1 - a * a)], [1.0, -a], white, zi=[a * white[0]])[0]
+    e[0] = white[0]
+    return std * e
 
 
 def as_written(experiment: str, time, inputs: dict):
     """Time and inputs rounded as :func:`mkctl.io.measurements.write_measurement` writes them."""
     spec = EXPERIMENTS[experiment]
-    rounded = {q.name: round_to_file(inputs[q.name], q) for q in spec.inputs[1:]}
+    rounded = {q.name: round_to_file(inputs[q.name], q) for q in (*spec.inputs[1:], *spec.optional)
+               if q.name in inputs}
     return round_to_file(time, spec.inputs[0]), rounded
 
 
 def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> tuple[Path, Path | None]:
     """Write the record as a measurement file and (optionally) its truth as ``<stem>.truth.json``."""
-    path = write_measurement(path, record.experiment, record.time, record.inputs, record.output,
-                             metadata=record.known, baseline=record.baseline,
+    spec = EXPERIMENTS[record.experiment]
+    column = record.output_column or f"{spec.output.name}_{spec.output.unit}"
+    quantity = _output_quantity(spec, column)
+    offset_si = record.offset * UNIT_FACTORS[quantity.kind][quantity.unit]
+    metadata = dict(record.known)
+    if record.declare_offset and record.offset:
+        metadata[f"{quantity.name}_offset_{quantity.unit}"] = record.offset
+    path = write_measurement(path, record.experiment, record.time, record.inputs, record.output + offset_si,
+                             metadata=metadata, baseline=record.baseline, output_column=column,
                              comments=("synthetic record from mkctl synth (the virtual test bench)",),
                              branch=record.inputs.get("branch"))
     truth_path = None
@@ -222,8 +365,12 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
             "hidden": {k: v for k, v in record.hidden.items() if k != "model"},
             "known": record.known,
             "noise": record.noise,
-            "noise_unit": "N" if record.experiment == "isometric" else "mm",
-            "sensor_offsets": record.offsets,
+            "noise_unit": quantity.unit,
+            "noise_tau": record.noise_tau,
+            "shape": record.shape,
+            "input_noise_kPa": record.input_noise,
+            "offset": record.offset,
+            "offset_declared": bool(record.declare_offset and record.offset),
             "seed": record.seed,
             "samples": int(record.time.size),
         }, indent=2) + "\n", encoding="utf-8")
@@ -273,45 +420,39 @@ def isometric_inputs(samples: int = ISOMETRIC_SAMPLES, lengths=None, pressures=I
 
 
 def synthesize_isometric(hidden=None, known: dict | None = None, noise: float = DEFAULT_NOISE_N, offset: float = 0.0,
-                         seed: int = 0, samples: int = ISOMETRIC_SAMPLES, lengths=None, baseline: str = "model2"):
+                         seed: int = 0, samples: int = ISOMETRIC_SAMPLES, lengths=None, baseline: str = "model2",
+                         declare_offset: bool = False) -> SyntheticRecord:
     """A blocked-force record made by the truth (baseline + hidden), with force noise and a sensor offset.
 
     Parameters: hidden, a list for :func:`hidden_values` (``slack`` means slack = 1, ``coulomb_friction``
-    Fc = 2 N, ``force_offset=VALUE`` a force sensor offset [N]) or a dict {parameter: value}; known, parameters the file declares (SI); noise, the force
-    noise's standard deviation [N]; offset, the force sensor's zero offset [N] added to every reading;
-    seed, the noise's seed; samples and lengths [m] as for :func:`isometric_inputs`.
+    Fc = 2 N) or a dict {parameter: value}; known, parameters the file declares (SI); noise, the force
+    noise's standard deviation [N]; offset, the load cell's zero offset [N], added to what the file holds
+    (declared in its metadata with ``declare_offset``); seed, the noise's seed; samples and lengths [m] as for
+    :func:`isometric_inputs`.
     Returns a SyntheticRecord with ``inputs = {"length", "pressure", "branch"}`` and the force [N] as output
-    (``offsets = {"force": offset}`` when there is one).
+    (without the offset, as for the other experiments).
     """
     from ..physics.isometric import isometric_tension
 
     if not (noise >= 0 and np.isfinite(noise)):
         raise ParameterError(f"noise must be a finite number >= 0 N, got {noise!r}")
+    if not np.isfinite(offset):
+        raise ParameterError(f"offset must be a finite number of N, got {offset!r}")
+    if baseline not in BASELINES:
+        raise ParameterError(f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
     known = dict(known or {})
     if isinstance(hidden, dict):
         hidden = dict(hidden)
     else:
         items = list(hidden or ())
-        sensor = [i for i in items if isinstance(i, str) and i.replace(" ", "").startswith("force_offset=")]
-        for item in sensor:
-            text = item.split("=", 1)[1].strip()
-            try:
-                offset = float(text)
-            except ValueError:
-                raise ParameterError(f"hidden force_offset is not a number of N: {text!r}") from None
-        hidden = hidden_values([i for i in items if i != "slack" and i not in sensor])
+        hidden = hidden_values([i for i in items if i != "slack"])
         if "slack" in items:
             hidden["slack"] = 1
-    if not np.isfinite(offset):
-        raise ParameterError(f"force_offset must be a finite number of N, got {offset!r}")
     truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
     time, length, pressure, branch = isometric_inputs(samples, lengths, params=truth)
     time, rounded = as_written("isometric", time, {"length": length, "pressure": pressure})
-    length, pressure = rounded["length"], rounded["pressure"]
-    clean = isometric_tension(length, pressure, branch, truth)
-    measured = clean + offset
-    if noise > 0:
-        measured = measured + np.random.default_rng(seed).normal(0.0, noise, clean.size)
-    inputs = {"length": length, "pressure": pressure, "branch": branch}
+    inputs = {"length": rounded["length"], "pressure": rounded["pressure"], "branch": branch}
+    clean = isometric_tension(inputs["length"], inputs["pressure"], branch, truth)
+    measured = clean + colored_noise(np.random.default_rng(seed), noise, time)
     return SyntheticRecord("isometric", baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
-                           {"force": float(offset)} if offset else {})
+                           "force_N", "steps", 0.0, 0.0, float(offset), declare_offset, dict(inputs))

@@ -31,6 +31,10 @@ class _LazyControl:
 
 mc = _LazyControl()
 
+#: The knee FMU the commands use unless --fmu names one: where ``python build_fmu.py`` writes it, in the folder
+#: the command runs in (a command-line default; the library takes the path explicitly).
+CLI_DEFAULT_FMU = Path("dist") / "McKibbenKnee.fmu"
+
 #: Above this gauge pressure [Pa] a note says the result is far outside what a McKibben muscle takes: many
 #: times its rating (the defaults already need about three times it, so the note is kept for the extreme).
 PLAUSIBLE_PRESSURE = 10 * RATED_PRESSURE
@@ -57,7 +61,7 @@ def _add_common(parser, needs_damping: bool) -> None:
 
 def _add_fmu(parser) -> None:
     parser.add_argument("--fmu", type=Path, default=None,
-                        help=f"knee FMU (default {control_defaults.DEFAULT_FMU}, skipped with a note if it is not built; "
+                        help=f"knee FMU (default {CLI_DEFAULT_FMU} in the working folder, skipped with a note if it is not built; "
                              "a path given here must be an FMU)")
     parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
@@ -111,12 +115,12 @@ def _setup(args, needs_damping: bool):
     overrides = parse_assignments(args.set)
     params = base_params(args).replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
     alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else DEFAULT_ALPHA)
-    op = mc.operating_point(alpha, X=args.X, pf=args.pf * 1e3, params=params)
+    op = mc.operating_point(alpha, X=args.X, Pf=args.pf * 1e3, params=params)
     c = args.c if args.c is not None else overrides.get("c")
     if c is None:
         c = mc.damping_for_zeta(args.zeta, op) if needs_damping else 0.0
     tau = args.tau if args.tau is not None else overrides.get("tau", 0.0)
-    for name, value in (("pf", op.pf), ("pe", op.pe)):
+    for name, value in (("pf", op.Pf), ("pe", op.Pe)):
         if value > PLAUSIBLE_PRESSURE:
             print(f"note: {name} = {value / 1e6:.4g} MPa is far above what a McKibben muscle takes (rated about "
                   f"{RATED_PRESSURE / 1e6:g} MPa); the model has no limit, so the results below are the model's, "
@@ -130,10 +134,11 @@ def _fmu_path(args):
     if args.no_fmu:
         return None
     if args.fmu is None:
-        if not control_defaults.DEFAULT_FMU.is_file():
-            print(f"note: FMU {control_defaults.DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
+        default = CLI_DEFAULT_FMU.resolve()  # explicit from here on: the library gets an absolute path
+        if not default.is_file():
+            print(f"note: FMU {CLI_DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
-        return control_defaults.DEFAULT_FMU
+        return default
     from ..fmu.probe import check_fmu
 
     return check_fmu(args.fmu)
@@ -145,8 +150,8 @@ def _fmt_poles(eig) -> str:
 
 
 def _describe(op) -> str:
-    return (f"alpha = {math.degrees(op.alpha):.4g} deg, X = {op.X:.6f} m, pe = {op.pe / 1e3:.3f} kPa, "
-            f"pf = {op.pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s")
+    return (f"alpha = {math.degrees(op.alpha):.4g} deg, X = {op.X:.6f} m, pe = {op.Pe / 1e3:.3f} kPa, "
+            f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m, tau = {op.params.tau:g} s")
 
 
 def _scaled_error(sys, ref, op) -> float:
@@ -194,7 +199,7 @@ def run_linearize(args) -> int:
         fmu_lin = mc.fmu_linearization(op, fmu)
         print(f"FMU linearization (flow-map Jacobian, logm) vs analytic: relative error "
               f"{_scaled_error(fmu_lin, lin, op):.2g}; poles {_fmt_poles(fmu_lin.poles())}")
-    path = mc.plot_poles(cases, f"Poles at alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.pf / 1e3:g} kPa",
+    path = mc.plot_poles(cases, f"Poles at alpha = {math.degrees(op.alpha):.4g} deg, pf = {op.Pf / 1e3:g} kPa",
                          args.out / "poles.png")
     print(f"wrote {path}")
     return 0
@@ -253,9 +258,9 @@ def run_step(args) -> int:
             raise UsageError(f"{option} {kpa:g}: the pressure step must be a non-zero number of kPa")
     op = _setup(args, needs_damping=True)
     for option, kpa in (("--small", args.small), ("--large", args.large)):
-        if op.pe + kpa * 1e3 < 0:
-            raise UsageError(f"{option} {kpa:g}: the step takes the extensor pressure from {op.pe / 1e3:.4g} to "
-                             f"{op.pe / 1e3 + kpa:.4g} kPa, below 0 (gauge pressure: a muscle cannot push)")
+        if op.Pe + kpa * 1e3 < 0:
+            raise UsageError(f"{option} {kpa:g}: the step takes the extensor pressure from {op.Pe / 1e3:.4g} to "
+                             f"{op.Pe / 1e3 + kpa:.4g} kPa, below 0 (gauge pressure: a muscle cannot push)")
     print(f"operating point: {_describe(op)}")
     fmu = _fmu_path(args)
     for label, kpa in (("small", args.small), ("large", args.large)):

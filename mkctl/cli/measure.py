@@ -6,21 +6,24 @@
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
   overlay and the residual as PNG.
 - ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
-  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures.
+  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures. Several
+  files, a folder or a glob run as a batch (:func:`mkctl.cli.batch.run_diagnose_batch`).
 """
 from __future__ import annotations
 
+import glob
 import json
 import sys
 from pathlib import Path
 
+from .batch import add_engine_options, run_diagnose_batch
 from .options import (add_params_option, base_params, muscle_values, output_file, output_folder,
                       parse_assignments, split_items)
 
 
 def register(subparsers) -> None:
     """Add ``synth``, ``compare`` and ``diagnose`` to the `mkctl` parser."""
-    from ..analysis.synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE
+    from ..analysis.synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE, SHAPES
 
     p = subparsers.add_parser(
         "synth", help="write a synthetic measurement file with hidden effects (the virtual test bench)",
@@ -30,8 +33,7 @@ def register(subparsers) -> None:
     p.add_argument("experiment", choices=["knee", "isotonic", "isometric"],
                    help="what to simulate: knee (the robot leg driven by pressure steps), isotonic (one actuator "
                         "under hanging loads, pressure swept) or isometric (a blocked-force bench: the muscle "
-                        "clamped at 4 lengths, pressure stepped up and down; --hidden force_offset=N adds a "
-                        "force sensor offset)")
+                        "clamped at 4 lengths, pressure stepped up and down)")
     p.add_argument("output", metavar="OUT.csv", help="the measurement file to write (<stem>.truth.json goes beside it)")
     p.add_argument("--hidden", action="append", default=[], metavar="EFFECT|NAME=VALUE",
                    help="an effect hidden in the data (repeatable, or comma-separated): an effect name (" + ", ".join(
@@ -44,11 +46,27 @@ def register(subparsers) -> None:
     p.add_argument("--baseline", choices=["model1", "model2"], default="model2",
                    help="the baseline the file declares (default model2); hide elasticity with model1")
     p.add_argument("--noise", type=float, default=None,
-                   help=f"standard deviation of the output noise [mm; N for isometric] (default {DEFAULT_NOISE_MM:g} "
-                        "mm, isometric 0.5 N)")
+                   help=f"standard deviation of the output noise [the output column's unit: mm, deg for beta_deg, "
+                        f"N for isometric] (default {DEFAULT_NOISE_MM:g} mm; isometric 0.5 N)")
     p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
     p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic, 400 isometric)")
     p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
+    p.add_argument("--shape", default=None, choices=sorted({*SHAPES["knee"], *SHAPES["isotonic"]}),
+                   help="command shape: knee steps (default), ramps or chirp (changes at every sample); isotonic "
+                        "sweeps (default) or steps")
+    p.add_argument("--output-column", dest="output_column", default=None, metavar="COLUMN",
+                   help="the measured output: x_mm (default) or beta_deg (a knee joint encoder); length_mm (isotonic)")
+    p.add_argument("--input-noise", type=float, default=0.0, metavar="KPA",
+                   help="sensor noise of the measured pressures [kPa] (isotonic pressure; knee pe, pf with "
+                        "--pressures); default 0")
+    p.add_argument("--noise-tau", type=float, default=0.0, metavar="S",
+                   help="correlation time of the output noise [s] (coloured, first-order); default 0: white")
+    p.add_argument("--offset", type=float, default=0.0,
+                   help="sensor offset added to the written output [the output column's unit]; default 0")
+    p.add_argument("--declare-offset", action="store_true",
+                   help="declare the offset in the file's metadata (x_offset_mm = ...), as a user who knows it would")
+    p.add_argument("--pressures", action="store_true",
+                   help="knee: also write the measured bladder pressures pe_kPa, pf_kPa")
     p.add_argument("--no-truth", action="store_true", help="do not write <stem>.truth.json")
     add_params_option(p)
     p.set_defaults(func=run_synth)
@@ -68,12 +86,19 @@ def register(subparsers) -> None:
                     "and the held-out error support it, fit their parameters on simulation error, and report "
                     "(JSON as model-spec section 6, plus PNGs: the error step by step, before/after overlay, "
                     "residuals, signatures).")
-    p.add_argument("file", metavar="FILE.csv")
+    p.add_argument("file", metavar="FILE.csv", nargs="+",
+                   help="a measurement file; several files, folders or globs run as a batch (mkctl.cli.batch)")
     p.add_argument("--json", metavar="OUT.json", default=None, help="write the report here")
     p.add_argument("--out", metavar="DIR", default=None,
-                   help="folder for the PNGs (default: beside the JSON, or beside the file)")
+                   help="folder for the PNGs (default: beside the JSON, or beside the file); for a batch, the "
+                        "folder for the reports, the summary table and figure (default ./diagnosis)")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    p.add_argument("--fit-offset", action="store_true",
+                   help="fit a constant sensor offset of the measured output (a sensor zeroed at rest, an encoder "
+                        "mounted off by a few degrees); without it, an output the model cannot reach is not "
+                        "diagnosed (exit status 3)")
     add_params_option(p)
+    add_engine_options(p)
     p.set_defaults(func=run_diagnose)
 
 
@@ -89,16 +114,25 @@ def run_synth(args) -> int:
     known = muscle_values(args)
     known.update(parse_assignments(split_items(args.param), "--param"))
     record = synthesize(args.experiment, split_items(args.hidden), known,
-                        args.baseline, args.noise, args.seed, args.samples, args.rate)
+                        args.baseline, args.noise, args.seed, args.samples, args.rate, shape=args.shape,
+                        output=args.output_column, input_noise=args.input_noise, noise_tau=args.noise_tau,
+                        offset=args.offset, declare_offset=args.declare_offset, pressures=args.pressures)
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
     effects = ", ".join(record.hidden_effects) or "none"
-    hidden = ", ".join([hidden] * bool(hidden) + [f"{k} sensor offset {v:g} " + ("N" if k == "force" else "SI") for k, v in record.offsets.items()])
     print(f"wrote {path}: {record.experiment}, {record.time.size} samples over {record.time[-1]:g} s, "
           f"baseline {record.baseline}")
     print(f"hidden effects: {effects}" + (f" ({hidden})" if hidden else ""))
-    unit = "N" if record.experiment == "isometric" else "mm"
-    print(f"noise {record.noise:g} {unit}, seed {record.seed}" + (f"; the truth is in {truth}" if truth else ""))
+    unit = record.output_column.rsplit("_", 1)[1]
+    extras = [f"shape {record.shape}"]
+    if record.noise_tau:
+        extras.append(f"coloured (correlation time {record.noise_tau:g} s)")
+    if record.input_noise:
+        extras.append(f"pressure sensor noise {record.input_noise:g} kPa")
+    if record.offset:
+        extras.append(f"sensor offset {record.offset:g} {unit}" + (" (declared)" if record.declare_offset else ""))
+    print(f"noise {record.noise:g} {unit}, seed {record.seed}; " + ", ".join(extras)
+          + (f"; the truth is in {truth}" if truth else ""))
     return 0
 
 
@@ -135,6 +169,10 @@ def run_diagnose(args) -> int:
     from ..analysis.diagnose import diagnose, public, save_pictures, summary
     from ..io.measurements import read_measurement
 
+    if len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0]):  # a batch
+        return run_diagnose_batch(args)
+    args.file = args.file[0]
+
     # every output path is checked before the fit, which takes seconds to minutes
     json_path = output_file(args.json, "--json") if args.json else None
     if args.out:
@@ -147,14 +185,17 @@ def run_diagnose(args) -> int:
     if not args.out and not args.json:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
-    report = diagnose(measurement, progress)
-    report["pictures"] = save_pictures(measurement, report, folder, Path(args.file).stem)
-    for line in summary(report):
+    result = diagnose(measurement, progress, fit_offset=args.fit_offset)
+    save_pictures(measurement, result, folder, Path(args.file).stem)
+    for line in summary(result):
         print(line)
     if json_path:
         path = json_path
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(public(report), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
+        path.write_text(json.dumps(public(result), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
         print(f"report: {path}")
-    print("pictures: " + ", ".join(report["pictures"].values()))
+    print("pictures: " + ", ".join(result.pictures.values()))
+    if result.verdict == "not diagnosed":
+        print(f"mkctl diagnose: {args.file}: not diagnosed: " + "; ".join(result.problems), file=sys.stderr)
+        return 3
     return 0

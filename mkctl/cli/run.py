@@ -1,9 +1,10 @@
 """``mkctl run``: the whole job in one command, into one folder with an index page.
 
-Steps, each reusing a subcommand or a project script as a user would run it:
+Steps, each reusing a subcommand or a scenario as a user would run it, all in this process and from the
+installed package (no file of a checkout is needed):
 
-1. build and check the FMUs (``build_fmu.py``) into ``OUT/fmu``;
-2. drive the knee FMU through fmpy: a pressure step from equilibrium (``scenarios/pressure_step.py``);
+1. build and check the FMUs (:func:`mkctl.fmu.build.build`, what ``build_fmu.py`` runs) into ``OUT/fmu``;
+2. drive the knee FMU through fmpy: a pressure step from equilibrium (:mod:`mkctl.scenarios.pressure_step`);
 3. reproduce the paper's figures and claims (``mkctl paper``);
 4. the linear view: linearization, root loci against c, tau and the height gain, step responses
    (``mkctl linearize``, ``mkctl rootlocus``, ``mkctl step``);
@@ -18,7 +19,6 @@ from __future__ import annotations
 import contextlib
 import io
 import json
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -26,8 +26,6 @@ from pathlib import Path
 from ..errors import MkctlError
 from ..io.report import Section, write_index
 from .options import output_folder
-
-ROOT = Path(__file__).resolve().parents[2]
 
 #: What the synthetic measurement hides: viscous damping [N s/m], which the baseline (model 2) lacks.
 HIDDEN_DAMPING = 45.0
@@ -82,16 +80,21 @@ class _Job:
             raise RunError(f"step '{section.title}': mkctl {argv[0]} exited with status {status}")
         return text
 
-    def script(self, section: Section, folder: Path, script: Path, args: list[str]) -> str:
-        """Run a project script in a fresh Python (FMUs must load in a process of their own)."""
-        if not script.is_file():
-            raise RunError(f"{script} not found: run mkctl from a checkout of the project (pip install -e .)")
-        done = subprocess.run([sys.executable, str(script), *args], capture_output=True, text=True, cwd=ROOT)
-        self._keep(section, folder, f"$ python {script.relative_to(ROOT)} {' '.join(args)}\n{done.stdout}")
-        if done.returncode != 0:
-            last = (done.stderr.strip().splitlines() or ["(no message)"])[-1]
-            raise RunError(f"step '{section.title}': {script.name} failed: {last}")
-        return done.stdout
+    def function(self, section: Section, folder: Path, label: str, call) -> str:
+        """Run ``call()`` (a scenario's ``main`` or the FMU build) in this process, keep what it printed (and the
+        one-line error it wrote to stderr, if any), fail loudly if it fails."""
+        out, err = io.StringIO(), io.StringIO()
+        try:
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                status = call()
+        except SystemExit as stop:  # argparse in a scenario: a usage error is a bug here, say so
+            status = stop.code
+        status = 0 if status is None else status
+        self._keep(section, folder, f"$ {label}\n{out.getvalue()}")
+        if status != 0:
+            last = (err.getvalue().strip().splitlines() or ["(no message)"])[-1]
+            raise RunError(f"step '{section.title}': {label} failed: {last}")
+        return out.getvalue()
 
     def _keep(self, section: Section, folder: Path, text: str) -> None:
         folder.mkdir(parents=True, exist_ok=True)
@@ -102,7 +105,10 @@ class _Job:
 
 
 def run_all(args) -> int:
-    out: Path = output_folder(args.out, "--out").resolve()  # scripts run from the project folder: not relative
+    from ..scenarios import pressure_step
+    from ..scenarios.common import build_fmus
+
+    out: Path = output_folder(args.out, "--out").resolve()
     out.mkdir(parents=True, exist_ok=True)
     for stale in out.glob("*/summary.txt"):
         stale.unlink()
@@ -112,18 +118,26 @@ def run_all(args) -> int:
     # 1. FMUs
     fmu_dir = out / "fmu"
     s = job.step("Build and check the FMUs")
-    job.script(s, fmu_dir, ROOT / "build_fmu.py", ["--out", str(fmu_dir)])
-    knee_fmu = fmu_dir / "McKibbenKnee.fmu"
+    built = {}
+
+    def build():
+        paths, printed = build_fmus(fmu_dir, run=True)
+        built.update(paths)
+        print(printed, end="")
+
+    job.function(s, fmu_dir, f"build the FMUs into {fmu_dir} (mkctl.fmu.build)", build)
+    knee_fmu = built["knee"]
     s.add(knee_fmu, "McKibbenKnee.fmu",
           "The knee as an FMI 2.0 co-simulation FMU (spec section 7), validated with fmpy; load it in any FMI host.")
-    s.add(fmu_dir / "McKibbenActuator.fmu", "McKibbenActuator.fmu",
+    s.add(built["actuator"], "McKibbenActuator.fmu",
           "One muscle as an FMU (inputs p_cmd, L, Ldot; outputs f, P), for composing robots in other tools.")
 
     # 2. A scenario through fmpy
     scenario_dir = out / "scenario"
     s = job.step("Drive the knee FMU with fmpy: a pressure step from equilibrium")
-    job.script(s, scenario_dir, ROOT / "scenarios" / "pressure_step.py",
-               ["--out", str(scenario_dir), "--fmu-dir", str(fmu_dir)] + (["--duration", "1.5"] if quick else []))
+    argv = ["--out", str(scenario_dir), "--fmu-dir", str(fmu_dir)] + (["--duration", "1.5"] if quick else [])
+    job.function(s, scenario_dir, f"python -m mkctl.scenarios.pressure_step {' '.join(argv)}",
+                 lambda: pressure_step.main(argv))
     s.add(scenario_dir / "pressure_step.png", "Pressure step through the FMU",
           "Hip height and knee angle after a 5 % step of the extensor command, simulated by the knee FMU under "
           "fmpy: a damped oscillation about the new equilibrium.")

@@ -1,44 +1,85 @@
 """The machinery both FMU slaves share: :class:`McKibbenSlave`, a pythonfmu ``Fmi2Slave`` around an mkctl simulator.
 
-``fmu/mckibben_knee.py`` and ``fmu/mckibben_actuator.py`` declare their interface (inputs, parameters, outputs,
-descriptions, units) and say how to build and step their simulator; everything else lives here once: variable
-registration, the ``n`` default, start and error handling, doStep's refusals, the cached outputs and FMU state.
-No equation lives here either: the simulators of :mod:`mkctl.physics.simulate` do the physics.
+The slaves of :mod:`mkctl.fmu.models` declare their interface (inputs, parameters, outputs, descriptions, units) and say how to build and step their simulator; everything else lives here once:
+variable registration, start values, the ``n`` default, start and error handling, doStep's refusals, the rated
+pressure warning, the cached outputs and FMU state. No equation lives here either: the simulators of
+:mod:`mkctl.physics.simulate` do the physics.
 
 Why a module of mkctl. It is the top layer of the import graph (it imports pythonfmu and mkctl, and only the FMU
-scripts import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
-``build_fmu.py`` packs every mkctl module the slave scripts import, so both FMUs carry this file as
+slave modules import it; ``import mkctl`` does not load it), and being in mkctl is what makes each FMU self-contained:
+:mod:`mkctl.fmu.build` packs every mkctl module the slave scripts import, so both FMUs carry this file as
 ``resources/mkctl/fmu/slave.py``. Both FMUs load in one process: their scripts have different module names, and the
 shared names (``mkctl``, ``mkctl.fmu.slave``, ``pythonfmu``) resolve to whichever FMU was loaded first, which is
 the same code since one build packs the same files into both.
 
-Errors. pythonfmu 0.7 turns any Python exception into fmi2Fatal, so nothing here raises: a parameter set the
-model cannot represent is logged (fmi2Error category) at exitInitializationMode, and every doStep then answers
-fmi2Discard with the message again; an input or a state outside the model's domain during a step is logged and
-answered with fmi2Discard, the state left as it was at the start of that step. Outputs that cannot be computed
-are logged and read as NaN (or what the subclass can still say, :meth:`McKibbenSlave._fallback_outputs`).
+Start values. The build writes ``resources/mkctl_start.json`` (:data:`START_FILE`): the start value of every
+settable variable, computed from the :class:`~mkctl.physics.params.Params` the FMU was built for
+(:meth:`McKibbenSlave.start_values`). Without that file the slave starts from
+:data:`mkctl.physics.params.DEFAULT`.
 
-pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave``, so a script's
-concrete class (``McKibbenKnee(McKibbenSlave)``) wins over this base class that it imports.
+Errors. pythonfmu 0.7 forwards log messages to the host only when the host turned debug logging on, and turns
+any Python exception into fmi2Fatal. So every error and warning is logged *and* written as one line to the host
+process's stderr (:meth:`McKibbenSlave._report`; ``MKCTL_FMU_STDERR=0`` in the environment skips the stderr copy),
+and:
+
+- a parameter set the model cannot represent, or an impossible start, is reported at exitInitializationMode,
+  which then raises: the host gets fmi2Fatal (the only error status pythonfmu 0.7 can return) before any output
+  is read, so no NaN reaches a result file;
+- an input or a state outside the model's domain during a step is reported and answered with fmi2Discard, the
+  state left as it was at the start of that step; outputs read while the inputs are invalid keep their last
+  valid values (those of the last successful step), never NaN.
+
+pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave`` among the names
+of the FMU's script (``mkctl/fmu/scripts``), which imports only the concrete class.
 """
 from __future__ import annotations
 
+import json
 import math
+import os
+import sys
 from abc import abstractmethod
+from pathlib import Path
 
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 
 from ..errors import MkctlError
-from ..physics.params import DEFAULT, Params
+from ..physics.params import DEFAULT, INTEGER_PARAMETERS, RATED_PRESSURE, Params
 
-#: Start value of ``n``; a parameter set that leaves n there derives it from b, L0, D0 (model-spec section 2).
-N_START = DEFAULT.n
+#: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
+START_FILE = "mkctl_start.json"
 #: Description of the parameter ``n``, common to both FMUs.
-N_DESCRIPTION = "turns of a thread; left at its start value it follows sqrt(b^2 - L0^2) / (pi D0)"
+N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
+                 "sqrt(b^2 - L0^2) / (pi D0)")
 #: Description of the parameter ``model``, common to both FMUs.
 MODEL_DESCRIPTION = ("tension model: 1 = Eq. 7 (pressure only), 2 = Eq. 13 (plus Mooney-Rivlin elasticity); "
                      "no unit")
+#: Description of the parameter ``slack``, common to both FMUs.
+SLACK_DESCRIPTION = "1 = a muscle cannot push: the tension is max(f, 0) (model-spec section 4); 0 = off; no unit"
+#: Description of the parameter ``P_rated``, common to both FMUs.
+P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
+                       "excursion); the model itself has no limit")
+_INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
+
+#: One entry per run of an FMU script (see :func:`keep_namespace`).
+_KEPT: list = []
+
+
+def keep_namespace(namespace: dict) -> None:
+    """Take one reference to an FMU script's namespace. pythonfmu 0.7 runs the script at every fmi2Instantiate and
+    then releases a reference to its namespace that it never took; without this one the namespace is freed
+    under the module after the first instance, and the next fmi2Instantiate crashes the host. Costs one list
+    slot (8 bytes) per instance."""
+    _KEPT.append(namespace)
+
+
+def _drop_repeated_path(resources) -> None:
+    """pythonfmu 0.7 inserts the resources folder at the front of sys.path at every fmi2Instantiate; keep only the
+    first copy, so that sys.path (and the time every later import takes to scan it) does not grow per instance."""
+    if resources and sys.path.count(resources) > 1:
+        first = sys.path.index(resources)
+        sys.path[first + 1:] = [entry for entry in sys.path[first + 1:] if entry != resources]
 
 
 class McKibbenSlave(Fmi2Slave):
@@ -46,41 +87,47 @@ class McKibbenSlave(Fmi2Slave):
 
     A subclass declares, as class attributes (value references follow this order):
 
-    - ``inputs``: {name: start value}, continuous Real inputs, handed to the simulator's ``outputs`` in this order;
-    - ``parameters``: names of the Real parameters that start at :data:`mkctl.physics.params.DEFAULT`'s value;
-      the Integer parameter ``model`` follows them;
-    - ``extra_parameters``: {name: start value}, further Real parameters after ``model``;
+    - ``inputs``: names of the continuous Real inputs, handed to the simulator's ``outputs`` in this order;
+    - ``parameters``: names of the Real parameters that are fields of :class:`~mkctl.physics.params.Params`;
+      the Integer parameters :data:`INTEGER_PARAMETERS` follow them;
+    - ``extra_parameters``: names of further Real parameters after those (``P_rated`` and the subclass's own);
     - ``outputs``: output names; those in ``boolean_outputs`` are discrete Booleans, the rest continuous Reals;
+    - ``pressure_outputs``: {output name: muscle name} of the pressures checked against ``P_rated``;
     - ``descriptions``: a description for every variable; ``units``: the unit of every Real variable;
-    - ``undefined_outputs``: the start of the message logged when the outputs cannot be computed;
+    - ``undefined_outputs``: the start of the message reported when the outputs cannot be computed;
 
-    and implements :meth:`_new_simulator` and :meth:`_advance` (optionally :meth:`_fallback_outputs`).
+    and implements :meth:`_derived_starts`, :meth:`_new_simulator` and :meth:`_advance`.
     """
 
     author = "mkctl"
 
-    inputs: dict[str, float] = {}
+    inputs: tuple[str, ...] = ()
     parameters: tuple[str, ...] = ()
-    extra_parameters: dict[str, float] = {}
+    extra_parameters: tuple[str, ...] = ("P_rated",)
     outputs: tuple[str, ...] = ()
     boolean_outputs: frozenset[str] = frozenset()
+    pressure_outputs: dict[str, str] = {}
     descriptions: dict[str, str] = {}
     units: dict[str, str] = {}
     undefined_outputs = "outputs undefined"
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        for name, start in self.inputs.items():
-            setattr(self, name, start)
+        _drop_repeated_path(kwargs.get("resources"))
+        #: the start value of every settable variable (the build's Params, or DEFAULT)
+        self._starts = self._read_starts(kwargs.get("resources"))
+        for name in self.inputs:
+            setattr(self, name, self._starts[name])
             self.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
                                         description=self.descriptions[name]))
         for name in self.parameters:
-            setattr(self, name, getattr(DEFAULT, name))
+            setattr(self, name, self._starts[name])
             self._register_parameter(Real, name)
-        self.model = DEFAULT.model
-        self._register_parameter(Integer, "model")
-        for name, start in self.extra_parameters.items():
-            setattr(self, name, start)
+        for name in INTEGER_PARAMETERS:
+            setattr(self, name, self._starts[name])
+            self._register_parameter(Integer, name)
+        for name in self.extra_parameters:
+            setattr(self, name, self._starts[name])
             self._register_parameter(Real, name)
         for name in self.outputs:
             boolean = name in self.boolean_outputs
@@ -90,19 +137,43 @@ class McKibbenSlave(Fmi2Slave):
                 description=self.descriptions[name], getter=lambda name=name: self._outputs()[name]))
         self._output_names = {vr: v.name for vr, v in self.vars.items() if v.causality == Fmi2Causality.output}
         #: every variable a host can set, saved and restored with the FMU state
-        self._settable = (*self.inputs, *self.parameters, "model", *self.extra_parameters)
+        self._settable = (*self.inputs, *self.parameters, *INTEGER_PARAMETERS, *self.extra_parameters)
         self._sim = None
         self._error: str | None = None
         self._stage = "invalid parameters"  # what went wrong if building the simulator fails now
         self._version = 0  # bumped whenever the state changes, so that cached outputs are recomputed
         self._cache_key = None
         self._cache: dict = {}
+        self._last_valid: dict | None = None  # outputs of the last successful step (or of the start)
+        self._over_rating: set[str] = set()  # muscles whose pressure is above P_rated now (warned once)
+
+    # --- start values ---
+    @classmethod
+    def start_values(cls, params: Params = DEFAULT) -> dict:
+        """The start value of every settable variable of an FMU built for params (JSON-ready)."""
+        values = {name: getattr(params, name) for name in (*cls.parameters, *INTEGER_PARAMETERS)}
+        values["P_rated"] = RATED_PRESSURE
+        values.update(cls._derived_starts(params))
+        return values
+
+    @classmethod
+    def _read_starts(cls, resources) -> dict:
+        path = Path(resources) / START_FILE if resources else None
+        if path is not None and path.is_file():
+            return json.loads(path.read_text())
+        return cls.start_values(DEFAULT)
 
     def _register_parameter(self, kind, name: str) -> None:
         self.register_variable(kind(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
-                                    description=self.descriptions[name]))
+                                    description=self.descriptions.get(name) or _INTEGER_DESCRIPTIONS.get(name)
+                                    or P_RATED_DESCRIPTION))
 
     # --- what a subclass provides ---
+    @classmethod
+    @abstractmethod
+    def _derived_starts(cls, params: Params) -> dict:
+        """Start values of the inputs and of the extra parameters other than P_rated, for params."""
+
     @abstractmethod
     def _new_simulator(self, params: Params):
         """The simulator for params and the present inputs; may set ``self._stage`` to name a later failure."""
@@ -111,13 +182,12 @@ class McKibbenSlave(Fmi2Slave):
     def _advance(self, step_size: float) -> None:
         """Advance the simulator by step_size [s] with the present inputs, or raise and leave its state as it was."""
 
-    def _fallback_outputs(self) -> dict:
-        """Outputs when they cannot be computed: NaN (False for a Boolean)."""
-        return {name: (False if name in self.boolean_outputs else math.nan) for name in self.outputs}
-
     # --- life cycle ---
     def exit_initialization_mode(self):
         self._start()
+        if self._error is not None:
+            # pythonfmu 0.7 answers fmi2Fatal: the host stops here, before it reads (and records) any output
+            raise MkctlError(self._error)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         try:
@@ -134,6 +204,7 @@ class McKibbenSlave(Fmi2Slave):
                 return self._refuse(f"doStep at t = {current_time:g} s: negative step size {step_size!r} s")
             self._advance(step_size)
             self._version += 1
+            self._check_rating(current_time + step_size)
             return True
         except MkctlError as error:
             return self._refuse(f"doStep from t = {current_time:g} s over {step_size:g} s: {error}")
@@ -155,28 +226,61 @@ class McKibbenSlave(Fmi2Slave):
 
     # --- helpers ---
     def _params(self) -> Params:
-        values = {name: getattr(self, name) for name in self.parameters}
-        values["model"] = self.model
-        if values["n"] == N_START:
-            values["n"] = None  # derived from b, L0, D0 (model-spec section 2)
+        values = {name: getattr(self, name) for name in (*self.parameters, *INTEGER_PARAMETERS)}
+        geometry = ("b", "L0", "D0")
+        if values["n"] == self._starts["n"] and any(values[k] != self._starts[k] for k in geometry):
+            values["n"] = None  # derived from the changed b, L0, D0 (model-spec section 2)
         return Params(**values)
 
     def _start(self) -> None:
-        """Build the simulator from the present parameter and input values; log any problem instead of raising."""
-        self._sim, self._error = None, None
+        """Build the simulator from the present parameter and input values; report any problem instead of raising."""
+        self._sim, self._error, self._last_valid = None, None, None
+        self._over_rating = set()
         self._version += 1
         self._stage = "invalid parameters"
         try:
+            if not (math.isfinite(self.P_rated) and self.P_rated > 0):
+                raise MkctlError(f"parameter P_rated must be a positive number, got {self.P_rated!r}")
             self._sim = self._new_simulator(self._params())
         except MkctlError as error:
             self._error = f"{self._stage}: {error}"
         except Exception as error:
             self._error = f"{self._stage}: {type(error).__name__}: {error}"
         if self._error is not None:
-            self.log(self._error, Fmi2Status.error)
+            self._sim = None
+            self._report(self._error, Fmi2Status.error)
+            return
+        self._check_rating(0.0)
+
+    def _check_rating(self, time: float) -> None:
+        """Warn (once per excursion) when a muscle's pressure goes above P_rated; keeps the outputs of this state."""
+        outputs = self._outputs()
+        if self._last_valid is None or outputs is not self._last_valid:
+            return
+        for name, muscle in self.pressure_outputs.items():
+            pressure = outputs[name]
+            if pressure > self.P_rated and muscle not in self._over_rating:
+                self._over_rating.add(muscle)
+                self._report(f"t = {time:g} s: {muscle} pressure {name} = {pressure / 1e6:.4g} MPa exceeds the rated "
+                             f"pressure P_rated = {self.P_rated / 1e6:.4g} MPa", Fmi2Status.warning)
+            elif pressure <= self.P_rated:
+                self._over_rating.discard(muscle)
+
+    def _report(self, message: str, status: Fmi2Status) -> None:
+        """Log a message for the host's logger, and write it as one line on the host process's stderr: pythonfmu
+        0.7 forwards log messages only when the host turned debug logging on. A host that shows the log itself
+        can set the environment variable ``MKCTL_FMU_STDERR=0`` to skip the stderr copy."""
+        self.log(message, status)
+        stream = sys.stderr
+        if stream is not None and os.environ.get("MKCTL_FMU_STDERR", "1") != "0":
+            try:
+                stream.write(f"{self.modelName} ({self.instance_name}) {status.name}: {' '.join(message.split())}\n")
+                stream.flush()
+            except (OSError, ValueError):  # a closed or missing stderr must not stop the model
+                pass
 
     def _refuse(self, message: str) -> bool:
-        self.log(message, Fmi2Status.error)
+        self._report(message, Fmi2Status.error)
         return False  # pythonfmu answers fmi2Discard
 
     def _input_values(self) -> tuple:
@@ -191,11 +295,17 @@ class McKibbenSlave(Fmi2Slave):
                 if self._sim is None:
                     raise MkctlError(self._error)
                 self._cache = self._sim.outputs(*self._input_values())
-            except Exception as error:  # logged, and the next doStep is refused: not a silent NaN
-                self.log(f"{self.undefined_outputs}: {error}", Fmi2Status.error)
-                self._cache = self._fallback_outputs()
+                self._last_valid = self._cache
+            except Exception as error:  # reported, and the next doStep is refused: never a silent NaN
+                self._report(f"{self.undefined_outputs}: {error}; the outputs keep their last valid values",
+                             Fmi2Status.error)
+                self._cache = self._last_valid if self._last_valid is not None else self._undefined_outputs()
             self._cache_key = (self._version, *self._input_values())
         return self._cache
+
+    def _undefined_outputs(self) -> dict:
+        """Outputs before any could be computed (invalid parameters, read in initialization mode)."""
+        return {name: (False if name in self.boolean_outputs else math.nan) for name in self.outputs}
 
     # --- FMU state: every settable variable plus the simulator's snapshot, as JSON-ready values ---
     def _get_fmu_state(self) -> dict:
@@ -203,7 +313,7 @@ class McKibbenSlave(Fmi2Slave):
         sim = None
         if self._sim is not None:
             sim = [part.tolist() if hasattr(part, "tolist") else part for part in self._sim.get_state()]
-        return {"values": values, "sim": sim, "error": self._error}
+        return {"values": values, "sim": sim, "error": self._error, "over_rating": sorted(self._over_rating)}
 
     def _set_fmu_state(self, state: dict) -> None:
         for name, value in state["values"].items():
@@ -211,7 +321,16 @@ class McKibbenSlave(Fmi2Slave):
         if state["sim"] is None:
             self._sim, self._error = None, state["error"]
         else:
-            self._start()
-            if self._sim is not None:
+            self._sim, self._error = None, None
+            try:
+                self._sim = self._new_simulator(self._params())
                 self._sim.set_state(tuple(state["sim"]))
+            except Exception as error:  # the state was saved from a running instance: should not happen
+                self._error = f"cannot restore the FMU state: {error}"
+                self._report(self._error, Fmi2Status.error)
+        self._over_rating = set(state.get("over_rating", ()))
+        self._last_valid = None
         self._version += 1
+        self._cache_key = None
+        if self._sim is not None:
+            self._outputs()  # the restored state's outputs: what reads with invalid inputs fall back on

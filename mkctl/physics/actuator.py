@@ -16,6 +16,8 @@ Example
 from __future__ import annotations
 
 import math
+import sys
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -23,29 +25,103 @@ from ..errors import DomainError
 from .params import DEFAULT, Params
 
 
+def is_symbolic(x) -> bool:
+    """True for a sympy expression: :mod:`mkctl.native` evaluates these equations on symbols to generate C.
+
+    sympy is looked up, not imported: if nothing imported it, no value can be symbolic.
+    """
+    sympy = sys.modules.get("sympy")
+    return sympy is not None and isinstance(x, sympy.Basic)
+
+
 def as_values(x):
-    """Scalars become Python floats (scalar arithmetic is fast); anything else a float numpy array."""
+    """Scalars become Python floats (scalar arithmetic is fast), sympy expressions pass through as they are,
+    anything else becomes a float numpy array."""
     if type(x) is float:
         return x
     if isinstance(x, (int, np.floating, np.integer)) and not isinstance(x, bool):
         return float(x)
+    if is_symbolic(x):
+        return x
     return np.asarray(x, dtype=float)
 
 
 class _ScalarMath:
     """The few numpy functions the models use, for Python floats (much cheaper than numpy on scalars)."""
 
-    sqrt, sin, cos, tanh, arctan2, arcsin, hypot = (math.sqrt, math.sin, math.cos, math.tanh, math.atan2,
-                                                     math.asin, math.hypot)
+    sqrt, sin, cos, tanh, arctan2, arcsin, arccos, hypot, exp = (math.sqrt, math.sin, math.cos, math.tanh,
+                                                                 math.atan2, math.asin, math.acos, math.hypot,
+                                                                 math.exp)
+    maximum = staticmethod(max)
+    pi = math.pi
+
+
+class _SymbolicMath:
+    """The same functions for sympy expressions (filled in on first use: sympy is imported only then)."""
+
+
+def _symbolic_math():
+    if not hasattr(_SymbolicMath, "sqrt"):
+        import sympy
+        for name, function in {
+            "sqrt": sympy.sqrt, "sin": sympy.sin, "cos": sympy.cos, "tanh": sympy.tanh, "arctan2": sympy.atan2,
+            "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": sympy.Max, "pi": sympy.pi,
+            "hypot": lambda a, b: sympy.sqrt(a * a + b * b),
+            "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True)),
+        }.items():
+            setattr(_SymbolicMath, name, function if name == "pi" else staticmethod(function))
+    return _SymbolicMath
 
 
 def math_for(x):
-    """The math namespace for x: scalar functions for a float, numpy for an array. Same equations, either way."""
-    return _ScalarMath if type(x) is float else np
+    """The math namespace for x: scalar functions for a float, numpy for an array, sympy for a symbolic
+    expression. Same equations, every way."""
+    if type(x) is float:
+        return _ScalarMath
+    return _symbolic_math() if is_symbolic(x) else np
+
+
+#: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead of
+#: being tested: (value, low, high, message, what) with low/high None for "finite",
+#: message(bad, low, high) -> str the Python error text, what a short name of the checked quantity.
+_domain_trace: list | None = None
+
+
+@contextmanager
+def tracing_domain_checks():
+    """Collect the domain checks met while the equations are evaluated on symbols (for generated code).
+
+    Yields the list of (value, low, high, message, what): the check is ``low < value < high`` (NaN fails),
+    or ``value`` finite when low and high are None; ``message(bad, low, high)`` is the error text of the
+    Python check; ``what`` names the checked quantity.
+    """
+    global _domain_trace
+    previous, _domain_trace = _domain_trace, []
+    try:
+        yield _domain_trace
+    finally:
+        _domain_trace = previous
+
+
+def trace_domain_check(value, low, high, message, what: str) -> None:
+    """Record a check on a symbolic value (see :func:`tracing_domain_checks`); nothing outside tracing."""
+    if _domain_trace is not None:
+        _domain_trace.append((value, low, high, message, what))
+
+
+def _length_message(bad, b) -> str:
+    return f"actuator length L = {float(bad)!r} m is outside the model's domain 0 < L < b = {b} m"
+
+
+_PRESSURE_MESSAGE = "pressure is not a finite number (NaN or infinite)"
+_LDOT_MESSAGE = "lengthening rate Ldot is not a finite number (NaN or infinite)"
 
 
 def check_length(L, b: float):
     """Raise :class:`DomainError` unless every length lies in the model's domain 0 < L < b [m]."""
+    if is_symbolic(L):
+        trace_domain_check(L, 0.0, b, lambda bad, low, high: _length_message(bad, high), "actuator length L [m]")
+        return
     if isinstance(L, (float, np.floating)):
         if 0 < L < b:  # False for NaN too
             return
@@ -56,15 +132,18 @@ def check_length(L, b: float):
         if inside.all():
             return
         bad = L[~inside].flat[0]
-    raise DomainError(f"actuator length L = {float(bad)!r} m is outside the model's domain 0 < L < b = {b} m")
+    raise DomainError(_length_message(bad, b))
 
 
 def check_pressure(P):
     """Raise :class:`DomainError` for a pressure that is not a finite number [Pa]."""
     if isinstance(P, (float, np.floating)) and math.isfinite(P):
         return
+    if is_symbolic(P):
+        trace_domain_check(P, None, None, lambda *_: _PRESSURE_MESSAGE, "pressure [Pa]")
+        return
     if not np.isfinite(np.asarray(P, dtype=float)).all():
-        raise DomainError("pressure is not a finite number (NaN or infinite)")
+        raise DomainError(_PRESSURE_MESSAGE)
 
 
 # --- Braid geometry (Eq. 5-6) -------------------------------------------------------------------
@@ -239,7 +318,7 @@ def slack_tension(f, slack: int):
         return f
     if type(f) is float:
         return f if f > 0.0 else 0.0
-    return np.maximum(f, 0.0)
+    return math_for(f).maximum(f, 0.0)
 
 
 def slack_factor(f, slack: int):
@@ -248,6 +327,8 @@ def slack_factor(f, slack: int):
         return 1.0
     if type(f) is float:
         return 1.0 if f > 0.0 else 0.0
+    if is_symbolic(f):
+        return _symbolic_math().where(f > 0.0, 1.0, 0.0)
     return (np.asarray(f) > 0.0).astype(float)
 
 
@@ -258,8 +339,10 @@ def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
     ``f = max(f, 0)`` (model-spec section 4). Parameters: L [m], P gauge pressure [Pa], Ldot [m/s].
     """
     Ldot = as_values(Ldot)
-    if not np.isfinite(Ldot).all():
-        raise DomainError("lengthening rate Ldot is not a finite number (NaN or infinite)")
+    if is_symbolic(Ldot):
+        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE, "lengthening rate Ldot [m/s]")
+    elif not np.isfinite(Ldot).all():
+        raise DomainError(_LDOT_MESSAGE)
     return slack_tension(static_tension(L, P, params) + velocity_tension(Ldot, params), params.slack)
 
 
@@ -276,4 +359,5 @@ def lagged_pressure(P, P_cmd, tau: float, dt: float):
     P, P_cmd = as_values(P), as_values(P_cmd)
     if tau <= 0:
         return P_cmd + 0.0 * P
-    return P_cmd + (P - P_cmd) * math.exp(-dt / tau)
+    decay = -dt / tau
+    return P_cmd + (P - P_cmd) * (_symbolic_math().exp(decay) if is_symbolic(decay) else math.exp(decay))

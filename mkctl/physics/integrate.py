@@ -30,6 +30,19 @@ _A = (
 _E = (71 / 57600, 0.0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40)
 
 MAX_STEPS = 100_000
+#: Step-size control (Hairer, Norsett & Wanner II.4): safety factor, largest growth and shrink factors,
+#: the error exponents after an accepted (-1/5) and a rejected (-1/4) step, and the relative step size
+#: below which a rejected step counts as collapsed. mkctl.native generates its C integrator from these.
+SAFETY = 0.9
+MAX_GROWTH = 5.0
+MAX_SHRINK = 0.2
+ACCEPT_EXPONENT = -0.2
+REJECT_EXPONENT = -0.25
+COLLAPSE = 1e-14
+#: The integrator's error messages (the compiled integrator reports the same ones).
+COLLAPSE_MESSAGE = ("the integrator's step size collapsed: the state left the region the model can represent")
+TOO_MANY_STEPS_MESSAGE = (f"the integrator needed more than {MAX_STEPS} steps: the model is too stiff here "
+                          "(a huge damping or stiffness?)")
 
 # the tableau as arrays: each stage is one small matrix product (far cheaper than a Python loop over terms)
 _A_ROWS = tuple(np.array(row, dtype=float) for row in _A)
@@ -71,20 +84,18 @@ def integrate(rhs: Callable[[np.ndarray], np.ndarray], y, duration: float, h_hin
             y = y_new
             stages[0] = stages[6]
             steps += 1
-            factor = 5.0 if err == 0 else min(5.0, 0.9 * err ** -0.2)
+            factor = MAX_GROWTH if err == 0 else min(MAX_GROWTH, SAFETY * err ** ACCEPT_EXPONENT)
             # keep the long step in the hint when only the remainder of a communication step was taken
             h = max(h, h_hint, h_try * factor) if last else h_try * factor
         else:
-            h = h_try * max(0.2, 0.9 * err ** -0.25)
+            h = h_try * max(MAX_SHRINK, SAFETY * err ** REJECT_EXPONENT)
             # only a rejected step can collapse: an accepted tiny step (a tiny communication step) is fine
-            if h < 1e-14 * max(1.0, duration, t):
-                raise DomainError("the integrator's step size collapsed: the state left the region the model "
-                                  "can represent")
+            if h < COLLAPSE * max(1.0, duration, t):
+                raise DomainError(COLLAPSE_MESSAGE)
         if h_max is not None:
             h = min(h, h_max)
         if steps > MAX_STEPS:
-            raise DomainError(f"the integrator needed more than {MAX_STEPS} steps: the model is too stiff "
-                              "here (a huge damping or stiffness?)")
+            raise DomainError(TOO_MANY_STEPS_MESSAGE)
     if full_output:
         return y, h, steps, stages[0].copy()
     return y, h, steps

@@ -11,6 +11,12 @@ balances the load, ``f(L, P, Ldot) = F_load``. Which length that gives depends o
 - viscous damping: ``c Ldot = F - f_static - friction``, integrated by backward Euler between samples.
 
 The pressure is the one measured in the bladder, so the pressure lag plays no part here.
+
+Where no length in the domain carries the load, the muscle goes to its limit instead: a load beyond what
+the tension can reach at the braid limit (L -> b, the fibres straight along the axis; for example model 1
+with no pressure under a hanging load) pulls it out to the braid limit, and a load below the tension of
+the fully contracted muscle leaves it at its shortest length (the end stop of the bracket). A record
+simulated that way goes on; :func:`saturation` says at which samples the model could not follow.
 """
 from __future__ import annotations
 
@@ -22,23 +28,48 @@ from .params import DEFAULT, Params
 _BISECTIONS = 60  # halves the bracket (0, b) to below 1e-18 m
 
 
-def static_length(pressure, load, params: Params = DEFAULT):
+#: Shortest and longest length of the bisection bracket, as fractions of the braid length b.
+SHORTEST, LONGEST = 1e-3, 1 - 1e-9
+
+
+def length_limits(params: Params = DEFAULT) -> tuple[float, float]:
+    """(shortest, longest) actuator length [m] the quasi-static solution may take: the bracket on (0, b)."""
+    return params.b * SHORTEST, params.b * LONGEST
+
+
+def saturation(pressure, load, params: Params = DEFAULT) -> np.ndarray:
+    """Where no length carries the load: -1 (held at its shortest length), +1 (pulled to the braid
+    limit), 0 (a length in the domain carries it). Parameters: pressure P [Pa], load F [N], arrays."""
+    P, F = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
+    low, high = length_limits(params)
+    out = np.zeros(P.shape, dtype=int)
+    out[F > actuator.static_tension(np.full(P.shape, high), P, params)] = 1
+    out[F < actuator.static_tension(np.full(P.shape, low), P, params)] = -1
+    return out
+
+
+def static_length(pressure, load, params: Params = DEFAULT, saturate: bool = False):
     """Length L [m] at which the static tension (model 1 or 2) equals the load: ``f_static(L, P) = F``.
 
-    Parameters: pressure P [Pa], load F [N] (arrays broadcast). Solved by bisection on 0 < L < b, where
-    the static tension rises with L for P >= 0. Raises :class:`DomainError` where no length in the
-    domain carries the load (for example model 1 with no pressure).
+    Parameters: pressure P [Pa], load F [N] (arrays broadcast); saturate: where no length in the domain
+    carries the load, return the limit the muscle goes to (:func:`length_limits`: the braid limit for a
+    load too heavy, the shortest length for one too light) instead of raising. Solved by bisection on
+    0 < L < b, where the static tension rises with L for P >= 0. Without ``saturate``, raises
+    :class:`DomainError` where no length in the domain carries the load (for example model 1 with no
+    pressure).
     """
     P, F = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
     actuator.check_pressure(P)
     actuator.check_pressure(F)
-    b = params.b
-    low = np.full(P.shape, b * 1e-3)
-    high = np.full(P.shape, b * (1 - 1e-9))
+    shortest, longest = length_limits(params)
+    low = np.full(P.shape, shortest)
+    high = np.full(P.shape, longest)
     f_low = actuator.static_tension(low, P, params)
     f_high = actuator.static_tension(high, P, params)
     unreachable = ~((f_low <= F) & (F <= f_high))
-    if np.any(unreachable):
+    if saturate:
+        too_heavy, too_light = F > f_high, F < f_low
+    elif np.any(unreachable):
         i = np.flatnonzero(unreachable)[0]
         raise DomainError(f"no actuator length carries the load {F.flat[i]:g} N at pressure {P.flat[i]:g} Pa "
                           f"(the tension can only range from {f_low.flat[i]:.4g} to {f_high.flat[i]:.4g} N)")
@@ -47,7 +78,10 @@ def static_length(pressure, load, params: Params = DEFAULT):
         too_long = actuator.static_tension(mid, P, params) > F
         high = np.where(too_long, mid, high)
         low = np.where(too_long, low, mid)
-    return 0.5 * (low + high)
+    length = 0.5 * (low + high)
+    if saturate:
+        length = np.where(too_heavy, longest, np.where(too_light, shortest, length))
+    return length
 
 
 def play_operator(start, lower, upper):
@@ -63,28 +97,31 @@ def play_operator(start, lower, upper):
     return out
 
 
-def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: float | None = None):
+def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: float | None = None,
+                      saturate: bool = True):
     """Actuator length L [m] over an isotonic record (quasi-static, see the module docstring).
 
     Parameters: time [s] (increasing), pressure [Pa] measured in the bladder, load [N] the hanging
     load's weight, all arrays of one length; L_start the length before the first sample (default: the
-    static length of the first sample, as after a long rest). Returns L [m] at every sample.
+    static length of the first sample, as after a long rest); saturate: where no length carries the
+    load, the muscle goes to its limit (default) instead of raising :class:`DomainError`.
+    Returns L [m] at every sample.
     """
     time = np.asarray(time, dtype=float)
     P = np.asarray(pressure, dtype=float)
     F = np.asarray(load, dtype=float)
     if L_start is None:
-        L_start = float(static_length(P[0], F[0], params))
+        L_start = float(static_length(P[0], F[0], params, saturate))
     if params.c > 0:
-        return _damped_isotonic(time, P, F, params, L_start)
+        return _damped_isotonic(time, P, F, params, L_start, saturate)
     if params.Fc > 0:
         # lengthening stops where f_static = F - Fc, shortening where f_static = F + Fc
-        return play_operator(L_start, static_length(P, F - params.Fc, params),
-                             static_length(P, F + params.Fc, params))
-    return static_length(P, F, params)
+        return play_operator(L_start, static_length(P, F - params.Fc, params, saturate),
+                             static_length(P, F + params.Fc, params, saturate))
+    return static_length(P, F, params, saturate)
 
 
-def _damped_isotonic(time, P, F, params: Params, L_start: float):
+def _damped_isotonic(time, P, F, params: Params, L_start: float, saturate: bool = True):
     """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit)."""
     L = np.empty(time.size)
     previous = L_start
@@ -99,13 +136,16 @@ def _damped_isotonic(time, P, F, params: Params, L_start: float):
             L[k] = previous
         else:
             load = float(F[k]) - np.sign(excess) * params.Fc
-            L[k] = _backward_euler_length(previous, pressure, load, params.c / dt[k], params)
+            L[k] = _backward_euler_length(previous, pressure, load, params.c / dt[k], params, saturate)
         previous = L[k]
     return L
 
 
-def _backward_euler_length(previous: float, pressure: float, load: float, gain: float, params: Params) -> float:
+def _backward_euler_length(previous: float, pressure: float, load: float, gain: float, params: Params,
+                           saturate: bool = True) -> float:
     """Root of ``g(x) = load - f_static(x, P) - gain (x - previous)`` [m], gain = c / dt [N/m].
+
+    Where the root lies beyond the domain, the length stops at the limit (saturate) or raises.
 
     g falls with x (the static tension rises with L for P >= 0), so the root lies on the side of
     ``previous`` that g(previous) points to. Newton steps with the analytic slope, kept inside a bracket
@@ -118,13 +158,18 @@ def _backward_euler_length(previous: float, pressure: float, load: float, gain: 
     if value == 0:
         return previous
     # bracket [low, high] with g(low) > 0 > g(high)
+    shortest, longest = length_limits(params)
     if value > 0:
-        low, high = previous, params.b * (1 - 1e-9)
+        low, high = previous, longest
         if g(high) > 0:
+            if saturate:
+                return longest
             static_length(pressure, load, params)  # raises the DomainError that explains it
     else:
-        low, high = params.b * 1e-3, previous
+        low, high = shortest, previous
         if g(low) < 0:
+            if saturate:
+                return shortest
             static_length(pressure, load, params)
     x = previous
     for _ in range(_BISECTIONS):

@@ -72,7 +72,7 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
     _check_range(beta, 0.0, np.pi, "knee angle beta", "rad")
     xp = actuator.math_for(beta)
     sin_b, cos_b = xp.sin(beta), xp.cos(beta)
-    gamma = 1.5 * np.pi - beta
+    gamma = 3 * xp.pi / 2 - beta  # xp.pi: exact for symbols, so sin(gamma) = -cos(beta) in generated code
     sin_g, cos_g = xp.sin(gamma), xp.cos(gamma)
 
     X = xp.sqrt(p.Lo**2 + p.Lu**2 - 2 * p.Lo * p.Lu * cos_b)
@@ -110,7 +110,13 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
 
 
 def _check_range(values, low, high, what, unit, why=""):
-    """Raise :class:`DomainError` unless low < values < high (NaN fails too)."""
+    """Raise :class:`DomainError` unless low < values < high (NaN fails too); symbolic values are traced."""
+    def message(bad, low, high):
+        return f"{what} = {float(bad)!r} {unit} is outside ({low:g}, {high:g}) {unit}{why}"
+
+    if actuator.is_symbolic(values):
+        actuator.trace_domain_check(values, low, high, message, f"{what} [{unit}]")
+        return
     if isinstance(values, (float, np.floating)):
         if low < values < high:
             return
@@ -120,7 +126,7 @@ def _check_range(values, low, high, what, unit, why=""):
         if inside.all():
             return
         bad = values[~inside].flat[0]
-    raise DomainError(f"{what} = {float(bad)!r} {unit} is outside ({low:g}, {high:g}) {unit}{why}")
+    raise DomainError(message(bad, low, high))
 
 
 # --- Posture conversions: alpha <-> beta <-> X ----------------------------------------------------
@@ -147,7 +153,7 @@ def beta_from_X(X, params: Params = DEFAULT):
     X = actuator.as_values(X)
     _check_range(X, abs(params.Lo - params.Lu), params.Lo + params.Lu, "hip height X", "m",
                  " (the leg cannot fold flat or stretch past straight)")
-    return np.arccos((params.Lo**2 + params.Lu**2 - X * X) / (2 * params.Lo * params.Lu))
+    return actuator.math_for(X).arccos((params.Lo**2 + params.Lu**2 - X * X) / (2 * params.Lo * params.Lu))
 
 
 def posture(alpha=None, X=None, params: Params = DEFAULT) -> tuple[float, float]:
@@ -270,13 +276,14 @@ def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | 
     low, high = stops if stops is not None else stop_positions(params)
     X, V = actuator.as_values(X), actuator.as_values(V)
     k = STOP_STIFFNESS
-    d = 2 * np.sqrt(k * params.m)
+    xp = actuator.math_for(X)
+    d = 2 * xp.sqrt(k * params.m)
     if type(X) is float and type(V) is float:  # the integrator's case: no contact most of the time
         if low <= X <= high:
             return 0.0
         return max(k * (low - X) - d * V, 0.0) if X < low else -max(k * (X - high) + d * V, 0.0)
-    below = np.maximum(k * (low - X) - d * V, 0.0) * (X < low)
-    above = np.maximum(k * (X - high) + d * V, 0.0) * (X > high)
+    below = xp.where(X < low, xp.maximum(k * (low - X) - d * V, 0.0), 0.0)
+    above = xp.where(X > high, xp.maximum(k * (X - high) + d * V, 0.0), 0.0)
     return below - above
 
 
@@ -287,21 +294,26 @@ def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
     return ("X", "V", "Pe", "Pf") if params.tau > 0 else ("X", "V")
 
 
+def _scalar(x):
+    """A float, or a symbol as it is (code generation)."""
+    return x if actuator.is_symbolic(x) else float(x)
+
+
 def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tuple[float, float] | None = None):
     """Right-hand side of Eq. 17 with the effects of spec section 4 [SI units per second].
 
     ``state`` is (X, V) or, with a pressure lag (tau > 0), (X, V, Pe, Pf); pe_cmd, pf_cmd are the
     commanded pressures [Pa]. ``stops``: (X_low, X_high) of the end stops, or None for none at all.
-    Returns the time derivative of the state as a numpy array.
+    Returns the time derivative of the state as a numpy array (a list of expressions for symbols).
     """
     p = params
-    X, V = float(state[0]), float(state[1])
-    Pe, Pf = (float(state[2]), float(state[3])) if p.tau > 0 else (float(pe_cmd), float(pf_cmd))
+    X, V = _scalar(state[0]), _scalar(state[1])
+    Pe, Pf = (_scalar(state[2]), _scalar(state[3])) if p.tau > 0 else (_scalar(pe_cmd), _scalar(pf_cmd))
     force = knee_force(geometry_at_X(X, p, derivatives=False), V, Pe, Pf, p).F
     if stops is not None:
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
+    rates = [V, dV]
     if p.tau > 0:
-        return np.array([V, dV, actuator.pressure_rate(Pe, pe_cmd, p.tau), actuator.pressure_rate(Pf, pf_cmd, p.tau)],
-                        dtype=float)
-    return np.array([V, dV], dtype=float)
+        rates += [actuator.pressure_rate(Pe, pe_cmd, p.tau), actuator.pressure_rate(Pf, pf_cmd, p.tau)]
+    return rates if actuator.is_symbolic(dV) else np.array(rates, dtype=float)

@@ -16,6 +16,8 @@ Example
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from . import actuator, knee, stability
@@ -40,6 +42,17 @@ def default_hip_height(params: Params = DEFAULT) -> float:
     return float(knee.X_from_alpha(DEFAULT_ALPHA, params))
 
 
+def knee_outputs(X, V, Pe, Pf, params: Params = DEFAULT) -> dict:
+    """The outputs of :data:`KNEE_OUTPUTS` but "stable", at hip height X [m], velocity V [m/s] and actuator
+    pressures Pe, Pf [Pa]: geometry (Eq. 15-16), tensions and force (Eq. 14), and the Routh-Hurwitz
+    coefficients a1 = dF/dV / m [1/s], a2 = dF/dX / m [1/s^2] (Eq. 18, without the end stops)."""
+    p = params
+    geo = knee.geometry_at_X(X, p)
+    force = knee.knee_force_partials(geo, V, Pe, Pf, p)
+    return {"X": X, "V": V, "alpha": geo.alpha, "beta": geo.beta, "Le": geo.Le, "Lf": geo.Lf, "fe": force.fe,
+            "ff": force.ff, "Pe": Pe, "Pf": Pf, "F": force.F, "a1": force.dF_dV / p.m, "a2": force.dF_dX / p.m}
+
+
 class KneeSimulator:
     """Integrates the knee across communication steps, inputs held constant over each step.
 
@@ -51,7 +64,7 @@ class KneeSimulator:
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0, pf0: float = 0.0,
                  stops: bool = True, rtol: float = 1e-10):
         self.params = params
-        self.stops = knee.stop_positions(params) if stops else None
+        self.stops = _stop_positions(params) if stops else None
         self.rtol = rtol
         X0 = default_hip_height(params) if X0 is None else float(X0)
         knee.beta_from_X(X0, params)  # raises a clear DomainError for an impossible X0
@@ -99,41 +112,100 @@ class KneeSimulator:
 
     def outputs(self, pe_cmd: float, pf_cmd: float) -> dict[str, float]:
         """Every output of model-spec section 7 at the present state (a1, a2 without the end stops)."""
-        p = self.params
-        X, V = float(self.state[0]), float(self.state[1])
         Pe, Pf = self.pressures(pe_cmd, pf_cmd)
-        geo = knee.geometry_at_X(X, p)
-        force = knee.knee_force_partials(geo, V, Pe, Pf, p)
-        a1, a2 = force.dF_dV / p.m, force.dF_dX / p.m
-        return {
-            "X": X, "V": V, "alpha": float(geo.alpha), "beta": float(geo.beta), "Le": float(geo.Le),
-            "Lf": float(geo.Lf), "fe": float(force.fe), "ff": float(force.ff), "Pe": Pe, "Pf": Pf,
-            "F": float(force.F), "a1": float(a1), "a2": float(a2), "stable": bool(a1 < 0 and a2 < 0),
-        }
+        values = {name: float(value) for name, value in
+                  knee_outputs(float(self.state[0]), float(self.state[1]), Pe, Pf, self.params).items()}
+        values["stable"] = bool(values["a1"] < 0 and values["a2"] < 0)
+        return values
+
+
+#: Parameters a state at rest does not feel: damping c V and friction Fc tanh(V / vs) vanish at V = 0, and
+#: the lagged pressure equals its command. The rest posture of a record does not depend on them.
+REST_INDEPENDENT = ("c", "Fc", "vs", "tau")
+
+
+@functools.lru_cache(maxsize=256)
+def _stop_positions(params: Params) -> tuple[float, float]:
+    return knee.stop_positions(params)
+
+
+_rest_heights: dict = {}
+
+
+def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
+    """The hip height X [m] a record starts at when X0 is None: at rest in the stable equilibrium of the first
+    commands (:func:`mkctl.physics.stability.equilibrium_hip_height`). Remembered per (commands, parameters
+    that matter at rest): fits run thousands of records from the same posture with other damping or lag."""
+    key = (float(pe0), float(pf0), *(v for k, v in vars(params).items() if k not in REST_INDEPENDENT))
+    X0 = _rest_heights.get(key)
+    if X0 is None:
+        if len(_rest_heights) > 4096:
+            _rest_heights.clear()
+        X0 = _rest_heights[key] = float(stability.equilibrium_hip_height(pe0, pf0, params))
+    return X0
+
+
+def _native_core(params: Params):
+    """The compiled core (:mod:`mkctl.native`) for params' structure, or None: no compiler, switched off
+    (``MKCTL_NATIVE=0``), or mkctl.native absent (a pythonfmu FMU packs only the modules it imports)."""
+    try:
+        from ..native import compiled
+    except ImportError:
+        return None
+    return compiled.core_for(params)
+
+
+def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_outputs):
+    """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each sample to
+    the next, the integrator stopping at every sample k with stop_at[k] (stop_at None: every sample).
+
+    The compiled core runs it in one call when available; the Python loop below is the fallback, and it
+    also resumes after a fault of the compiled run (at the last good sample) to raise its own error.
+    Returns the states (n x nstate, filled at sample 0 and every stop) and the outputs (n x outputs) or None.
+    """
+    n = time.size
+    if X0 is None:
+        X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
+    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
+    states = np.empty((n, sim.state.size))
+    outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
+    start, previous = 0, 0
+    core = _native_core(params) if n > 0 else None
+    if core is not None:
+        start, previous = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, outputs)
+    if start == 0:
+        states[0] = sim.state
+        if with_outputs:
+            outputs[0] = list(sim.outputs(pe_cmd[0], pf_cmd[0]).values())
+        start = 1
+    for k in range(start, n):
+        if stop_at is not None and not stop_at[k]:
+            continue
+        sim.step(time[k] - time[previous], pe_cmd[previous], pf_cmd[previous])
+        states[k] = sim.state
+        if with_outputs:
+            outputs[k] = list(sim.outputs(pe_cmd[k], pf_cmd[k]).values())
+        previous = k
+    return states, outputs
 
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
-                  stops: bool = True, rtol: float = 1e-10) -> dict[str, np.ndarray]:
+                  stops: bool = True, rtol: float = 1e-10) -> "SimulationResult":
     """Simulate the knee over a record; commands are held from each sample to the next.
 
     Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
     the initial hip height, or None to start at rest in the stable equilibrium of the first commands.
-    Returns a dict of arrays: "time" and every name of :data:`KNEE_OUTPUTS`.
+    Returns a :class:`mkctl.physics.results.SimulationResult`: "time" and every name of :data:`KNEE_OUTPUTS` as
+    named arrays (``run.X``, or ``run["X"]`` as before).
+    Runs in the compiled core (:mod:`mkctl.native`) when it is available, else in Python: same results.
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
-    if X0 is None:
-        X0 = stability.equilibrium_hip_height(pe_cmd[0], pf_cmd[0], params)
-    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
-    rows = [sim.outputs(pe_cmd[0], pf_cmd[0])]
-    for k in range(1, time.size):
-        sim.step(time[k] - time[k - 1], pe_cmd[k - 1], pf_cmd[k - 1])
-        rows.append(sim.outputs(pe_cmd[k], pf_cmd[k]))
-    result = {"time": time}
-    for name in KNEE_OUTPUTS:
-        result[name] = np.array([row[name] for row in rows])
-    return result
+    _, outputs = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None, True)
+    from .results import SimulationResult  # typed result; reads like the former dict (result["X"])
+    return SimulationResult(time=time, **{name: outputs[:, i] if name != "stable" else outputs[:, i] != 0
+                                          for i, name in enumerate(KNEE_OUTPUTS)})
 
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
@@ -143,6 +215,7 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
     The same run as :func:`simulate_knee` (commands held from each sample to the next; X0 None: at rest in
     the equilibrium of the first commands), but the integrator only stops where a command changes or a
     sample is asked for, and no other output is computed: what fitting many simulations needs.
+    Runs in the compiled core when it is available, in one call.
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
@@ -152,17 +225,8 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
     stop_at = np.zeros(n, dtype=bool)
     stop_at[1:] = (pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])
     stop_at[at] = True
-    if X0 is None:
-        X0 = stability.equilibrium_hip_height(pe_cmd[0], pf_cmd[0], params)
-    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
-    X, V = np.empty(n), np.empty(n)
-    X[0], V[0] = sim.state[0], sim.state[1]
-    previous = 0
-    for k in np.flatnonzero(stop_at[1:]) + 1:
-        sim.step(time[k] - time[previous], pe_cmd[previous], pf_cmd[previous])
-        X[k], V[k] = sim.state[0], sim.state[1]
-        previous = k
-    return X[at], V[at]
+    states, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, False)
+    return states[at, 0], states[at, 1]
 
 
 class ActuatorSimulator:

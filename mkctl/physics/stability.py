@@ -31,19 +31,63 @@ DEFAULT_PF = 100e3
 
 
 def routh_hurwitz_coefficients(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
-    """(a1, a2) of Eq. 18 [1/s, 1/s^2] at hip height X [m], velocity V [m/s], pressures Pe, Pf [Pa].
+    """The coefficients of the linearized knee, Eq. 18: ``d/dt (X, V) = [[0, 1], [a2, a1]] (X, V)``.
 
-    The end stops are not included: a1, a2 describe what the muscles alone do at that posture.
+    .. math:: a_1 = \\frac{1}{m} \\frac{\\partial F}{\\partial V}, \\qquad
+              a_2 = \\frac{1}{m} \\frac{\\partial F}{\\partial X}
+
+    with F the ground force of Eq. 17 (:func:`mkctl.physics.knee.knee_force_partials`). The end stops are not
+    included: a1, a2 describe what the muscles alone do at that posture.
+
+    Parameters
+    ----------
+    X : float or array
+        Hip height [m].
+    Pe, Pf : float or array
+        Extensor and flexor gauge pressures [Pa].
+    V : float or array
+        Hip velocity [m/s] (0 at an equilibrium).
+    params : Params
+        The model; a1 = 0 without damping or friction (model 2 alone).
+
+    Returns
+    -------
+    a1 : float or array
+        Velocity coefficient [1/s]; Eq. 19 asks a1 < 0.
+    a2 : float or array
+        Position coefficient [1/s^2]; Eq. 20 asks a2 < 0.
+
+    References
+    ----------
+    Seed paper, Section VI, Eq. 18-20; model-spec section 4 (a1 = -c (G_e^2 + G_f^2)/m with damping c).
     """
     partials = knee.knee_force_partials(knee.geometry_at_X(X, params), V, Pe, Pf, params)
     return partials.dF_dV / params.m, partials.dF_dX / params.m
 
 
 def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
-    """Eq. 22-23: ``h(alpha, Pe', Pf') = d/dalpha (G_e f_e - G_f f_f)`` [N/rad] at V = 0.
+    """The position condition in the paper's form, Eq. 22-23: ``h = d/dalpha (G_e f_e - G_f f_f)`` at V = 0.
 
-    Computed from the analytic derivatives: h = dF/dX * dX/dalpha. h < 0 is equivalent to a2 < 0.
-    Parameters: alpha kneecap angle [rad], Pe, Pf gauge pressures [Pa]; all broadcast.
+    Computed from the analytic derivatives, ``h = dF/dX dX/dalpha``. X grows with alpha, so h < 0 is
+    equivalent to a2 < 0 (Eq. 20, 21).
+
+    Parameters
+    ----------
+    alpha : float or array
+        Kneecap angle [rad].
+    Pe, Pf : float or array
+        Extensor and flexor gauge pressures [Pa] (Pe', Pf' of the paper). All three broadcast.
+    params : Params
+        The model.
+
+    Returns
+    -------
+    h : float or array
+        [N/rad]; h < 0: the posture is held by a restoring force.
+
+    References
+    ----------
+    Seed paper, Section VI-B, Eq. 21-23.
     """
     geo = knee.geometry_at_alpha(alpha, params)
     partials = knee.knee_force_partials(geo, 0.0, Pe, Pf, params)
@@ -51,14 +95,24 @@ def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
 
 
 def h_slope(alpha, Pe, Pf, params: Params = DEFAULT, step: float = 1e-5):
-    """dh/dalpha [N/rad^2] by a central difference of the analytic h (used to test "h decreases")."""
+    """dh/dalpha [N/rad^2] by a central difference of the analytic :func:`h_function`.
+
+    Parameters: alpha [rad], Pe, Pf [Pa] (broadcast), step [rad]. Used to check the paper's "h decreases
+    monotonically along alpha" (Section VI-B).
+    """
     return (h_function(alpha + step, Pe, Pf, params) - h_function(alpha - step, Pe, Pf, params)) / (2 * step)
 
 
 def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
-    """Extensor pressure Pe [Pa] that holds the hip at rest at kneecap angle alpha [rad] with flexor Pf [Pa].
+    """Extensor pressure that holds the hip at rest: the equilibrium set (V = 0, F = m g) of Fig. 7.
 
-    F is affine in Pe, so ``Pe = (m g - F(alpha, 0, Pf)) / (dF/dPe)``: the set V = 0 of Fig. 7.
+    F is affine in Pe, so
+
+    .. math:: P_e = \\frac{m g - F(\\alpha, V = 0, P_e = 0, P_f)}{\\partial F / \\partial P_e}
+
+    Parameters: alpha kneecap angle [rad], Pf flexor gauge pressure [Pa] (broadcast), params. Returns Pe [Pa]
+    (negative where the flexor alone would lift the hip; infinite where the extensor's pressure gain vanishes).
+    References: seed paper Eq. 17 and Fig. 7; model-spec section 4 (slack).
     With slack (model-spec section 4) the extensor that holds the hip is taut, so its tension stays affine
     in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``.
     """
@@ -72,20 +126,32 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
 
 
 def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
-    """Extensor pressure Pe [Pa] on the surface h(alpha, Pe, Pf) = 0 (Fig. 7); h is affine in Pe."""
+    """Extensor pressure on the surface h(alpha, Pe, Pf) = 0 of Fig. 7.
+
+    h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``.
+    Parameters: alpha [rad], Pf [Pa] (broadcast), params. Returns Pe [Pa]. References: seed paper Eq. 22-23, Fig. 7.
+    """
     h0 = h_function(alpha, 0.0, Pf, params)
     h1 = h_function(alpha, 1.0, Pf, params)
     return -h0 / (h1 - h0)
 
 
 def verdict(a1, a2) -> np.ndarray:
-    """Routh-Hurwitz verdict for ``s^2 - a1 s - a2``: 'stable', 'marginal' (a1 = 0, a2 < 0) or 'unstable'."""
+    """Routh-Hurwitz verdict for the characteristic polynomial ``s^2 - a1 s - a2`` of Eq. 18.
+
+    Parameters: a1 [1/s], a2 [1/s^2] (broadcast). Returns an array of 'stable' (a1 < 0 and a2 < 0, Eq. 19-20),
+    'marginal' (a1 = 0, a2 < 0: poles on the imaginary axis, the paper's model 2) or 'unstable'.
+    References: seed paper Eq. 18-20.
+    """
     a1, a2 = np.asarray(a1), np.asarray(a2)
     return np.where((a1 < 0) & (a2 < 0), "stable", np.where((a1 == 0) & (a2 < 0), "marginal", "unstable"))
 
 
 def poles(a1, a2) -> np.ndarray:
-    """The two eigenvalues of [[0, 1], [a2, a1]] (roots of s^2 - a1 s - a2) [1/s]."""
+    """The two eigenvalues of Eq. 18's matrix [[0, 1], [a2, a1]]: ``s = (a1 +- sqrt(a1^2 + 4 a2)) / 2``.
+
+    Parameters: a1 [1/s], a2 [1/s^2] (broadcast). Returns complex poles [1/s], shape (..., 2).
+    """
     disc = np.sqrt(np.asarray(a1 * a1 + 4 * a2, dtype=complex))
     return np.stack([(a1 + disc) / 2, (a1 - disc) / 2], axis=-1)
 
@@ -108,9 +174,23 @@ class PostureStability:
 
 def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float | None = None,
                       params: Params = DEFAULT) -> PostureStability:
-    """The Routh-Hurwitz verdict at a posture given by alpha [rad] or X [m].
+    """Everything the paper's stability analysis (Eq. 18-23) says about one posture.
 
-    With ``Pe=None`` the extensor pressure is the one that holds the posture in equilibrium.
+    Parameters
+    ----------
+    alpha : float, optional
+        Kneecap angle [rad]; or give ``X``, the hip height [m] (exactly one of them).
+    Pf : float
+        Flexor gauge pressure [Pa].
+    Pe : float, optional
+        Extensor gauge pressure [Pa]; None: the one that holds the posture at rest (:func:`equilibrium_pressure`).
+    params : Params
+        The model.
+
+    Returns
+    -------
+    PostureStability
+        a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s] and the verdict ('stable', 'marginal', 'unstable').
     """
     alpha, X = knee.posture(alpha, X, params)
     in_equilibrium = Pe is None
@@ -122,10 +202,11 @@ def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float |
 
 
 def equilibrium_hip_height(Pe: float, Pf: float, params: Params = DEFAULT, X_range=None, samples: int = 400):
-    """The hip height X [m] of a stable equilibrium (F = m g, dF/dX < 0) for pressures Pe, Pf [Pa].
+    """The hip height of a stable equilibrium, ``F(X, V = 0, Pe, Pf) = m g`` with dF/dX < 0 (Eq. 17, 20).
 
-    Searches X_range (default: between the end stops) and returns the stable root nearest the upper
-    stop. Raises :class:`DomainError` if there is none in range.
+    Parameters: Pe, Pf gauge pressures [Pa]; X_range (low, high) [m] to search (default: between the end
+    stops, :func:`mkctl.physics.knee.stop_positions`); samples of the bracketing grid. Returns X [m], the stable
+    root nearest the upper stop. Raises :class:`DomainError` if there is none in range.
     """
     # imported here, not at the top: the FMUs import this module, and a host that loads an FMU should not
     # have to load scipy (and a second OpenBLAS) for a function the FMU never calls

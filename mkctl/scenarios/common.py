@@ -1,8 +1,10 @@
 """What the scenario scripts share: arguments, the FMUs, running them with fmpy, CSV files and figures.
 
-Every scenario is ``python scenarios/NAME.py [--out DIR] [--fmu-dir DIR] [--duration S]``: it drives the FMUs
-of ``--fmu-dir`` (default ``dist``, built by build_fmu.py when missing) with fmpy, writes ``NAME.csv`` and
-``NAME.png`` under ``--out`` (default ``out/NAME``) and prints a short summary.
+Every scenario is ``python -m mkctl.scenarios.NAME [--out DIR] [--fmu-dir DIR] [--duration S]`` (in a checkout
+also ``python scenarios/NAME.py``, a thin wrapper): it drives the FMUs of ``--fmu-dir`` (default ``dist`` in the
+working folder, built by :func:`build_fmus` when missing) with fmpy, writes ``NAME.csv`` and ``NAME.png`` under
+``--out`` (default ``out/NAME`` in the working folder) and prints a short summary. Each scenario module has
+``run(argv)`` (raises on a problem) and ``main(argv) -> exit status`` (one line on stderr instead).
 
 Errors. Every option is checked before the first simulation (``parse_args`` and the scenario's ``check``):
 a bad value, a folder that cannot be used or a parameter the model cannot represent ends the script with one
@@ -17,22 +19,22 @@ are tested on their own in tests/test_fmu*.py.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
+import io
 import math
-import subprocess
-import sys
+import os
 import zipfile
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl and build_fmu.py
-    sys.path.insert(0, str(ROOT))
+from ..cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # one check for both
+from ..errors import MkctlError
+from ..physics.params import Params
 
-from mkctl.cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # noqa: E402  (one check for the CLI and the scenarios)
-from mkctl.errors import MkctlError  # noqa: E402
-from mkctl.physics.params import Params  # noqa: E402
+# the scenarios show the FMUs' messages themselves (one line, see FMULog): the FMUs need not echo them on stderr
+os.environ.setdefault("MKCTL_FMU_STDERR", "0")
 
 FMU_FILES = {"knee": "McKibbenKnee.fmu", "actuator": "McKibbenActuator.fmu"}
 STEP = 1e-3  #: communication step of the fmpy runs [s]
@@ -103,7 +105,7 @@ def _check_folders(args, fmus) -> None:
         require(not target.is_dir(), f"--out {args.out}: {target} is a folder, cannot write the {suffix.upper()} there")
     fmu_dir = Path(args.fmu_dir)
     require(not fmu_dir.exists() or fmu_dir.is_dir(), f"--fmu-dir {fmu_dir}: is a file, not a folder")
-    paths = [fmu_dir / FMU_FILES[which] for which in fmus]
+    paths = [fmu_file(args, which) for which in fmus]
     for path in paths:
         require(not path.exists() or zipfile.is_zipfile(path), f"--fmu-dir {fmu_dir}: {path.name} is not an FMU "
                 "(not a zip file)")
@@ -124,11 +126,14 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
     global _prog
     parser = OneLineParser(prog=f"scenarios/{name}.py", description=description)
     _prog = parser.prog
-    parser.add_argument("--out", type=Path, default=ROOT / "out" / name,
+    parser.add_argument("--out", type=Path, default=Path("out") / name,
                         help="folder for the CSV and PNG (default: out/NAME)")
-    parser.add_argument("--fmu-dir", type=Path, default=ROOT / "dist",
+    parser.add_argument("--fmu-dir", type=Path, default=Path("dist"),
                         help="folder holding the FMUs (default: dist; built when missing)")
     parser.add_argument("--duration", type=float, default=duration, help=f"simulated time [s] (default {duration:g})")
+    parser.add_argument("--native", action="store_true",
+                        help="drive the native FMUs of FMU_DIR/native (compiled C, built when missing) instead of "
+                             "the pythonfmu ones")
     if extra is not None:
         extra(parser)
     args = parser.parse_args(argv)
@@ -147,17 +152,48 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
 
 # --- the FMUs ---------------------------------------------------------------------------------------------
 
+def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
+    """Build (and, with ``run``, check by running) the knee and actuator FMUs into the folder out.
+
+    Uses :func:`mkctl.fmu.build.build`, so no file of a checkout is needed. Returns ({"knee": path,
+    "actuator": path}, what the build printed); raises :class:`ScenarioError` with the build's last message.
+    """
+    from ..fmu.build import build
+
+    buffer = io.StringIO()
+    try:
+        with contextlib.redirect_stdout(buffer):
+            built = build(Path(out), run=run)
+    except MkctlError as error:
+        raise ScenarioError(f"building the FMUs into {out} failed: {error}") from error
+    by_file = {Path(path).name: Path(path) for path in built.values()}  # keyed by model name there
+    paths = {which: by_file.get(name, Path(out) / name) for which, name in FMU_FILES.items()}
+    missing = [str(path) for path in paths.values() if not path.is_file()]
+    if missing:
+        raise ScenarioError(f"building the FMUs into {out} failed: {missing[0]} was not written")
+    return paths, buffer.getvalue()
+
+
+def fmu_file(args, which: str) -> Path:
+    """Where the knee or actuator FMU is: FMU_DIR, or FMU_DIR/native with --native."""
+    folder = Path(args.fmu_dir) / "native" if getattr(args, "native", False) else Path(args.fmu_dir)
+    return folder / FMU_FILES[which]
+
+
 def fmu_path(args, which: str) -> Path:
-    """Path of the knee or actuator FMU, building both with build_fmu.py if it is missing."""
-    path = Path(args.fmu_dir) / FMU_FILES[which]
+    """Path of the knee or actuator FMU, building both (:func:`build_fmus`, or the native ones with --native) if
+    it is missing."""
+    path = fmu_file(args, which)
     if not path.exists():
         print(f"{path} missing: building the FMUs ...")
-        done = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--out", str(args.fmu_dir), "--no-run"],
-                              capture_output=True, text=True)
-        if done.returncode != 0 or not path.exists():
-            lines = (done.stderr or done.stdout).strip().splitlines()
-            raise ScenarioError(f"building the FMUs into {args.fmu_dir} failed: "
-                                + (lines[-1] if lines else f"exit status {done.returncode}"))
+        if getattr(args, "native", False):
+            from ..native.fmu import build_native
+            try:
+                build_native(Path(args.fmu_dir))
+            except MkctlError as error:
+                raise ScenarioError(f"building the native FMUs into {args.fmu_dir} failed: {error}") from error
+        else:
+            build_fmus(args.fmu_dir, run=False)
     return path
 
 
@@ -173,8 +209,9 @@ class FMULog:
             self.messages.append(" ".join(text.split()))  # one line
 
     def reason(self) -> str:
-        """The last message, or "no message"."""
-        return self.messages[-1] if self.messages else "the FMU logged no message"
+        """The last message (pythonfmu's own note on a Python exception aside), or "no message"."""
+        own = [m for m in self.messages if not m.startswith("Fatal py exception encountered")]
+        return own[-1] if own else (self.messages[-1] if self.messages else "the FMU logged no message")
 
     def fmi2_callbacks(self):
         """fmi2CallbackFunctions calling this logger, for ``FMU2Slave.instantiate(callbacks=...)``; keep a
@@ -207,9 +244,14 @@ def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_valu
     error) unless it reaches the stop time."""
     from fmpy import simulate_fmu
 
+    from fmpy.fmi1 import FMICallException
+
     log = FMULog()
-    result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
-                          start_values=start_values or {}, debug_logging=True, logger=log)
+    try:
+        result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
+                              start_values=start_values or {}, debug_logging=True, logger=log)
+    except FMICallException as error:  # the FMUs answer invalid parameters with fmi2Fatal at initialization
+        raise ScenarioError(f"{Path(fmu).name} refused to start: {log.reason()}") from None
     if abs(result["time"][-1] - stop) > 1e-9 * max(1.0, stop):
         raise ScenarioError(f"{Path(fmu).name} stopped at t = {result['time'][-1]:g} s instead of {stop:g} s: "
                             f"{log.reason()}")
@@ -290,6 +332,6 @@ def main_guard(run, argv=None) -> int:
     return run_reporting_errors(_prog, run, argv)
 
 
-__all__ = ["ROOT", "STEP", "ScenarioError", "UsageError", "parse_args", "require", "positive", "number_list",
+__all__ = ["STEP", "build_fmus", "ScenarioError", "UsageError", "parse_args", "require", "positive", "number_list",
            "checked_params", "fmu_path", "FMULog", "input_signal", "simulate", "first_peak_time", "step_overshoot",
            "undefined", "write_csv", "finish", "main_guard", "new_figure", "save_png"]

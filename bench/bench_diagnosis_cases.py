@@ -1,0 +1,166 @@
+"""The cases the diagnosis was tried on, and its score on each: regenerates the table in docs/diagnosis.md.
+
+Each case makes a record with the virtual test bench (:func:`mkctl.analysis.synth.synthesize`: hidden effects,
+command shape, output and input noise, coloured noise, offsets, angle output, measured pressures), reads it
+back as a user's file and diagnoses it. Scores:
+
+- ``right``: the verdict is "diagnosed" (or "nothing missing") with exactly the hidden effects, every value
+  within 4 of its reported standard errors of the truth (plus the file's rounding);
+- ``right, values off``: the right effects, a value outside that band;
+- ``honest``: "undecided", "incomplete" or "not diagnosed" where the record cannot be diagnosed right
+  (or is a unit/zero mistake that must not be diagnosed): never confidently wrong;
+- ``wrong``: a confident verdict with the wrong effects.
+
+Run on demand (several minutes on 2 cores; the cases run in parallel with Dask)::
+
+    PYTHONPATH=. python bench/bench_diagnosis_cases.py            # print the table
+    PYTHONPATH=. python bench/bench_diagnosis_cases.py --write    # and write it into docs/diagnosis.md
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+KNEE = {"samples": 1500, "rate": 500.0}
+
+#: (name, experiment, hidden, options, what a right answer is: "effects" or "not diagnosed")
+CASES = [
+    ("isotonic, nothing hidden", "isotonic", {}, {}),
+    ("isotonic, nothing hidden, 1 kPa pressure noise", "isotonic", {}, {"input_noise": 1.0}),
+    ("isotonic, nothing hidden, coloured noise (0.2 s), pressure steps", "isotonic", {},
+     {"noise_tau": 0.2, "shape": "steps"}),
+    ("isotonic, friction Fc = 1.5 N", "isotonic", {"Fc": 1.5}, {}),
+    ("isotonic, friction, 1 kPa pressure noise", "isotonic", {"Fc": 1.5}, {"input_noise": 1.0}),
+    ("isotonic, damping c = 200 N s/m", "isotonic", {"c": 200.0}, {}),
+    ("isotonic, elasticity (model 1 baseline)", "isotonic", ["elasticity"], {"baseline": "model1"}),
+    ("isotonic, elasticity + friction (model 1)", "isotonic", ["elasticity", "coulomb_friction"],
+     {"baseline": "model1"}),
+    ("knee, nothing hidden", "knee", {}, KNEE),
+    ("knee, damping c = 30", "knee", {"c": 30.0}, KNEE),
+    ("knee, lag tau = 0.04 s", "knee", {"tau": 0.04}, KNEE),
+    ("knee, damping + lag, steps", "knee", {"c": 45.0, "tau": 0.03}, KNEE),
+    ("knee, damping + lag, ramps", "knee", {"c": 45.0, "tau": 0.03}, {**KNEE, "shape": "ramps"}),
+    ("knee, friction Fc = 2 N (damping known)", "knee", {"Fc": 2.0}, {**KNEE, "known": {"c": 45.0}}),
+    ("knee, damping, chirp (commands change every sample)", "knee", {"c": 30.0},
+     {"samples": 3000, "rate": 1000.0, "shape": "chirp"}),
+    ("knee, damping, angle output beta_deg", "knee", {"c": 30.0}, {**KNEE, "output": "beta_deg"}),
+    ("knee, damping + lag, measured pressures (0.5 kPa noise)", "knee", {"c": 30.0, "tau": 0.04},
+     {**KNEE, "pressures": True, "input_noise": 0.5}),
+    ("knee, damping, coloured noise (20 ms)", "knee", {"c": 30.0}, {**KNEE, "noise_tau": 0.02}),
+    ("knee, damping, sensor offset 5 mm, --fit-offset", "knee", {"c": 30.0},
+     {**KNEE, "offset": 5.0, "fit_offset": True}),
+    ("knee, output zeroed at rest", "knee", {"c": 30.0}, {**KNEE, "offset": "zero", "expect": "not diagnosed"}),
+    ("knee, output in metres under x_mm", "knee", {"c": 30.0}, {**KNEE, "offset": "metres",
+                                                                 "expect": "not diagnosed"}),
+]
+
+
+def run_case(case) -> dict:
+    """Synthesize, write, read and diagnose one case; returns its row of the table."""
+    import numpy as np
+
+    from mkctl.analysis.diagnose import CANDIDATES, diagnose
+    from mkctl.analysis.synth import synthesize, write_synthetic
+    from mkctl.io.measurements import read_measurement, write_measurement
+
+    name, experiment, hidden, options = case
+    options = dict(options)
+    expect = options.pop("expect", "effects")
+    fit_offset = options.pop("fit_offset", False)
+    known = options.pop("known", None)
+    baseline = options.pop("baseline", "model2")
+    special = options.pop("offset", 0.0)
+    if isinstance(special, float):
+        options["offset"] = special
+    record = synthesize(experiment, hidden, known, baseline, 0.01, 1, **options)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "case.csv"
+        if isinstance(special, str):  # a user's mistake in the file
+            output = record.output - record.output[0] if special == "zero" else record.output * 1e-3
+            write_measurement(path, experiment, record.time, record.inputs, output, metadata=record.known,
+                              baseline=baseline)
+        else:
+            write_synthetic(path, record)
+        measurement = read_measurement(path)
+        start = time.perf_counter()
+        result = diagnose(measurement, fit_offset=fit_offset)
+        seconds = time.perf_counter() - start
+    truth = sorted(record.hidden_effects)
+    if expect == "not diagnosed":
+        score = "honest" if result.verdict == "not diagnosed" else "wrong"
+    elif result.verdict in ("undecided", "incomplete", "not diagnosed"):
+        score = "honest"
+    elif sorted(result.missing) != truth:
+        score = "wrong"
+    else:
+        score = "right"
+        for effect in truth:
+            parameter = CANDIDATES[effect].parameter
+            true = getattr(record.truth, parameter)
+            se = result.uncertainty.get(parameter, np.inf)
+            if not abs(result.params[parameter] - true) <= 4 * se + 1e-6 * abs(true):
+                score = "right, values off"
+    values = ", ".join(f"{k} = {v:.4g} +- {result.uncertainty.get(k, float('nan')):.2g}"
+                       for k, v in result.params.items())
+    return {"case": name, "hidden": ", ".join(truth) or "none", "verdict": result.verdict,
+            "found": ", ".join(result.missing) or "-", "values": values or "-", "score": score,
+            "rmse": f"{result.rmse_before:.3g} -> {result.rmse_after:.3g} {result.output_unit}",
+            "seconds": seconds}
+
+
+def table(rows) -> str:
+    lines = ["| case | hidden | verdict | found | values (SI, +- standard error) | RMSE before -> after | "
+             "score | time [s] |", "|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['case']} | {r['hidden']} | {r['verdict']} | {r['found']} | {r['values']} | {r['rmse']} "
+                     f"| {r['score']} | {r['seconds']:.0f} |")
+    counts = {s: sum(r["score"] == s for r in rows) for s in ("right", "right, values off", "honest", "wrong")}
+    lines.append("")
+    lines.append("Score: " + ", ".join(f"{v} {k}" for k, v in counts.items()) + f" of {len(rows)} cases.")
+    return "\n".join(lines)
+
+
+BEGIN, END = "<!-- cases table: bench/bench_diagnosis_cases.py -->", "<!-- end of cases table -->"
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--write", action="store_true", help="write the table into docs/diagnosis.md")
+    parser.add_argument("--workers", type=int, default=min(2, os.cpu_count() or 1))
+    parser.add_argument("-k", default="", help="only cases whose name contains this")
+    args = parser.parse_args(argv)
+    import dask
+    from tqdm import tqdm
+
+    cases = [c for c in CASES if args.k in c[0]]
+    tasks = [dask.delayed(run_case)(case) for case in cases]
+    with tqdm(total=len(tasks), desc="cases", file=sys.stderr) as bar:
+        rows = []
+        for chunk in range(0, len(tasks), args.workers):
+            rows += dask.compute(*tasks[chunk:chunk + args.workers], scheduler="processes",
+                                 num_workers=args.workers)
+            bar.update(len(tasks[chunk:chunk + args.workers]))
+    text = table(rows)
+    print(text)
+    if args.write:
+        doc = ROOT / "docs" / "diagnosis.md"
+        content = doc.read_text(encoding="utf-8")
+        if BEGIN not in content or END not in content:
+            print(f"{doc}: no {BEGIN} ... {END} markers", file=sys.stderr)
+            return 2
+        head, rest = content.split(BEGIN, 1)
+        _, tail = rest.split(END, 1)
+        doc.write_text(head + BEGIN + "\n" + text + "\n" + END + tail, encoding="utf-8")
+        print(f"wrote the table into {doc}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

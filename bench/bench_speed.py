@@ -1,0 +1,140 @@
+"""Speed of the compiled core against scipy's solve_ivp, measured side by side in one run (issue 12).
+
+Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``.
+
+1. The same 6 s knee record at 1 kHz (the default knee experiment of :mod:`mkctl.analysis.synth`: the
+   holding commands with extensor steps), simulated by
+   - the reference: ``scipy.integrate.solve_ivp`` (LSODA, a Python right-hand side calling
+     :func:`mkctl.physics.knee.knee_derivatives`, commands held from sample to sample, output at every
+     sample), at scipy's default tolerances and at mkctl's (rtol 1e-10);
+   - :func:`mkctl.physics.simulate.simulate_knee` with the compiled core (every output of the knee);
+   - the same with the Python path (``MKCTL_NATIVE=0``), for scale.
+   Target: simulate_knee (compiled) at least 100x faster than the reference at default tolerances.
+2. A whole :func:`mkctl.analysis.diagnose.diagnose` of a 3000-sample synthetic knee record with hidden
+   viscous damping. Target: less time than 5 reference simulations. ``--python`` also times it on the
+   Python path (slow).
+
+Times are the best of several repetitions (wall clock); the compiled core is built (or found in the cache)
+before any timing, and that one-off cost is printed too.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from mkctl.analysis import synth
+from mkctl.analysis.diagnose import diagnose
+from mkctl.io.measurements import read_measurement
+from mkctl.native import build, compiled
+from mkctl.native.variants import ALL_VARIANTS
+from mkctl.physics import knee, stability
+from mkctl.physics.params import Params
+from mkctl.physics.simulate import simulate_knee
+
+SAMPLES, RATE = 6000, 1000.0
+SPEED_TARGET = 100.0
+DIAGNOSE_TARGET = 5.0
+
+
+def best_of(function, repeat: int) -> tuple[float, object]:
+    best, result = float("inf"), None
+    for _ in range(repeat):
+        start = time.perf_counter()
+        result = function()
+        best = min(best, time.perf_counter() - start)
+    return best, result
+
+
+def reference(t, pe, pf, params, X0, **tolerances):
+    """solve_ivp (LSODA) on the library's right-hand side, restarted wherever a command changes (the commands
+    are held from each sample to the next, so the right-hand side jumps there); output at every sample."""
+    stops = knee.stop_positions(params)
+    changes = np.flatnonzero((pe[1:] != pe[:-1]) | (pf[1:] != pf[:-1])) + 1
+    bounds = [0, *changes.tolist(), t.size - 1]
+    X = np.empty(t.size)
+    y = np.array([X0, 0.0])
+    X[0] = X0
+    for first, last in zip(bounds[:-1], bounds[1:]):
+        pe_k, pf_k = pe[first], pf[first]
+        run = solve_ivp(lambda _, state: knee.knee_derivatives(state, pe_k, pf_k, params, stops),
+                        (t[first], t[last]), y, method="LSODA", t_eval=t[first + 1:last + 1], **tolerances)
+        if not run.success:
+            raise RuntimeError(run.message)
+        X[first + 1:last + 1] = run.y[0]
+        y = run.y[:, -1]
+    return X
+
+
+def python_path(function):
+    previous = os.environ.get(build.ENV_SWITCH)
+    os.environ[build.ENV_SWITCH] = "0"
+    try:
+        return function()
+    finally:
+        if previous is None:
+            del os.environ[build.ENV_SWITCH]
+        else:
+            os.environ[build.ENV_SWITCH] = previous
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--python", action="store_true", help="also time diagnose on the Python path (slow)")
+    parser.add_argument("--repeat", type=int, default=5)
+    args = parser.parse_args()
+
+    params = Params()
+    print(f"compiled core: {compiled.status(params)}")
+    start = time.perf_counter()
+    for variant in ALL_VARIANTS:  # once per machine: generation + compilation, or the cache
+        build.build_library((variant,))
+    print(f"all {len(ALL_VARIANTS)} variants built or found in the cache in {time.perf_counter() - start:.2f} s "
+          f"({build.cache_dir()})")
+
+    t, pe, pf = synth.knee_inputs(SAMPLES, RATE, params)
+    X0 = stability.equilibrium_hip_height(pe[0], pf[0], params)
+    print(f"\n1. one {t[-1] + 1 / RATE:g} s knee record at {RATE:g} Hz ({SAMPLES} samples, extensor steps)")
+    ref_time, ref_X = best_of(lambda: reference(t, pe, pf, params, X0), max(1, args.repeat // 2))
+    tight_time, tight_X = best_of(lambda: reference(t, pe, pf, params, X0, rtol=1e-10, atol=1e-9), 1)
+    simulate_knee(t, pe, pf, params, X0=X0)  # load the library
+    native_time, native = best_of(lambda: simulate_knee(t, pe, pf, params, X0=X0), args.repeat * 4)
+    python_time, python = best_of(lambda: python_path(lambda: simulate_knee(t, pe, pf, params, X0=X0)), 1)
+    rows = [("solve_ivp LSODA, default tolerances (reference)", ref_time, ref_X),
+            ("solve_ivp LSODA, mkctl's tolerances (rtol 1e-10)", tight_time, tight_X),
+            ("simulate_knee, Python path", python_time, python["X"]),
+            ("simulate_knee, compiled", native_time, native["X"])]
+    print(f"   {'':<50} {'time [ms]':>10} {'reference/this':>15} {'max |X - compiled X| [m]':>25}")
+    for label, seconds, X in rows:
+        print(f"   {label:<50} {1e3 * seconds:>10.2f} {ref_time / seconds:>15.1f} "
+              f"{np.max(np.abs(X - native['X'])):>25.2e}")
+    speedup = ref_time / native_time
+    ok_speed = speedup >= SPEED_TARGET
+    print(f"   compiled simulate_knee vs reference: {speedup:.0f}x (target >= {SPEED_TARGET:g}x) "
+          f"{'OK' if ok_speed else '<-- below target'}; vs the Python path: {python_time / native_time:.0f}x")
+
+    print("\n2. diagnose of a 3000-sample synthetic knee record (hidden viscous damping c = 45 N s/m)")
+    with tempfile.TemporaryDirectory() as folder:
+        path, _ = synth.write_synthetic(Path(folder) / "knee.csv", synth.synthesize("knee", {"c": 45.0}, seed=0))
+        measurement = read_measurement(path)
+        diagnose(measurement)  # warm-up: imports, caches
+        diagnose_time, report = best_of(lambda: diagnose(measurement), max(1, args.repeat // 2))
+        found = report.get("missing")
+        print(f"   diagnose, compiled: {diagnose_time:.3f} s = {diagnose_time / ref_time:.1f} reference simulations "
+              f"(target < {DIAGNOSE_TARGET:g}) {'OK' if diagnose_time < DIAGNOSE_TARGET * ref_time else '<-- over'}")
+        print(f"   found: {found}")
+        if args.python:
+            slow, _ = best_of(lambda: python_path(lambda: diagnose(measurement)), 1)
+            print(f"   diagnose, Python path: {slow:.2f} s ({slow / diagnose_time:.0f}x the compiled one)")
+    ok_diagnose = diagnose_time < DIAGNOSE_TARGET * ref_time
+    return 0 if ok_speed and ok_diagnose else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

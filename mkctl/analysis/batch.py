@@ -1,0 +1,487 @@
+"""Many runs at once: a small engine over Dask, and the diagnosis of many records with it.
+
+:func:`run_batch` runs one plain function over many items on a ``dask.distributed`` cluster: by default
+a :class:`distributed.LocalCluster` of ``jobs`` worker processes on this machine (one thread each: the
+model is plain Python and numpy, and processes sidestep the GIL), or an existing cluster when given the
+address of its scheduler (``tcp://HOST:PORT``). Both are the same code path: a ``distributed.Client``
+submits one task per item and collects the results *as they complete*, so that a caller can write each
+one down at once (``on_result``) and a worker that dies loses no finished result (Dask runs the lost
+tasks again on another worker). An item whose function raises is an :class:`Outcome` with an error
+message, not the end of the batch.
+
+:func:`diagnose_batch` is the diagnosis of many measurement files (``mkctl diagnose FILE...``): one
+JSON report per record, written as it completes, a summary table (CSV, rewritten after every record,
+and on screen) and a figure that compares the records' parameters (:class:`BatchResult`).
+
+A remote cluster needs mkctl importable on its workers (the functions are sent by reference) and, for
+:func:`diagnose_batch`, the files readable there under the same paths (a shared folder).
+
+Example
+-------
+>>> from mkctl.analysis.batch import run_batch
+>>> outcomes = run_batch(abs, [-1, 2, -3], jobs=2, progress=False)   # doctest: +SKIP
+>>> [o.value for o in outcomes]                                       # doctest: +SKIP
+[1, 2, 3]
+"""
+from __future__ import annotations
+
+import csv
+import glob
+import json
+import logging
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Iterable
+
+
+from ..errors import MkctlError
+from ..results import Result
+
+#: Seconds to wait for an existing scheduler before giving up (a typo should not hang the command).
+CONNECT_TIMEOUT_S = 5.0
+#: Name of the summary table and the comparison figure that :func:`diagnose_batch` writes.
+SUMMARY_CSV = "batch_summary.csv"
+SUMMARY_PNG = "batch_parameters.png"
+
+
+class BatchError(MkctlError, ValueError):
+    """A batch that cannot run as asked: no files, an unreachable scheduler, a bad number of jobs."""
+
+
+def default_jobs() -> int:
+    """Worker processes of the default local cluster: the cores this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@dataclass
+class Outcome:
+    """What became of one item: its value, or the one-line message of what went wrong."""
+
+    index: int  #: position of the item in the batch
+    item: Any
+    value: Any = None
+    error: str | None = None  #: None when the function returned
+    seconds: float = math.nan  #: time the function took on its worker [s]
+
+    @property
+    def ok(self) -> bool:
+        return self.error is None
+
+
+def error_message(error: BaseException) -> str:
+    """One line for an error raised on a worker: a user's mistake as is, anything else with its type."""
+    if isinstance(error, MkctlError):
+        return str(error)
+    if isinstance(error, OSError) and error.strerror:
+        return f"cannot use {error.filename}: {error.strerror}" if error.filename else error.strerror
+    text = str(error).strip().splitlines()
+    return f"{type(error).__name__}: {text[0] if text else ''}".rstrip(": ")
+
+
+def _call(function: Callable, item) -> tuple:
+    """Run on a worker: (value, error message or None, seconds). Never raises for the function's errors."""
+    start = time.perf_counter()
+    try:
+        value, error = function(item), None
+    except Exception as exc:  # noqa: BLE001 - one bad item must not stop the batch
+        value, error = None, error_message(exc)
+    return value, error, time.perf_counter() - start
+
+
+def _client(jobs: int | None, scheduler: str | None):
+    """A distributed.Client on a new LocalCluster of ``jobs`` processes, or on the scheduler at ``scheduler``."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler:
+        try:
+            with dask.config.set({"distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}):
+                client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except (OSError, TimeoutError, ValueError) as error:
+            detail = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
+            raise BatchError(f"cannot reach the Dask scheduler at {scheduler} within {CONNECT_TIMEOUT_S:g} s "
+                             f"({detail})") from None
+        try:  # tasks would wait for ever on a cluster without workers
+            client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+        except (OSError, TimeoutError):
+            client.close()
+            raise BatchError(f"the Dask scheduler at {scheduler} has no workers (start some: dask worker "
+                             f"{scheduler})") from None
+        return client, None
+    jobs = default_jobs() if jobs is None else jobs
+    if int(jobs) != jobs or jobs < 1:
+        raise BatchError(f"--jobs must be a whole number >= 1, got {jobs!r}")
+    cluster = LocalCluster(n_workers=int(jobs), threads_per_worker=1, processes=True, dashboard_address=":0",
+                           silence_logs=logging.ERROR)
+    return Client(cluster), cluster
+
+
+def run_batch(function: Callable, items: Iterable, jobs: int | None = None, scheduler: str | None = None,
+              progress: bool = True, on_result: Callable[[Outcome], None] | None = None,
+              description: str = "items") -> list[Outcome]:
+    """``function(item)`` for every item, in parallel on Dask; the outcomes in the items' order.
+
+    Parameters
+    ----------
+    function : a picklable callable of one argument (a module-level function: workers import it).
+    items : the arguments, each sent to a worker as is (keep them small: paths, parameter chunks).
+    jobs : worker processes of the local cluster (default: the cores, :func:`default_jobs`). Ignored with
+        ``scheduler``. ``jobs=0``: no Dask, one item after the other in this process (for debugging, and
+        for batches too small to pay for starting workers, about 2 s).
+    scheduler : address of a running Dask scheduler (``tcp://HOST:PORT``); default: a new LocalCluster
+        of processes, closed at the end.
+    progress : show a progress bar (tqdm, on stderr).
+    on_result : called in this process with each :class:`Outcome` as soon as it completes (in completion
+        order): write results down here, so that nothing finished is lost if the batch stops later.
+    description : what the items are, for the progress bar.
+
+    Returns a list of :class:`Outcome`, one per item, in the items' order. An item whose function raised
+    has ``error`` set (one line) and does not stop the others; so has an item whose worker died more often
+    than Dask allows (``distributed.scheduler.allowed-failures``). Raises :class:`BatchError` if the
+    scheduler cannot be reached, or has no worker, within :data:`CONNECT_TIMEOUT_S`.
+    """
+    items = list(items)
+    outcomes: list[Outcome | None] = [None] * len(items)
+    if not items:
+        return []
+    if jobs == 0 and not scheduler:
+        return _run_here(function, items, progress, on_result, description)
+    from distributed import as_completed
+    from tqdm import tqdm
+
+    client, cluster = _client(jobs, scheduler)
+    bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr, disable=not progress,
+               dynamic_ncols=True)
+    try:
+        futures = [client.submit(_call, function, item, pure=False) for item in items]
+        index = {future.key: i for i, future in enumerate(futures)}
+        for future in as_completed(futures):
+            i = index[future.key]
+            try:
+                value, error, seconds = future.result()
+            except Exception as exc:  # noqa: BLE001 - a worker that died too often, a cancelled task
+                value, error, seconds = None, f"the task failed on its worker: {error_message(exc)}", math.nan
+            outcome = Outcome(i, items[i], value, error, seconds)
+            outcomes[i] = outcome
+            future.release()
+            if on_result is not None:
+                on_result(outcome)
+            bar.update(1)
+    finally:
+        bar.close()
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return outcomes
+
+
+def _run_here(function, items, progress, on_result, description) -> list[Outcome]:
+    """``jobs=0``: the items one after the other in this process, with the same outcomes as on Dask."""
+    from tqdm import tqdm
+
+    outcomes = []
+    for i, item in enumerate(tqdm(items, desc=description, unit=description.rstrip("s") or "item",
+                                  file=sys.stderr, disable=not progress, dynamic_ncols=True)):
+        value, error, seconds = _call(function, item)
+        outcomes.append(Outcome(i, item, value, error, seconds))
+        if on_result is not None:
+            on_result(outcomes[-1])
+    return outcomes
+
+
+# --- The diagnosis of many records --------------------------------------------------------------------
+
+def expand_files(patterns: Iterable[str], suffix: str = ".csv") -> list[Path]:
+    """The measurement files named by ``patterns``: files, folders (their ``*.csv``, sorted) and globs.
+
+    Raises :class:`BatchError` naming a pattern that matches nothing, a folder without files, or a path
+    that does not exist. A file named twice is taken once.
+    """
+    files: list[Path] = []
+    for pattern in patterns:
+        path = Path(pattern)
+        if path.is_dir():
+            found = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() == suffix)
+            if not found:
+                raise BatchError(f"{pattern}: no {suffix} file in this folder")
+        elif path.is_file():
+            found = [path]
+        elif glob.has_magic(pattern):
+            found = sorted(Path(p) for p in glob.glob(pattern, recursive=True) if Path(p).is_file())
+            if not found:
+                raise BatchError(f"{pattern}: no file matches this pattern")
+        else:
+            raise BatchError(f"{pattern}: no such file or folder")
+        files.extend(found)
+    unique = list(dict.fromkeys(p.resolve() for p in files))
+    if not unique:
+        raise BatchError("no measurement file given")
+    return unique
+
+
+def diagnose_file(path, base=None) -> dict:
+    """Read one measurement file and diagnose it (runs on a worker): the public report plus its time.
+
+    ``base``: the parameters the file's metadata overrides (a muscle file's; default the paper's)."""
+    from .diagnose import diagnose, public
+    from ..io.measurements import read_measurement
+    from ..physics.params import DEFAULT
+
+    start = time.perf_counter()
+    report = public(diagnose(read_measurement(path, base=DEFAULT if base is None else base)))
+    report["seconds"] = time.perf_counter() - start
+    return report
+
+
+@dataclass(repr=False)
+class BatchResult(Result):
+    """The diagnosis of many records: one row per record, the reports, and where they were written.
+
+    Attributes: ``files`` (the records, in order), ``reports`` ({file: the report of spec section 6, as
+    written to JSON}; records that failed are absent), ``errors`` ({file: one-line message}), ``seconds``
+    (wall time of the whole batch [s]), ``workers`` (where it ran), ``out`` (the folder written, or None).
+    """
+
+    files: list[str]
+    reports: dict
+    errors: dict
+    seconds: float
+    workers: str
+    out: Path | None = None
+    written: dict = field(default_factory=dict)  #: {file: JSON path}
+
+    @property
+    def parameters(self) -> list[str]:
+        """Names of the parameters fitted in any record, in the order the diagnosis knows them."""
+        from .diagnose import CANDIDATES
+
+        order = [c.parameter for c in CANDIDATES.values()]
+        found = {name for report in self.reports.values() for name in report.get("params", {})}
+        return [name for name in order if name in found] + sorted(found - set(order))
+
+    def table(self) -> list[dict]:
+        """One row per record (for :meth:`to_dataframe`): file, status, missing effects, each parameter and its
+        standard error, RMSE before and after (in the file's output unit), seconds, error message."""
+        return summary_rows(self.files, self.reports, self.errors, self.parameters)
+
+    def to_dataframe(self):
+        import pandas as pd
+
+        return pd.DataFrame(self.table(), columns=summary_columns(self.parameters))
+
+    to_dataframe.__doc__ = table.__doc__
+
+    def text_table(self) -> str:
+        """The summary as a readable text table (as ``mkctl diagnose FILE...`` prints it)."""
+        return format_table(self.table(), self.parameters)
+
+    def plot(self, path=None):
+        """Each fitted parameter with its standard error, record by record; saved as PNG if ``path`` is given.
+
+        Returns the matplotlib Figure."""
+        return plot_parameters(self.table(), self.parameters, path)
+
+    def summary_lines(self) -> list[str]:
+        ok = len(self.reports)
+        lines = [f"{len(self.files)} records, {ok} diagnosed, {len(self.errors)} failed, "
+                 f"{self.seconds:.1f} s on {self.workers}"]
+        counts: dict = {}
+        for report in self.reports.values():
+            for effect in report.get("missing") or ["nothing"]:
+                counts[effect] = counts.get(effect, 0) + 1
+        if counts:
+            lines.append("missing: " + ", ".join(f"{k} in {v}" for k, v in counts.items()))
+        return lines + self.text_table().splitlines()
+
+
+def summary_columns(parameters: list[str]) -> list[str]:
+    """Columns of the batch summary table."""
+    columns = ["file", "status", "experiment", "samples", "missing", "verdict"]
+    for name in parameters:
+        columns += [name, f"{name}_se"]
+    return columns + ["rmse_before", "rmse_after", "unit", "seconds", "error"]
+
+
+def summary_rows(files, reports: dict, errors: dict, parameters: list[str]) -> list[dict]:
+    """One dict per file, in the files' order; a file with neither report nor error is 'pending'."""
+    rows = []
+    for file in files:
+        report = reports.get(file)
+        row = {column: None for column in summary_columns(parameters)}
+        row["file"] = file
+        if report is not None:
+            row.update(status="ok", experiment=report["experiment"], samples=report["samples"],
+                       missing=";".join(report["missing"]), verdict=report.get("verdict"), rmse_before=report["rmse_before"],
+                       rmse_after=report["rmse_after"], unit=report["output_unit"], seconds=report.get("seconds"))
+            for name in parameters:
+                row[name] = report["params"].get(name)
+                row[f"{name}_se"] = report["uncertainty"].get(name)
+        elif file in errors:
+            row.update(status="error", error=errors[file])
+        else:
+            row["status"] = "pending"
+        rows.append(row)
+    return rows
+
+
+def write_summary_csv(path, rows: list[dict], parameters: list[str]) -> Path:
+    """Write the summary table (atomically: a finished batch never leaves half a file)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    temporary = path.with_name(path.name + ".tmp")
+    with temporary.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=summary_columns(parameters))
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+    os.replace(temporary, path)
+    return path
+
+
+def _number(value, digits: int = 4) -> str:
+    return "-" if value is None or (isinstance(value, float) and not math.isfinite(value)) else f"{value:.{digits}g}"
+
+
+def format_table(rows: list[dict], parameters: list[str]) -> str:
+    """The summary rows as a text table: file, missing effects, value +- standard error, RMSE, time."""
+    from ..physics.params import UNITS
+
+    header = ["file", "missing"] + [f"{name} [{UNITS.get(name, '')}]" for name in parameters] + \
+        ["RMSE before", "RMSE after", "unit", "time [s]"]
+    lines = []
+    for row in rows:
+        name = Path(row["file"]).name
+        if row["status"] != "ok":
+            lines.append([name, f"{row['status'].upper()}: {row['error'] or ''}"])
+            continue
+        cells = [name, row["missing"].replace(";", ", ") or "nothing"]
+        for parameter in parameters:
+            value, error = row[parameter], row[f"{parameter}_se"]
+            cells.append("-" if value is None else _number(value) + (f" +- {_number(error, 2)}" if error is not None
+                                                                     else ""))
+        cells += [_number(row["rmse_before"]), _number(row["rmse_after"]), row["unit"] or "",
+                  _number(row["seconds"], 3)]
+        lines.append(cells)
+    widths = [len(h) for h in header]
+    for cells in lines:
+        if len(cells) == len(header):
+            widths = [max(w, len(c)) for w, c in zip(widths, cells)]
+    out = ["  ".join(h.ljust(w) for h, w in zip(header, widths)).rstrip()]
+    for cells in lines:
+        if len(cells) == len(header):
+            out.append("  ".join(c.ljust(w) for c, w in zip(cells, widths)).rstrip())
+        else:  # an error row: the message runs across the table
+            out.append(f"{cells[0].ljust(widths[0])}  {cells[1]}")
+    return "\n".join(out)
+
+
+def plot_parameters(rows: list[dict], parameters: list[str], path=None):
+    """One panel per parameter: its value with the standard error as error bar, one point per record.
+
+    Records that did not fit the parameter (or failed) are left out of that panel. Returns the Figure,
+    saved as PNG at ``path`` if given (:func:`mkctl.io.plotting.save_png`, which closes it)."""
+    from ..io.plotting import new_figure, save_png
+    from ..physics.params import UNITS
+
+    names = [Path(row["file"]).name for row in rows]
+    panels = parameters or [None]
+    fig, axes = new_figure(len(panels), 1, figsize=(max(5.0, 0.45 * len(rows) + 2.5), 2.6 * len(panels)),
+                           squeeze=False)
+    for ax, name in zip(axes[:, 0], panels):
+        if name is None:
+            ax.text(0.5, 0.5, "no parameter was fitted in any record", ha="center", va="center",
+                    transform=ax.transAxes)
+        else:
+            x = [i for i, row in enumerate(rows) if row.get(name) is not None]
+            y = [rows[i][name] for i in x]
+            error = [rows[i][f"{name}_se"] or 0.0 for i in x]
+            ax.errorbar(x, y, yerr=error, fmt="o", capsize=3, color="tab:blue")
+            ax.set_ylabel(f"{name} [{UNITS.get(name, '')}]")
+            ax.ticklabel_format(axis="y", useOffset=False)
+        failed = [i for i, row in enumerate(rows) if row["status"] == "error"]
+        for i in failed:
+            ax.axvspan(i - 0.4, i + 0.4, color="tab:red", alpha=0.12, lw=0)
+        ax.set_xlim(-0.6, len(rows) - 0.4)
+        ax.set_xticks(range(len(rows)), names if ax is axes[-1, 0] else [""] * len(rows), rotation=60,
+                      ha="right", fontsize=7)
+        ax.grid(alpha=0.3)
+    axes[0, 0].set_title("fitted parameters per record\n(error bars: one standard error; red: the record failed)",
+                         fontsize=9)
+    if path is not None:
+        save_png(fig, path)
+    return fig
+
+
+def _json_names(files: list[str]) -> dict:
+    """A JSON file name per record: its stem, made unique when two folders hold the same name."""
+    names, seen = {}, {}
+    for file in files:
+        stem = Path(file).stem
+        count = seen.get(stem, 0)
+        seen[stem] = count + 1
+        names[file] = f"{stem}.diagnosis.json" if count == 0 else f"{stem}.{count}.diagnosis.json"
+    return names
+
+
+def _diagnose_item(item) -> dict:
+    return diagnose_file(*item)
+
+
+def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler: str | None = None,
+                   progress: bool = True, on_record: Callable[[str, dict | None, str | None], None] | None = None,
+                   base=None) -> BatchResult:
+    """Diagnose many measurement files in parallel (:func:`run_batch` over :func:`diagnose_file`).
+
+    Parameters
+    ----------
+    files : paths, folders or glob patterns (:func:`expand_files`).
+    out : folder for ``<stem>.diagnosis.json`` per record, :data:`SUMMARY_CSV` and :data:`SUMMARY_PNG`; each
+        JSON is written as its record completes and the CSV rewritten after every record. None: write nothing.
+    jobs, scheduler, progress : as in :func:`run_batch`.
+    on_record : called with (file, report or None, error or None) as each record completes.
+    base : the :class:`mkctl.physics.params.Params` each file's metadata overrides (a muscle file's,
+        ``--params``); default the paper's.
+
+    Returns a :class:`BatchResult`. A file that cannot be read or diagnosed is a row with its error message.
+    """
+    paths = [str(p) for p in expand_files([str(f) for f in files])]
+    out = Path(out) if out is not None else None
+    reports: dict = {}
+    errors: dict = {}
+    written: dict = {}
+    json_names = _json_names(paths)
+
+    def record(outcome: Outcome):
+        file = paths[outcome.index]
+        if outcome.ok:
+            reports[file] = outcome.value
+        else:
+            errors[file] = outcome.error
+        if out is not None:
+            if outcome.ok:
+                path = out / json_names[file]
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text(json.dumps(outcome.value, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+                written[file] = path
+            parameters = BatchResult(paths, reports, errors, 0.0, "").parameters
+            write_summary_csv(out / SUMMARY_CSV, summary_rows(paths, reports, errors, parameters), parameters)
+        if on_record is not None:
+            on_record(file, outcome.value if outcome.ok else None, outcome.error)
+
+    start = time.perf_counter()
+    run_batch(_diagnose_item, [(path, base) for path in paths], jobs=jobs, scheduler=scheduler, progress=progress, on_result=record,
+              description="records")
+    workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \
+        f"{default_jobs() if jobs is None else jobs} local processes"
+    result = BatchResult(paths, reports, errors, time.perf_counter() - start, workers, out, written)
+    if out is not None:
+        result.plot(out / SUMMARY_PNG)
+    return result
+

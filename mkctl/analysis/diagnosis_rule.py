@@ -1,0 +1,249 @@
+"""The diagnosis's acceptance rule, as small pure functions on scores (no simulation in here).
+
+:func:`mkctl.analysis.diagnose.diagnose` fits candidates and hands their errors to these functions; what
+is accepted, rejected, dropped or reported as undecidable is decided here alone, so that it can be tested
+on hand-built residuals.
+
+A model's :class:`Score` holds its training residual sum of squares, the number n of training samples
+compared, the number k of parameters it fitted, and its RMSE on the held-out part. Its Bayesian
+information criterion is
+
+    ``BIC = n ln(RSS / n) + k ln n``
+
+(Schwarz 1978; lower is better; a difference of 10 is "very strong" evidence on the scale of Kass &
+Raftery 1995, J. Am. Stat. Assoc. 90, 773).
+
+A candidate effect is **accepted** (:func:`decide`) only when all of these hold:
+
+1. it was fitted and is physical: its parameter is not switched off (0) and not on a bound of its search
+   range (a value pinned to a bound, like c = 1e5 N s/m freezing the leg, is a symptom, not an
+   explanation);
+2. it lowers BIC by more than :attr:`Rule.bic_threshold` (``dBIC < -10``);
+3. it lowers the held-out RMSE by at least :attr:`Rule.holdout_gain` (2 %);
+4. its held-out RMSE beats every other physical candidate's by :attr:`Rule.holdout_margin` (2 %).
+
+Among the candidates that pass 1-3, the best BIC is the one judged by 4. When 4 fails, the record cannot
+tell the best from its rivals: the verdict is ``"undecided"`` (the loop then tries them together, see
+:func:`pair_needed`, and otherwise reports the tie with the experiment that would separate them). After
+an acceptance, an earlier effect is dropped (:func:`to_drop`) when removing it costs less than the
+threshold in BIC.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Rule:
+    """The thresholds of the rule (see the module docstring)."""
+
+    bic_threshold: float = 10.0  #: an effect must lower BIC by more than this
+    holdout_gain: float = 0.02  #: ... and the held-out RMSE by at least this fraction
+    holdout_margin: float = 0.02  #: ... and beat every other physical candidate's held-out RMSE by this fraction
+    holdout_fraction: float = 0.3  #: share of the record (at its end) held out from fitting
+
+    def as_dict(self) -> dict:
+        return {"bic_threshold": self.bic_threshold, "holdout_gain": self.holdout_gain,
+                "holdout_margin": self.holdout_margin, "holdout_fraction": self.holdout_fraction}
+
+
+#: The rule the diagnosis uses.
+RULE = Rule()
+
+
+def bic(rss: float, n: int, k: int) -> float:
+    """Bayesian information criterion ``n ln(RSS / n) + k ln n`` of a least-squares fit.
+
+    Parameters: rss, the residual sum of squares (any unit, squared); n, the samples compared; k, the
+    parameters fitted. A zero RSS is taken as 1e-300 (a finite, very low value).
+    """
+    return n * math.log(max(float(rss), 1e-300) / n) + k * math.log(n)
+
+
+@dataclass(frozen=True)
+class Score:
+    """The errors of one model on the record: training RSS over n samples with k parameters, held-out RMSE."""
+
+    rss_train: float
+    n_train: int
+    k: int
+    rmse_holdout: float
+
+    @classmethod
+    def from_residuals(cls, train, holdout, k: int) -> "Score":
+        """Score from the residuals (measured - simulated) on the training and held-out parts."""
+        train, holdout = np.asarray(train, dtype=float), np.asarray(holdout, dtype=float)
+        return cls(float(train @ train), int(train.size), int(k), float(np.sqrt(np.mean(holdout * holdout))))
+
+    @property
+    def bic(self) -> float:
+        return bic(self.rss_train, self.n_train, self.k)
+
+    @property
+    def rmse_train(self) -> float:
+        return math.sqrt(self.rss_train / self.n_train)
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """One candidate's outcome in a round: its score with the effect added (None: could not be simulated)."""
+
+    effect: str
+    score: Score | None
+    switched_off: bool = False  #: the fit preferred the effect off (value 0)
+    at_bound: bool = False  #: the fitted value sits on a bound of its search range
+
+    @property
+    def physical(self) -> bool:
+        return self.score is not None and not self.switched_off and not self.at_bound
+
+
+@dataclass(frozen=True)
+class Judgement:
+    """How one candidate fares against the current model (criteria 1-3 of the rule, each alone)."""
+
+    effect: str
+    delta_bic: float | None
+    passes_bic: bool
+    passes_holdout: bool
+    physical: bool
+
+    @property
+    def eligible(self) -> bool:
+        return self.physical and self.passes_bic and self.passes_holdout
+
+
+def judge(current: Score, candidate: Candidate, rule: Rule = RULE) -> Judgement:
+    """Criteria 1-3 for one candidate against the current model."""
+    score = candidate.score
+    if score is None:
+        return Judgement(candidate.effect, None, False, False, False)
+    delta = score.bic - current.bic
+    return Judgement(candidate.effect, delta, delta < -rule.bic_threshold,
+                     score.rmse_holdout < (1.0 - rule.holdout_gain) * current.rmse_holdout, candidate.physical)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """The rule's verdict on one round: ``"add"`` one effect, ``"undecided"`` between the best and its
+    rivals, or ``"stop"`` (nothing passes); with the reason in words and every candidate's judgement."""
+
+    verdict: str
+    effect: str | None = None
+    rivals: tuple[str, ...] = ()
+    reason: str = ""
+    judgements: dict = field(default_factory=dict)
+
+
+def decide(current: Score, candidates: list[Candidate], rule: Rule = RULE) -> Decision:
+    """Apply the rule (module docstring) to one round of candidates fitted against ``current``."""
+    judgements = {c.effect: judge(current, c, rule) for c in candidates}
+    by_effect = {c.effect: c for c in candidates}
+    eligible = [c for c in candidates if judgements[c.effect].eligible]
+    if not eligible:
+        return Decision("stop", reason=_stop_reason(candidates, judgements, rule), judgements=judgements)
+    best = min(eligible, key=lambda c: c.score.bic)
+    limit = (1.0 - rule.holdout_margin)
+    rivals = tuple(c.effect for c in candidates if c is not best and c.physical
+                   and not best.score.rmse_holdout < limit * c.score.rmse_holdout)
+    if rivals:
+        names = ", ".join(rivals)
+        return Decision("undecided", best.effect, rivals,
+                        f"{best.effect} does not beat {names} on the held-out part by "
+                        f"{rule.holdout_margin:.0%} (held-out RMSE {best.score.rmse_holdout:.4g} vs "
+                        + ", ".join(f"{by_effect[r].score.rmse_holdout:.4g}" for r in rivals) + ")",
+                        judgements)
+    return Decision("add", best.effect, reason=f"{best.effect} passes every criterion", judgements=judgements)
+
+
+def _stop_reason(candidates: list[Candidate], judgements: dict, rule: Rule) -> str:
+    fitted = [c for c in candidates if c.score is not None]
+    if not fitted:
+        return "no candidate could be simulated on this record"
+    best = min(fitted, key=lambda c: c.score.bic)
+    j = judgements[best.effect]
+    parts = []
+    if best.switched_off:
+        parts.append(f"the best candidate ({best.effect}) fits best switched off")
+    elif best.at_bound:
+        parts.append(f"the best candidate ({best.effect}) is pinned on a bound of its search range (not a "
+                     f"physical explanation: something else is missing)")
+    if not j.passes_bic:
+        parts.append(f"{'it' if parts else 'the best candidate (' + best.effect + ')'} changes BIC by only "
+                     f"{j.delta_bic:+.1f} (needs < {-rule.bic_threshold:g})")
+    if not j.passes_holdout:
+        parts.append(f"{'it' if parts else 'the best candidate (' + best.effect + ')'} does not lower the "
+                     f"held-out RMSE by {rule.holdout_gain:.0%}")
+    if not parts:  # the best BIC is fine but not physical/eligible elsewhere
+        parts.append("no candidate passes every criterion")
+    return "; ".join(parts)
+
+
+def pair_needed(singles: list[Score], both: Score, rule: Rule = RULE) -> bool:
+    """Two tied candidates are both added when, fitted together, they pass BIC and the held-out gain
+    against each of them alone (each is needed beside the other)."""
+    return all(both.bic - one.bic < -rule.bic_threshold
+               and both.rmse_holdout < (1.0 - rule.holdout_gain) * one.rmse_holdout for one in singles)
+
+
+def to_drop(current: Score, without: dict, rule: Rule = RULE) -> str | None:
+    """The earlier effect to drop after an acceptance, or None.
+
+    ``without`` maps each earlier effect to the score of the model refitted without it. An effect whose
+    removal raises BIC by less than the threshold no longer earns its place; of several, the cheapest
+    to remove goes first (call again after refitting).
+    """
+    costs = {effect: score.bic - current.bic for effect, score in without.items() if score is not None}
+    cheap = {e: cost for e, cost in costs.items() if cost < rule.bic_threshold}
+    return min(cheap, key=cheap.get) if cheap else None
+
+
+def at_bound(value: float, bounds: tuple[float, float], tolerance: float = 1e-3) -> bool:
+    """Whether a fitted value (> 0) lies on a bound of its (log-space) search range, within a relative
+    ``tolerance`` of it."""
+    low, high = bounds
+    return bool(value > 0 and (value <= low * (1 + tolerance) or value >= high * (1 - tolerance)))
+
+
+def best_value(cost: Callable[[float], float], bounds: tuple[float, float], cost_off: float,
+               points_per_decade: float = 1.0, xatol: float = 1e-3, early_stop: bool = True) -> tuple[float, float]:
+    """Minimise a one-parameter cost between bounds in log space, with "switched off" as an option.
+
+    A grid of ``points_per_decade`` points per decade (bounds included), then bounded Brent between the
+    neighbours of the best grid point. ``cost_off`` is the cost with the effect switched off (value 0):
+    when no value does better, the result is 0. Infinite costs (failed simulations) are allowed.
+    ``early_stop``: the grid is walked upwards and left once two points in a row rise above the best so
+    far (the cost of one effect's parameter is taken as unimodal in log space); the large values it
+    skips are the stiff, slow simulations (a damper of 1e4 N s/m). Returns (value, its cost).
+    """
+    from scipy.optimize import minimize_scalar
+
+    lo_log, hi_log = math.log10(bounds[0]), math.log10(bounds[1])
+    count = max(2, int(round((hi_log - lo_log) * points_per_decade)) + 1)
+    logs = np.linspace(lo_log, hi_log, count)
+    costs = []
+    for x in logs:  # upwards; stop once two points in a row rise above the best (the cost is unimodal)
+        costs.append(cost(10.0 ** x))
+        if early_stop and len(costs) >= 3:
+            best = min(costs[:-2])
+            if math.isfinite(best) and costs[-2] > best and costs[-1] > costs[-2]:
+                break
+    logs = logs[:len(costs)]
+    costs = np.array(costs)
+    finite = np.isfinite(costs)
+    if not finite.any():
+        return (0.0, cost_off) if math.isfinite(cost_off) else (math.nan, math.inf)
+    penalty = 10.0 * float(np.max(np.abs(costs[finite]))) + 1.0  # Brent needs finite values
+    i = int(np.argmin(np.where(finite, costs, np.inf)))
+    lo, hi = logs[max(i - 1, 0)], logs[min(i + 1, logs.size - 1)]
+    result = minimize_scalar(lambda x: min(cost(10.0 ** x), penalty), bounds=(lo, hi), method="bounded",
+                             options={"xatol": xatol})
+    best_cost, best_log = (float(result.fun), float(result.x)) if result.fun <= costs[i] else (float(costs[i]),
+                                                                                            float(logs[i]))
+    if not best_cost < cost_off:  # the effect switched off does at least as well
+        return 0.0, cost_off
+    return 10.0 ** best_log, best_cost

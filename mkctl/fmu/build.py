@@ -1,0 +1,328 @@
+"""Build the FMI 2.0 co-simulation FMUs of model-spec section 7 and check them.
+
+    python -m mkctl.fmu.build [--out DIR] [--no-run] [--params MUSCLE.json]
+    python build_fmu.py ...                    (the same, from a checkout)
+
+writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
+
+1. pythonfmu packs each slave script of :mod:`mkctl.fmu.scripts` with the ``mkctl`` modules the scripts import
+   (and nothing else), among them the slave classes (``mkctl/fmu/models.py``) and
+   ``mkctl/fmu/slave.py``, the base class both share, and with
+   ``mkctl_start.json``, the start values of the build's parameters (``--params``, default Table I and II);
+2. the modelDescription.xml is completed where pythonfmu 0.7 leaves gaps: ``<UnitDefinitions>`` and a
+   ``unit`` on every Real variable, and ``<InitialUnknowns>`` for the calculated outputs;
+3. pythonfmu's linux64 binary gets the exit fix (:func:`fix_exit_handler`): only a binary whose SHA-256 is in
+   :data:`VERIFIED_BINARIES` is accepted;
+4. ``fmpy.validation.validate_fmu`` must report no problem, and (unless ``--no-run``) each FMU runs its default
+   experiment under fmpy in a fresh process (the FMU must use its packed mkctl, not this process's) and must
+   reach the stop time; then all of them run one after the other in one process: they share the module
+   names ``mkctl``, ``mkctl.fmu.slave`` and ``pythonfmu``, which resolve to the FMU loaded first.
+
+The exit fix. pythonfmu 0.7's binary keeps its interpreter state in a namespace-scope
+``std::shared_ptr<PyState> pyState`` and also clears it from an ``__attribute__((destructor))`` function,
+``finalizePythonInterpreter``. At process exit the static destructor runs first, then the destructor function
+assigns nullptr to the destroyed pointer: it decrements a reference count inside a block already freed, which
+corrupts glibc's heap lists and makes the host abort at exit ("corrupted double-linked list", "free():
+corrupted unsorted chunks") whenever that chunk sits in a bin. The fix writes ``ret`` after the ``endbr64`` of
+``finalizePythonInterpreter``, so that it returns at once. Nothing else calls it, and what it would have done
+(drop the last reference to the interpreter state, once) the static destructor has done already. See docs/fmu.md.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import zipfile
+from pathlib import Path
+from xml.dom.minidom import parseString
+from xml.etree import ElementTree as ET
+
+from ..errors import MkctlError
+from ..physics.params import DEFAULT, Params
+
+SCRIPTS = Path(__file__).resolve().parent / "scripts"
+#: The slave script of each FMU, by model name (a one-line import of the slave class, see mkctl/fmu/scripts).
+FMU_SCRIPTS = {"McKibbenKnee": SCRIPTS / "mckibben_knee.py",
+               "McKibbenActuator": SCRIPTS / "mckibben_actuator.py"}
+
+
+#: FMI unit names for the unit strings of mkctl, and their SI base-unit exponents.
+_UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
+_BASE_UNITS = {
+    "m": {"m": 1}, "s": {"s": 1}, "kg": {"kg": 1}, "rad": {"rad": 1}, "1": {},
+    "N": {"kg": 1, "m": 1, "s": -2}, "Pa": {"kg": 1, "m": -1, "s": -2}, "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1}, "1/s": {"s": -1}, "1/s2": {"s": -2},
+}
+
+#: SHA-256 of the pythonfmu linux64 binaries the exit fix was verified on (disassembled, run under valgrind, and
+#: run 20 times from a long folder by a C host that returns from main), and what they are.
+VERIFIED_BINARIES = {
+    "4be156a552c16f30eb4395805c59855d8d4086056d0f165442565f6c5fbac0c9":
+        "pythonfmu 0.7.0, resources/binaries/linux64/libpythonfmu-export.so",
+}
+#: The function the fix disables, and its first instructions in the verified binaries:
+#: endbr64; push %rbp; pxor %xmm0,%xmm0; push %rbx.
+EXIT_HANDLER = "finalizePythonInterpreter"
+_EXPECTED_PROLOGUE = bytes.fromhex("f30f1efa" "55" "660fefc0" "53")
+_ENDBR64 = 4  # the fix keeps endbr64 (an indirect-branch target under CET) and writes ret after it
+_RET = b"\xc3"
+
+
+class BuildError(MkctlError):
+    """The FMUs could not be built or failed their checks."""
+
+
+# --- the exit fix -----------------------------------------------------------------------------------------
+
+def elf_symbol_offset(data: bytes, name: str) -> tuple[int, int]:
+    """(file offset [bytes], size [bytes]) of the function symbol name in a little-endian ELF64 shared library,
+    read from its symbol tables (``.dynsym``, ``.symtab``). Raises BuildError if it is not there."""
+    if data[:4] != b"\x7fELF" or data[4] != 2 or data[5] != 1:
+        raise BuildError("not a little-endian 64-bit ELF file")
+    shoff, = struct.unpack_from("<Q", data, 0x28)
+    shentsize, shnum = struct.unpack_from("<HH", data, 0x3A)
+    sections = [struct.unpack_from("<IIQQQQIIQQ", data, shoff + i * shentsize) for i in range(shnum)]
+    wanted = name.encode()
+    for _, sh_type, _, _, offset, size, link, _, _, entsize in sections:
+        if sh_type not in (2, 11) or entsize == 0:  # SHT_SYMTAB, SHT_DYNSYM
+            continue
+        strtab_offset = sections[link][4]
+        for start in range(offset, offset + size, entsize):
+            st_name, st_info, _, st_shndx, st_value, st_size = struct.unpack_from("<IBBHQQ", data, start)
+            if st_info & 0xF != 2 or st_shndx == 0 or st_shndx >= len(sections):  # STT_FUNC, defined here
+                continue
+            end = data.index(b"\0", strtab_offset + st_name)
+            if data[strtab_offset + st_name:end] == wanted:
+                section = sections[st_shndx]  # file offset = address - section address + section offset
+                return st_value - section[3] + section[4], st_size
+    raise BuildError(f"no function symbol {name} in the ELF symbol tables")
+
+
+def fix_exit_handler(data: bytes, what: str = "pythonfmu's binary") -> bytes:
+    """pythonfmu's linux64 binary with ``finalizePythonInterpreter`` returning at once (see the module docstring).
+
+    Refuses (BuildError) a binary whose SHA-256 is not in :data:`VERIFIED_BINARIES`, or whose function does not
+    start with the instructions the fix was verified on."""
+    digest = hashlib.sha256(data).hexdigest()
+    if digest not in VERIFIED_BINARIES:
+        raise BuildError(
+            f"{what} (SHA-256 {digest}) is not a pythonfmu binary the exit fix was verified on "
+            f"({', '.join(VERIFIED_BINARIES.values())}); an unfixed binary aborts its host at exit. Install "
+            f"pythonfmu 0.7.0 (pip install 'pythonfmu==0.7.0'), or verify this binary and add its hash to "
+            f"mkctl.fmu.build.VERIFIED_BINARIES (see docs/fmu.md)")
+    offset, size = elf_symbol_offset(data, EXIT_HANDLER)
+    if size < len(_EXPECTED_PROLOGUE) or data[offset:offset + len(_EXPECTED_PROLOGUE)] != _EXPECTED_PROLOGUE:
+        raise BuildError(f"{what}: {EXIT_HANDLER} does not start with the instructions the exit fix expects")
+    fixed = bytearray(data)
+    fixed[offset + _ENDBR64:offset + _ENDBR64 + 1] = _RET
+    return bytes(fixed)
+
+
+# --- staging: the mkctl modules and start values packed into the FMUs ------------------------------------------
+
+_LIST_MODULES = """
+import importlib, json, sys
+for name in sys.argv[1:]:
+    importlib.import_module(name)
+print(json.dumps({name: module.__file__ for name, module in sys.modules.items()
+                  if name == "mkctl" or name.startswith("mkctl.")}))
+"""
+
+
+def _script_module(name: str) -> str:
+    return f"mkctl.fmu.scripts.{FMU_SCRIPTS[name].stem}"
+
+
+def _stage_mkctl(dest: Path) -> Path:
+    """Copy the mkctl modules that the slave scripts import into dest/mkctl (the FMUs' own copy). The modules are
+    listed by importing the scripts in a fresh interpreter, so that what this process imported does not count."""
+    package_dir = Path(__file__).resolve().parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(package_dir.parent),
+                                                                      os.environ.get("PYTHONPATH")]))}
+    done = subprocess.run([sys.executable, "-c", _LIST_MODULES, *map(_script_module, FMU_SCRIPTS)],
+                          capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
+    if done.returncode != 0:
+        raise BuildError(f"the slave scripts do not import: {done.stderr.strip()[-2000:]}")
+    target = dest / "mkctl"
+    target.mkdir(parents=True)
+    for module, source in sorted(json.loads(done.stdout.splitlines()[-1]).items()):
+        if module.startswith("mkctl.fmu.scripts"):
+            continue  # each script becomes its FMU's top-level module instead
+        source = Path(source).resolve()
+        if package_dir not in source.parents:
+            raise BuildError(f"module {module} was imported from {source}, not from {package_dir}")
+        relative = source.relative_to(package_dir)
+        (target / relative).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(source, target / relative)
+    return target
+
+
+def _stage_starts(dest: Path, slave_class, params: Params) -> Path:
+    """Write the start values of params for one slave class (the file the slave reads at instantiation)."""
+    from .slave import START_FILE
+    try:
+        values = slave_class.start_values(params)
+    except MkctlError as error:
+        raise BuildError(f"no start values for {slave_class.__name__} with these parameters: {error}") from None
+    dest.mkdir(parents=True)
+    path = dest / START_FILE
+    path.write_text(json.dumps(values, indent=1))
+    return path
+
+
+# --- completing pythonfmu's FMU ------------------------------------------------------------------------------
+
+def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
+    """Add units (UnitDefinitions + unit attributes) and InitialUnknowns to pythonfmu's modelDescription."""
+    root = ET.fromstring(xml)
+    for node in root.iter():  # drop pythonfmu's indentation, re-indented below
+        if node.text is not None and not node.text.strip():
+            node.text = None
+        if node.tail is not None and not node.tail.strip():
+            node.tail = None
+    fmi_units = {name: _UNIT_NAMES.get(unit, unit) for name, unit in units.items()}
+    used = sorted(set(fmi_units.values()))
+    unknown = [u for u in used if u not in _BASE_UNITS]
+    if unknown:
+        raise BuildError(f"no base-unit definition for unit(s) {unknown}")
+    definitions = ET.Element("UnitDefinitions")
+    for unit in used:
+        node = ET.SubElement(definitions, "Unit", name=unit)
+        if _BASE_UNITS[unit]:
+            ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in _BASE_UNITS[unit].items()})
+    # the schema's order: CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, ...
+    position = list(root).index(root.find("CoSimulation")) + 1
+    root.insert(position, definitions)
+
+    outputs = []
+    for index, variable in enumerate(root.find("ModelVariables"), start=1):
+        name = variable.get("name")
+        if not variable.get("description"):
+            raise BuildError(f"variable {name} has no description")
+        real = variable.find("Real")
+        if real is not None:
+            if name not in fmi_units:
+                raise BuildError(f"Real variable {name} has no unit")
+            real.set("unit", fmi_units[name])
+        if variable.get("causality") == "output" and variable.get("initial") in (None, "calculated"):
+            outputs.append(index)
+    structure = root.find("ModelStructure")
+    if outputs and structure.find("InitialUnknowns") is None:
+        initial = ET.SubElement(structure, "InitialUnknowns")
+        for index in outputs:
+            ET.SubElement(initial, "Unknown", index=str(index))
+    return parseString(ET.tostring(root, "UTF-8")).toprettyxml(encoding="UTF-8")
+
+
+def _complete_fmu(fmu: Path, target: Path, units: dict[str, str], fix_exit: bool) -> None:
+    """Copy pythonfmu's FMU to target with the model description completed and the linux64 binary fixed."""
+    with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as out:
+        for item in source.infolist():
+            data = source.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                data = _complete_model_description(data, units)
+            elif fix_exit and item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
+                data = fix_exit_handler(data, f"{target.name}'s {item.filename}")
+            out.writestr(item, data)
+
+
+def _validate(fmu: Path) -> None:
+    from fmpy.validation import validate_fmu
+    problems = validate_fmu(str(fmu))
+    if problems:
+        raise BuildError(f"{fmu.name} failed fmpy's validation:\n  " + "\n  ".join(problems))
+
+
+_RUN_CHECK = """
+import sys
+from fmpy import read_model_description, simulate_fmu
+for fmu in sys.argv[1:]:
+    md = read_model_description(fmu)
+    stop = float(md.defaultExperiment.stopTime)
+    result = simulate_fmu(fmu, output_interval=float(md.defaultExperiment.stepSize))
+    if abs(result['time'][-1] - stop) > 1e-9:
+        sys.exit(f"{fmu}: stopped at t = {result['time'][-1]} s instead of {stop} s")
+"""
+
+
+def _run_check(*fmus: Path) -> None:
+    """Run the default experiments, one after the other, in one fresh process (so that the FMUs load a packed
+    mkctl, not this process's); each must reach its stop time, and the process must end cleanly."""
+    done = subprocess.run([sys.executable, "-c", _RUN_CHECK, *map(str, fmus)], capture_output=True, text=True,
+                          cwd=tempfile.gettempdir())
+    if done.returncode != 0:
+        what = f"{fmus[0].name} failed its" if len(fmus) == 1 else \
+            " and ".join(f.name for f in fmus) + " in one process failed their"
+        raise BuildError(f"{what} default experiment (exit status {done.returncode}): "
+                         f"{done.stderr.strip()[-2000:]}")
+
+
+# --- the build ---------------------------------------------------------------------------------------------
+
+def build(out, run: bool = True, params: Params | None = None, *, _fix_exit: bool = True) -> dict[str, Path]:
+    """Build, complete and check both FMUs.
+
+    Parameters: out, the folder to write ``McKibbenKnee.fmu`` and ``McKibbenActuator.fmu`` to (created if
+    needed); run, whether to run each default experiment (in a fresh process) as a check; params, the muscle and
+    knee whose values become the FMUs' start values (default :data:`mkctl.physics.params.DEFAULT`: Table I and
+    II, effects off). ``_fix_exit=False`` leaves pythonfmu's binary as it is: only for the tests and the bench
+    that show what the fix prevents.
+
+    Returns the FMUs' paths by model name. Raises :class:`BuildError`.
+    """
+    from pythonfmu import FmuBuilder
+
+    from . import models
+
+    params = DEFAULT if params is None else params
+    out = Path(out).resolve()  # the checks run in another folder
+    out.mkdir(parents=True, exist_ok=True)
+    built = {}
+    with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
+        temp = Path(temp)
+        package = _stage_mkctl(temp / "stage")
+        for name, script in FMU_SCRIPTS.items():
+            slave_class = getattr(models, name)
+            starts = _stage_starts(temp / "starts" / name, slave_class, params)
+            raw = FmuBuilder.build_FMU(script, dest=temp / f"{name}.fmu", project_files=[package, starts],
+                                       canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+            target = out / f"{name}.fmu"
+            _complete_fmu(Path(raw), target, slave_class.units, fix_exit=_fix_exit)
+            _validate(target)
+            built[name] = target
+    if run:
+        for target in built.values():
+            _run_check(target)
+        _run_check(*built.values())
+    return built
+
+
+def main(argv=None, default_out: Path = Path("dist")) -> int:
+    parser = argparse.ArgumentParser(prog="build_fmu", description=__doc__.splitlines()[0])
+    parser.add_argument("--out", type=Path, default=default_out, help=f"output folder (default: {default_out})")
+    parser.add_argument("--no-run", action="store_true", help="skip running the default experiments")
+    parser.add_argument("--params", type=Path, default=None, metavar="MUSCLE.json",
+                        help="a muscle file (mkctl calibrate writes one): its values become the FMUs' defaults")
+    args = parser.parse_args(argv)
+    try:
+        params = None
+        if args.params is not None:
+            from ..io.muscle import read_muscle
+            params = read_muscle(args.params)
+        built = build(args.out, run=not args.no_run, params=params)
+    except MkctlError as error:
+        print(f"build_fmu: {error}", file=sys.stderr)
+        return 2 if not isinstance(error, BuildError) else 1
+    for name, path in built.items():
+        print(f"built {path} (validated{'' if args.no_run else ', default experiment run'})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,401 @@
+"""Generate the C source of the compiled core from the library's own equations.
+
+Nothing here writes an equation. The physics functions run on Python floats, numpy arrays and, for this
+module, sympy symbols (:func:`mkctl.physics.actuator.math_for`): :func:`trace` evaluates them with a symbol
+for every state, input and parameter and gets back the expressions the library computes; sympy's
+common-subexpression elimination (``sympy.cse``) and C printer (``sympy.ccode``) turn them into C.
+
+What is generated from what:
+
+======================================  ========================================================================
+C function                              traced Python function
+======================================  ========================================================================
+``knee_rhs_<variant>``                  :func:`mkctl.physics.knee.knee_derivatives` (Eq. 17, effects, end stops)
+``knee_outputs_<variant>``              :func:`mkctl.physics.simulate.knee_outputs` (a1, a2 from the partials)
+``actuator_tension_<variant>``          :func:`mkctl.physics.actuator.tension`
+``actuator_lagged_pressure_<variant>``  :func:`mkctl.physics.actuator.lagged_pressure`
+``mk_stop_positions``                   :func:`mkctl.physics.knee.X_from_alpha` at the stop angles
+``mk_step_checks``                      :func:`mkctl.physics.actuator.check_pressure` of the two commands
+domain checks (every function)          the checks those functions make (``check_length``, ``check_pressure``,
+                                        ``knee._check_range``), traced with their bounds
+``MK_A``, ``MK_E``, step control        the constants of :mod:`mkctl.physics.integrate`
+======================================  ========================================================================
+
+The integrator itself (:file:`core_template.c`) is the algorithm of :func:`mkctl.physics.integrate.integrate`
+written in C; it holds no equation of the model.
+
+Branches on the parameter structure (``model`` 1 or 2, friction ``Fc > 0``, pressure lag ``tau > 0``, ``slack``) are
+resolved by generating one *variant* per structure: the tracing parameters hold the structural values as
+numbers (``Fc`` and ``tau`` as positive symbols when on, 0 when off), so the library's own ``if`` statements
+pick the branch. The end stops are one-sided: they trace to sympy ``Piecewise``/``Max`` (C ``?:``, ``fmax``)
+with the stop positions as run-time inputs (+-inf for none). A C dispatcher (``mk_variant``) picks the
+variant from the run-time parameter vector; a source may hold any set of variants.
+"""
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import sympy
+from sympy.printing.c import C99CodePrinter
+
+from ..physics import actuator, integrate, knee, simulate
+from ..physics.params import PARAMETER_NAMES, Params, rubber_volume
+from . import TEMPLATE
+from .variants import ALL_VARIANTS, Variant
+
+#: Knee outputs in the order of :data:`mkctl.physics.simulate.KNEE_OUTPUTS` ("stable" last, as 1/0).
+KNEE_OUTPUT_NAMES = tuple(simulate.KNEE_OUTPUTS)
+MAX_STATES = 4
+
+
+class SymbolicParams:
+    """A stand-in for :class:`mkctl.physics.params.Params` whose values are sympy symbols named after the
+    parameters, except the structural ones of the variant (model a number; Fc, tau positive symbols or 0)."""
+
+    def __init__(self, variant: Variant):
+        for name in PARAMETER_NAMES:
+            setattr(self, name, sympy.Symbol(name, real=True))
+        self.model = variant.model
+        self.Fc = sympy.Symbol("Fc", positive=True) if variant.friction else 0.0
+        self.tau = sympy.Symbol("tau", positive=True) if variant.lag else 0.0
+        self.slack = int(variant.slack)
+
+    @property
+    def V_r(self):
+        return rubber_volume(self.t0, self.D0, self.L0)
+
+
+def _real(name: str) -> sympy.Symbol:
+    return sympy.Symbol(name, real=True)
+
+
+class Traced(NamedTuple):
+    """One traced function: its results and the domain checks met on the way, in the order Python makes them."""
+
+    outputs: list
+    checks: list  #: (value, low, high, message, what), duplicates removed
+
+
+def trace(function, *args, **kwargs) -> Traced:
+    """Call a library function on symbolic arguments; return its results and its domain checks."""
+    with actuator.tracing_domain_checks() as checks:
+        result = function(*args, **kwargs)
+    if isinstance(result, dict):
+        outputs = list(result.values())
+    elif isinstance(result, (list, tuple)):
+        outputs = list(result)
+    else:
+        outputs = [result]
+    unique, seen = [], set()
+    for check in checks:
+        key = (sympy.srepr(check[0]), str(check[1]), str(check[2]))
+        if key not in seen:
+            seen.add(key)
+            unique.append(check)
+    return Traced([sympy.sympify(o) for o in outputs], unique)
+
+
+class CheckTable:
+    """Every domain check of a generated source, numbered: the C reports a failure by this number."""
+
+    def __init__(self):
+        self.entries: list[str] = []  # what is checked, in words
+
+    def add(self, check) -> int:
+        _, low, _, _, what = check
+        self.entries.append(f"{what} must be finite" if low is None else f"{what} is out of range")
+        return len(self.entries) - 1
+
+
+def _c_number(x) -> str:
+    return repr(float(x))
+
+
+class _Printer(C99CodePrinter):
+    """sympy's C printer, with small integer and half-integer powers as products and sqrt (``pow`` is a
+    library call; ``x*x*x`` is what the Python equations compute anyway)."""
+
+    def _print_Pow(self, expr):
+        base, exponent = expr.args
+        if exponent.is_Integer and 2 <= abs(int(exponent)) <= 4:
+            b = self.parenthesize(base, 1000)  # parenthesise anything but an atom
+            product = "*".join([b] * abs(int(exponent)))
+            return f"({product})" if exponent > 0 else f"(1.0/({product}))"
+        if exponent.is_Rational and exponent.q == 2 and 1 <= abs(exponent.p) <= 3:
+            root = f"sqrt({self._print(base)})"
+            power = root if abs(exponent.p) == 1 else f"({self.parenthesize(base, 1000)}*{root})"
+            return power if exponent > 0 else f"(1.0/{power})"
+        return super()._print_Pow(expr)
+
+
+def ccode(expr) -> str:
+    return _Printer().doprint(expr)
+
+
+def _split_constants(exprs, constant: set, prefix: str):
+    """Replace every largest subexpression of exprs made of constant symbols only by a new symbol.
+
+    Returns (the new expressions, [(symbol, constant subexpression)]): what a record computes once, not at
+    every evaluation. Sums and products keep their variable terms and gather their constant ones.
+    """
+    table: dict = {}
+
+    def name_of(expr):
+        if expr not in table:
+            table[expr] = sympy.Symbol(f"{prefix}[{len(table)}]", real=True)
+        return table[expr]
+
+    def is_constant(expr):
+        return bool(expr.free_symbols) and expr.free_symbols <= constant
+
+    def visit(expr):
+        if expr.is_Atom:
+            return expr
+        if is_constant(expr):
+            return name_of(expr)
+        if isinstance(expr, (sympy.Add, sympy.Mul)):
+            fixed = [a for a in expr.args if is_constant(a) or a.is_Number]
+            if all(a.is_Number for a in fixed):
+                fixed = []
+            rest = [visit(a) for a in expr.args if a not in fixed]
+            if fixed:
+                rest.append(name_of(expr.func(*fixed)))
+            return expr.func(*rest, evaluate=False)
+        return expr.func(*[visit(a) for a in expr.args])
+
+    return [visit(e) for e in exprs], [(symbol, expr) for expr, symbol in table.items()]
+
+
+#: Largest number of per-record constants one function may have (the size of the C arrays holding them).
+MAX_CONSTANTS = 96
+
+
+def emit_function(name: str, arguments: str, call: str, bindings: dict, constant: set, traced: Traced, out: str,
+                  checks: CheckTable, extra_outputs: tuple[str, ...] = ()) -> str:
+    """C for one traced function: ``<name>_constants(p, stops, k)`` computes the subexpressions that depend on
+    the parameters (and stops) only, once per record; ``<name>(p, stops, k, <arguments>)`` binds the inputs,
+    computes the CSE'd expressions, tests the domain checks in the order Python makes them, stores out[i]."""
+    exprs = list(traced.outputs)
+    layout = []
+    for value, low, high, _, _ in traced.checks:
+        layout.append(len(exprs))
+        value = sympy.sympify(value)
+        if low is not None:
+            low, high = sympy.sympify(low), sympy.sympify(high)
+            if isinstance(value, sympy.acos) and low.is_zero and high == sympy.Float(math.pi):
+                # 0 < acos(u) < pi exactly when -1 < u < 1 (acos is decreasing, acos(1) = 0, acos(-1) = pi
+                # as rounded, NaN fails both): the same check without a library call in the inner loop
+                value, low, high = value.args[0], sympy.Integer(-1), sympy.Integer(1)
+            exprs += [value, low, high]
+        else:
+            exprs.append(value)
+    symbols = set().union(*(e.free_symbols for e in exprs))
+    unknown = sorted(str(s) for s in symbols if s.name not in bindings)
+    if unknown:
+        raise ValueError(f"unbound symbols {unknown} in {name}")
+    exprs, constants = _split_constants(exprs, {s for s in symbols if s.name in constant}, "k")
+    if len(constants) > MAX_CONSTANTS:
+        raise ValueError(f"{name} has {len(constants)} constants, more than MAX_CONSTANTS = {MAX_CONSTANTS}")
+
+    def bind(used, indent="    "):
+        return [f"{indent}const double {sym.name} = {bindings[sym.name]};"
+                for sym in sorted(used, key=lambda s: s.name) if bindings.get(sym.name, sym.name) != sym.name]
+
+    head = ["static void " + name + "_constants(const double *p, const double *stops, double *k)", "{"]
+    values = [expr for _, expr in constants]
+    replacements, reduced = sympy.cse(values, symbols=sympy.numbered_symbols("c_"), order="none")
+    head += bind(set().union(set(), *(v.free_symbols for v in values)) - {s for s, _ in replacements})
+    head += [f"    const double {tmp} = {ccode(expr)};" for tmp, expr in replacements]
+    head += [f"    {sym.name} = {ccode(expr)};" for (sym, _), expr in zip(constants, reduced)]
+    head += ["    (void)p; (void)stops; (void)k;", "}", ""]
+
+    lines = [f"static int {name}(const double *p, const double *stops, const double *k, {arguments})", "{"]
+    replacements, reduced = sympy.cse(exprs, symbols=sympy.numbered_symbols("t_"), order="none")
+    used = set().union(set(), *(e.free_symbols for e in exprs)) - set(s for s, _ in constants)
+    lines += bind(used)
+    lines += [f"    const double {tmp} = {ccode(expr)};" for tmp, expr in replacements]
+    for check, position in zip(traced.checks, layout):
+        index = checks.add(check)
+        value = ccode(reduced[position])
+        if check[1] is None:
+            lines.append(f"    if (!isfinite({value})) return mk_fail(fault, {index}, {value}, NAN, NAN);")
+        else:
+            low, high = ccode(reduced[position + 1]), ccode(reduced[position + 2])
+            lines.append(f"    if (!(({low}) < ({value}) && ({value}) < ({high}))) "
+                         f"return mk_fail(fault, {index}, {value}, {low}, {high});")
+    lines += [f"    {out}[{i}] = {ccode(reduced[i])};" for i in range(len(traced.outputs))]
+    lines += list(extra_outputs)
+    lines += ["    (void)p; (void)stops; (void)k;", "    return 0;", "}", ""]
+    # the one-call form: constants on the stack
+    lines += [f"static int {name}_once(const double *p, const double *stops, {arguments})", "{",
+              f"    double k[MAX_CONSTANTS_PLACEHOLDER];", f"    {name}_constants(p, stops, k);",
+              f"    return {name}(p, stops, k, {call});", "}", ""]
+    return "\n".join(head + lines).replace("MAX_CONSTANTS_PLACEHOLDER", "MK_MAX_CONSTANTS")
+
+
+def _parameter_bindings() -> dict:
+    return {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+
+
+#: The generated functions: kind -> (C arguments after p, stops, k; the call passing them on).
+KINDS = {
+    "knee_rhs": ("const double *y, double pe_cmd, double pf_cmd, double *out, mk_fault *fault",
+                 "y, pe_cmd, pf_cmd, out, fault"),
+    "knee_outputs": ("double X, double V, double Pe, double Pf, double *out, mk_fault *fault",
+                     "X, V, Pe, Pf, out, fault"),
+    "actuator_tension": ("double L, double P, double Ldot, double *out, mk_fault *fault", "L, P, Ldot, out, fault"),
+    "actuator_lagged_pressure": ("double P, double P_cmd, double dt, double *out, mk_fault *fault",
+                                 "P, P_cmd, dt, out, fault"),
+}
+
+
+def variant_functions(variant: Variant, checks: CheckTable) -> str:
+    """The C of every variant-dependent function for one variant."""
+    sp = SymbolicParams(variant)
+    X, V, Pe, Pf, pe_cmd, pf_cmd = (_real(n) for n in ("X", "V", "Pe", "Pf", "pe_cmd", "pf_cmd"))
+    X_low, X_high = _real("X_low"), _real("X_high")
+    P_, L_, Ldot_, P_cmd_, dt_ = (_real(n) for n in ("P", "L", "Ldot", "P_cmd", "dt"))
+    v = variant.name
+    parameters = _parameter_bindings()
+    constant = set(parameters)
+    state = [X, V, Pe, Pf][: variant.nstate]
+    bindings = {**parameters, "X": "y[0]", "V": "y[1]", "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd",
+                "X_low": "(stops ? stops[0] : -INFINITY)", "X_high": "(stops ? stops[1] : INFINITY)"}
+    if variant.lag:
+        bindings.update(Pe="y[2]", Pf="y[3]")
+
+    def emit(kind, bindings, constant, traced, extra=()):
+        arguments, call = KINDS[kind]
+        return emit_function(f"{kind}_{v}", arguments, call, bindings, constant, traced, "out", checks, extra)
+
+    parts = [emit("knee_rhs", bindings, constant | {"X_low", "X_high"},
+                  trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, (X_low, X_high)))]
+    traced = trace(simulate.knee_outputs, X, V, Pe, Pf, sp)
+    a1, a2 = KNEE_OUTPUT_NAMES.index("a1"), KNEE_OUTPUT_NAMES.index("a2")
+    stable = KNEE_OUTPUT_NAMES.index("stable")
+    if stable != len(traced.outputs):
+        raise ValueError("'stable' must be the last knee output, after those of simulate.knee_outputs")
+    parts.append(emit("knee_outputs", {**parameters, "X": "X", "V": "V", "Pe": "Pe", "Pf": "Pf"}, constant, traced,
+                      (f"    out[{stable}] = (out[{a1}] < 0 && out[{a2}] < 0) ? 1.0 : 0.0;",)))
+    parts.append(emit("actuator_tension", {**parameters, "L": "L", "P": "P", "Ldot": "Ldot"}, constant,
+                      trace(actuator.tension, L_, P_, Ldot_, sp)))
+    parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"}, constant,
+                      trace(actuator.lagged_pressure, P_, P_cmd_, sp.tau, dt_)))
+    return "\n".join(parts)
+
+
+def common_functions(checks: CheckTable) -> str:
+    """The C of the functions that do not depend on the variant: the commands' checks, the stop positions."""
+    sp = SymbolicParams(Variant(2, False, False, False))
+    parameters = _parameter_bindings()
+    pe_cmd, pf_cmd = _real("pe_cmd"), _real("pf_cmd")
+
+    def step_checks(pe, pf):  # what KneeSimulator.step checks before it integrates
+        actuator.check_pressure(pe)
+        actuator.check_pressure(pf)
+        return []
+
+    def stops(params):  # knee.stop_positions, with the stop angles as sympy numbers
+        return [knee.X_from_alpha(sympy.Float(knee.ALPHA_STOP_LOW), params),
+                knee.X_from_alpha(sympy.Float(knee.ALPHA_STOP_HIGH), params)]
+
+    parts = [emit_function("step_checks", "double pe_cmd, double pf_cmd, mk_fault *fault", "pe_cmd, pf_cmd, fault",
+                           {**parameters, "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd"}, set(parameters),
+                           trace(step_checks, pe_cmd, pf_cmd), "out", checks),
+             emit_function("stop_positions", "double *out, mk_fault *fault", "out, fault", parameters,
+                           set(parameters), trace(stops, sp), "out", checks),
+             "/* the commands' checks of KneeSimulator.step: finite pressures */",
+             "int mk_step_checks(const double *p, double pe_cmd, double pf_cmd, mk_fault *fault)",
+             "{", "    return step_checks_once(p, NULL, pe_cmd, pf_cmd, fault);", "}", "",
+             "/* hip heights [m] of the lower and upper end stops (knee.stop_positions) */",
+             "int mk_stop_positions(const double *p, double *out, mk_fault *fault)",
+             "{", "    return stop_positions_once(p, NULL, out, fault);", "}", ""]
+    return "\n".join(parts)
+
+
+def _dispatch(variants: tuple[Variant, ...]) -> str:
+    lines = [f"#define MK_NVARIANTS {len(variants)}",
+             "static const int mk_variant_nstates[MK_NVARIANTS] = {"
+             + ", ".join(str(v.nstate) for v in variants) + "};",
+             "",
+             "/* index of the compiled variant for parameter vector p, or -1 */",
+             "int mk_variant(const double *p)", "{"]
+    for i, v in enumerate(variants):
+        lines.append(f"    if ({v.c_condition()}) return {i};")
+    lines += ["    return -1;", "}", "",
+              "static int mk_variant_nstate(int variant)", "{",
+              "    return variant < 0 ? 2 : mk_variant_nstates[variant];", "}", "",
+              "/* number of knee states for parameter vector p: 4 with a pressure lag, else 2 */",
+              "int mk_knee_nstate(const double *p)", "{", "    return mk_variant_nstate(mk_variant(p));", "}", ""]
+
+    for kind, (arguments, call) in KINDS.items():
+        forms = [("_constants", "static void", "const double *p, const double *stops, double *k", "p, stops, k",
+                  "    return;"),
+                 ("", "static int", f"const double *p, const double *stops, const double *k, {arguments}",
+                  f"p, stops, k, {call}", "    return mk_fault_code(fault, MK_FAULT_VARIANT);"),
+                 ("_once", "static int", f"const double *p, const double *stops, {arguments}", f"p, stops, {call}",
+                  "    return mk_fault_code(fault, MK_FAULT_VARIANT);")]
+        for suffix, returns, signature, passed, otherwise in forms:
+            lines += [f"{returns} mk_{kind}{suffix}_variant(int variant, {signature})", "{", "    switch (variant) {"]
+            for i, v in enumerate(variants):
+                lines.append(f"    case {i}: " + (f"{kind}_{v.name}{suffix}({passed}); return;" if returns ==
+                                                   "static void" else f"return {kind}_{v.name}{suffix}({passed});"))
+            lines += ["    }", otherwise, "}", ""]
+    lines += [
+        "/* right-hand side of Eq. 17 (knee.knee_derivatives): dy = f(y) for the variant of p; stops NULL: none */",
+        "int mk_knee_rhs(const double *p, const double *stops, const double *y, double pe_cmd, double pf_cmd, "
+        "double *dy, mk_fault *fault)",
+        "{", "    return mk_knee_rhs_once_variant(mk_variant(p), p, stops, y, pe_cmd, pf_cmd, dy, fault);", "}", "",
+        "/* actuator tension f(L, P, Ldot) [N] (actuator.tension) */",
+        "int mk_actuator_tension(const double *p, double L, double P, double Ldot, double *f, mk_fault *fault)",
+        "{", "    return mk_actuator_tension_once_variant(mk_variant(p), p, NULL, L, P, Ldot, f, fault);", "}", "",
+        "/* pressure after dt with the command held (actuator.lagged_pressure, exact) */",
+        "int mk_actuator_lagged_pressure(const double *p, double P, double P_cmd, double dt, double *out, "
+        "mk_fault *fault)",
+        "{", "    return mk_actuator_lagged_pressure_once_variant(mk_variant(p), p, NULL, P, P_cmd, dt, out, fault);",
+        "}", ""]
+    return "\n".join(lines)
+
+
+def _tableau() -> str:
+    rows = []
+    for row in integrate._A:
+        padded = list(row) + [0.0] * (7 - len(row))
+        rows.append("    {" + ", ".join(_c_number(a) for a in padded) + "}")
+    constants = {"MK_SAFETY": integrate.SAFETY, "MK_MAX_GROWTH": integrate.MAX_GROWTH,
+                 "MK_MAX_SHRINK": integrate.MAX_SHRINK, "MK_ACCEPT_EXPONENT": integrate.ACCEPT_EXPONENT,
+                 "MK_REJECT_EXPONENT": integrate.REJECT_EXPONENT, "MK_COLLAPSE": integrate.COLLAPSE}
+    lines = ["static const double MK_A[7][7] = {", ",\n".join(rows), "};",
+             "static const double MK_E[7] = {" + ", ".join(_c_number(e) for e in integrate._E) + "};"]
+    lines += [f"#define {name} ({_c_number(value)})" for name, value in constants.items()]
+    lines.append(f"#define MK_MAX_STEPS {int(integrate.MAX_STEPS)}L")
+    return "\n".join(lines)
+
+
+def _parameter_macros() -> str:
+    lines = [f"#define MK_NPARAM {len(PARAMETER_NAMES)}", f"#define MK_MAX_STATES {MAX_STATES}",
+             f"#define MK_MAX_CONSTANTS {MAX_CONSTANTS}",
+             f"#define MK_KNEE_NOUT {len(KNEE_OUTPUT_NAMES)}",
+             "/* knee outputs: " + ", ".join(f"{i} {name}" for i, name in enumerate(KNEE_OUTPUT_NAMES)) + " */"]
+    lines += [f"#define MK_P_{name} {i}" for i, name in enumerate(PARAMETER_NAMES)]
+    return "\n".join(lines)
+
+
+def generate_source(variants=ALL_VARIANTS) -> tuple[str, list[str]]:
+    """The C source of the core for the given variants, and its table of domain checks (in words)."""
+    variants = tuple(variants)
+    checks = CheckTable()
+    generated = [common_functions(checks)] + [variant_functions(v, checks) for v in variants]
+    table = ["/* domain checks, by the number a fault reports: */",
+             "const char *const mk_check_what[] = {"]
+    table += [f"    \"{text}\"," for text in checks.entries]
+    table += ["};", f"const int mk_check_count = {len(checks.entries)};"]
+    source = TEMPLATE.read_text()
+    for key, text in {"@PARAMETER_MACROS@": _parameter_macros(),
+                      "@GENERATED@": "\n".join(table) + "\n\n" + "\n".join(generated),
+                      "@DISPATCH@": _dispatch(variants), "@TABLEAU@": _tableau(),
+                      "@VARIANT_NAMES@": ", ".join(v.name for v in variants)}.items():
+        source = source.replace(key, text)
+    return source, checks.entries
+

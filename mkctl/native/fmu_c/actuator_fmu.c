@@ -1,0 +1,71 @@
+/* The actuator's part of the native McKibbenActuator FMU: the run of mkctl.physics.simulate.ActuatorSimulator.
+ *
+ * The pressure lag is the only state, solved exactly over each step with the command held (the core's
+ * mk_actuator_lagged_pressure); the tension (mk_actuator_tension) follows from the inputs L, Ldot and the
+ * present pressure (the command itself without a lag). n left at its start value while b, L0 or D0 change
+ * follows them. Start inputs outside the model's domain are refused at initialization; a step that ends outside
+ * it (0 < L < b) is refused and the state kept.
+ */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "mk_fmu.h"
+#include "mk_core_api.h"
+
+#define AUX_N 0
+
+static void params_of(const mk_data *d, double *p) { mk_param_vector(d, d->aux[AUX_N], p); }
+
+int mk_model_start(mk_data *d, char *msg, size_t size)
+{
+    char detail[MK_MESSAGE - 64];
+    d->aux[AUX_N] = mk_turns(d);
+    d->s.ny = 1;
+    d->s.y[0] = d->v[VR_p_cmd];
+    if (mk_model_outputs(d, detail, sizeof detail) != 0) { /* 0 < L < b, a finite pressure */
+        snprintf(msg, size, "the start inputs are outside the model's domain: %s", detail);
+        return 1;
+    }
+    return 0;
+}
+
+int mk_model_step(mk_data *d, double dt, char *msg, size_t size)
+{
+    double p[MK_NPARAM], P;
+    mk_state saved = d->s;
+    mk_fault fault = {0, 0, 0, 0, 0, 0};
+    params_of(d, p);
+    if (mk_actuator_lagged_pressure(p, d->s.y[0], d->v[VR_p_cmd], dt, &P, &fault) != 0) {
+        mk_fault_message(&fault, msg, size);
+        return 1;
+    }
+    d->s.y[0] = P;
+    d->s.time += dt;
+    if (mk_model_outputs(d, msg, size) != 0) { /* the step must end in the model's domain */
+        d->s = saved;
+        return 1;
+    }
+    return 0;
+}
+
+int mk_model_outputs(mk_data *d, char *msg, size_t size)
+{
+    double p[MK_NPARAM], P, f;
+    mk_fault fault = {0, 0, 0, 0, 0, 0};
+    params_of(d, p);
+    P = d->v[VR_tau] > 0 ? d->s.y[0] : d->v[VR_p_cmd];
+    if (mk_actuator_tension(p, d->v[VR_L], P, d->v[VR_Ldot], &f, &fault) != 0) {
+        mk_fault_message(&fault, msg, size);
+        return 1;
+    }
+    d->v[VR_f] = f;
+    d->v[VR_P] = P;
+    return 0;
+}
+
+void mk_model_fallback_outputs(mk_data *d)
+{
+    d->v[VR_f] = NAN;
+    d->v[VR_P] = NAN;
+}

@@ -1,0 +1,99 @@
+"""Typed results of the time simulations, in python-control's manner (named arrays, a readable repr, a table).
+
+:class:`SimulationResult` is what :func:`mkctl.physics.simulate.simulate_knee` returns: one array per output of
+model-spec section 7 (:data:`mkctl.physics.simulate.KNEE_OUTPUTS`), on the record's time grid. It still reads
+like the dict it replaces (``run["X"]``, ``"X" in run``, ``run.keys()``), so older callers keep working.
+
+Example
+-------
+>>> import numpy as np
+>>> from mkctl.physics.simulate import simulate_knee
+>>> run = simulate_knee(np.linspace(0, 0.1, 11), 1.75e6, 100e3)
+>>> run.X is run["X"], run.X.shape
+(True, (11,))
+>>> list(run.to_dataframe().columns[:3])
+['time', 'X', 'V']
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from ..results import Result
+
+
+@dataclass(repr=False, eq=False)
+class SimulationResult(Result):
+    """A knee simulation over a record: every output of model-spec section 7 at each sample time.
+
+    Attributes are arrays of one length, in SI units (the units of :data:`mkctl.physics.simulate.KNEE_OUTPUTS`):
+    ``time`` [s]; ``X`` hip height [m]; ``V`` its velocity [m/s]; ``alpha``, ``beta`` kneecap and knee angles
+    [rad]; ``Le``, ``Lf`` actuator lengths [m]; ``fe``, ``ff`` tensions [N]; ``Pe``, ``Pf`` actuator gauge
+    pressures [Pa] (the lag states, or the commands without a lag); ``F`` ground force [N]; ``a1`` [1/s] and
+    ``a2`` [1/s^2] of Eq. 18 (end stops excluded); ``stable`` the Routh-Hurwitz verdict a1 < 0 and a2 < 0 (bool).
+
+    ``result[name]`` is ``getattr(result, name)`` for these names (a KeyError for others).
+    """
+
+    time: np.ndarray
+    X: np.ndarray
+    V: np.ndarray
+    alpha: np.ndarray
+    beta: np.ndarray
+    Le: np.ndarray
+    Lf: np.ndarray
+    fe: np.ndarray
+    ff: np.ndarray
+    Pe: np.ndarray
+    Pf: np.ndarray
+    F: np.ndarray
+    a1: np.ndarray
+    a2: np.ndarray
+    stable: np.ndarray
+
+    # --- read like the dict of arrays it replaces -------------------------------------------------
+    def keys(self) -> list[str]:
+        """The names of the arrays, ``time`` first, then the outputs in the order of model-spec section 7."""
+        return [f.name for f in fields(self)]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name not in self.keys():
+            raise KeyError(name)
+        return getattr(self, name)
+
+    def __contains__(self, name) -> bool:
+        return name in self.keys()
+
+    def __iter__(self):
+        return iter(self.keys())
+
+    def __len__(self) -> int:
+        return len(self.keys())
+
+    def items(self):
+        return [(name, getattr(self, name)) for name in self.keys()]
+
+    def values(self):
+        return [getattr(self, name) for name in self.keys()]
+
+    def get(self, name: str, default=None):
+        return getattr(self, name) if name in self.keys() else default
+
+    # --- Result -----------------------------------------------------------------------------------
+    def summary_lines(self) -> list[str]:
+        t, X, alpha = self.time, self.X, self.alpha
+        if t.size == 0:
+            return ["no samples"]
+        stable = np.asarray(self.stable, dtype=bool)
+        return [
+            f"{t.size} samples, t = {t[0]:g} .. {t[-1]:g} s",
+            f"X = {X[0]:.6g} -> {X[-1]:.6g} m (range {X.min():.6g} .. {X.max():.6g} m), "
+            f"alpha = {np.degrees(alpha[0]):.4g} -> {np.degrees(alpha[-1]):.4g} deg",
+            f"Pe = {self.Pe[-1] / 1e3:.6g} kPa, Pf = {self.Pf[-1] / 1e3:.6g} kPa at the end",
+            f"stable (a1 < 0 and a2 < 0) at {100 * stable.mean():.0f} % of the samples, at the end: {bool(stable[-1])}",
+        ]
+
+    def table(self) -> dict[str, np.ndarray]:
+        """One column per array, ``time`` first."""
+        return dict(self.items())

@@ -1,0 +1,186 @@
+"""The diagnosis's acceptance rule on hand-built residuals: each criterion alone, its direction, the penalty.
+
+No simulation here: the residuals are made up so that exactly one criterion decides, and the expected
+verdict follows from the rule's definition (module docstring of mkctl.analysis.diagnosis_rule), computed
+by hand in each test.
+"""
+import math
+
+import numpy as np
+import pytest
+
+from mkctl.analysis import diagnosis_rule as rule
+from mkctl.analysis.diagnosis_rule import Candidate, Rule, Score, best_value, decide, pair_needed, to_drop
+
+N = 200  # training samples
+NH = 80  # held-out samples
+
+
+def noise(scale, n, seed):
+    r = np.random.default_rng(seed).normal(size=n)
+    return scale * r / np.sqrt(np.mean(r * r))  # RMS exactly `scale`
+
+
+def score(train_rms, holdout_rms, k, seed=0):
+    """A score whose training RMS and held-out RMSE are exactly the given values."""
+    return Score.from_residuals(noise(train_rms, N, seed), noise(holdout_rms, NH, seed + 1), k)
+
+
+def rms_for_delta_bic(current: Score, delta: float, k: int) -> float:
+    """The training RMS a model with k parameters needs for BIC = current.bic + delta (solved by hand:
+    n ln(RSS/n) = current.bic + delta - k ln n)."""
+    target = current.bic + delta - k * math.log(N)
+    return math.sqrt(math.exp(target / N))
+
+
+CURRENT = score(1.0, 1.0, 0)
+
+
+def test_bic_is_n_ln_rss_over_n_plus_k_ln_n():
+    assert rule.bic(2.0, 100, 3) == pytest.approx(100 * math.log(0.02) + 3 * math.log(100))
+    assert rule.bic(2.0, 100, 0) == pytest.approx(100 * math.log(0.02))
+    # the Score's BIC uses its own RSS, n and k
+    s = Score.from_residuals(np.full(50, 0.5), np.ones(10), 2)
+    assert s.rss_train == pytest.approx(12.5) and s.n_train == 50
+    assert s.bic == pytest.approx(50 * math.log(0.25) + 2 * math.log(50))
+    assert s.rmse_holdout == pytest.approx(1.0)
+
+
+def test_a_candidate_that_passes_every_criterion_is_added():
+    rms = rms_for_delta_bic(CURRENT, -30.0, 1)
+    decision = decide(CURRENT, [Candidate("viscous_damping", score(rms, 0.7, 1))])
+    assert decision.verdict == "add" and decision.effect == "viscous_damping"
+    j = decision.judgements["viscous_damping"]
+    assert j.delta_bic == pytest.approx(-30.0) and j.passes_bic and j.passes_holdout
+
+
+@pytest.mark.parametrize("delta", [-5.0, 5.0, -9.9])
+def test_a_bic_gain_below_the_threshold_is_not_enough(delta):
+    # the held-out part would welcome it; BIC alone must refuse (a rule "BIC or held-out" accepts this)
+    rms = rms_for_delta_bic(CURRENT, delta, 1)
+    decision = decide(CURRENT, [Candidate("viscous_damping", score(rms, 0.5, 1))])
+    assert decision.verdict == "stop"
+    assert not decision.judgements["viscous_damping"].passes_bic
+    assert decision.judgements["viscous_damping"].passes_holdout
+    assert "BIC" in decision.reason
+
+
+def test_the_threshold_is_a_fall_of_bic_by_more_than_ten():
+    for delta, passes in [(-10.5, True), (-9.5, False)]:
+        rms = rms_for_delta_bic(CURRENT, delta, 1)
+        j = rule.judge(CURRENT, Candidate("c", score(rms, 0.5, 1)))
+        assert j.passes_bic is passes, delta
+
+
+def test_the_k_ln_n_penalty_decides_a_small_gain_in_rss():
+    # RSS falls by enough for n ln(RSS/n) to drop 13, but one more parameter costs ln 200 = 5.3:
+    # dBIC = -7.7, not enough. Without the penalty it would pass.
+    rms = math.sqrt(math.exp((CURRENT.bic - 13.0) / N))
+    candidate = score(rms, 0.5, 1)
+    assert candidate.bic - CURRENT.bic == pytest.approx(-13.0 + math.log(N))
+    assert decide(CURRENT, [Candidate("c", candidate)]).verdict == "stop"
+    # the same fit with no extra parameter (k = 0) would pass: the penalty is what stops it
+    assert decide(CURRENT, [Candidate("c", score(rms, 0.5, 0))]).verdict == "add"
+
+
+def test_a_candidate_that_does_not_lower_the_held_out_error_is_refused():
+    rms = rms_for_delta_bic(CURRENT, -200.0, 1)  # overwhelming on the training part
+    for holdout in (1.0, 0.99, 1.5):
+        decision = decide(CURRENT, [Candidate("c", score(rms, holdout, 1))])
+        assert decision.verdict == "stop", holdout
+        assert decision.judgements["c"].passes_bic and not decision.judgements["c"].passes_holdout
+        assert "held-out" in decision.reason
+    assert decide(CURRENT, [Candidate("c", score(rms, 0.97, 1))]).verdict == "add"
+
+
+def test_a_candidate_on_its_bound_or_switched_off_is_never_accepted():
+    rms = rms_for_delta_bic(CURRENT, -200.0, 1)
+    pinned = Candidate("viscous_damping", score(rms, 0.5, 1), at_bound=True)
+    decision = decide(CURRENT, [pinned])
+    assert decision.verdict == "stop" and "bound" in decision.reason
+    off = Candidate("viscous_damping", score(rms, 0.5, 1), switched_off=True)
+    assert decide(CURRENT, [off]).verdict == "stop"
+    # a physical, weaker candidate is then the one accepted
+    fine = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -50.0, 1), 0.6, 1))
+    assert decide(CURRENT, [pinned, fine]).effect == "coulomb_friction"
+
+
+def test_equal_held_out_errors_are_undecided_not_a_pick():
+    a = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.500, 1))
+    b = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -70.0, 1), 0.505, 1))
+    decision = decide(CURRENT, [a, b])
+    assert decision.verdict == "undecided"
+    assert decision.effect == "viscous_damping" and decision.rivals == ("coulomb_friction",)
+    # a clear margin on the held-out part decides, whichever order they come in
+    b_clear = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -70.0, 1), 0.60, 1))
+    assert decide(CURRENT, [b_clear, a]).verdict == "add"
+    # the best BIC that predicts the held-out part worse than a rival is not added either
+    b_better = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -70.0, 1), 0.40, 1))
+    decision = decide(CURRENT, [a, b_better])
+    assert decision.verdict == "undecided" and decision.rivals == ("coulomb_friction",)
+
+
+def test_a_pinned_rival_does_not_make_a_tie():
+    a = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.5, 1))
+    pinned = Candidate("pressure_lag", score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.5, 1), at_bound=True)
+    assert decide(CURRENT, [a, pinned]).verdict == "add"
+
+
+def test_a_custom_rule_moves_the_thresholds():
+    rms = rms_for_delta_bic(CURRENT, -15.0, 1)
+    candidate = [Candidate("c", score(rms, 0.9, 1))]
+    assert decide(CURRENT, candidate).verdict == "add"
+    assert decide(CURRENT, candidate, Rule(bic_threshold=20.0)).verdict == "stop"
+    assert decide(CURRENT, candidate, Rule(holdout_gain=0.2)).verdict == "stop"
+
+
+def test_a_pair_is_added_only_when_each_is_needed_beside_the_other():
+    one = score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.5, 1)
+    other = score(rms_for_delta_bic(CURRENT, -78.0, 1), 0.5, 1)
+    both = score(rms_for_delta_bic(CURRENT, -150.0, 2), 0.3, 2)
+    assert pair_needed([one, other], both)
+    redundant = score(rms_for_delta_bic(CURRENT, -85.0, 2), 0.49, 2)  # the second adds almost nothing
+    assert not pair_needed([one, other], redundant)
+    no_holdout = score(rms_for_delta_bic(CURRENT, -150.0, 2), 0.5, 2)
+    assert not pair_needed([one, other], no_holdout)
+
+
+def test_an_earlier_effect_that_no_longer_earns_its_place_is_dropped():
+    current = score(rms_for_delta_bic(CURRENT, -100.0, 2), 0.5, 2)
+    cheap = score(rms_for_delta_bic(CURRENT, -95.0, 1), 0.5, 1)  # removing it costs BIC 5 < 10
+    dear = score(rms_for_delta_bic(CURRENT, -40.0, 1), 0.5, 1)  # removing it costs 60
+    assert to_drop(current, {"viscous_damping": cheap, "pressure_lag": dear}) == "viscous_damping"
+    assert to_drop(current, {"pressure_lag": dear}) is None
+    cheaper = score(rms_for_delta_bic(CURRENT, -98.0, 1), 0.5, 1)
+    assert to_drop(current, {"viscous_damping": cheap, "coulomb_friction": cheaper}) == "coulomb_friction"
+
+
+def test_best_value_switches_the_effect_off_when_nothing_beats_off():
+    cost = lambda v: (math.log10(v) - math.log10(3.0)) ** 2 + 1.0  # noqa: E731  minimum 1.0 at v = 3
+    value, best = best_value(cost, (1e-2, 1e4), cost_off=0.5)
+    assert value == 0.0 and best == 0.5
+    value, best = best_value(cost, (1e-2, 1e4), cost_off=5.0)
+    assert value == pytest.approx(3.0, rel=1e-2) and best == pytest.approx(1.0, abs=1e-4)
+    # failed simulations (infinite cost) in part of the range do not stop the search
+    value, _ = best_value(lambda v: math.inf if v > 100 else cost(v), (1e-2, 1e4), cost_off=5.0)
+    assert value == pytest.approx(3.0, rel=1e-2)
+
+
+def test_at_bound_is_relative_to_each_end_of_the_range():
+    assert rule.at_bound(1e5, (1e-2, 1e5)) and rule.at_bound(1.0001e-2, (1e-2, 1e5))
+    assert not rule.at_bound(45.0, (1e-2, 1e5)) and not rule.at_bound(0.0, (1e-2, 1e5))
+
+
+def test_best_value_stops_the_grid_once_the_cost_rises_twice():
+    calls = []
+
+    def cost(v):
+        calls.append(v)
+        return (math.log10(v) - 1.0) ** 2  # minimum at 10, rising beyond
+    value, _ = best_value(cost, (1e-2, 1e6), cost_off=50.0)
+    assert value == pytest.approx(10.0, rel=1e-2)
+    grid = [v for v in calls if abs(math.log10(v) - round(math.log10(v))) < 1e-9]
+    assert max(grid) == pytest.approx(1e3)  # 1e2 and 1e3 rise above 1e1: 1e4 .. 1e6 are never simulated
+    calls.clear()
+    best_value(cost, (1e-2, 1e6), cost_off=50.0, early_stop=False)
+    assert max(calls) == pytest.approx(1e6)
