@@ -152,8 +152,9 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
 
 # --- the FMUs ---------------------------------------------------------------------------------------------
 
-def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
-    """Build (and, with ``run``, check by running) the knee and actuator FMUs into the folder out.
+def build_fmus(out, run: bool = False, native: bool = False) -> tuple[dict[str, Path], str]:
+    """Build (and, with ``run``, check by running) the knee and actuator FMUs into the folder out (with
+    ``native``, also the compiled ones into out/native, returned as "native_knee", "native_actuator").
 
     Runs :mod:`mkctl.fmu.build` of this mkctl (``python -m mkctl.fmu.build``) in a fresh Python: no file of a
     checkout is needed, and the build does not depend on what this process has imported or changed (in a
@@ -165,9 +166,11 @@ def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
     package_parent = str(Path(__file__).resolve().parents[2])  # the folder this mkctl is imported from
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([package_parent] + ([env["PYTHONPATH"]] if env.get("PYTHONPATH") else []))
-    done = subprocess.run([sys.executable, "-m", "mkctl.fmu.build", "--out", str(out)] + ([] if run else ["--no-run"]),
-                          capture_output=True, text=True, env=env)
+    argv = ["--out", str(out)] + ([] if run else ["--no-run"]) + ([] if native else ["--no-native"])
+    done = subprocess.run([sys.executable, "-m", "mkctl.fmu.build", *argv], capture_output=True, text=True, env=env)
     paths = {which: out / name for which, name in FMU_FILES.items()}
+    if native:
+        paths.update({f"native_{which}": out / "native" / name for which, name in FMU_FILES.items()})
     if done.returncode != 0 or not all(path.is_file() for path in paths.values()):
         lines = (done.stderr or done.stdout).strip().splitlines()
         raise ScenarioError(f"building the FMUs into {out} failed: "
