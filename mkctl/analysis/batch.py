@@ -157,8 +157,8 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     from tqdm import tqdm
 
     client, cluster = _client(jobs, scheduler)
-    bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr, disable=not progress,
-               dynamic_ncols=True)
+    bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr,
+               disable=not progress, dynamic_ncols=True)
     try:
         futures = [client.submit(_call, function, item, pure=False) for item in items]
         index = {future.key: i for i, future in enumerate(futures)}
@@ -320,7 +320,8 @@ def summary_rows(files, reports: dict, errors: dict, parameters: list[str]) -> l
         row["file"] = file
         if report is not None:
             row.update(status="ok", experiment=report["experiment"], samples=report["samples"],
-                       missing=";".join(report["missing"]), verdict=report.get("verdict"), rmse_before=report["rmse_before"],
+                       missing=";".join(report["missing"]), verdict=report.get("verdict"),
+                       rmse_before=report["rmse_before"],
                        rmse_after=report["rmse_after"], unit=report["output_unit"], seconds=report.get("seconds"),
                        error="; ".join(report.get("problems") or []) or None)
             for name in parameters:
@@ -483,8 +484,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
             on_record(file, outcome.value if outcome.ok else None, outcome.error)
 
     start = time.perf_counter()
-    run_batch(_diagnose_item, [(path, base, fit_offset) for path in paths], jobs=jobs, scheduler=scheduler, progress=progress, on_result=record,
-              description="records")
+    run_batch(_diagnose_item, [(path, base, fit_offset) for path in paths], jobs=jobs, scheduler=scheduler,
+              progress=progress, on_result=record, description="records")
     workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \
         f"{default_jobs() if jobs is None else jobs} local processes"
     result = BatchResult(paths, reports, errors, time.perf_counter() - start, workers, out, written)
