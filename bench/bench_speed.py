@@ -125,7 +125,7 @@ def main() -> int:
         measurement = read_measurement(path)
         diagnose(measurement)  # warm-up: imports, caches
         diagnose_time, report = best_of(lambda: diagnose(measurement), max(1, args.repeat // 2))
-        found = report.get("missing")
+        found = report["missing"]
         print(f"   diagnose, compiled: {diagnose_time:.3f} s = {diagnose_time / ref_time:.1f} reference simulations "
               f"(target < {DIAGNOSE_TARGET:g}) {'OK' if diagnose_time < DIAGNOSE_TARGET * ref_time else '<-- over'}")
         print(f"   found: {found}")

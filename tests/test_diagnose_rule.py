@@ -184,3 +184,88 @@ def test_best_value_stops_the_grid_once_the_cost_rises_twice():
     calls.clear()
     best_value(cost, (1e-2, 1e6), cost_off=50.0, early_stop=False)
     assert max(calls) == pytest.approx(1e6)
+
+
+def test_stop_reasons_name_the_best_candidate_and_each_criterion_it_failed():
+    weak = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -5.0, 1), 1.0, 1))
+    worse = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, 3.0, 1), 1.0, 1))
+    assert decide(CURRENT, [worse, weak]).reason == (
+        "the best candidate (viscous_damping) changes BIC by only -5.0 (needs < -10); "
+        "it does not lower the held-out RMSE by 2%")
+    training_only = Candidate("pressure_lag", score(rms_for_delta_bic(CURRENT, -50.0, 1), 1.0, 1))
+    assert decide(CURRENT, [training_only]).reason == ("the best candidate (pressure_lag) does not lower the "
+                                                       "held-out RMSE by 2%")
+    off = Candidate("elasticity", score(rms_for_delta_bic(CURRENT, 5.3, 1), 1.0, 1), switched_off=True)
+    assert decide(CURRENT, [off]).reason == (
+        "the best candidate (elasticity) fits best switched off; it changes BIC by only +5.3 (needs < -10); "
+        "it does not lower the held-out RMSE by 2%")
+    pinned = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -50.0, 1), 0.5, 1), at_bound=True)
+    assert decide(CURRENT, [pinned]).reason == (
+        "the best candidate (viscous_damping) is pinned on a bound of its search range (not a physical "
+        "explanation: something else is missing)")
+    assert decide(CURRENT, [Candidate("c", None)]).reason == "no candidate could be simulated on this record"
+    assert decide(CURRENT, []).verdict == "stop"
+
+
+def test_the_undecided_reason_gives_both_held_out_errors():
+    a = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.5, 1))
+    b = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -70.0, 1), 0.505, 1))
+    assert decide(CURRENT, [a, b]).reason == ("viscous_damping does not beat coulomb_friction on the held-out part "
+                                              "by 2% (held-out RMSE 0.5 vs 0.505)")
+
+
+def test_a_candidate_that_could_not_be_simulated_fails_every_criterion():
+    j = rule.judge(CURRENT, Candidate("c", None))
+    assert (j.delta_bic, j.passes_bic, j.passes_holdout, j.physical, j.eligible) == (None, False, False, False, False)
+
+
+def test_rule_fields_and_training_rmse():
+    assert Rule().as_dict() == {"bic_threshold": 10.0, "holdout_gain": 0.02, "holdout_margin": 0.02,
+                                "holdout_fraction": 0.3}
+    assert rule.RULE == Rule()
+    s = Score.from_residuals(np.array([3.0, 4.0]), np.array([1.0]), 0)
+    assert s.rmse_train == pytest.approx(math.sqrt(12.5))
+
+
+def test_best_value_when_every_simulation_fails():
+    assert best_value(lambda v: math.inf, (1e-2, 1e2), cost_off=3.0) == (0.0, 3.0)
+    value, cost = best_value(lambda v: math.inf, (1e-2, 1e2), cost_off=math.inf)
+    assert math.isnan(value) and cost == math.inf
+
+
+def test_best_value_grid_density_and_tolerance():
+    calls = []
+
+    def cost(v):
+        calls.append(v)
+        return (math.log10(v) - 0.37) ** 2
+    best_value(cost, (1e-2, 1e4), cost_off=50.0, points_per_decade=2.0, early_stop=False)
+    grid = calls[:13]
+    assert np.allclose(np.log10(grid), np.linspace(-2, 4, 13))
+    cusp = lambda v: abs(math.log10(v) - 0.37) ** 0.5  # noqa: E731  no parabola fits it: xatol decides
+    coarse, _ = best_value(cusp, (1e-2, 1e4), 50.0, xatol=0.3)
+    fine, _ = best_value(cusp, (1e-2, 1e4), 50.0, xatol=1e-5)
+    assert abs(math.log10(fine) - 0.37) < 1e-4 < 1e-2 < abs(math.log10(coarse) - 0.37) < 0.3
+    # the minimum on the grid itself (no better point between its neighbours) is kept
+    value, _ = best_value(lambda v: abs(math.log10(v) - 1.0), (1e-2, 1e4), 50.0)
+    assert value == pytest.approx(10.0, rel=1e-3)
+
+
+def test_at_bound_tolerance():
+    assert rule.at_bound(1.0005e-2, (1e-2, 1e5)) and not rule.at_bound(1.002e-2, (1e-2, 1e5))
+    assert rule.at_bound(0.9995e5, (1e-2, 1e5)) and not rule.at_bound(0.998e5, (1e-2, 1e5))
+    assert rule.at_bound(1.002e-2, (1e-2, 1e5), tolerance=0.01)
+
+
+def test_bic_of_a_small_rss_and_the_decisions_carry_their_judgements():
+    assert rule.bic(0.5, 10, 0) == pytest.approx(10 * math.log(0.05))
+    assert rule.bic(0.0, 10, 0) == pytest.approx(10 * math.log(1e-301))
+    a = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -80.0, 1), 0.5, 1))
+    b = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, -70.0, 1), 0.505, 1))
+    c = Candidate("pressure_lag", score(rms_for_delta_bic(CURRENT, -60.0, 1), 0.506, 1))
+    undecided = decide(CURRENT, [a, b, c])
+    assert undecided.rivals == ("coulomb_friction", "pressure_lag")
+    assert undecided.reason.endswith("(held-out RMSE 0.5 vs 0.505, 0.506)")
+    assert set(undecided.judgements) == {"viscous_damping", "coulomb_friction", "pressure_lag"}
+    added = decide(CURRENT, [a])
+    assert added.reason == "viscous_damping passes every criterion" and set(added.judgements) == {"viscous_damping"}

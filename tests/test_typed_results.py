@@ -33,8 +33,8 @@ def test_simulation_result_holds_what_the_simulator_reports(run):
     for k in range(1, run.time.size):
         sim.step(run.time[k] - run.time[k - 1], 1.75e6 if run.time[k - 1] < 0.1 else 1.8e6, 1e5)
     last = sim.outputs(1.8e6, 1e5)
-    for name in KNEE_OUTPUTS:
-        assert run[name][-1] == last[name], name
+    for name in KNEE_OUTPUTS:  # simulate_knee may run in the compiled core: equal to 1e-10 (docs/native.md)
+        assert run[name][-1] == pytest.approx(last[name], rel=1e-10, abs=1e-12), name
 
 
 def test_simulation_result_reads_as_a_table_and_a_summary(run):

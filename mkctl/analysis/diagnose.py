@@ -52,6 +52,7 @@ from ..errors import MkctlError
 from ..io import diagnosis_report
 from ..io.measurements import Measurement
 from ..physics import actuator, isotonic, knee
+from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, Params
 from ..results import Result
 from .compare import fit_percent, rmse, simulate_output
@@ -87,27 +88,39 @@ class Candidate:
     regressor: str  #: the force term its signature is checked against
     why: str
 
+    @property
+    def switch(self) -> bool:
+        """An effect that is on or off (slack): its search interval is one point, never a bound it hits."""
+        return self.effect == "slack"
+
     def apply(self, params: Params, value: float) -> Params:
         """params with this effect switched on at ``value``."""
         if self.effect == "elasticity":
             return params.replace(model=2, C1=value)
+        if self.effect == "slack":  # a switch: any value searched (its bounds are [1, 1 + 1e-6]) means on
+            return params.replace(slack=1 if value > 0 else 0)
         return params.replace(**{self.parameter: value})
 
 
 #: The candidates, in the spec's order. Elasticity fits C1 with C2 kept at its (Table I) value: C2 is
 #: 150 times smaller and its share of the tension is not separable from C1's in these experiments.
 CANDIDATES = {
-    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7)},
+    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)},
                             "the rubber's tension (model 2 minus model 1) at the measured length",
                             "model 2 instead of model 1: the rubber's Mooney-Rivlin tension"),
     "viscous_damping": Candidate("viscous_damping", "c", {"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
                                  "the damping force per N s/m at the measured velocity", "f += c Ldot"),
-    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0)},
+    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0),
+                                                             "isometric": (1e-3, 100.0)},
                                   "the friction force per N at the measured direction of motion",
                                   "f += Fc tanh(Ldot / vs) (a play operator in the isotonic test)"),
     "pressure_lag": Candidate("pressure_lag", "tau", {"knee": (1e-3, 2.0)},
                               "the force a lag of 1 s takes away at the measured pressure-command rate",
                               "tau dP/dt = P_cmd - P"),
+    # slack is a switch (0 or 1): its one-point search interval just compares on with off
+    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6)},
+                       "the model's tension, where it is negative (a slack muscle carries nothing there)",
+                       "f = max(f, 0), applied last: a braided muscle cannot push"),
 }
 
 #: The experiment that tells two candidates apart, for records that cannot.
@@ -131,6 +144,18 @@ DISCRIMINATING_EXPERIMENTS = {
         "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps apart",
     frozenset({"elasticity", "pressure_lag"}):
         "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
+    frozenset({"elasticity", "slack"}):
+        "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, elasticity bends the whole curve",
+    frozenset({"coulomb_friction", "slack"}):
+        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
+        "everywhere, slack only flattens them at zero",
+    frozenset({"viscous_damping", "slack"}):
+        "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
+        "needs motion",
+    frozenset({"pressure_lag", "slack"}):
+        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, a lag only delays each reading",
 }
 
 _LN10 = math.log(10.0)
@@ -297,6 +322,11 @@ def output_range(measurement: Measurement, params: Params) -> tuple[float, float
     if measurement.experiment == "isotonic":
         low, high = isotonic.length_limits(params)
         return 0.0, high
+    if measurement.experiment == "isometric":  # the tension between no pressure and twice the highest one
+        L, P = measurement.inputs["length"], measurement.inputs["pressure"]
+        ends = [actuator.static_tension(L, p, params) for p in (0.0 * P, 2.0 * np.max(np.abs(P)) + 0.0 * P)]
+        low, high = float(min(np.min(ends[0]), 0.0)), float(np.max(ends[1]))
+        return low - 0.1 * (high - low), high + 0.1 * (high - low)
     x_low, x_high = knee.stop_positions(params)
     span = x_high - x_low
     low, high = x_low - 0.1 * span, x_high + 0.1 * span
@@ -360,6 +390,8 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
 def saturation_note(measurement: Measurement, params: Params, simulated) -> dict | None:
     """Where the baseline could not follow the record (it went to a physical limit), or None."""
     m = measurement
+    if m.experiment == "isometric":  # a clamped muscle has no limit to run into
+        return None
     if m.experiment == "isotonic":
         where = isotonic.saturation(m.inputs["pressure"], m.inputs["force"], params)
         at_limit = where != 0
@@ -426,7 +458,7 @@ class _Problem:
 
 def _problem(measurement: Measurement, fit_offset: bool) -> _Problem:
     n = measurement.samples
-    stride = 1 if measurement.experiment == "isotonic" else max(1, n // FIT_POINTS)
+    stride = 1 if measurement.experiment in ("isotonic", "isometric") else max(1, n // FIT_POINTS)
     grid = np.arange(0, n, stride)
     if grid[-1] != n - 1:
         grid = np.append(grid, n - 1)
@@ -552,6 +584,9 @@ def missing_force(measurement: Measurement, params: Params):
     from scipy.signal import savgol_filter
 
     m = measurement
+    if m.experiment == "isometric":  # nothing moves: the measured tension against the model's, point by point
+        L, P = m.inputs["length"], m.inputs["pressure"]
+        return m.output - isometric_tension(L, P, m.branch, params), {"L": L, "P": P, "branch": m.branch}
     n = m.samples
     dt = float(np.mean(np.diff(m.time)))
     window = (ISOTONIC_SMOOTHING_SAMPLES if m.experiment == "isotonic" else int(round(KNEE_SMOOTHING_S / dt)))
@@ -620,8 +655,17 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
     m = measurement
     missing, states = missing_force(m, params)
     isotonic = m.experiment == "isotonic"
-    speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
     out = {}
+    if m.experiment == "isometric":  # the candidate's change of the tension at the clamped points
+        for name in names:
+            cand = CANDIDATES[name]
+            ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
+            args = (states["L"], states["P"], states["branch"])
+            term = isometric_tension(*args, cand.apply(params, ref)) - isometric_tension(*args, params)
+            x = -states["branch"] if name == "coulomb_friction" else term
+            out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
+        return out
+    speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
     for name in names:
         cand = CANDIDATES[name]
         ref = params.C1 if name == "elasticity" else _REFERENCE[cand.parameter]
@@ -870,7 +914,7 @@ def _row(name: str, fit, value: float, evaluations: int, current: _Fit, problem:
         return row, Outcome(name, None)
     switched_off = fit is current
     score = fit.score if not switched_off else dataclasses.replace(current.score, k=current.score.k + 1)
-    pinned = at_bound(value, bounds)
+    pinned = at_bound(value, bounds) and not cand.switch
     row.update({
         "params_with_added": dict(fit.values) if not switched_off else dict(current.values),
         "rmse": rmse(problem.measured, fit.simulated + fit.offset) * to_file,
@@ -1085,7 +1129,9 @@ class _Search:
                 return
             say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
             try:
-                sigs = signatures(problem.measurement, current.params, pending)
+                record = problem.measurement if not current.offset else dataclasses.replace(
+                    problem.measurement, output=problem.measurement.output - current.offset)
+                sigs = signatures(record, current.params, pending)
             except MkctlError:  # the measured states lie outside the model's domain: no signatures
                 sigs = {}
             if self.signatures_first is None:
@@ -1183,7 +1229,8 @@ class _Search:
                 if fit is None:
                     continue
                 experiment = problem.measurement.experiment
-                pinned = any(at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
+                pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
+                                 and not CANDIDATES[e].switch)
                              for e in (a, b))
                 say(f"  pair {a} + {b}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
                     f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
@@ -1221,7 +1268,8 @@ def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits:
         if both is None:
             continue
         experiment = problem.measurement.experiment
-        pinned = any(at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment]) for e in effects)
+        pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
+                                 and not CANDIDATES[e].switch) for e in effects)
         say(f"  {best} and {rival} together: dBIC {both.score.bic - fits[best].score.bic:+.1f} against {best} "
             f"alone" + (" (a parameter on its bound)" if pinned else ""))
         if not pinned and pair_needed([fits[best].score, fits[rival].score], both.score):

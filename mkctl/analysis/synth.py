@@ -201,12 +201,15 @@ class SyntheticRecord:
 
     @property
     def hidden_effects(self) -> list[str]:
-        baseline = Params().replace(model=BASELINES[self.baseline], **self.known)
+        # hidden static parameters (a calibration's b, n) belong to the muscle, not to an effect
+        effect_parameters = {p for e, ps in EFFECT_PARAMETERS.items() if e != "elasticity" for p in ps}
+        muscle = {k: v for k, v in self.hidden.items() if k not in effect_parameters and k != "model"}
+        baseline = Params().replace(model=BASELINES[self.baseline], **self.known, **muscle)
         return [e for e in self.truth.effects if e not in baseline.effects]
 
 
 def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline: str = "model2",
-               noise: float = DEFAULT_NOISE_MM, seed: int = 0, samples: int | None = None,
+               noise: float | None = DEFAULT_NOISE_MM, seed: int = 0, samples: int | None = None,
                rate: float = DEFAULT_RATE, *, shape: str | None = None, output: str | None = None,
                input_noise: float = 0.0, noise_tau: float = 0.0, offset: float = 0.0,
                declare_offset: bool = False, pressures: bool = False) -> SyntheticRecord:
@@ -214,13 +217,14 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
 
     Parameters
     ----------
-    experiment : ``knee`` or ``isotonic``
+    experiment : ``knee``, ``isotonic`` or ``isometric`` (:func:`synthesize_isometric`)
     hidden : list for :func:`hidden_values`, or dict {parameter: value} (SI)
     known : dict
         Parameter overrides (SI) that the file declares.
     baseline : ``model1`` or ``model2``
     noise : float
-        Output noise standard deviation [output column's unit: mm, or deg for ``beta_deg``].
+        Output noise standard deviation [output column's unit: mm, deg for ``beta_deg``, N for isometric];
+        None: the experiment's default.
     seed : int
         Seed of every noise.
     samples : int
@@ -242,6 +246,11 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
     pressures : bool
         Knee: also write the measured bladder pressures ``pe_kPa``, ``pf_kPa``.
     """
+    if experiment == "isometric":  # the blocked-force bench (noise in N)
+        return synthesize_isometric(hidden, known, DEFAULT_NOISE_N if noise is None else noise, offset=offset,
+                                    seed=seed, samples=ISOMETRIC_SAMPLES if samples is None else samples,
+                                    baseline=baseline, declare_offset=declare_offset)
+    noise = DEFAULT_NOISE_MM if noise is None else noise
     if experiment not in ("knee", "isotonic"):
         raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
@@ -343,7 +352,8 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
         metadata[f"{quantity.name}_offset_{quantity.unit}"] = record.offset
     path = write_measurement(path, record.experiment, record.time, record.inputs, record.output + offset_si,
                              metadata=metadata, baseline=record.baseline, output_column=column,
-                             comments=("synthetic record from mkctl synth (the virtual test bench)",))
+                             comments=("synthetic record from mkctl synth (the virtual test bench)",),
+                             branch=record.inputs.get("branch"))
     truth_path = None
     if truth_file:
         truth_path = truth_path_for(path)
@@ -371,3 +381,78 @@ def truth_path_for(path) -> Path:
     """Where :func:`write_synthetic` puts the hidden truth of a file: ``<stem>.truth.json`` beside it."""
     path = Path(path)
     return path.with_name(path.stem + ".truth.json")
+
+
+# --- The isometric (blocked-force) bench -------------------------------------------------------------
+
+#: Isometric bench: clamped lengths as fractions of L0, the pressure range [Pa] stepped up then down at
+#: each length, and the force noise's default standard deviation [N].
+ISOMETRIC_LENGTHS = (0.75, 0.83, 0.91, 0.98)
+ISOMETRIC_PRESSURES = (0.0, 600e3)
+ISOMETRIC_SAMPLES = 400
+DEFAULT_NOISE_N = 0.5
+#: Seconds between two points of the isometric bench (each a settled, quasi-static reading).
+ISOMETRIC_PERIOD = 1.0
+
+
+def isometric_inputs(samples: int = ISOMETRIC_SAMPLES, lengths=None, pressures=ISOMETRIC_PRESSURES,
+                     params: Params = Params()):
+    """(time [s], length [m], pressure [Pa], branch) of the default blocked-force test.
+
+    The muscle is clamped at each length in turn (default ``ISOMETRIC_LENGTHS`` times L0, shortest first);
+    at each the pressure is stepped evenly from the low to the high end of ``pressures`` (branch +1, up)
+    and back (branch -1, down), ``samples / len(lengths)`` points per length, one point a second.
+    """
+    _check_samples(samples)
+    lengths = np.asarray([f * params.L0 for f in ISOMETRIC_LENGTHS] if lengths is None else lengths, dtype=float)
+    per_length = int(samples) // lengths.size
+    if per_length < 4:
+        raise ParameterError(f"{samples} samples over {lengths.size} lengths leave fewer than 4 per length")
+    up = per_length - per_length // 2
+    low, high = pressures
+    ramp_up = np.linspace(low, high, up)
+    ramp_down = np.linspace(high, low, per_length - up + 1)[1:]
+    pressure = np.tile(np.concatenate([ramp_up, ramp_down]), lengths.size)
+    branch = np.tile(np.concatenate([np.ones(up), -np.ones(per_length - up)]), lengths.size)
+    length = np.repeat(lengths, per_length)
+    time = np.arange(length.size) * ISOMETRIC_PERIOD
+    return time, length, pressure, branch
+
+
+def synthesize_isometric(hidden=None, known: dict | None = None, noise: float = DEFAULT_NOISE_N, offset: float = 0.0,
+                         seed: int = 0, samples: int = ISOMETRIC_SAMPLES, lengths=None, baseline: str = "model2",
+                         declare_offset: bool = False) -> SyntheticRecord:
+    """A blocked-force record made by the truth (baseline + hidden), with force noise and a sensor offset.
+
+    Parameters: hidden, a list for :func:`hidden_values` (``slack`` means slack = 1, ``coulomb_friction``
+    Fc = 2 N) or a dict {parameter: value}; known, parameters the file declares (SI); noise, the force
+    noise's standard deviation [N]; offset, the load cell's zero offset [N], added to what the file holds
+    (declared in its metadata with ``declare_offset``); seed, the noise's seed; samples and lengths [m] as for
+    :func:`isometric_inputs`.
+    Returns a SyntheticRecord with ``inputs = {"length", "pressure", "branch"}`` and the force [N] as output
+    (without the offset, as for the other experiments).
+    """
+    from ..physics.isometric import isometric_tension
+
+    if not (noise >= 0 and np.isfinite(noise)):
+        raise ParameterError(f"noise must be a finite number >= 0 N, got {noise!r}")
+    if not np.isfinite(offset):
+        raise ParameterError(f"offset must be a finite number of N, got {offset!r}")
+    if baseline not in BASELINES:
+        raise ParameterError(f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
+    known = dict(known or {})
+    if isinstance(hidden, dict):
+        hidden = dict(hidden)
+    else:
+        items = list(hidden or ())
+        hidden = hidden_values([i for i in items if i != "slack"])
+        if "slack" in items:
+            hidden["slack"] = 1
+    truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
+    time, length, pressure, branch = isometric_inputs(samples, lengths, params=truth)
+    time, rounded = as_written("isometric", time, {"length": length, "pressure": pressure})
+    inputs = {"length": rounded["length"], "pressure": rounded["pressure"], "branch": branch}
+    clean = isometric_tension(inputs["length"], inputs["pressure"], branch, truth)
+    measured = clean + colored_noise(np.random.default_rng(seed), noise, time)
+    return SyntheticRecord("isometric", baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
+                           "force_N", "steps", 0.0, 0.0, float(offset), declare_offset, dict(inputs))

@@ -10,10 +10,10 @@ import argparse
 import sys
 
 from .options import OneLineParser, run_reporting_errors
-from . import batch, control, measure, paper, run
+from . import batch, calibrate, control, measure, paper, run
 
 #: Subcommand modules, in the order ``mkctl --help`` lists them.
-COMMANDS = [run, paper, control, measure, batch]
+COMMANDS = [run, paper, control, measure, batch, calibrate]
 
 
 def build_parser() -> argparse.ArgumentParser:

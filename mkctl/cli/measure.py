@@ -2,11 +2,15 @@
 
 - ``mkctl synth knee data.csv --hidden viscous_damping`` (``--hidden`` repeatable, or comma-separated:
   ``--hidden c=45,tau=0.05``) writes a measurement file made by the model with
-  hidden effects (and ``data.truth.json`` with what was hidden).
+  hidden effects (and ``data.truth.json`` with what was hidden); ``--shape``, ``--input-noise``,
+  ``--noise-tau``, ``--offset``/``--declare-offset``, ``--output-column beta_deg`` and ``--pressures``
+  make it as messy as a real rig.
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
   overlay and the residual as PNG.
 - ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
-  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures. Several
+  :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures;
+  ``--fit-offset`` fits a constant sensor offset; a record that cannot be this model's output (a unit or
+  zero mistake) is "not diagnosed", exit status 3. Several
   files, a folder or a glob run as a batch (:func:`mkctl.cli.batch.run_diagnose_batch`).
 """
 from __future__ import annotations
@@ -30,9 +34,10 @@ def register(subparsers) -> None:
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
-    p.add_argument("experiment", choices=["knee", "isotonic"],
-                   help="what to simulate: knee (the robot leg driven by pressure steps) or isotonic (one actuator "
-                        "under hanging loads, pressure swept)")
+    p.add_argument("experiment", choices=["knee", "isotonic", "isometric"],
+                   help="what to simulate: knee (the robot leg driven by pressure steps), isotonic (one actuator "
+                        "under hanging loads, pressure swept) or isometric (a blocked-force bench: the muscle "
+                        "clamped at 4 lengths, pressure stepped up and down)")
     p.add_argument("output", metavar="OUT.csv", help="the measurement file to write (<stem>.truth.json goes beside it)")
     p.add_argument("--hidden", action="append", default=[], metavar="EFFECT|NAME=VALUE",
                    help="an effect hidden in the data (repeatable, or comma-separated): an effect name (" + ", ".join(
@@ -44,11 +49,11 @@ def register(subparsers) -> None:
                         "e.g. --param m=2.5")
     p.add_argument("--baseline", choices=["model1", "model2"], default="model2",
                    help="the baseline the file declares (default model2); hide elasticity with model1")
-    p.add_argument("--noise", type=float, default=DEFAULT_NOISE_MM,
-                   help=f"standard deviation of the output noise [the output column's unit: mm, or deg for beta_deg] "
-                        f"(default {DEFAULT_NOISE_MM:g})")
+    p.add_argument("--noise", type=float, default=None,
+                   help=f"standard deviation of the output noise [the output column's unit: mm, deg for beta_deg, "
+                        f"N for isometric] (default {DEFAULT_NOISE_MM:g} mm; isometric 0.5 N)")
     p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
-    p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic)")
+    p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic, 400 isometric)")
     p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
     p.add_argument("--shape", default=None, choices=sorted({*SHAPES["knee"], *SHAPES["isotonic"]}),
                    help="command shape: knee steps (default), ramps or chirp (changes at every sample); isotonic "
@@ -154,6 +159,13 @@ def run_compare(args) -> int:
     residual = plot_residuals(measurement, {"measured - baseline": result.residual},
                               folder / f"{stem}_compare_residual.png")
     print(f"saved {overlay} and {residual}")
+    if measurement.experiment == "isometric":
+        from ..analysis.compare import plot_isometric
+        figure = plot_isometric(measurement.inputs["length"], measurement.inputs["pressure"], measurement.output,
+                                measurement.branch, {f"baseline {measurement.baseline}": measurement.params},
+                                folder / f"{stem}_compare_isometric.png", f"{stem}: tension against pressure",
+                                L0=measurement.params.L0)
+        print(f"saved {figure}")
     return 0
 
 

@@ -265,8 +265,9 @@ def _run_check(*fmus: Path) -> None:
 
 # --- the build ---------------------------------------------------------------------------------------------
 
-def build(out, run: bool = True, params: Params | None = None, *, _fix_exit: bool = True) -> dict[str, Path]:
-    """Build, complete and check both FMUs.
+def build(out, run: bool = True, params: Params | None = None, native: bool = True, *,
+          _fix_exit: bool = True) -> dict[str, Path]:
+    """Build, complete and check both FMUs, and (``native``) their compiled twins in ``out/native``.
 
     Parameters: out, the folder to write ``McKibbenKnee.fmu`` and ``McKibbenActuator.fmu`` to (created if
     needed); run, whether to run each default experiment (in a fresh process) as a check; params, the muscle and
@@ -274,7 +275,9 @@ def build(out, run: bool = True, params: Params | None = None, *, _fix_exit: boo
     II, effects off). ``_fix_exit=False`` leaves pythonfmu's binary as it is: only for the tests and the bench
     that show what the fix prevents.
 
-    Returns the FMUs' paths by model name. Raises :class:`BuildError`.
+    The native FMUs (model-spec section 7b, :func:`mkctl.native.fmu.build_native`) need a C compiler; without one
+    they are skipped with a note on stderr and the pythonfmu FMUs are still built.
+    Returns the FMUs' paths by model name (the native ones as ``native/<model>``). Raises :class:`BuildError`.
     """
     from pythonfmu import FmuBuilder
 
@@ -300,13 +303,27 @@ def build(out, run: bool = True, params: Params | None = None, *, _fix_exit: boo
         for target in built.values():
             _run_check(target)
         _run_check(*built.values())
+    if native:
+        built.update(_build_native(out, params))
     return built
+
+
+def _build_native(out: Path, params: Params) -> dict[str, Path]:
+    """The native FMUs into out/native, or none (with a note) on a machine without a C compiler."""
+    from ..native.build import find_compiler
+    from ..native.fmu import build_native
+    if find_compiler() is None:
+        print("build_fmu: note: no C compiler found (CC, cc, gcc, clang): the native FMUs are not built",
+              file=sys.stderr)
+        return {}
+    return {f"native/{name}": path for name, path in build_native(out, params).items()}
 
 
 def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser = argparse.ArgumentParser(prog="build_fmu", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=default_out, help=f"output folder (default: {default_out})")
     parser.add_argument("--no-run", action="store_true", help="skip running the default experiments")
+    parser.add_argument("--no-native", action="store_true", help="skip the native (compiled) FMUs of dist/native")
     parser.add_argument("--params", type=Path, default=None, metavar="MUSCLE.json",
                         help="a muscle file (mkctl calibrate writes one): its values become the FMUs' defaults")
     args = parser.parse_args(argv)
@@ -315,7 +332,7 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
         if args.params is not None:
             from ..io.muscle import read_muscle
             params = read_muscle(args.params)
-        built = build(args.out, run=not args.no_run, params=params)
+        built = build(args.out, run=not args.no_run, params=params, native=not args.no_native)
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1

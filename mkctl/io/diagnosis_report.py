@@ -16,7 +16,10 @@ from .plotting import new_figure, save_png
 #: How the signature pictures label their x axis.
 SIGNATURE_AXIS = {"viscous_damping": "velocity [mm/s]", "coulomb_friction": "velocity [mm/s]",
                   "pressure_lag": "extensor pressure rate (smoothed) [kPa/s]",
-                  "elasticity": "rubber tension of the model's C1, C2 [N]"}
+                  "elasticity": "rubber tension of the model's C1, C2 [N]",
+                  "slack": "tension the slack muscle would not carry [N]",
+                  ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling "
+                                                     "pressure"}
 
 
 def rmse(measured, simulated) -> float:
@@ -34,7 +37,7 @@ def fit_text(fit: float) -> str:
 
 def input_axis(measurement):
     """The record's main input (pressure or extensor command, in kPa) and its label, for plots."""
-    if measurement.experiment == "isotonic":
+    if measurement.experiment in ("isotonic", "isometric"):
         return measurement.inputs["pressure"] / 1e3, "pressure [kPa]"
     return measurement.inputs["pe_cmd"] / 1e3, "extensor command pe_cmd [kPa]"
 
@@ -117,6 +120,18 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
         f"after ({after_label})": measurement.to_file_units(measurement.output - result.simulated_after),
     }, folder / f"{stem}_residuals.png")
 
+    if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
+        from ..analysis.compare import plot_isometric
+        from ..analysis.diagnose import CANDIDATES
+        after = measurement.params
+        for effect in result.missing:
+            after = CANDIDATES[effect].apply(after, result.params[CANDIDATES[effect].parameter])
+        paths["isometric"] = plot_isometric(measurement.inputs["length"], measurement.inputs["pressure"],
+                                            measurement.output, measurement.branch,
+                                            {"baseline": measurement.params, after_label: after},
+                                            folder / f"{stem}_isometric.png", "before and after the diagnosis",
+                                            L0=measurement.params.L0)
+
     sigs = result.signatures
     names = [name for name in result.signature_order if name in sigs]
     if names:
@@ -126,7 +141,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             ax.plot(sig["x"], sig["missing"], ".", ms=2, color="0.6", alpha=0.4)
             ax.plot(*_binned(sig["x"], sig["missing"]), "o-", color="tab:red", ms=4)
             ax.axhline(0, color="k", lw=0.5)
-            ax.set_xlabel(SIGNATURE_AXIS[name], fontsize=7)
+            ax.set_xlabel(SIGNATURE_AXIS.get((measurement.experiment, name), SIGNATURE_AXIS[name]), fontsize=7)
             ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)
         axes[0, 0].set_ylabel("force the baseline lacks [N]")
         fig.suptitle("signatures: the force the baseline lacks (equation error at the smoothed measured states)",

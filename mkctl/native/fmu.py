@@ -5,7 +5,8 @@
 :func:`build_native` writes FMUs with the same model names, variables (names, value references, causality,
 variability, units, descriptions, start values) and default experiments as the pythonfmu FMUs of ``build_fmu.py``,
 because it reads them from the same declaration: it instantiates the pythonfmu slave classes of
-``fmu/mckibben_knee.py`` and ``fmu/mckibben_actuator.py`` and walks their registered variables. The model code is
+:mod:`mkctl.fmu.models` and walks their registered variables (start values for a Params from their
+``start_values``). The model code is
 the compiled core of :mod:`mkctl.native` (C generated from mkctl's equations); around it sit the FMI wrapper
 (``fmu_c/fmi2_wrapper.c``, shared) and the model's part (``fmu_c/knee_fmu.c``, ``fmu_c/actuator_fmu.c``).
 
@@ -27,7 +28,6 @@ import argparse
 import dataclasses
 import datetime
 import functools
-import importlib.util
 import math
 import os
 import shutil
@@ -44,11 +44,9 @@ from ..errors import MkctlError, ParameterError
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
 
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parents[1]
 C_DIR = HERE / "fmu_c"
-#: The pythonfmu slave scripts whose interface the native FMUs repeat, by model name.
-SLAVE_SCRIPTS = {"McKibbenKnee": ROOT / "fmu" / "mckibben_knee.py",
-                 "McKibbenActuator": ROOT / "fmu" / "mckibben_actuator.py"}
+#: The models, named as the pythonfmu slave classes of :mod:`mkctl.fmu.models` whose interface they repeat.
+MODEL_NAMES = ("McKibbenKnee", "McKibbenActuator")
 #: The model's part of the wrapper, by model name.
 MODEL_SOURCES = {"McKibbenKnee": "knee_fmu.c", "McKibbenActuator": "actuator_fmu.c"}
 
@@ -103,16 +101,8 @@ class Interface:
 
 
 def _load_slave_class(model_name: str):
-    """The pythonfmu slave class of a model: from :mod:`mkctl.fmu.models` where the slaves live in the package,
-    else imported from its script in ``fmu/`` under a private module name."""
-    try:
-        from ..fmu import models
-    except ImportError:
-        script = SLAVE_SCRIPTS[model_name]
-        spec = importlib.util.spec_from_file_location(f"_mkctl_native_{script.stem}", script)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return getattr(module, model_name)
+    """The pythonfmu slave class of a model (:mod:`mkctl.fmu.models`)."""
+    from ..fmu import models
     return getattr(models, model_name)
 
 
@@ -128,15 +118,7 @@ def slave_interface(model_name: str, params: Params | None = None) -> Interface:
     """
     cls = _load_slave_class(model_name)
     slave = cls(instance_name="mkctl-native-build")
-    starts = {}
-    if params is not None and hasattr(cls, "start_values"):  # the slave knows its start values for a Params
-        starts = cls.start_values(params)
-    elif params is not None:
-        from ..physics.simulate import default_commands, default_hip_height
-        starts = {name: getattr(params, name) for name in dataclasses.asdict(params)}
-        if model_name == "McKibbenKnee":
-            starts["X0"] = default_hip_height(params)
-            starts["pe_cmd"], starts["pf_cmd"] = default_commands(params)
+    starts = {} if params is None else cls.start_values(params)  # the slave's own start values for a Params
     variables = []
     for vr, var in slave.vars.items():
         kind = type(var).__name__
@@ -550,13 +532,13 @@ def build_native(out: Path, params: Params | None = None) -> dict[str, Path]:
     model name. params: a :class:`Params` whose values become the start values (default: Table I, II, effects off).
     Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's validation failing)."""
     folder = Path(out) / "native"
-    return {name: build_one(name, folder / f"{name}.fmu", params) for name in SLAVE_SCRIPTS}
+    return {name: build_one(name, folder / f"{name}.fmu", params) for name in MODEL_NAMES}
 
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description="Build the native FMUs (model-spec section 7b).")
-    parser.add_argument("--out", type=Path, default=ROOT / "dist", help="output folder (default: dist); "
-                        "the FMUs go into OUT/native")
+    parser.add_argument("--out", type=Path, default=Path("dist"), help="output folder (default: dist in the "
+                        "working folder); the FMUs go into OUT/native")
     args = parser.parse_args(argv)
     try:
         built = build_native(args.out)

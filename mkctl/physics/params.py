@@ -195,13 +195,14 @@ class Params:
     def replace(self, **overrides) -> "Params":
         """A copy with some values changed; unknown names raise :class:`ParameterError`.
 
-        ``n`` is derived again from the new b, L0, D0 unless it is given explicitly.
+        ``n`` is derived again from b, L0, D0 when one of them changes value, unless it is given explicitly.
         """
         unknown = sorted(set(overrides) - set(PARAMETER_NAMES))
         if unknown:
             raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(PARAMETER_NAMES)})")
         values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
-        if "n" not in overrides and {"b", "L0", "D0"} & set(overrides):
+        # a geometry that does not change (a file repeating a muscle file's L0) keeps that muscle's fitted n
+        if "n" not in overrides and any(overrides[k] != values[k] for k in {"b", "L0", "D0"} & set(overrides)):
             values["n"] = None
         values.update(overrides)
         return Params(**values)

@@ -152,8 +152,9 @@ def parse_args(name: str, description: str, duration: float, argv=None, extra=No
 
 # --- the FMUs ---------------------------------------------------------------------------------------------
 
-def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
-    """Build (and, with ``run``, check by running) the knee and actuator FMUs into the folder out.
+def build_fmus(out, run: bool = False, native: bool = False) -> tuple[dict[str, Path], str]:
+    """Build (and, with ``run``, check by running) the knee and actuator FMUs into the folder out (with
+    ``native``, also the compiled ones into out/native, returned as "native_knee", "native_actuator").
 
     Uses :func:`mkctl.fmu.build.build`, so no file of a checkout is needed. Returns ({"knee": path,
     "actuator": path}, what the build printed); raises :class:`ScenarioError` with the build's last message.
@@ -163,11 +164,14 @@ def build_fmus(out, run: bool = False) -> tuple[dict[str, Path], str]:
     buffer = io.StringIO()
     try:
         with contextlib.redirect_stdout(buffer):
-            built = build(Path(out), run=run)
+            built = build(Path(out), run=run, native=native)
     except MkctlError as error:
         raise ScenarioError(f"building the FMUs into {out} failed: {error}") from error
-    by_file = {Path(path).name: Path(path) for path in built.values()}  # keyed by model name there
+    by_file = {Path(path).name: Path(path) for key, path in built.items() if not key.startswith("native/")}
     paths = {which: by_file.get(name, Path(out) / name) for which, name in FMU_FILES.items()}
+    for which, name in FMU_FILES.items():
+        if f"native/{Path(name).stem}" in built:
+            paths[f"native_{which}"] = built[f"native/{Path(name).stem}"]
     missing = [str(path) for path in paths.values() if not path.is_file()]
     if missing:
         raise ScenarioError(f"building the FMUs into {out} failed: {missing[0]} was not written")

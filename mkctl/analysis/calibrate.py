@@ -1,0 +1,892 @@
+"""Calibrate a user's own muscle: fit the parameters nobody can measure from blocked-force and isotonic
+tests, then add the effects the data support (model-spec section 5b).
+
+:func:`calibrate` takes one or more measurements of the same muscle (``isometric`` and/or ``isotonic``,
+model-spec section 5) and works on forces throughout, so that records of both kinds share one error in N:
+
+- isometric: the measured tension against :func:`mkctl.physics.isometric.isometric_tension` at the clamped
+  length, the pressure and the branch;
+- isotonic: the hanging load against the model's tension at the *measured* length and pressure (the
+  quasi-static balance ``f(L, P) = F``, an equation error, cheap and in N). With Coulomb friction the
+  balance holds at the edge of the +-Fc band the motion pushes to (lengthening: ``F = f + Fc``); where
+  the length does not move (within its noise) the load may lie anywhere inside the band, and only the
+  distance outside it counts.
+
+The fit, step by step (each step's NRMS is shown, and drawn in the error-fall figure):
+
+1. **start**: the files' parameters (metadata, ``--params``, else Table I), nothing fitted.
+2. **static fit**: model 2 with ``b, n, C1, C2`` (and any of ``L0, D0, t0, offset`` asked for with
+   ``fit=``) by bounded least squares (``scipy.optimize.least_squares``, trust-region reflective) from
+   several starting points (:func:`starting_points`); the best is kept. Its NRMS is ``nrms_before``.
+3. **effects**, forward stepwise as in model-spec section 6: each candidate (:data:`CANDIDATES`: ``slack``,
+   ``coulomb_friction``) is fitted *together with the static parameters* on a training part (three of
+   every four points of each record; every fourth is held out), scored by
+   ``BIC = n ln(RSS / n) + k ln n`` on the training part and by its RMS error on the held-out points.
+   The best is added only if it lowers BIC by more than ``BIC_THRESHOLD`` (10) and the held-out error by
+   at least ``HOLDOUT_GAIN`` (2 %), the rule of :mod:`mkctl.analysis.diagnose`. Then all parameters are
+   refitted on every point and the next round starts. ``slack`` is a switch, counted as one parameter.
+
+Physical bounds keep every trial muscle a real one: ``b`` above every measured length and below ``L0 / cos 80 deg`` (a braid angle at rest below 80 deg),
+``n`` in (0.05, 200), ``C1, C2, Fc >= 0``, ``D0 > 2 t0 > 0``. **n is fitted freely** (not tied to D0 by
+model-spec section 2's ``n = sqrt(b^2 - L0^2) / (pi D0)``): with D0 the bladder's measured outer diameter,
+the braid's rest diameter ``sqrt(b^2 - L0^2) / (pi n)`` need not equal it (a loose or a tight braid,
+the end caps), and tying them would leave the pressure term one degree of freedom short (Tondu and
+Lopez's correction factor plays this part in theirs). The result reports that braid diameter next to
+D0. ``link_n=True`` ties n to b, L0, D0 as model-spec section 2 does (n is then not fitted).
+
+Once the effects are chosen, the final model is fitted again from every starting point: a run that ends
+as well (RSS within ``EQUALLY_GOOD`` s^2 of the best) but more than 3 standard errors away in some
+parameter means the data do not pin that parameter down; it is reported in ``ambiguous`` with the other
+values, and gets no standard error (typically L0 and D0 when they are fitted too: the rubber's terms
+trade them against C1).
+
+Uncertainty: ``cov = s^2 (J^T J)^-1`` with ``s^2 = RSS / (N - k)`` and J the Jacobian of the force
+residuals at the optimum; the standard errors are its diagonal's roots. Two fitted parameters whose
+estimates correlate by more than ``IDENTIFIABLE_CORRELATION`` (|r| > 0.99) cannot be separated by these
+data: they are reported as ``not_identifiable`` (C1 and C2 on force data, typically: the rubber's two
+terms have nearly the same shape over the lengths of a blocked-force test) with no standard error for
+either, the later one of the group is held at its starting value (the file's, or Table I's) and the
+rest refitted, so that the numbers in ``params`` remain a usable muscle. A parameter that ends on a
+bound is listed in ``at_bound``.
+
+``NRMS`` is the RMS force error divided by the range of the measured forces (max - min over all points).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..errors import DomainError, MkctlError, ParameterError
+from ..physics import actuator
+from ..physics.isometric import isometric_tension
+from ..physics.params import UNITS, Params
+from ..results import Result
+from .diagnose import BIC_THRESHOLD, HOLDOUT_GAIN
+
+#: Parameters always fitted (model-spec section 5b: the ones a user cannot measure).
+STATIC = ("b", "n", "C1", "C2")
+#: Parameters fitted only on request (``fit=``); by default they come from the files' metadata.
+OPTIONAL = ("L0", "D0", "t0", "offset")
+#: The effects calibrate can add, in the order they are tried, with the parameter each brings.
+CANDIDATES = {"slack": None, "coulomb_friction": "Fc"}
+#: Every point whose index in its record is ``HOLDOUT_EVERY - 1`` modulo this is held out.
+HOLDOUT_EVERY = 4
+#: Estimates correlated beyond this cannot be told apart.
+IDENTIFIABLE_CORRELATION = 0.99
+#: Typical magnitudes: the fit works on value / scale.
+SCALES = {"b": 0.1, "n": 1.0, "C1": 1e5, "C2": 1e4, "L0": 0.1, "D0": 0.01, "t0": 1e-3, "Fc": 1.0, "offset": 1.0}
+#: The steepest braid angle at rest a real braid has [deg]: ``b = L0 / cos(angle)`` stays below L0 / cos of it.
+MAX_BRAID_ANGLE = 80.0
+B_OVER_L0 = 1.0 / math.cos(math.radians(MAX_BRAID_ANGLE))
+#: Default cap on the model evaluations of one least-squares run (per fitted parameter, plus one).
+MAX_EVALUATIONS = 200
+
+
+class CalibrationError(MkctlError):
+    """Measurements calibrate cannot use, or a fit that does not converge."""
+
+
+# --- The data, as forces ----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ForceRecord:
+    """One record as force points (SI): what :func:`calibrate` fits.
+
+    ``sign`` is the friction sign: the model's tension is ``f - sign Fc`` (isometric: the branch, +1 up,
+    -1 down; isotonic: +1 shortening, -1 lengthening, 0 not moving).
+    """
+
+    experiment: str
+    source: str
+    length: np.ndarray  #: clamped (isometric) or measured (isotonic) length [m]
+    pressure: np.ndarray  #: [Pa]
+    force: np.ndarray  #: measured tension (isometric) or hanging load (isotonic) [N]
+    sign: np.ndarray
+    overrides: dict = field(default_factory=dict)  #: the record's metadata parameters (SI)
+    time: np.ndarray | None = None
+
+    @property
+    def size(self) -> int:
+        return int(self.force.size)
+
+
+def isometric_record(length, pressure, force, branch, overrides: dict | None = None,
+                     source: str = "<arrays>") -> ForceRecord:
+    """An isometric record from arrays: lengths [m], pressures [Pa], forces [N], branch (+1 up / -1 down)."""
+    arrays = [np.asarray(a, dtype=float).ravel() for a in (length, pressure, force, branch)]
+    if len({a.size for a in arrays}) != 1:
+        raise CalibrationError(f"{source}: length, pressure, force and branch must have the same size")
+    if not np.isin(arrays[3], (1.0, -1.0)).all():
+        raise CalibrationError(f"{source}: branch must be +1 (up) or -1 (down)")
+    return ForceRecord("isometric", source, *arrays, overrides=dict(overrides or {}))
+
+
+def force_record(measurement) -> ForceRecord:
+    """A :class:`ForceRecord` from a measurement of :mod:`mkctl.io.measurements` (isometric or isotonic)."""
+    if isinstance(measurement, ForceRecord):
+        return measurement
+    m = measurement
+    if m.experiment == "isometric":
+        return ForceRecord("isometric", str(m.source), np.asarray(m.inputs["length"], float),
+                           np.asarray(m.inputs["pressure"], float), np.asarray(m.output, float),
+                           np.asarray(m.branch, float), dict(m.overrides), np.asarray(m.time, float))
+    if m.experiment == "isotonic":
+        length = np.asarray(m.output, float)
+        return ForceRecord("isotonic", str(m.source), length, np.asarray(m.inputs["pressure"], float),
+                           np.asarray(m.inputs["force"], float), -motion_direction(m.time, length),
+                           dict(m.overrides), np.asarray(m.time, float))
+    raise CalibrationError(f"{m.source}: calibrate needs isometric or isotonic records, not {m.experiment!r}")
+
+
+def motion_direction(time, length, window: int = 11):
+    """+1 where the measured length grows, -1 where it shrinks, 0 where it does not move beyond its noise.
+
+    The slope is a Savitzky-Golay (order 1) slope over ``window`` samples; "moving" means more than three
+    times the slope's noise, estimated from the scatter of the length about its smoothed self, over the
+    whole window around the point (near a start or a stop of the motion the window straddles both, and
+    the point counts as not moving: its load may lie anywhere in the friction band).
+    """
+    from scipy.signal import savgol_filter
+
+    time, length = np.asarray(time, float), np.asarray(length, float)
+    n = length.size
+    window = max(3, min(window, n - (1 - n % 2)))
+    window += 1 - window % 2
+    if n < 3 or window > n:
+        return np.zeros(n)
+    dt = float(np.median(np.diff(time)))
+    slope = savgol_filter(length, window, 1, deriv=1, delta=dt)
+    scatter = length - savgol_filter(length, window, 1)
+    sigma = 1.4826 * float(np.median(np.abs(scatter - np.median(scatter))))
+    slope_noise = sigma * math.sqrt(12.0 / (window ** 3 - window)) / dt
+    threshold = max(3.0 * slope_noise, 1e-12)
+    sign = np.where(slope > threshold, 1.0, np.where(slope < -threshold, -1.0, 0.0))
+    # the smoothing window straddles each start and stop of the motion: near one, the sign is not to be
+    # trusted, so a point counts as moving only if its whole window moves the same way
+    half = window // 2
+    padded = np.pad(sign, half, constant_values=0.0)
+    steady = np.ones(n, dtype=bool)
+    for shift in range(2 * half + 1):
+        steady &= padded[shift:shift + n] == sign
+    return np.where(steady, sign, 0.0)
+
+
+#: The braid length of the base a file is read against (:func:`read_records`): long enough for any muscle, so
+#: that a file giving only its L0 (longer than Table I's b) is not judged against Table I's braid.
+READING_BRAID = 100.0
+
+
+def reading_base(params: Params | None = None) -> Params:
+    """The parameter set calibrate reads files against: ``params`` (default Table I) with a braid of
+    :data:`READING_BRAID`, because b is what calibrate fits, not something the file must agree with."""
+    return (params or Params()).replace(b=READING_BRAID, n=None)
+
+
+def read_records(paths, params: Params | None = None) -> list:
+    """Read measurement files for :func:`calibrate` (see :func:`reading_base`)."""
+    from ..io.measurements import read_measurement
+
+    base = reading_base(params)
+    return [read_measurement(path, base=base) for path in paths]
+
+
+def check_records(records: list[ForceRecord]) -> None:
+    """Raise :class:`CalibrationError` for records no muscle can be calibrated on (one line each)."""
+    if not records:
+        raise CalibrationError("no measurement to calibrate on")
+    for r in records:
+        if r.size < 3:
+            raise CalibrationError(f"{r.source}: only {r.size} points; calibrate needs more")
+        finite = np.isfinite(r.length) & np.isfinite(r.pressure) & np.isfinite(r.force)
+        if not finite.all():
+            raise CalibrationError(f"{r.source}: point {int(np.flatnonzero(~finite)[0]) + 1} is not a finite number")
+        if (r.length <= 0).any():
+            raise CalibrationError(f"{r.source}: length {r.length[r.length <= 0][0]:g} m is not positive: no braid "
+                                   "has such a length")
+        if r.experiment == "isometric" and np.unique(r.pressure).size < 2:
+            raise CalibrationError(f"{r.source}: every point has the same pressure ({r.pressure[0] / 1e3:g} kPa): "
+                                   "a blocked-force test must step the pressure to show how the force grows with it")
+
+
+# --- Parameters and bounds ---------------------------------------------------------------------------
+
+def merged_metadata(records: list[ForceRecord]) -> dict:
+    """The records' metadata parameters, merged; two records that disagree raise :class:`CalibrationError`."""
+    merged, where = {}, {}
+    for r in records:
+        for name, value in r.overrides.items():
+            if name in merged and not math.isclose(merged[name], value, rel_tol=1e-9):
+                raise CalibrationError(f"{r.source} gives {name} = {value:g} but {where[name]} gives {merged[name]:g}: "
+                                       "calibrate fits one muscle, its files must agree")
+            merged[name], where[name] = value, r.source
+    return merged
+
+
+def _bounds(name: str, records: list[ForceRecord], start: Params, fitting=()) -> tuple[float, float]:
+    """(lower, upper) of a fitted name [SI]: the physical range (see the module docstring)."""
+    longest = max(float(r.length.max()) for r in records)
+    if name == "b":
+        shortest_braid = longest if "L0" in fitting else max(longest, start.L0)
+        return shortest_braid * (1 + 1e-4), B_OVER_L0 * max(longest, start.L0)
+    if name == "L0":
+        shortest = min(float(r.length.min()) for r in records)
+        return 0.5 * shortest, 2.0 * longest
+    return {"n": (0.05, 200.0), "C1": (0.0, 1e8), "C2": (0.0, 1e8), "D0": (1e-4, 1.0), "t0": (1e-6, 0.1),
+            "Fc": (0.0, 1e4), "offset": (-1e5, 1e5)}[name]
+
+
+class _Model:
+    """The force model over the stacked records, with a fixed set of fitted names."""
+
+    def __init__(self, records, base: Params, names: tuple, link_n: bool):
+        self.records, self.base, self.names, self.link_n = records, base, tuple(names), link_n
+        self.scales = np.array([SCALES[n] for n in self.names])
+        self.force = np.concatenate([r.force for r in records])
+        self.size = self.force.size
+
+    def params_at(self, values: dict) -> Params:
+        physical = {k: v for k, v in values.items() if k != "offset"}
+        if self.link_n:
+            physical.pop("n", None)
+            merged = {**self.base.as_dict(), **physical}
+            physical["n"] = math.sqrt(max(merged["b"] ** 2 - merged["L0"] ** 2, 1e-30)) / (math.pi * merged["D0"])
+        return self.base.replace(**physical)
+
+    def values_at(self, x) -> dict:
+        values = {n: float(v) for n, v in zip(self.names, np.asarray(x) * self.scales)}
+        return values
+
+    def predict(self, params: Params, offset: float = 0.0):
+        """The model's force at every point [N], stacked over the records (raises DomainError outside)."""
+        parts = []
+        for r in self.records:
+            if r.experiment == "isometric":
+                parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
+            else:
+                f = actuator.static_tension(r.length, r.pressure, params)
+                moving = actuator.slack_tension(f - r.sign * params.Fc, params.slack)
+                # at rest the load may lie anywhere in [f - Fc, f + Fc]: the model "predicts" the nearest edge
+                still = np.clip(r.force, f - params.Fc, f + params.Fc)
+                parts.append(np.where(r.sign != 0, moving, still))
+        return np.concatenate(parts)
+
+    def residual_values(self, values: dict):
+        params = self.params_at(values)
+        return self.force - self.predict(params, values.get("offset", 0.0))
+
+    def residual(self, x):
+        try:
+            return self.residual_values(self.values_at(x))
+        except (DomainError, ParameterError):
+            return np.full(self.size, 1e6)  # an unphysical trial muscle: far worse than any fit
+
+
+@dataclass
+class _Fit:
+    values: dict
+    params: Params
+    residual: np.ndarray
+    rss: float
+    result: object
+    names: tuple
+    converged: bool
+    evaluations: int
+    ends: list = field(default_factory=list)  #: (rss, values) where each start's run ended
+
+
+def _least_squares(model: _Model, starts: list[dict], lows, highs, mask=None, max_evaluations=MAX_EVALUATIONS):
+    """The best of bounded least-squares runs from each start (on the points in mask, default all)."""
+    best, total, ends = None, 0, []
+    keep = slice(None) if mask is None else mask
+    for start in starts:
+        x0 = np.array([start[n] for n in model.names]) / model.scales
+        lo, hi = lows / model.scales, highs / model.scales
+        span = hi - lo
+        x0 = np.clip(x0, lo + 1e-6 * np.where(np.isfinite(span), span, 1), hi - 1e-6 * np.where(np.isfinite(span), span, 1))
+        result = least_squares(lambda x: model.residual(x)[keep], x0, bounds=(lo, hi), x_scale="jac",
+                               method="trf", xtol=1e-8, ftol=1e-9, gtol=1e-8,
+                               max_nfev=max_evaluations * (len(model.names) + 1))
+        total += result.nfev + (result.njev or 0) * len(model.names)  # finite-difference Jacobians included
+        rss = float(result.fun @ result.fun)
+        ends.append((rss, model.values_at(result.x)))
+        if best is None or rss < best[0] - 1e-12 * max(rss, 1.0) or (not best[1].status > 0 and result.status > 0
+                                                                      and rss <= best[0] * (1 + 1e-9)):
+            best = (rss, result)
+    rss, result = best
+    values = model.values_at(result.x)
+    residual = model.residual_values(values)
+    return _Fit(values, model.params_at(values), residual, rss, result, model.names, bool(result.status > 0), total,
+                ends)
+
+
+def starting_points(records: list[ForceRecord], start: Params, names: tuple) -> list[dict]:
+    """Several starting points: the braid length at 1.05, 1.25 and 1.6 times the longest length, each with
+    the turns n that match model 1's force at the highest pressures, and C1 at its start value, a tenth
+    and ten times it (C2 at its start value; other names at theirs)."""
+    longest = max(float(r.length.max()) for r in records)
+    L = np.concatenate([r.length for r in records])
+    P = np.concatenate([r.pressure for r in records])
+    F = np.concatenate([r.force for r in records])
+    base = {n: float(getattr(start, n)) for n in names if n not in ("offset", "Fc")}
+    base.update({"offset": 0.0} if "offset" in names else {})
+    base.update({"Fc": start.Fc} if "Fc" in names else {})
+    points = []
+    b_starts = [max(longest, start.L0) * k for k in (1.05, 1.25, 1.6)] if "b" in names else [start.b]
+    for b in b_starts:
+        gain = P * (3 * L * L - b * b) / (4 * math.pi)  # model 1 is gain / n^2
+        use = (gain > 0) & (P >= np.median(P))
+        k = float(F[use] @ gain[use] / (gain[use] @ gain[use])) if use.sum() >= 2 else 0.0
+        n0 = 1.0 / math.sqrt(k) if k > 0 else start.n
+        for factor in (1.0, 0.1, 10.0) if "C1" in names else (1.0,):
+            point = dict(base)
+            point.update({"b": b} if "b" in names else {})
+            point.update({"n": min(max(n0, 0.1), 100.0)} if "n" in names else {})
+            point.update({"C1": max(start.C1, 1e3) * factor} if "C1" in names else {})
+            points.append(point)
+    return points
+
+
+# --- The result --------------------------------------------------------------------------------------
+
+@dataclass(repr=False)
+class CalibrationResult(Result):
+    """What :func:`calibrate` found: the calibrated muscle, its uncertainty, and the error fall step by step.
+
+    Numbers are SI; NRMS values are fractions (0.02 = 2 % of the measured force range).
+    """
+
+    params: Params  #: the calibrated muscle (every section 2 and 4 parameter)
+    fitted: dict  #: the fitted values by name (SI), ``offset`` [N] included when fitted
+    stderr: dict  #: standard errors by name; absent for parameters in ``not_identifiable``
+    not_identifiable: list  #: groups of names the data cannot separate, e.g. [["C1", "C2"]]
+    ambiguous: dict  #: names that another, equally good fit puts elsewhere: {name: [other values]}
+    held: dict  #: names held at their starting value because they are not identifiable
+    at_bound: list  #: fitted names that ended on a bound
+    effects: list  #: effects added, in order
+    nrms_start: float | None  #: the files' parameters, nothing fitted (None if they cannot model the data)
+    nrms_before: float  #: the static fit, no effects
+    nrms_after: float  #: the final fit
+    rms_after: float  #: [N]
+    steps: list  #: one dict per step: label, effects, nrms, rms [N], and the candidates of each round
+    correlation: dict  #: {"names": [...], "matrix": [[...]]} of the final fit's estimates
+    braid_diameter: float  #: the braid's rest diameter sqrt(b^2 - L0^2) / (pi n) [m], next to D0
+    converged: bool
+    evaluations: int  #: model evaluations over all least-squares runs
+    sources: list  #: the records' sources
+    points: int
+    notes: list  #: plain sentences: defaults used, bounds hit, what the data cannot tell
+    stopped: dict | None = None  #: why no further effect was added: reason and the candidates of that round
+    records: list = field(repr=False, default_factory=list)
+    curves: dict = field(repr=False, default_factory=dict)  #: step label -> (Params, offset)
+
+    def summary_lines(self) -> list[str]:
+        fitted = ", ".join(f"{k} = {v:.4g}" + (f" +- {self.stderr[k]:.2g}" if k in self.stderr else "")
+                           for k, v in self.fitted.items())
+        lines = [f"effects {', '.join(self.effects) or 'none'}; NRMS {self.nrms_before:.2%} (static fit) -> "
+                 f"{self.nrms_after:.2%}", fitted]
+        if self.not_identifiable:
+            lines.append("not identifiable: " + "; ".join(" with ".join(g) for g in self.not_identifiable))
+        if self.at_bound:
+            lines.append("on a bound: " + ", ".join(self.at_bound))
+        return lines
+
+    def table(self):
+        """The steps: step, effects, NRMS, RMS [N], BIC (training part) and held-out RMS [N] where known."""
+        return [{"step": s["label"], "effects": ", ".join(s["effects"]), "nrms": s["nrms"], "rms_N": s["rms"],
+                 "bic": s.get("bic"), "rms_holdout_N": s.get("rms_holdout")} for s in self.steps]
+
+    def to_dict(self) -> dict:
+        """The muscle file's content (model-spec section 5b), plain JSON values."""
+        params = self.params.as_dict()
+        return _plain({
+            "params": params,
+            "units": {k: UNITS.get(k, "1") for k in params},
+            "effects": list(self.effects),
+            "nrms_before": self.nrms_before,
+            "nrms_after": self.nrms_after,
+            "nrms_start": self.nrms_start,
+            "rms_after_N": self.rms_after,
+            "fitted": dict(self.fitted),
+            "stderr": dict(self.stderr),
+            "not_identifiable": [list(g) for g in self.not_identifiable],
+            "ambiguous": dict(self.ambiguous),
+            "held": dict(self.held),
+            "at_bound": list(self.at_bound),
+            "correlation": self.correlation,
+            "braid_diameter": self.braid_diameter,
+            "converged": self.converged,
+            "sources": list(self.sources),
+            "points": self.points,
+            "notes": list(self.notes),
+            "stopped": self.stopped,
+            "steps": [{k: v for k, v in s.items()} for s in self.steps],
+        })
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {str(k): _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value
+
+
+# --- The calibration ---------------------------------------------------------------------------------
+
+def _nrms(residual, force_range: float) -> float:
+    return float(np.sqrt(np.mean(residual * residual)) / force_range)
+
+
+def _bic(rss: float, n: int, k: int) -> float:
+    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
+
+
+def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool = False,
+              effects=tuple(CANDIDATES), max_evaluations: int = MAX_EVALUATIONS, progress=None) -> CalibrationResult:
+    """Calibrate one muscle on its measurements (see the module docstring for the method).
+
+    Parameters
+    ----------
+    measurements : list
+        Isometric and/or isotonic :class:`mkctl.io.measurements.Measurement` (or :class:`ForceRecord`,
+        e.g. from :func:`isometric_record`), all of the same muscle.
+    fit : iterable of str
+        Names fitted besides ``b, n, C1, C2``: any of ``L0, D0, t0`` (else taken from the files' metadata,
+        then ``params``, then Table I) and ``offset``, a force sensor's zero offset [N] on isometric records.
+    params : Params
+        What is known (and the start of the fit); the files' metadata wins over it. Default: Table I.
+    link_n : bool
+        Tie n to b, L0, D0 (model-spec section 2) instead of fitting it.
+    effects : iterable of str
+        The candidate effects (default both of :data:`CANDIDATES`); ``()`` fits the static model only.
+    max_evaluations : int
+        Cap on the model evaluations of each least-squares run, per fitted parameter plus one.
+    progress : callable or None
+        Called with a line of text at each step.
+
+    Returns
+    -------
+    CalibrationResult. Raises :class:`CalibrationError` for unusable records or a fit that does not converge.
+    """
+    say = progress or (lambda text: None)
+    records = [force_record(m) for m in measurements]
+    check_records(records)
+    extra = tuple(dict.fromkeys(fit))
+    unknown = [n for n in extra if n not in (*STATIC, *OPTIONAL)]
+    if unknown:
+        raise CalibrationError(f"cannot fit {unknown[0]!r}: calibrate fits {', '.join(STATIC)} and, on request, "
+                               f"{', '.join(OPTIONAL)}")
+    bad_effects = [e for e in effects if e not in CANDIDATES]
+    if bad_effects:
+        raise CalibrationError(f"unknown effect {bad_effects[0]!r} (calibrate can add {', '.join(CANDIDATES)})")
+    if "offset" in extra and not any(r.experiment == "isometric" for r in records):
+        raise CalibrationError("offset is a force sensor's offset on isometric records; there is none here")
+    metadata = merged_metadata(records)
+    notes = []
+    start = (params or Params())
+    for name in ("L0", "D0", "t0"):
+        if params is None and name not in metadata and name not in extra:
+            notes.append(f"{name} not given (metadata or --params): Table I's {getattr(Params(), name):g} "
+                         f"{UNITS[name]} used")
+    longest = max(float(r.length.max()) for r in records)
+    values = {**metadata, "model": 2, "Fc": 0.0, "slack": 0}
+    if "b" not in metadata:  # the start's braid must fit around these lengths (the fit moves it anyway)
+        values["b"] = max(start.b, 1.15 * max(metadata.get("L0", start.L0), longest))
+    start = start.replace(**values)
+    names = tuple(n for n in STATIC if not (link_n and n == "n")) + tuple(n for n in OPTIONAL if n in extra)
+    if "L0" not in names and longest >= start.L0 * B_OVER_L0:
+        raise CalibrationError(f"a measured length {longest:g} m is not below the braid length b of any physical braid "
+                               f"with L0 = {start.L0:g} m (b < L0 / cos {MAX_BRAID_ANGLE:g} deg = "
+                               f"{start.L0 * B_OVER_L0:.4g} m): check the length unit and L0")
+    force = np.concatenate([r.force for r in records])
+    force_range = float(np.ptp(force))
+    if force_range <= 0:
+        raise CalibrationError("every measured force is the same: nothing to calibrate on")
+    holdout = np.concatenate([np.arange(r.size) % HOLDOUT_EVERY == HOLDOUT_EVERY - 1 for r in records])
+    train = ~holdout
+
+    def model_for(names_, base):
+        return _Model(records, base, names_, link_n)
+
+    def bounds_for(names_, base):
+        pairs = [_bounds(n, records, base, names_) for n in names_]
+        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+
+    evaluations = 0
+    steps = []
+    curves = {}
+    # step 0: the start
+    start_model = model_for((), start)
+    try:
+        start_residual = start_model.residual_values({})
+        nrms_start = _nrms(start_residual, force_range)
+    except (DomainError, ParameterError):
+        nrms_start = None
+    steps.append({"label": "start", "effects": [], "nrms": nrms_start,
+                  "rms": None if nrms_start is None else nrms_start * force_range, "params": {}})
+    if nrms_start is not None:
+        curves["start"] = (start, 0.0)
+    say("start (the files' parameters): NRMS " + ("n/a (outside the model's domain)" if nrms_start is None
+                                                   else f"{nrms_start:.2%}"))
+
+    def fit_with(effect_list, base, starts, mask=None):
+        """Fit the static names plus the effects' parameters; returns (_Fit, k)."""
+        nonlocal evaluations
+        base = base.replace(slack=1 if "slack" in effect_list else 0)
+        fit_names = names + tuple(CANDIDATES[e] for e in effect_list if CANDIDATES[e])
+        model = model_for(fit_names, base)
+        lows, highs = bounds_for(fit_names, base)
+        full_starts = []
+        for s in starts:
+            point = {n: s.get(n, getattr(base, n, 0.0) if n != "offset" else 0.0) for n in fit_names}
+            full_starts.append(point)
+        result = _least_squares(model, full_starts, lows, highs, mask, max_evaluations)
+        evaluations += result.evaluations
+        return result, model, len(fit_names) + (1 if "slack" in effect_list else 0)
+
+    static_starts = starting_points(records, start, names)
+    say(f"static fit of {', '.join(names)} from {len(static_starts)} starting points")
+    current, current_model, k_now = fit_with([], start, static_starts)
+    _check_converged(current, "the static fit", max_evaluations, force_range)
+    train_fit, _, _ = fit_with([], start, [current.values], train)
+    added: list[str] = []
+    nrms_before = _nrms(current.residual, force_range)
+    curves["static fit"] = (current.params, current.values.get("offset", 0.0))
+    steps.append({"label": "static fit", "effects": [], "nrms": nrms_before, "rms": nrms_before * force_range,
+                  "params": dict(current.values)})
+    say(f"static fit: NRMS {nrms_before:.2%}")
+
+    def scores(fit_train: _Fit, k: int):
+        r = fit_train.residual
+        rss_train = float(r[train] @ r[train])
+        return _bic(rss_train, int(train.sum()), k), float(np.sqrt(np.mean(r[holdout] ** 2)))
+
+    bic_now, hold_now = scores(train_fit, k_now)
+    steps[-1].update({"bic": bic_now, "rms_holdout": hold_now})
+    pending = [e for e in CANDIDATES if e in effects]
+    stopped = None
+    while pending:
+        rows = []
+        for effect in pending:
+            trial = [*added, effect]
+            starts = [dict(current.values)]
+            if CANDIDATES[effect] == "Fc":
+                sign = np.concatenate([r.sign for r in records])
+                guess = float(np.mean(-sign * current.residual)) if np.any(sign) else 0.0
+                starts = [{**current.values, "Fc": max(guess, 0.01)}]
+            starts += [{**s, **{k: v for k, v in starts[0].items() if k not in s}} for s in static_starts]
+            fitted_train, _, k = fit_with(trial, current.params, starts, train)
+            bic, hold = scores(fitted_train, k)
+            rows.append({"effect": effect, "bic": bic, "delta_bic": bic - bic_now, "rms_holdout": hold,
+                         "nrms_train": float(np.sqrt(np.mean(fitted_train.residual[train] ** 2)) / force_range),
+                         "params": {CANDIDATES[effect]: fitted_train.values[CANDIDATES[effect]]}
+                         if CANDIDATES[effect] else {"slack": 1},
+                         "passes_bic": bool(bic - bic_now < -BIC_THRESHOLD),
+                         "passes_holdout": bool(hold < (1 - HOLDOUT_GAIN) * hold_now), "_fit": fitted_train})
+            say(f"  candidate {effect}: dBIC {bic - bic_now:+.1f}, held-out RMS {hold:.4g} N (now {hold_now:.4g} N)")
+        rows.sort(key=lambda r: r["bic"])
+        best = rows[0]
+        public_rows = [{k: v for k, v in r.items() if not k.startswith("_")} for r in rows]
+        if not (best["passes_bic"] and best["passes_holdout"]):
+            stopped = steps[-1]["stop"] = {"candidates": public_rows, "reason": _stop_reason(best)}
+            say(f"  stop: {_stop_reason(best)}")
+            break
+        added.append(best["effect"])
+        pending.remove(best["effect"])
+        current, current_model, k_now = fit_with(added, current.params, [best["_fit"].values, current.values])
+        _check_converged(current, f"the fit with {', '.join(added)}", max_evaluations, force_range)
+        bic_now, hold_now = best["bic"], best["rms_holdout"]
+        nrms = _nrms(current.residual, force_range)
+        label = "+ " + best["effect"]
+        curves[label] = (current.params, current.values.get("offset", 0.0))
+        steps.append({"label": label, "effects": list(added), "nrms": nrms, "rms": nrms * force_range,
+                      "bic": bic_now, "rms_holdout": hold_now, "params": dict(current.values),
+                      "candidates": public_rows})
+        say(f"added {best['effect']}: NRMS {nrms:.2%}")
+
+    # several starting points once more for the final model: another muscle that fits as well?
+    final_starts = [{**s_, **{k: v for k, v in current.values.items() if k not in s_}} for s_ in static_starts]
+    again, again_model, _ = fit_with(added, current.params, [current.values, *final_starts])
+    if again.converged and again.rss < current.rss:
+        current, current_model = again, again_model
+    # uncertainty and what the data cannot separate
+    stderr, correlation, groups = _uncertainty(current, current_model)
+    ambiguous = _ambiguous(current, again.ends, stderr, force.size)
+    if ambiguous:
+        notes.append("another muscle fits these data as well (within 2 standard errors of the fit's RSS): "
+                     + "; ".join(f"{k} = {current.values[k]:.4g} or {', '.join(f'{v:.4g}' for v in vs)} "
+                                 f"{UNITS.get(k, 'N')}" for k, vs in ambiguous.items())
+                     + ": the data do not pin these down, so no standard error is given for them")
+        stderr = {k: v for k, v in stderr.items() if k not in ambiguous}
+    held = {}
+    if groups:
+        for group in groups:
+            for name in group[1:]:
+                held[name] = float(getattr(start, name)) if name != "offset" else 0.0
+        notes.append("the data cannot separate " + "; ".join(" and ".join(g) for g in groups) + ": "
+                     + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')}" for k, v in held.items())
+                     + " and the rest refitted")
+        keep = tuple(n for n in current_model.names if n not in held)
+        base = current.params.replace(**{k: v for k, v in held.items() if k != "offset"})
+        model = _Model(records, base, keep, link_n)
+        lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, base, keep) for n in keep]))
+        refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, max_evaluations)
+        evaluations += refit.evaluations
+        current = refit
+        current.values.update({k: v for k, v in held.items()})
+        stderr, _, more = _uncertainty(refit, model)
+        groups += [g for g in more if g not in groups]  # what the refit still cannot separate
+        stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
+    at_bound = []
+    lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, current.params, current.names) for n in current.names]))
+    for name, low, high in zip(current.names, lows, highs):
+        value, tolerance = current.values[name], 1e-6 * SCALES[name]
+        if value - low <= tolerance or high - value <= tolerance:
+            at_bound.append(name)
+            current.values[name] = float(low if value - low <= tolerance else high)  # 0, not 4e-14
+    if at_bound:
+        current.params = current.params.replace(**{n: current.values[n] for n in at_bound if n != "offset"})
+    for name in at_bound:
+        value = current.values[name]
+        if value == 0:
+            notes.append(f"{name} ended on its lower bound 0: the data show none of it (its standard error says how "
+                         "much they would still allow)")
+        else:
+            notes.append(f"{name} ended on its bound ({value:.4g} {UNITS.get(name, 'N')}): the data push it out of "
+                         "the physical range; its standard error means little")
+    nrms_after = _nrms(current.residual, force_range)
+    fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
+              if n in current.values}
+    params_final = current.params
+    braid = math.sqrt(params_final.b ** 2 - params_final.L0 ** 2) / (math.pi * params_final.n)
+    curves["final"] = (params_final, current.values.get("offset", 0.0))
+    if abs(nrms_after - steps[-1]["nrms"]) > 1e-3 * steps[-1]["nrms"]:  # holding a parameter cost something
+        steps.append({"label": "final (" + ", ".join(held) + " held)", "effects": list(added), "nrms": nrms_after,
+                      "rms": nrms_after * force_range, "params": dict(current.values)})
+    return CalibrationResult(
+        params=params_final, fitted=fitted, stderr=stderr, not_identifiable=[list(g) for g in groups], ambiguous=ambiguous,
+        held=held,
+        at_bound=at_bound, effects=list(added), nrms_start=nrms_start, nrms_before=nrms_before, nrms_after=nrms_after,
+        rms_after=nrms_after * force_range, steps=steps, correlation=correlation, braid_diameter=braid,
+        converged=current.converged, evaluations=evaluations, sources=[r.source for r in records],
+        points=int(force.size), notes=notes, stopped=stopped, records=records, curves=curves)
+
+
+#: Two fits whose RSS differ by less than this many times the noise variance s^2 fit equally well.
+EQUALLY_GOOD = 4.0
+
+
+def _ambiguous(fit: _Fit, ends: list, stderr: dict, points: int) -> dict:
+    """Names whose value differs by more than 3 standard errors between the fit and another run's end that
+    fits as well (RSS within EQUALLY_GOOD s^2): {name: [other values]}."""
+    k = len(fit.names)
+    if points <= k:
+        return {}
+    s2 = fit.rss / (points - k)
+    out: dict = {}
+    for rss, values in ends:
+        if rss - fit.rss > EQUALLY_GOOD * s2:
+            continue
+        for name, error in stderr.items():
+            other = values.get(name)
+            if other is not None and abs(other - fit.values[name]) > 3 * error:
+                if all(abs(other - v) > 3 * error for v in out.get(name, [])):
+                    out.setdefault(name, []).append(float(other))
+    return out
+
+
+def _check_converged(fit: _Fit, what: str, max_evaluations: int, force_range: float) -> None:
+    """Raise :class:`CalibrationError` naming the best point reached when no least-squares run converged."""
+    if fit.converged:
+        return
+    best = ", ".join(f"{k} = {v:.4g}" for k, v in fit.values.items())
+    raise CalibrationError(f"{what} did not converge within {max_evaluations} evaluations per parameter and run; the "
+                           f"best it reached: NRMS {_nrms(fit.residual, force_range):.2%} with {best}")
+
+
+def _uncertainty(fit: _Fit, model: _Model):
+    """Standard errors, the correlation matrix and the groups of names whose estimates cannot be separated."""
+    J = np.asarray(fit.result.jac, dtype=float) if fit.result.jac is not None else None
+    names = list(model.names)
+    n, k = model.size, len(names)
+    if J is None or n <= k:
+        return {}, {"names": names, "matrix": None}, []
+    # the Jacobian of the residual on every point (least_squares's may be of the training part only)
+    if J.shape[0] != n:
+        J = _jacobian(model, fit.result.x)
+    cov_x = fit.rss / (n - k) * np.linalg.pinv(J.T @ J)
+    sd_x = np.sqrt(np.clip(np.diag(cov_x), 0.0, None))
+    stderr = {name: float(s * scale) for name, s, scale in zip(names, sd_x, model.scales)}
+    with np.errstate(invalid="ignore", divide="ignore"):
+        corr = cov_x / np.outer(sd_x, sd_x)
+    corr = np.where(np.isfinite(corr), corr, 0.0)
+    groups: list[list[str]] = []
+    for i in range(k):
+        for j in range(i + 1, k):
+            if abs(corr[i, j]) > IDENTIFIABLE_CORRELATION:
+                a, b = names[i], names[j]
+                home = next((g for g in groups if a in g or b in g), None)
+                if home is None:
+                    groups.append([a, b])
+                else:
+                    for name in (a, b):
+                        if name not in home:
+                            home.append(name)
+    groups = [sorted(g, key=names.index) for g in groups]
+    # a parameter the residual does not depend on at all cannot be determined either
+    return ({k_: v for k_, v in stderr.items() if not any(k_ in g for g in groups)},
+            {"names": names, "matrix": corr.tolist()}, groups)
+
+
+def _jacobian(model: _Model, x):
+    x = np.asarray(x, dtype=float)
+    base = model.residual(x)
+    J = np.empty((base.size, x.size))
+    for i in range(x.size):
+        h = 1e-6 * max(abs(x[i]), 1e-3)
+        step = x.copy()
+        step[i] += h
+        J[:, i] = (model.residual(step) - base) / h
+    return J
+
+
+def _stop_reason(best: dict) -> str:
+    parts = []
+    if not best["passes_bic"]:
+        parts.append(f"the best candidate ({best['effect']}) changes BIC by only {best['delta_bic']:+.1f} "
+                     f"(needs < {-BIC_THRESHOLD:g})")
+    if not best["passes_holdout"]:
+        parts.append(f"{'it' if parts else 'the best candidate (' + best['effect'] + ')'} does not lower the "
+                     f"held-out error by {HOLDOUT_GAIN:.0%}")
+    return "; ".join(parts) or "nothing more helps"
+
+
+# --- Pictures and the table --------------------------------------------------------------------------
+
+def plot_fits(result: CalibrationResult, folder, stem: str) -> list[Path]:
+    """Data and fits per length: one PNG per record (``<stem>_fit.png``, or ``<stem>_fit_<i>.png`` for
+    several). Isometric: tension against pressure at each clamped length, both branches, with the static
+    fit and the final model (:func:`mkctl.analysis.compare.plot_isometric`). Isotonic: the measured
+    length against pressure per load, with the final model's quasi-static simulation."""
+    from .compare import plot_isometric
+
+    folder = Path(folder)
+    paths = []
+    curves = {"static fit (no effects)": result.curves["static fit"]}
+    if result.effects:
+        curves["calibrated: + " + ", ".join(result.effects)] = result.curves["final"]
+    else:
+        curves = {"calibrated (no effects added)": result.curves["final"]}
+    for number, record in enumerate(result.records):
+        name = f"{stem}_fit.png" if len(result.records) == 1 else f"{stem}_fit_{number + 1}.png"
+        title = f"{Path(record.source).name}: blocked force, data and fits (NRMS {result.nrms_before:.2%} -> " \
+                f"{result.nrms_after:.2%})"
+        if record.experiment == "isometric":
+            paths.append(plot_isometric(record.length, record.pressure, record.force, record.sign, curves,
+                                        folder / name, title, L0=result.params.L0))
+        else:
+            paths.append(_plot_isotonic(record, result, folder / name))
+    return paths
+
+
+def _plot_isotonic(record: ForceRecord, result: CalibrationResult, path) -> Path:
+    from ..io.plotting import new_figure, save_png
+    from ..physics.isotonic import simulate_isotonic
+
+    fig, ax = new_figure(figsize=(6.5, 4.2))
+    loads = np.unique(np.round(record.force, 9))
+    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
+    for color, load in zip(colors * 10, loads):
+        pick = np.isclose(record.force, load)
+        ax.plot(record.pressure[pick] / 1e3, record.length[pick] * 1e3, ".", ms=2, color=color, alpha=0.4,
+                label=f"measured, {load:g} N")
+        if record.time is not None:
+            try:
+                simulated = simulate_isotonic(record.time[pick], record.pressure[pick], record.force[pick],
+                                              result.params)
+                ax.plot(record.pressure[pick] / 1e3, simulated * 1e3, "-", color=color, lw=1.0,
+                        label=f"calibrated model, {load:g} N")
+            except MkctlError:
+                pass
+    ax.set_xlabel("pressure [kPa]")
+    ax.set_ylabel("length [mm]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7, ncol=2)
+    ax.set_title(f"{Path(record.source).name}: isotonic, data and calibrated model", fontsize=9)
+    return save_png(fig, path, dpi=150)
+
+
+def plot_error_fall(result: CalibrationResult, path) -> Path:
+    """The error fall: NRMS of each step (start, static fit, each added effect) as bars, log scale."""
+    from matplotlib.ticker import FuncFormatter
+
+    from ..io.plotting import new_figure, save_png
+
+    steps = [s for s in result.steps if s["nrms"] is not None]
+    labels = [s["label"] for s in steps]
+    values = [100 * s["nrms"] for s in steps]
+    fig, ax = new_figure(figsize=(max(4.5, 1.5 * len(labels) + 1.5), 3.8))
+    colors = ["0.75" if s["label"] == "start" else "0.45" if s["label"] == "static fit" else "tab:blue" for s in steps]
+    bars = ax.bar(range(len(values)), values, color=colors)
+    for bar, value in zip(bars, values):
+        ax.annotate(f"{value:.3g} %", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom",
+                    fontsize=8)
+    ax.set_xticks(range(len(values)), labels, fontsize=8)
+    ax.set_yscale("log")
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
+    ax.set_ylabel("NRMS force error [% of the force range]")
+    ax.set_title("calibration: the error falls step by step", fontsize=10)
+    return save_png(fig, path, dpi=150)
+
+
+def summary(result: CalibrationResult) -> list[str]:
+    """The result as lines of text: the steps' table, the parameters with standard errors, and the notes."""
+    lines = [f"{result.points} points from {len(result.sources)} file(s): {', '.join(result.sources)}",
+             f"{'step':<24} {'NRMS':>8} {'RMS [N]':>9} {'dBIC':>9} {'held-out RMS [N]':>17}"]
+    previous_bic = None
+    for step in result.steps:
+        nrms = "n/a" if step["nrms"] is None else f"{step['nrms']:.2%}"
+        rms = "" if step["rms"] is None else f"{step['rms']:.4g}"
+        bic = step.get("bic")
+        delta = "" if bic is None or previous_bic is None else f"{bic - previous_bic:+.1f}"
+        previous_bic = bic if bic is not None else previous_bic
+        hold = "" if step.get("rms_holdout") is None else f"{step['rms_holdout']:.4g}"
+        lines.append(f"{step['label']:<24} {nrms:>8} {rms:>9} {delta:>9} {hold:>17}")
+        stop = step.get("stop")
+        if stop:
+            for row in stop["candidates"]:
+                lines.append(f"  (not added) {row['effect']:<18} dBIC {row['delta_bic']:+.1f}, held-out RMS "
+                             f"{row['rms_holdout']:.4g} N")
+            lines.append(f"  stop: {stop['reason']}")
+    lines.append("effects added: " + (", ".join(result.effects) or "none"))
+    for name, value in result.fitted.items():
+        unit = {"1": ""}.get(UNITS.get(name, "N"), UNITS.get(name, "N"))
+        if name in result.stderr:
+            text = f"{value:.6g} +- {result.stderr[name]:.2g} {unit}"
+        elif name in result.ambiguous:
+            others = ", ".join(f"{v:.4g}" for v in result.ambiguous[name])
+            text = f"{value:.6g} {unit} (ambiguous: fits as good put it at {others})"
+        elif name in result.held:
+            text = f"{value:.6g} {unit} (held: not identifiable)"
+        else:
+            text = f"{value:.6g} {unit} (not identifiable on its own)"
+        flag = "  <- on its bound" if name in result.at_bound else ""
+        lines.append(f"  {name:<7} = {text}{flag}")
+    if result.not_identifiable:
+        lines.append("not identifiable from these data: " + "; ".join(" with ".join(g) for g in result.not_identifiable))
+    lines.append(f"braid diameter at rest sqrt(b^2 - L0^2) / (pi n) = {result.braid_diameter * 1e3:.3f} mm "
+                 f"(bladder D0 = {result.params.D0 * 1e3:.3f} mm)")
+    for note in result.notes:
+        lines.append("note: " + note)
+    return lines

@@ -1,0 +1,72 @@
+"""``mkctl calibrate FILE... --out MUSCLE.json``: calibrate a user's own muscle (model-spec section 5b).
+
+Reads one or more isometric and/or isotonic files of the same muscle, fits ``b, n, C1, C2`` (and more with
+``--fit``), adds the effects the data support (see :mod:`mkctl.analysis.calibrate`), prints the error fall
+step by step, and writes the muscle file and two pictures beside it: ``<stem>_fit.png`` (data and fits per
+length) and ``<stem>_error.png`` (the error fall).
+"""
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from .options import UsageError, add_params_option, base_params, output_file, output_folder, split_items
+
+
+def register(subparsers) -> None:
+    """Add ``calibrate`` to the `mkctl` parser."""
+    from ..analysis.calibrate import CANDIDATES, MAX_EVALUATIONS, OPTIONAL
+
+    p = subparsers.add_parser(
+        "calibrate", help="fit your own muscle's b, n, C1, C2 (and the effects its data show) from blocked-force "
+                          "and isotonic files; write MUSCLE.json",
+        description="Fit the static parameters a user cannot measure (b, n, C1, C2; more with --fit) from one or "
+                    "more isometric and/or isotonic files of the same muscle, from several starting points within "
+                    "physical bounds; then add the effects the data support (slack, coulomb_friction: forward "
+                    "stepwise, BIC and a held-out quarter of the points), refitting the static parameters with "
+                    "each. Prints the error fall, standard errors and what the data cannot separate; writes the "
+                    "muscle file (model-spec section 5b) and <stem>_fit.png, <stem>_error.png beside it.")
+    p.add_argument("files", nargs="+", metavar="FILE.csv", help="isometric and/or isotonic measurement files")
+    p.add_argument("--out", metavar="MUSCLE.json", required=True, help="the muscle file to write")
+    p.add_argument("--fit", action="append", default=[], metavar="NAMES",
+                   help=f"also fit these (comma-separated): {', '.join(OPTIONAL)} (offset: a force sensor's zero "
+                        "offset on isometric files) - else L0, D0, t0 come from the files' metadata")
+    p.add_argument("--link-n", action="store_true",
+                   help="tie n to b, L0, D0 (n = sqrt(b^2 - L0^2) / (pi D0), model-spec section 2) instead of "
+                        "fitting it")
+    p.add_argument("--effects", default=",".join(CANDIDATES), metavar="NAMES",
+                   help=f"candidate effects (comma-separated, default {','.join(CANDIDATES)}; 'none' for the "
+                        "static fit only)")
+    p.add_argument("--png-dir", metavar="DIR", default=None, help="folder for the PNGs (default: beside --out)")
+    p.add_argument("--max-evaluations", type=int, default=MAX_EVALUATIONS, metavar="N",
+                   help=f"cap on model evaluations per least-squares run, per parameter (default {MAX_EVALUATIONS})")
+    p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    add_params_option(p)
+    p.set_defaults(func=run_calibrate)
+
+
+def run_calibrate(args) -> int:
+    from ..analysis.calibrate import calibrate, plot_error_fall, plot_fits, read_records, summary
+    from ..io.muscle import write_muscle
+
+    out = output_file(args.out, "--out")
+    folder = output_folder(args.png_dir, "--png-dir") if args.png_dir else out.resolve().parent
+    if args.max_evaluations < 1:
+        raise UsageError(f"--max-evaluations must be at least 1, got {args.max_evaluations}")
+    effects = [] if args.effects.strip().lower() == "none" else split_items([args.effects])
+    start = base_params(args) if args.params is not None else None
+    measurements = read_records(args.files, start)
+    progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
+    result = calibrate(measurements, fit=split_items(args.fit), params=start, link_n=args.link_n, effects=effects,
+                       max_evaluations=args.max_evaluations, progress=progress)
+    for line in summary(result):
+        print(line)
+    stem = out.stem
+    fits = plot_fits(result, folder, stem)
+    error = plot_error_fall(result, folder / f"{stem}_error.png")
+    report = result.to_dict()
+    report.pop("params")
+    path = write_muscle(out, result.params, **report)
+    print(f"muscle file: {path}")
+    print("pictures: " + ", ".join(str(p) for p in [*fits, error]))
+    return 0

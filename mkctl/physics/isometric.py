@@ -1,0 +1,82 @@
+"""The isometric (blocked-force) test: the muscle clamped at a fixed length, its pressure stepped or swept
+slowly, the tension it pulls with measured (model-spec section 5, round 2).
+
+The test is quasi-static and the length does not move, so of the effects of model-spec section 4 only
+these act:
+
+- elasticity: model 2 (Eq. 13) instead of model 1 (Eq. 7);
+- Coulomb friction: at zero motion the play operator of section 4 leaves the tension anywhere within
+  +-Fc of the static one; in a test that steps the pressure one way the tension sits at the edge the
+  pressure pushes it to. The measured tension is ``f - Fc`` on the ``up`` branch (pressure rising) and
+  ``f + Fc`` on the ``down`` branch (pressure falling), which draws the hysteresis between the branches;
+- slack: ``max(f, 0)``, applied last to the whole tension: a clamped muscle too short for its pressure
+  goes slack and carries nothing instead of pushing.
+
+Viscous damping and the pressure lag have no effect (no motion; the pressure is the measured one).
+
+Example
+-------
+>>> from mkctl.physics.isometric import isometric_tension
+>>> from mkctl.physics.params import Params
+>>> round(float(isometric_tension(0.18, 300e3, +1, Params(Fc=2.0))), 6)  # model 2 minus Fc
+73.248131
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import actuator
+from ..errors import DomainError
+from .params import DEFAULT, Params
+
+#: The branch codes: +1 while the pressure rises (``up``), -1 while it falls (``down``).
+UP, DOWN = 1, -1
+
+
+def check_branch(branch):
+    """The branch as a float array (or float) of +1 / -1; raise :class:`DomainError` for any other value."""
+    values = np.asarray(branch, dtype=float)
+    bad = np.abs(values) != 1  # neither +1 nor -1 (NaN too)
+    if np.any(bad):
+        raise DomainError(f"branch must be +1 (up: pressure rising) or -1 (down: pressure falling), "
+                          f"got {values[bad].flat[0]!r}")
+    return values if values.ndim else float(values)
+
+
+def hysteresis_tension(f, branch, Fc: float):
+    """Coulomb friction's limit at a clamped length: ``f - Fc`` on the up branch, ``f + Fc`` down [N].
+
+    Parameters: f the static tension [N], branch +1 (up) or -1 (down), Fc the friction force [N] >= 0
+    (model-spec sections 4 and 5). Written ``f - branch Fc``.
+    """
+    return f - check_branch(branch) * Fc
+
+
+def isometric_tension(L, P, branch=UP, params: Params = DEFAULT):
+    """Tension [N] of a muscle clamped at length L under gauge pressure P, on a pressure branch.
+
+    ``f = slack(f_static(L, P) - branch Fc)`` with ``f_static`` model 1 (Eq. 7) or model 2 (Eq. 13) as
+    ``params.model`` says, Fc the Coulomb friction [N] (``params.Fc``) and ``slack(f) = max(f, 0)`` when
+    ``params.slack`` is 1 (model-spec section 4).
+
+    Parameters
+    ----------
+    L : float or array
+        Clamped length [m], 0 < L < b.
+    P : float or array
+        Gauge pressure in the bladder [Pa].
+    branch : float or array
+        +1 while the pressure rises (``up``), -1 while it falls (``down``).
+    params : Params
+        b, L0, D0, t0 [m], n [-], C1, C2 [Pa], model, Fc [N], slack.
+
+    Returns
+    -------
+    The measured tension [N] (positive when it pulls); arrays broadcast.
+    """
+    f = actuator.static_tension(L, P, params)
+    if params.Fc:
+        f = hysteresis_tension(f, branch, params.Fc)
+    else:
+        check_branch(branch)
+    return actuator.slack_tension(f, params.slack)
