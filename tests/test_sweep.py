@@ -66,7 +66,8 @@ def test_each_point_agrees_with_the_analysis_of_its_posture():
         assert out["a1"][i] == pytest.approx(ref.a1, rel=1e-9, abs=1e-12)
         assert out["a2"][i] == pytest.approx(ref.a2, rel=1e-9)
         assert out["verdict"][i] == ref.verdict
-        assert sorted([complex(out["pole1_re"][i], out["pole1_im"][i]), complex(out["pole2_re"][i], out["pole2_im"][i])],
+        assert sorted([complex(out["pole1_re"][i], out["pole1_im"][i]),
+                       complex(out["pole2_re"][i], out["pole2_im"][i])],
                       key=lambda z: z.imag) == pytest.approx(sorted(ref.poles, key=lambda z: z.imag))
         assert out["error"][i] == ""
     assert out["verdict"][0] == "marginal" and out["settling_time_s"][0] == math.inf

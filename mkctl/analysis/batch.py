@@ -157,8 +157,8 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     from tqdm import tqdm
 
     client, cluster = _client(jobs, scheduler)
-    bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr, disable=not progress,
-               dynamic_ncols=True)
+    bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr,
+               disable=not progress, dynamic_ncols=True)
     try:
         futures = [client.submit(_call, function, item, pure=False) for item in items]
         index = {future.key: i for i, future in enumerate(futures)}
@@ -226,16 +226,18 @@ def expand_files(patterns: Iterable[str], suffix: str = ".csv") -> list[Path]:
     return unique
 
 
-def diagnose_file(path, base=None) -> dict:
+def diagnose_file(path, base=None, fit_offset: bool = False) -> dict:
     """Read one measurement file and diagnose it (runs on a worker): the public report plus its time.
 
-    ``base``: the parameters the file's metadata overrides (a muscle file's; default the paper's)."""
+    ``base``: the parameters the file's metadata overrides (a muscle file's; default the paper's);
+    ``fit_offset``: fit a constant sensor offset (as ``mkctl diagnose --fit-offset``)."""
     from .diagnose import diagnose, public
     from ..io.measurements import read_measurement
     from ..physics.params import DEFAULT
 
     start = time.perf_counter()
-    report = public(diagnose(read_measurement(path, base=DEFAULT if base is None else base)))
+    measurement = read_measurement(path, base=DEFAULT if base is None else base)
+    report = public(diagnose(measurement, fit_offset=fit_offset) if fit_offset else diagnose(measurement))
     report["seconds"] = time.perf_counter() - start
     return report
 
@@ -318,8 +320,10 @@ def summary_rows(files, reports: dict, errors: dict, parameters: list[str]) -> l
         row["file"] = file
         if report is not None:
             row.update(status="ok", experiment=report["experiment"], samples=report["samples"],
-                       missing=";".join(report["missing"]), verdict=report.get("verdict"), rmse_before=report["rmse_before"],
-                       rmse_after=report["rmse_after"], unit=report["output_unit"], seconds=report.get("seconds"))
+                       missing=";".join(report["missing"]), verdict=report.get("verdict"),
+                       rmse_before=report["rmse_before"],
+                       rmse_after=report["rmse_after"], unit=report["output_unit"], seconds=report.get("seconds"),
+                       error="; ".join(report.get("problems") or []) or None)
             for name in parameters:
                 row[name] = report["params"].get(name)
                 row[f"{name}_se"] = report["uncertainty"].get(name)
@@ -361,7 +365,10 @@ def format_table(rows: list[dict], parameters: list[str]) -> str:
         if row["status"] != "ok":
             lines.append([name, f"{row['status'].upper()}: {row['error'] or ''}"])
             continue
-        cells = [name, row["missing"].replace(";", ", ") or "nothing"]
+        missing = row["missing"].replace(";", ", ") or "nothing"
+        if row.get("verdict") in ("not diagnosed", "undecided", "incomplete"):
+            missing = f"{missing} ({row['verdict']})" if row["verdict"] != "not diagnosed" else "NOT DIAGNOSED"
+        cells = [name, missing]
         for parameter in parameters:
             value, error = row[parameter], row[f"{parameter}_se"]
             cells.append("-" if value is None else _number(value) + (f" +- {_number(error, 2)}" if error is not None
@@ -436,7 +443,7 @@ def _diagnose_item(item) -> dict:
 
 def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler: str | None = None,
                    progress: bool = True, on_record: Callable[[str, dict | None, str | None], None] | None = None,
-                   base=None) -> BatchResult:
+                   base=None, fit_offset: bool = False) -> BatchResult:
     """Diagnose many measurement files in parallel (:func:`run_batch` over :func:`diagnose_file`).
 
     Parameters
@@ -448,6 +455,7 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     on_record : called with (file, report or None, error or None) as each record completes.
     base : the :class:`mkctl.physics.params.Params` each file's metadata overrides (a muscle file's,
         ``--params``); default the paper's.
+    fit_offset : fit a constant sensor offset in every record (``--fit-offset``).
 
     Returns a :class:`BatchResult`. A file that cannot be read or diagnosed is a row with its error message.
     """
@@ -476,8 +484,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
             on_record(file, outcome.value if outcome.ok else None, outcome.error)
 
     start = time.perf_counter()
-    run_batch(_diagnose_item, [(path, base) for path in paths], jobs=jobs, scheduler=scheduler, progress=progress, on_result=record,
-              description="records")
+    run_batch(_diagnose_item, [(path, base, fit_offset) for path in paths], jobs=jobs, scheduler=scheduler,
+              progress=progress, on_result=record, description="records")
     workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \
         f"{default_jobs() if jobs is None else jobs} local processes"
     result = BatchResult(paths, reports, errors, time.perf_counter() - start, workers, out, written)

@@ -11,8 +11,8 @@ asks of a posture held at rest:
   and the Routh-Hurwitz ``verdict`` (stable, marginal, unstable);
 - the **poles**: the mechanical pair, roots of ``s^2 - a1 s - a2 = 0`` (:func:`mkctl.physics.stability.poles`;
   ``pole1`` has the larger imaginary part), and with a pressure lag (tau > 0) the lag's pole ``-1/tau``
-  (``lag_pole``, double: one lag per muscle; NaN without a lag): the analytic linearization of :mod:`mkctl.analysis.control` is
-  block-triangular, so in open loop these are all its poles;
+  (``lag_pole``, double: one lag per muscle; NaN without a lag): the analytic linearization of
+  :mod:`mkctl.analysis.control` is block-triangular, so in open loop these are all its poles;
 - the **damping ratio** ``zeta = -a1 / (2 sqrt(-a2))`` and the natural frequency ``sqrt(-a2) / 2 pi``
   (:func:`mkctl.analysis.control.damping_ratio`; NaN where a2 >= 0: no oscillation to speak of);
 - the **settling time** (2 %) and the **overshoot** [%] of the hip height after a small step of the

@@ -135,7 +135,8 @@ def run_diagnose_batch(args) -> int:
             tqdm.write(f"{Path(file).name}: {what}", file=sys.stderr)
 
     result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
-                            on_record=said, base=base_params(args))
+                            on_record=said, base=base_params(args), fit_offset=getattr(args, "fit_offset", False))
     print(repr(result))
     print(f"reports: {folder}/<record>.diagnosis.json; table: {folder / SUMMARY_CSV}; figure: {folder / SUMMARY_PNG}")
-    return 1 if result.errors else 0
+    refused = [f for f, r in result.reports.items() if r.get("verdict") == "not diagnosed"]
+    return 1 if result.errors or refused else 0
