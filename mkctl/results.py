@@ -19,6 +19,8 @@ Fit: RMSE 0.0123 mm
 """
 from __future__ import annotations
 
+import math
+
 
 class Result:
     """Mixin for dataclass results: ``repr`` from :meth:`summary_lines`, ``to_dataframe`` from :meth:`table`."""
@@ -47,3 +49,22 @@ class Result:
 
     def _repr_pretty_(self, printer, cycle):  # IPython / Jupyter show the same text
         printer.text(repr(self))
+
+
+def plain(value):
+    """``value`` as plain JSON values: numpy numbers and arrays become Python ones, keys strings, and a NaN or
+    an infinity None (JSON has neither)."""
+    import numpy as np
+    if isinstance(value, dict):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return plain(value.tolist())
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    return value

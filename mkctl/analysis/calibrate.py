@@ -64,7 +64,7 @@ from ..errors import DomainError, MkctlError, ParameterError
 from ..physics import actuator
 from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, Params
-from ..results import Result
+from ..results import Result, plain
 from .diagnose import BIC_THRESHOLD, HOLDOUT_GAIN
 
 #: Parameters always fitted (model-spec section 5b: the ones a user cannot measure).
@@ -402,7 +402,7 @@ class CalibrationResult(Result):
     def to_dict(self) -> dict:
         """The muscle file's content (model-spec section 5b), plain JSON values."""
         params = self.params.as_dict()
-        return _plain({
+        return plain({
             "params": params,
             "units": {k: UNITS.get(k, "1") for k in params},
             "effects": list(self.effects),
@@ -425,20 +425,6 @@ class CalibrationResult(Result):
             "stopped": self.stopped,
             "steps": [{k: v for k, v in s.items()} for s in self.steps],
         })
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    return value
 
 
 # --- The calibration ---------------------------------------------------------------------------------

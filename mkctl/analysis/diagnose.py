@@ -54,7 +54,7 @@ from ..io.measurements import Measurement
 from ..physics import actuator, isotonic, knee
 from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, Params
-from ..results import Result
+from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide, pair_needed, to_drop
 
@@ -774,7 +774,7 @@ class DiagnosisResult(Result):
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
-        return _plain(data)
+        return plain(data)
 
     def table(self) -> list[dict]:
         """One row per candidate per round (``to_dataframe()``): round, effect, parameter, value, delta_bic,
@@ -796,22 +796,6 @@ class DiagnosisResult(Result):
         """Dict-style access to the JSON keys (``result["missing"]``), for scripts written against the
         dict this function used to return."""
         return self.to_dict()[key]
-
-
-def _plain(value):
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_plain(v) for v in value]
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.ndarray):
-        return _plain(value.tolist())
-    return value
 
 
 def public(result: DiagnosisResult) -> dict:

@@ -8,7 +8,6 @@ length) and ``<stem>_error.png`` (the error fall).
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 from .options import UsageError, add_params_option, base_params, output_file, output_folder, split_items
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis import control_defaults
-from ..physics.params import DEFAULT, RATED_PRESSURE
+from ..physics.params import RATED_PRESSURE
 from ..physics.simulate import DEFAULT_ALPHA, DEFAULT_PF
 from .options import UsageError, add_params_option, base_params, output_folder, parse_assignments
 

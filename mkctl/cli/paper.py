@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..physics.params import DEFAULT, PARAMETER_NAMES
+from ..physics.params import PARAMETER_NAMES
 from .options import add_params_option, base_params, output_folder, parse_assignments
 
 

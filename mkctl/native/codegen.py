@@ -40,7 +40,7 @@ import sympy
 from sympy.printing.c import C99CodePrinter
 
 from ..physics import actuator, integrate, knee, simulate
-from ..physics.params import PARAMETER_NAMES, Params, rubber_volume
+from ..physics.params import PARAMETER_NAMES, rubber_volume
 from . import TEMPLATE
 from .variants import ALL_VARIANTS, Variant
 
@@ -229,7 +229,7 @@ def emit_function(name: str, arguments: str, call: str, bindings: dict, constant
     lines += ["    (void)p; (void)stops; (void)k;", "    return 0;", "}", ""]
     # the one-call form: constants on the stack
     lines += [f"static int {name}_once(const double *p, const double *stops, {arguments})", "{",
-              f"    double k[MAX_CONSTANTS_PLACEHOLDER];", f"    {name}_constants(p, stops, k);",
+              "    double k[MAX_CONSTANTS_PLACEHOLDER];", f"    {name}_constants(p, stops, k);",
               f"    return {name}(p, stops, k, {call});", "}", ""]
     return "\n".join(head + lines).replace("MAX_CONSTANTS_PLACEHOLDER", "MK_MAX_CONSTANTS")
 

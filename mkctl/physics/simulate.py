@@ -23,6 +23,7 @@ import numpy as np
 from . import actuator, knee, stability
 from .integrate import integrate
 from .params import DEFAULT, Params
+from .results import SimulationResult
 from .stability import DEFAULT_ALPHA, DEFAULT_PF  # noqa: F401  (the default posture, re-exported here)
 
 #: Names of the knee outputs of model-spec section 7, in order, with units.
@@ -190,7 +191,7 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
 
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
-                  stops: bool = True, rtol: float = 1e-10) -> "SimulationResult":
+                  stops: bool = True, rtol: float = 1e-10) -> SimulationResult:
     """Simulate the knee over a record; commands are held from each sample to the next.
 
     Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
@@ -203,7 +204,6 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
     _, outputs = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None, True)
-    from .results import SimulationResult  # typed result; reads like the former dict (result["X"])
     return SimulationResult(time=time, **{name: outputs[:, i] if name != "stable" else outputs[:, i] != 0
                                           for i, name in enumerate(KNEE_OUTPUTS)})
 

@@ -255,7 +255,7 @@ def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_valu
     try:
         result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
                               start_values=start_values or {}, debug_logging=True, logger=log)
-    except FMICallException as error:  # the FMUs answer invalid parameters with fmi2Fatal at initialization
+    except FMICallException:  # the FMUs answer invalid parameters with fmi2Fatal at initialization
         raise ScenarioError(f"{Path(fmu).name} refused to start: {log.reason()}") from None
     if abs(result["time"][-1] - stop) > 1e-9 * max(1.0, stop):
         raise ScenarioError(f"{Path(fmu).name} stopped at t = {result['time'][-1]:g} s instead of {stop:g} s: "

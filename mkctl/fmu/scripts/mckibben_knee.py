@@ -6,7 +6,7 @@ that it never took (``Py_DECREF`` on the borrowed result of ``PyModule_GetDict``
 reference, once per run, so that the namespace outlives the instances; the less this file defines, the less each
 run allocates (docs/fmu.md, "Memory").
 """
-from mkctl.fmu.models import McKibbenKnee
+from mkctl.fmu.models import McKibbenKnee  # noqa: F401  (the slave class pythonfmu looks for)
 from mkctl.fmu.slave import keep_namespace
 
 keep_namespace(globals())
