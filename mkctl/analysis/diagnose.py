@@ -118,7 +118,7 @@ CANDIDATES = {
                               "the force a lag of 1 s takes away at the measured pressure-command rate",
                               "tau dP/dt = P_cmd - P"),
     # slack is a switch (0 or 1): its one-point search interval just compares on with off
-    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6)},
+    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
                        "the model's tension, where it is negative (a slack muscle carries nothing there)",
                        "f = max(f, 0), applied last: a braided muscle cannot push"),
 }
@@ -641,7 +641,9 @@ def _lagged(time, command, tau):
 
 
 #: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1).
-_REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0}
+_REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0, "slack": 1.0}
+
+
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
     """Each candidate's signature in the force the model lacks (see :func:`missing_force`).
 
@@ -668,7 +670,7 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
     speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
     for name in names:
         cand = CANDIDATES[name]
-        ref = params.C1 if name == "elasticity" else _REFERENCE[cand.parameter]
+        ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
         if name == "pressure_lag":
             rate_e, rate_f = states["Pe_rate"], states["Pf_rate"]
             term = _knee_force(states, params, states["Pe"] - ref * rate_e, states["Pf"] - ref * rate_f) \
@@ -681,7 +683,7 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
                         - actuator.tension(states["L"], states["P"], states["Ldot"], params))
             else:
                 term = _knee_force(states, with_effect) - _knee_force(states, params)
-            x = term if name == "elasticity" else speed
+            x = term if name in ("elasticity", "slack") else speed
         out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
     return out
 
