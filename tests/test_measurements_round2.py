@@ -118,3 +118,15 @@ def test_a_muscle_base_is_overridden_by_the_file(tmp_path):
     m = parse_measurement("# experiment = isotonic\n# m = 2\ntime_s,pressure_kPa,force_N,length_mm\n0,1,1,240\n1,1,1,240\n",
                           base=base)
     assert (m.params.b, m.params.L0, m.params.m) == (0.3, 0.25, 2.0)
+
+
+def test_spreadsheet_exports_with_quotes_and_trailing_commas_read_the_same():
+    plain = "# experiment = knee\ntime_s,pe_cmd_kPa,pf_cmd_kPa,beta_deg\n0,1700,100,155\n0.001,1700,100,155.5\n"
+    exported = ('# experiment = knee\r\n"time_s","pe_cmd_kPa","pf_cmd_kPa","beta_deg",\r\n'
+                '"0","1700","100","155",\r\n0.001,1700,100,155.5,\r\n')
+    a, b = parse_measurement(plain), parse_measurement(exported)
+    np.testing.assert_array_equal(a.output, b.output)
+    np.testing.assert_array_equal(a.time, b.time)
+    assert b.output_column == "beta_deg"
+    with pytest.raises(MeasurementFileError, match="line 3: expected 4 cells as in the header, found 5"):
+        parse_measurement(plain.replace("155\n", "155,7\n", 1))

@@ -308,7 +308,9 @@ def _read_header(header_text: str, header_line: int, experiment: Experiment, fai
             if separator in header_text:
                 fail(header_line, f"not comma-separated: the header row is separated by {label}; measurement "
                                   "files use commas between columns and '.' as the decimal point")
-    header = [cell.strip() for cell in header_text.split(",")]
+    header = _cells(header_text)
+    while len(header) > 1 and not header[-1]:  # a spreadsheet's trailing comma: no column there
+        header.pop()
     kinds = {q.name: q.kind for q in experiment.quantities}
     columns: dict[str, tuple[int, float]] = {}
     extra = []
@@ -387,7 +389,9 @@ def _read_rows(lines, header_index: int, header, columns: dict, experiment: Expe
             continue
         if line.startswith("#"):
             fail(index + 1, "metadata and comments must come before the header row")
-        cells = [cell.strip() for cell in line.split(",")]
+        cells = _cells(line)
+        while len(cells) > len(header) and not cells[-1]:  # trailing commas, as spreadsheets write them
+            cells.pop()
         if len(cells) != len(header):
             fail(index + 1, f"expected {len(header)} cells as in the header, found {len(cells)}")
         values = []
@@ -448,6 +452,17 @@ def _isometric_branch(branch, inputs: dict, has_time: bool, row_lines, header_in
             direction[direction == 0] = nonzero[0] if nonzero.size else 1
         inferred[rows] = direction
     return inferred
+
+
+def _cells(line: str) -> list[str]:
+    """A row's cells, stripped of spaces and of the double quotes some spreadsheets put around every cell."""
+    cells = []
+    for cell in line.split(","):
+        cell = cell.strip()
+        if len(cell) >= 2 and cell[0] == cell[-1] == '"':
+            cell = cell[1:-1].strip()
+        cells.append(cell)
+    return cells
 
 
 def _canonical_unit(experiment: Experiment, quantity: str) -> str:
