@@ -46,6 +46,7 @@ import numpy as np
 
 from ..errors import MeasurementFileError, ParameterError
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
+from .text import read_user_text
 
 
 class Quantity(NamedTuple):
@@ -182,17 +183,7 @@ def read_measurement(path, base: Params = DEFAULT) -> Measurement:
     ``base``: the parameters the file's metadata overrides (default: the paper's; a muscle file's with
     ``--params``).
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8-sig")
-    except FileNotFoundError:
-        raise MeasurementFileError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise MeasurementFileError(f"{path}: is a folder, not a measurement file") from None
-    except UnicodeDecodeError:
-        raise MeasurementFileError(f"{path}: not a text file (it is not UTF-8)") from None
-    except OSError as error:
-        raise MeasurementFileError(f"{path}: cannot be read ({error.strerror})") from None
+    text = read_user_text(path, MeasurementFileError, "a measurement file")
     return parse_measurement(text, str(path), base)
 
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from ..errors import MkctlError, ParameterError
 from ..physics.params import DEFAULT, INTEGER_PARAMETERS, PARAMETER_NAMES, Params
+from .text import read_user_text
 
 
 class MuscleFileError(MkctlError, ValueError):
@@ -32,14 +33,7 @@ def read_muscle_file(path) -> dict:
     Raises :class:`MuscleFileError` with one line naming the file and the problem.
     """
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise MuscleFileError(f"{path}: no such muscle file") from None
-    except IsADirectoryError:
-        raise MuscleFileError(f"{path}: is a folder, not a muscle file") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise MuscleFileError(f"{path}: cannot be read ({getattr(error, 'strerror', None) or error})") from None
+    text = read_user_text(path, MuscleFileError, "a muscle file")
     try:
         data = json.loads(text)
     except json.JSONDecodeError as error:
