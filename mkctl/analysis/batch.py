@@ -337,11 +337,16 @@ def summary_rows(files, reports: dict, errors: dict, parameters: list[str]) -> l
 
 def write_summary_csv(path, rows: list[dict], parameters: list[str]) -> Path:
     """Write the summary table (atomically: a finished batch never leaves half a file)."""
+    return write_rows(path, rows, summary_columns(parameters))
+
+
+def write_rows(path, rows: list[dict], columns: list[str] | None = None) -> Path:
+    """Write table rows as CSV, atomically (columns: given, or the first row's keys); None is an empty cell."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(path.name + ".tmp")
     with temporary.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=summary_columns(parameters))
+        writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]))
         writer.writeheader()
         for row in rows:
             writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
@@ -492,4 +497,87 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     if out is not None:
         result.plot(out / SUMMARY_PNG)
     return result
+
+
+
+# --- many muscles: one calibration per file ---------------------------------------------------------
+
+#: Parameters reported in the calibration batch's summary, in this order.
+CALIBRATION_COLUMNS = ("b", "n", "C1", "C2", "Fc")
+
+
+def _calibrate_item(item) -> dict:
+    """Run on a worker: calibrate one file as its own muscle; returns its muscle-file content + timing."""
+    path, options = item
+    from .calibrate import calibrate, read_records
+    start = time.perf_counter()
+    chosen = {} if options.get("effects") is None else {"effects": options["effects"]}
+    result = calibrate(read_records([path], options.get("base")), fit=options.get("fit", ()),
+                       params=options.get("base"), link_n=options.get("link_n", False), **chosen)
+    report = result.to_dict()
+    report["seconds"] = time.perf_counter() - start
+    return report
+
+
+def calibration_rows(files, reports: dict, errors: dict) -> list[dict]:
+    """One summary row per file: effects, each parameter of :data:`CALIBRATION_COLUMNS` with its standard
+    error, NRMS before and after, time, and the error of a file that failed."""
+    rows = []
+    for file in files:
+        row = {"file": file, "status": "pending", "effects": None}
+        for name in CALIBRATION_COLUMNS:
+            row[name] = row[f"{name}_se"] = None
+        row.update(nrms_before=None, nrms_after=None, seconds=None, error=None)
+        report = reports.get(file)
+        if report is not None:
+            row.update(status="ok", effects=";".join(report["effects"]), nrms_before=report["nrms_before"],
+                       nrms_after=report["nrms_after"], seconds=report["seconds"])
+            for name in CALIBRATION_COLUMNS:
+                row[name] = report["params"].get(name)
+                row[f"{name}_se"] = report.get("stderr", {}).get(name)
+        elif file in errors:
+            row.update(status="error", error=errors[file])
+        rows.append(row)
+    return rows
+
+
+def calibrate_batch(files: Iterable, out, jobs: int | None = None, scheduler: str | None = None,
+                    progress: bool = True, base=None, fit=(), link_n: bool = False, effects=None,
+                    on_record: Callable | None = None) -> list[dict]:
+    """Calibrate every file as its own muscle (:func:`mkctl.analysis.calibrate.calibrate`), in parallel on the
+    batch engine (:func:`run_batch`). Each muscle file ``OUT/<stem>.muscle.json`` and the summary
+    ``OUT/calibration_summary.csv`` are written as records complete; at the end ``OUT/calibration_parameters.png``
+    shows each parameter with its error bar per file. One bad file is reported in its row and does not stop the
+    rest. Returns the summary rows in the files' order."""
+    from ..io.muscle import params_from_values, write_muscle
+
+    files = [str(f) for f in expand_files(files)]
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    names = {file: name.replace(".diagnosis.json", ".muscle.json") for file, name in _json_names(files).items()}
+    options = {"base": base, "fit": tuple(fit), "link_n": link_n, "effects": effects}
+    reports, errors = {}, {}
+    summary = out / "calibration_summary.csv"
+
+    def written(outcome: Outcome) -> None:
+        file = files[outcome.index]
+        if outcome.ok:
+            report = dict(outcome.value)
+            reports[file] = report
+            muscle = {k: v for k, v in report.items() if k != "params"}
+            write_muscle(out / names[file], params_from_values(report["params"], file), **muscle)
+        else:
+            errors[file] = outcome.error
+        write_rows(summary, calibration_rows(files, reports, errors))
+        if on_record is not None:
+            on_record(outcome)
+
+    run_batch(_calibrate_item, [(file, options) for file in files], jobs=jobs, scheduler=scheduler,
+              progress=progress, on_result=written, description="muscles")
+    rows = calibration_rows(files, reports, errors)
+    write_rows(summary, rows)
+    plot_parameters(rows, [n for n in CALIBRATION_COLUMNS if any(r[n] is not None for r in rows)],
+                    out / "calibration_parameters.png")
+    return rows
+
 

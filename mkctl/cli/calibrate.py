@@ -25,8 +25,18 @@ def register(subparsers) -> None:
                     "stepwise, BIC and a held-out quarter of the points), refitting the static parameters with "
                     "each. Prints the error fall, standard errors and what the data cannot separate; writes the "
                     "muscle file (model-spec section 5b) and <stem>_fit.png, <stem>_error.png beside it.")
-    p.add_argument("files", nargs="+", metavar="FILE.csv", help="isometric and/or isotonic measurement files")
-    p.add_argument("--out", metavar="MUSCLE.json", required=True, help="the muscle file to write")
+    p.add_argument("files", nargs="+", metavar="FILE.csv", help="isometric and/or isotonic measurement files "
+                   "(with --each: files, folders or quoted globs)")
+    p.add_argument("--out", metavar="MUSCLE.json", required=True,
+                   help="the muscle file to write (with --each: the folder for one muscle file per record)")
+    p.add_argument("--each", action="store_true",
+                   help="each file is its own muscle: calibrate them in parallel (local processes, or a Dask "
+                        "cluster with --scheduler) into OUT/<stem>.muscle.json, with a summary table "
+                        "(calibration_summary.csv) and calibration_parameters.png")
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help="with --each: worker processes "
+                   "(default: the cores; 0: one after the other in this process)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="with --each: a running Dask scheduler (tcp://HOST:PORT) instead of local processes")
     p.add_argument("--fit", action="append", default=[], metavar="NAMES",
                    help=f"also fit these (comma-separated): {', '.join(OPTIONAL)} (offset: a force sensor's zero "
                         "offset on isometric files) - else L0, D0, t0 come from the files' metadata")
@@ -47,6 +57,9 @@ def register(subparsers) -> None:
 def run_calibrate(args) -> int:
     from ..analysis.calibrate import calibrate, plot_error_fall, plot_fits, read_records, summary
     from ..io.muscle import write_muscle
+
+    if args.each:
+        return run_calibrate_each(args)
 
     out = output_file(args.out, "--out")
     folder = output_folder(args.png_dir, "--png-dir") if args.png_dir else out.resolve().parent
@@ -69,3 +82,26 @@ def run_calibrate(args) -> int:
     print(f"muscle file: {path}")
     print("pictures: " + ", ".join(str(p) for p in [*fits, error]))
     return 0
+
+
+def run_calibrate_each(args) -> int:
+    """``--each``: one calibration per file on the batch engine; a table on screen, exit 1 if any file failed."""
+    from ..analysis.batch import calibrate_batch
+
+    out = output_folder(args.out, "--out")
+    if args.jobs is not None and args.jobs < 0:
+        raise UsageError(f"--jobs must be 0 or more, got {args.jobs}")
+    effects = None if args.effects is None else \
+        ([] if args.effects.strip().lower() == "none" else split_items([args.effects]))
+    rows = calibrate_batch(args.files, out, jobs=args.jobs, scheduler=args.scheduler, progress=not args.quiet,
+                           base=base_params(args) if args.params is not None else None,
+                           fit=split_items(args.fit), link_n=args.link_n, effects=effects)
+    print(f"{'file':<28} {'effects':<26} {'b [m]':>16} {'n':>14} {'NRMS':>15} error")
+    for row in rows:
+        b = "-" if row["b"] is None else f"{row['b']:.4g}" + (f" +-{row['b_se']:.1g}" if row["b_se"] else "")
+        n = "-" if row["n"] is None else f"{row['n']:.4g}" + (f" +-{row['n_se']:.1g}" if row["n_se"] else "")
+        nrms = "-" if row["nrms_after"] is None else f"{row['nrms_before']:.2%} -> {row['nrms_after']:.2%}"
+        name = row["file"].rsplit("/", 1)[-1]
+        print(f"{name:<28} {row['effects'] or '-':<26} {b:>16} {n:>14} {nrms:>15} {row['error'] or ''}")
+    print(f"muscle files, calibration_summary.csv and calibration_parameters.png in {out}")
+    return 1 if any(row["status"] != "ok" for row in rows) else 0
