@@ -11,39 +11,12 @@ import pytest
 
 pytest.importorskip("libcosimpy")
 
+from hosts import LIBCOSIM_KNEE_STEP  # noqa: E402
 from mkctl.physics.params import Params  # noqa: E402
 from mkctl.physics.simulate import KneeSimulator, default_commands, default_hip_height  # noqa: E402
 
 PE0, PF0 = default_commands()
 PE1 = PE0 * 1.05
-
-LIBCOSIM = r"""
-import json, sys
-from libcosimpy.CosimEnums import CosimVariableType
-from libcosimpy.CosimExecution import CosimExecution
-from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-from libcosimpy.CosimManipulator import CosimManipulator
-from libcosimpy.CosimObserver import CosimObserver
-from libcosimpy.CosimSlave import CosimLocalSlave
-log_output_level(CosimLogLevel.WARNING)
-fmu, pe1 = sys.argv[1], float(sys.argv[2])
-ms = 1_000_000  # libcosim counts time in nanoseconds
-execution = CosimExecution.from_step_size(step_size=ms)
-index = execution.add_local_slave(local_slave=CosimLocalSlave(fmu_path=fmu, instance_name="knee"))
-vr = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
-execution.real_initial_value(index, vr["c"], 40.0)
-observer = CosimObserver.create_time_series()
-execution.add_observer(observer)
-override = CosimManipulator.create_override()
-execution.add_manipulator(override)
-observer.start_time_series(index, vr["X"], CosimVariableType.REAL)
-ok = [execution.simulate_until(100 * ms)]
-override.slave_real_values(index, [vr["pe_cmd"]], [pe1])
-ok.append(execution.simulate_until(1000 * ms))
-# from step 1: libcosimpy 0.0.6 trims its sample lists by counting zero step numbers, step 0 included
-times, steps, X = observer.time_series_real_samples(index, vr["X"], from_step=1, sample_count=1000)
-print(json.dumps({"ok": ok, "time": [t / 1e9 for t in times], "X": list(X)}))
-"""
 
 FMPY = r"""
 import json, sys
@@ -58,7 +31,7 @@ print(json.dumps({"time": result["time"].tolist(), "X": result["X"].tolist()}))
 
 
 def test_knee_fmu_runs_in_libcosimpy_with_the_same_results_as_in_fmpy(built_fmus, run_python):
-    cosim = run_python(LIBCOSIM, built_fmus["knee"], repr(PE1))
+    cosim = run_python(LIBCOSIM_KNEE_STEP, built_fmus["knee"], repr(PE1), "1.0")
     fmpy_run = run_python(FMPY, built_fmus["knee"], repr(PE0), repr(PE1), repr(PF0))
     assert cosim["ok"] == [True, True]
     assert cosim["time"][-1] == pytest.approx(1.0) and fmpy_run["time"][-1] == pytest.approx(1.0)

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from hosts import LIBCOSIM_KNEE_STEP
 from mkctl.physics import knee
 from mkctl.physics.params import DEFAULT, Params
 from mkctl.physics.simulate import default_commands
@@ -443,39 +444,11 @@ def test_native_knee_runs_in_the_c_host_with_an_empty_environment(c_host, native
     assert "python" not in needed.lower()
 
 
-LIBCOSIM = r"""
-import json, sys
-from libcosimpy.CosimEnums import CosimVariableType
-from libcosimpy.CosimExecution import CosimExecution
-from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-from libcosimpy.CosimManipulator import CosimManipulator
-from libcosimpy.CosimObserver import CosimObserver
-from libcosimpy.CosimSlave import CosimLocalSlave
-log_output_level(CosimLogLevel.WARNING)
-fmu, pe1 = sys.argv[1], float(sys.argv[2])
-ms = 1_000_000
-execution = CosimExecution.from_step_size(step_size=ms)
-index = execution.add_local_slave(local_slave=CosimLocalSlave(fmu_path=fmu, instance_name="knee"))
-vr = {v.name.decode(): v.reference for v in execution.slave_variables(index)}
-execution.real_initial_value(index, vr["c"], 40.0)
-observer = CosimObserver.create_time_series()
-execution.add_observer(observer)
-override = CosimManipulator.create_override()
-execution.add_manipulator(override)
-observer.start_time_series(index, vr["X"], CosimVariableType.REAL)
-ok = [execution.simulate_until(100 * ms)]
-override.slave_real_values(index, [vr["pe_cmd"]], [pe1])
-ok.append(execution.simulate_until(500 * ms))
-times, steps, X = observer.time_series_real_samples(index, vr["X"], from_step=1, sample_count=500)
-print(json.dumps({"ok": ok, "time": [t / 1e9 for t in times], "X": list(X)}))
-"""
-
-
 def test_native_knee_runs_in_libcosimpy(native_fmus, run_python):
     pytest.importorskip("libcosimpy")
     from mkctl.physics.simulate import KneeSimulator, default_hip_height
     pe1 = PE0 * 1.05
-    run = run_python(LIBCOSIM, native_fmus["knee"], repr(pe1))
+    run = run_python(LIBCOSIM_KNEE_STEP, native_fmus["knee"], repr(pe1), "0.5")
     assert run["ok"] == [True, True] and len(run["X"]) == 500
     sim = KneeSimulator(Params(c=40.0), default_hip_height(), PE0, PF0)
     direct = [sim.step(1e-3, PE0 if k < 100 else pe1, PF0)[0] for k in range(500)]
