@@ -45,20 +45,13 @@ from xml.etree import ElementTree as ET
 
 from ..errors import MkctlError
 from ..physics.params import DEFAULT, Params
+from .units import fmi_unit, unit_definitions
 
 SCRIPTS = Path(__file__).resolve().parent / "scripts"
 #: The slave script of each FMU, by model name (a one-line import of the slave class, see mkctl/fmu/scripts).
 FMU_SCRIPTS = {"McKibbenKnee": SCRIPTS / "mckibben_knee.py",
                "McKibbenActuator": SCRIPTS / "mckibben_actuator.py"}
 
-
-#: FMI unit names for the unit strings of mkctl, and their SI base-unit exponents.
-_UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
-_BASE_UNITS = {
-    "m": {"m": 1}, "s": {"s": 1}, "kg": {"kg": 1}, "rad": {"rad": 1}, "1": {},
-    "N": {"kg": 1, "m": 1, "s": -2}, "Pa": {"kg": 1, "m": -1, "s": -2}, "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1}, "1/s": {"s": -1}, "1/s2": {"s": -2},
-}
 
 #: SHA-256 of the pythonfmu linux64 binaries the exit fix was verified on (disassembled, run under valgrind, and
 #: run 20 times from a long folder by a C host that returns from main), and what they are.
@@ -186,16 +179,11 @@ def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
             node.text = None
         if node.tail is not None and not node.tail.strip():
             node.tail = None
-    fmi_units = {name: _UNIT_NAMES.get(unit, unit) for name, unit in units.items()}
-    used = sorted(set(fmi_units.values()))
-    unknown = [u for u in used if u not in _BASE_UNITS]
-    if unknown:
-        raise BuildError(f"no base-unit definition for unit(s) {unknown}")
-    definitions = ET.Element("UnitDefinitions")
-    for unit in used:
-        node = ET.SubElement(definitions, "Unit", name=unit)
-        if _BASE_UNITS[unit]:
-            ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in _BASE_UNITS[unit].items()})
+    fmi_units = {name: fmi_unit(unit) for name, unit in units.items()}
+    try:
+        definitions = unit_definitions(fmi_units.values())
+    except ValueError as error:
+        raise BuildError(str(error)) from None
     # the schema's order: CoSimulation, UnitDefinitions, TypeDefinitions, LogCategories, ...
     position = list(root).index(root.find("CoSimulation")) + 1
     root.insert(position, definitions)

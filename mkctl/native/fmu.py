@@ -41,6 +41,7 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from ..errors import MkctlError, ParameterError
+from ..fmu.units import fmi_unit, unit_definitions
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
 
 HERE = Path(__file__).resolve().parent
@@ -50,13 +51,6 @@ MODEL_NAMES = ("McKibbenKnee", "McKibbenActuator")
 #: The model's part of the wrapper, by model name.
 MODEL_SOURCES = {"McKibbenKnee": "knee_fmu.c", "McKibbenActuator": "actuator_fmu.c"}
 
-#: FMI unit names for mkctl's unit strings, and their SI base-unit exponents (as build_fmu.py writes them).
-_UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
-_BASE_UNITS = {
-    "m": {"m": 1}, "s": {"s": 1}, "kg": {"kg": 1}, "rad": {"rad": 1}, "1": {},
-    "N": {"kg": 1, "m": 1, "s": -2}, "Pa": {"kg": 1, "m": -1, "s": -2}, "m/s": {"m": 1, "s": -1},
-    "m/s2": {"m": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1}, "1/s": {"s": -1}, "1/s2": {"s": -2},
-}
 _LOG_CATEGORIES = {
     "logStatusWarning": "Log messages with fmi2Warning status.",
     "logStatusDiscard": "Log messages with fmi2Discard status.",
@@ -106,10 +100,6 @@ def _load_slave_class(model_name: str):
     return getattr(models, model_name)
 
 
-def _fmi_unit(unit: str) -> str:
-    return _UNIT_NAMES.get(unit, unit)
-
-
 def slave_interface(model_name: str, params: Params | None = None) -> Interface:
     """The interface of a model's pythonfmu slave, start values taken from params (default: the slave's own).
 
@@ -127,7 +117,7 @@ def slave_interface(model_name: str, params: Params | None = None) -> Interface:
         if causality != "output":
             start = starts.get(var.name, getattr(slave, var.name))
             start = int(start) if kind == "Integer" else float(start)
-        unit = _fmi_unit(slave.units[var.name]) if kind == "Real" else None
+        unit = fmi_unit(slave.units[var.name]) if kind == "Real" else None
         variables.append(Variable(var.name, vr, kind, causality, var.variability.name, var.description, unit,
                                   start))
     experiment = cls.default_experiment
@@ -201,15 +191,10 @@ def model_description(interface: Interface, guid: str, source_files: list[str]) 
     sources = ET.SubElement(cosim, "SourceFiles")
     for name in source_files:
         ET.SubElement(sources, "File", name=name)
-    units = sorted({v.unit for v in interface.variables if v.unit is not None})
-    unknown = [u for u in units if u not in _BASE_UNITS]
-    if unknown:
-        raise NativeBuildError(f"no base-unit definition for unit(s) {unknown}")
-    definitions = ET.SubElement(root, "UnitDefinitions")
-    for unit in units:
-        node = ET.SubElement(definitions, "Unit", name=unit)
-        if _BASE_UNITS[unit]:
-            ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in _BASE_UNITS[unit].items()})
+    try:
+        root.append(unit_definitions(v.unit for v in interface.variables if v.unit is not None))
+    except ValueError as error:
+        raise NativeBuildError(str(error)) from None
     categories = ET.SubElement(root, "LogCategories")
     for name, text in _LOG_CATEGORIES.items():
         ET.SubElement(categories, "Category", name=name, description=text)

@@ -1,0 +1,37 @@
+"""FMI units of the FMUs' variables: mkctl's unit strings as FMI unit names, and the ``<UnitDefinitions>``
+element of a modelDescription.xml. Used by the pythonfmu build (:mod:`mkctl.fmu.build`) and the native one
+(:mod:`mkctl.native.fmu`), so that both FMUs declare the same units."""
+from __future__ import annotations
+
+from xml.etree import ElementTree as ET
+
+#: FMI unit names for the unit strings of mkctl that are not valid FMI names as they are.
+FMI_UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
+#: SI base-unit exponents of every FMI unit the FMUs use.
+FMI_BASE_UNITS = {
+    "m": {"m": 1}, "s": {"s": 1}, "kg": {"kg": 1}, "rad": {"rad": 1}, "1": {},
+    "N": {"kg": 1, "m": 1, "s": -2}, "Pa": {"kg": 1, "m": -1, "s": -2}, "m/s": {"m": 1, "s": -1},
+    "m/s2": {"m": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1}, "1/s": {"s": -1}, "1/s2": {"s": -2},
+}
+
+
+def fmi_unit(unit: str) -> str:
+    """The FMI name of one of mkctl's unit strings (``"N s/m"`` -> ``"N.s/m"``)."""
+    return FMI_UNIT_NAMES.get(unit, unit)
+
+
+def unit_definitions(units) -> ET.Element:
+    """``<UnitDefinitions>`` for the FMI unit names ``units`` (sorted, each once), with their base units.
+
+    Raises ValueError naming the units that have no base-unit definition in :data:`FMI_BASE_UNITS`.
+    """
+    used = sorted(set(units))
+    unknown = [u for u in used if u not in FMI_BASE_UNITS]
+    if unknown:
+        raise ValueError(f"no base-unit definition for unit(s) {unknown}")
+    definitions = ET.Element("UnitDefinitions")
+    for unit in used:
+        node = ET.SubElement(definitions, "Unit", name=unit)
+        if FMI_BASE_UNITS[unit]:
+            ET.SubElement(node, "BaseUnit", {k: str(v) for k, v in FMI_BASE_UNITS[unit].items()})
+    return definitions
