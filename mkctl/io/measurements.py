@@ -211,9 +211,8 @@ def parse_measurement(text: str, source: str = "<text>", base: Params = DEFAULT)
     offsets = _offsets(offset_items, experiment, columns, fail)
     data, branch, row_lines = _read_rows(lines, header_index, header, columns, experiment, fail)
 
-    def column(name):
-        values = data[name] - offsets.get(name, 0.0)
-        return values
+    def column(name):  # SI values with the declared sensor offset removed
+        return data[name] - offsets.get(name, 0.0)
 
     has_time = "time" in columns
     time = data["time"] if has_time else np.arange(len(row_lines), dtype=float)

@@ -143,7 +143,7 @@ class Params:
     Fc: float = EFFECTS_TABLE["Fc"].value
     vs: float = EFFECTS_TABLE["vs"].value
     tau: float = EFFECTS_TABLE["tau"].value
-    slack: int = 0
+    slack: int = EFFECTS_TABLE["slack"].value
 
     def __post_init__(self):
         for field in dataclasses.fields(self):
