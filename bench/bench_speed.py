@@ -8,8 +8,12 @@ Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``.
      :func:`mkctl.physics.knee.knee_derivatives`, commands held from sample to sample, output at every
      sample), at scipy's default tolerances and at mkctl's (rtol 1e-10);
    - :func:`mkctl.physics.simulate.simulate_knee` with the compiled core (every output of the knee);
+   - :func:`mkctl.physics.simulate.knee_states` with the compiled core: X and V at every sample, the work the
+     reference does (it computes no other output);
    - the same with the Python path (``MKCTL_NATIVE=0``), for scale.
    Target: simulate_knee (compiled) at least 100x faster than the reference at default tolerances.
+1b. The same record as a rig measures it: the commands read back with 2 kPa of sensor noise, so they change at
+   every sample and both the reference and mkctl integrate one sample at a time.
 2. A whole :func:`mkctl.analysis.diagnose.diagnose` of a 3000-sample synthetic knee record with hidden
    viscous damping. Target: less time than 5 reference simulations. ``--python`` also times it on the
    Python path (slow).
@@ -36,7 +40,7 @@ from mkctl.native import build, compiled
 from mkctl.native.variants import ALL_VARIANTS
 from mkctl.physics import knee, stability
 from mkctl.physics.params import Params
-from mkctl.physics.simulate import simulate_knee
+from mkctl.physics.simulate import knee_states, simulate_knee
 
 SAMPLES, RATE = 6000, 1000.0
 SPEED_TARGET = 100.0
@@ -57,7 +61,7 @@ def reference(t, pe, pf, params, X0, **tolerances):
     are held from each sample to the next, so the right-hand side jumps there); output at every sample."""
     stops = knee.stop_positions(params)
     changes = np.flatnonzero((pe[1:] != pe[:-1]) | (pf[1:] != pf[:-1])) + 1
-    bounds = [0, *changes.tolist(), t.size - 1]
+    bounds = sorted({0, *changes.tolist(), t.size - 1})
     X = np.empty(t.size)
     y = np.array([X0, 0.0])
     X[0] = X0
@@ -70,6 +74,32 @@ def reference(t, pe, pf, params, X0, **tolerances):
         X[first + 1:last + 1] = run.y[0]
         y = run.y[:, -1]
     return X
+
+
+def time_record(t, pe, pf, params, X0, repeat: int, tight: bool = True) -> tuple[float, float]:
+    """Time the reference and simulate_knee on one record and print the table; returns (reference time,
+    reference / compiled simulate_knee)."""
+    ref_time, ref_X = best_of(lambda: reference(t, pe, pf, params, X0), max(1, repeat // 2))
+    rows = [("solve_ivp LSODA, default tolerances (reference)", ref_time, ref_X)]
+    if tight:
+        tight_time, tight_X = best_of(lambda: reference(t, pe, pf, params, X0, rtol=1e-10, atol=1e-9), 1)
+        rows.append(("solve_ivp LSODA, mkctl's tolerances (rtol 1e-10)", tight_time, tight_X))
+    simulate_knee(t, pe, pf, params, X0=X0)  # load the library
+    native_time, native = best_of(lambda: simulate_knee(t, pe, pf, params, X0=X0), repeat * 4)
+    states_time, (states_X, _) = best_of(lambda: knee_states(t, pe, pf, params, X0=X0), repeat * 4)
+    python_time, python = best_of(lambda: python_path(lambda: simulate_knee(t, pe, pf, params, X0=X0)), 1)
+    rows += [("simulate_knee, Python path", python_time, python["X"]),
+             ("simulate_knee, compiled (every output)", native_time, native["X"]),
+             ("knee_states, compiled (X and V only)", states_time, states_X)]
+    print(f"   {'':<50} {'time [ms]':>10} {'reference/this':>15} {'max |X - compiled X| [m]':>25}")
+    for label, seconds, X in rows:
+        print(f"   {label:<50} {1e3 * seconds:>10.2f} {ref_time / seconds:>15.1f} "
+              f"{np.max(np.abs(X - native['X'])):>25.2e}")
+    speedup = ref_time / native_time
+    print(f"   compiled simulate_knee vs reference: {speedup:.0f}x (target >= {SPEED_TARGET:g}x) "
+          f"{'OK' if speedup >= SPEED_TARGET else '<-- below target'}; knee_states: {ref_time / states_time:.0f}x; "
+          f"simulate_knee vs the Python path: {python_time / native_time:.0f}x")
+    return ref_time, speedup
 
 
 def python_path(function):
@@ -101,23 +131,14 @@ def main() -> int:
     t, pe, pf = synth.knee_inputs(SAMPLES, RATE, params)
     X0 = stability.equilibrium_hip_height(pe[0], pf[0], params)
     print(f"\n1. one {t[-1] + 1 / RATE:g} s knee record at {RATE:g} Hz ({SAMPLES} samples, extensor steps)")
-    ref_time, ref_X = best_of(lambda: reference(t, pe, pf, params, X0), max(1, args.repeat // 2))
-    tight_time, tight_X = best_of(lambda: reference(t, pe, pf, params, X0, rtol=1e-10, atol=1e-9), 1)
-    simulate_knee(t, pe, pf, params, X0=X0)  # load the library
-    native_time, native = best_of(lambda: simulate_knee(t, pe, pf, params, X0=X0), args.repeat * 4)
-    python_time, python = best_of(lambda: python_path(lambda: simulate_knee(t, pe, pf, params, X0=X0)), 1)
-    rows = [("solve_ivp LSODA, default tolerances (reference)", ref_time, ref_X),
-            ("solve_ivp LSODA, mkctl's tolerances (rtol 1e-10)", tight_time, tight_X),
-            ("simulate_knee, Python path", python_time, python["X"]),
-            ("simulate_knee, compiled", native_time, native["X"])]
-    print(f"   {'':<50} {'time [ms]':>10} {'reference/this':>15} {'max |X - compiled X| [m]':>25}")
-    for label, seconds, X in rows:
-        print(f"   {label:<50} {1e3 * seconds:>10.2f} {ref_time / seconds:>15.1f} "
-              f"{np.max(np.abs(X - native['X'])):>25.2e}")
-    speedup = ref_time / native_time
+    ref_time, speedup = time_record(t, pe, pf, params, X0, args.repeat)
     ok_speed = speedup >= SPEED_TARGET
-    print(f"   compiled simulate_knee vs reference: {speedup:.0f}x (target >= {SPEED_TARGET:g}x) "
-          f"{'OK' if ok_speed else '<-- below target'}; vs the Python path: {python_time / native_time:.0f}x")
+
+    rng = np.random.default_rng(0)
+    pe_measured = pe + rng.normal(0.0, 2e3, pe.size)
+    pf_measured = pf + rng.normal(0.0, 2e3, pf.size)
+    print(f"\n1b. the same record with the commands as measured (2 kPa sensor noise: they change at every sample)")
+    time_record(t, pe_measured, pf_measured, params, X0, max(1, args.repeat // 2), tight=False)
 
     print("\n2. diagnose of a 3000-sample synthetic knee record (hidden viscous damping c = 45 N s/m)")
     with tempfile.TemporaryDirectory() as folder:

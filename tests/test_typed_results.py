@@ -28,14 +28,16 @@ def test_simulation_result_has_one_named_array_per_spec_output(run):
 
 
 def test_simulation_result_holds_what_the_simulator_reports(run):
-    """The same run stepped by hand through KneeSimulator (the FMU's core) gives the same numbers (within the
-    integrators' tolerance: simulate_knee may run on the compiled core)."""
+    """The same run stepped by hand through KneeSimulator (the FMU's core) gives the same numbers. Stepping
+    sample by sample cuts the integrator's steps at every sample, where simulate_knee steps through each run of
+    held commands and reads the samples off its dense output: the two agree to the integrator's tolerance
+    (rtol 1e-10 per step, accumulated over the record), not to rounding."""
     sim = KneeSimulator(Params(c=40.0), X0=run.X[0], pe0=1.75e6, pf0=1e5)
     for k in range(1, run.time.size):
         sim.step(run.time[k] - run.time[k - 1], 1.75e6 if run.time[k - 1] < 0.1 else 1.8e6, 1e5)
     last = sim.outputs(1.8e6, 1e5)
-    for name in KNEE_OUTPUTS:  # simulate_knee may run in the compiled core: equal to 1e-10 (docs/native.md)
-        assert run[name][-1] == pytest.approx(last[name], rel=1e-10, abs=1e-12), name
+    for name in KNEE_OUTPUTS:
+        assert run[name][-1] == pytest.approx(last[name], rel=1e-7, abs=1e-9), name
 
 
 def test_simulation_result_reads_as_a_table_and_a_summary(run):

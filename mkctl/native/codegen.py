@@ -367,7 +367,10 @@ def _tableau() -> str:
                  "MK_MAX_SHRINK": integrate.MAX_SHRINK, "MK_ACCEPT_EXPONENT": integrate.ACCEPT_EXPONENT,
                  "MK_REJECT_EXPONENT": integrate.REJECT_EXPONENT, "MK_COLLAPSE": integrate.COLLAPSE}
     lines = ["static const double MK_A[7][7] = {", ",\n".join(rows), "};",
-             "static const double MK_E[7] = {" + ", ".join(_c_number(e) for e in integrate._E) + "};"]
+             "static const double MK_E[7] = {" + ", ".join(_c_number(e) for e in integrate._E) + "};",
+             "/* continuous extension (dense output): b_i(theta) = sum_j MK_DENSE[i][j] theta^(j+1) */",
+             "static const double MK_DENSE[7][4] = {",
+             ",\n".join("    {" + ", ".join(_c_number(d) for d in row) + "}" for row in integrate.DENSE), "};"]
     lines += [f"#define {name} ({_c_number(value)})" for name, value in constants.items()]
     lines.append(f"#define MK_MAX_STEPS {int(integrate.MAX_STEPS)}L")
     return "\n".join(lines)

@@ -120,14 +120,14 @@ class Core:
         return step
 
     # --- whole records ---
-    def run_record(self, sim, time, pe_cmd, pf_cmd, stop_at, states, outputs) -> tuple[int, int]:
+    def run_record(self, sim, time, pe_cmd, pf_cmd, stop_at, states, outputs) -> int:
         """Run a record from sample 0 in one C call, as the Python loop of mkctl.physics.simulate does.
 
         sim: a fresh :class:`mkctl.physics.simulate.KneeSimulator` (parameters, stops, tolerances, initial
         state and step). Fills ``states`` (n x nstate) at sample 0 and every stop, and ``outputs``
-        (n x outputs, or None). Returns (n, _) when done; after a fault (a domain check, a collapsed step)
-        returns (sample, previous stop): sim then holds the state and step at that previous stop, and the
-        Python loop resumes there, to raise its own error in its own words.
+        (n x outputs, or None). Returns n - 1 when done; after a fault (a domain check, a collapsed step)
+        returns the first sample of the failing run of held commands: sim then holds the state and step
+        there, and the Python loop resumes at that run, to raise its own error in its own words.
         """
         n = time.size
         p = parameter_vector(sim.params)
@@ -145,14 +145,7 @@ class Core:
             _pointer(pf_cmd), mask, sim.rtol, _pointer(atol), _pointer(hint), _pointer(y), _pointer(states),
             None if outputs is None else _pointer(outputs), ctypes.byref(fault))
         sim.state, sim.step_hint = y, float(hint[0])
-        if rc == 0:
-            return n, n - 1
-        sample = int(fault.sample)
-        if sample == 0:
-            return 0, 0
-        earlier = np.arange(sample) if stop_at is None else np.flatnonzero(np.asarray(stop_at[:sample], bool))
-        previous = int(earlier[earlier > 0].max()) if (earlier > 0).any() else 0
-        return sample, previous
+        return n - 1 if rc == 0 else int(fault.sample)
 
 
 _cores: dict[Variant, Core | None] = {}

@@ -56,19 +56,54 @@ static int mk_fault_code(mk_fault *fault, int code)
 /* ---- Dormand-Prince 5(4), the integrator of mkctl/physics/integrate.py ---------------------- */
 @TABLEAU@
 
+/* Dense output of a record run (mkctl.physics.simulate._run_record): the states at the samples j in
+ * (first, last] with stop_at[j] (stop_at NULL: all), and always at last, go to states + j * nstate, read
+ * off the continuous extension at time[j] - time[first] without cutting the steps there. */
+typedef struct {
+    const double *time;
+    const unsigned char *stop_at;
+    double *states;
+    long first, next, last;
+} mk_dense;
+
+/* Q = stages^T MK_DENSE (n x 4, row-major), once per step with samples inside it */
+static void mk_dense_matrix(int n, const double *k, double *Q)
+{
+    int i, j, s;
+    for (i = 0; i < n; i++)
+        for (j = 0; j < 4; j++) {
+            double acc = 0.0;
+            for (s = 0; s < 7; s++)
+                acc += k[s * MK_MAX_STATES + i] * MK_DENSE[s][j];
+            Q[i * 4 + j] = acc;
+        }
+}
+
+/* the state at the fraction theta of the step of size h from y: y + h theta (Q0 + theta (Q1 + ...)) */
+static void mk_dense_state(int n, const double *y, const double *Q, double h, double theta, double *out)
+{
+    int i;
+    for (i = 0; i < n; i++) {
+        const double *q = Q + i * 4;
+        out[i] = y[i] + h * (theta * (q[0] + theta * (q[1] + theta * (q[2] + theta * q[3]))));
+    }
+}
+
 /* Integrate the knee over `duration` s with the commands held; the same algorithm, line by line, as
  * mkctl.physics.integrate.integrate. k: 7*MK_MAX_STATES doubles of stage storage; k[0..n-1] holds
- * rhs(y) on entry when *k1_valid, and holds rhs(y_end) on return (first same as last). */
+ * rhs(y) on entry when *k1_valid, and holds rhs(y_end) on return (first same as last). dense: NULL, or
+ * the samples to read off the continuous extension. A trial step whose stages fail a domain check is
+ * rejected and shrunk; if the step then collapses, that domain fault is returned. */
 static int mk_integrate(int variant, const double *p, const double *stops, const double *kc, double pe_cmd,
                         double pf_cmd,
                         double *y, double duration, double h_hint, const double *atol, double rtol,
-                        double h_max, double *k, int *k1_valid, double *h_next, mk_fault *fault)
+                        double h_max, double *k, int *k1_valid, double *h_next, mk_dense *dense, mk_fault *fault)
 {
     const int n = mk_variant_nstate(variant);
-    double yi[MK_MAX_STATES], y_new[MK_MAX_STATES];
+    double yi[MK_MAX_STATES];
     double t = 0.0, h;
     long steps = 0;
-    int i, j, s, rc;
+    int i, j, s, rc, domain_failed = 0;
 
     h = h_hint > 0 ? MK_PY_MIN(h_hint, duration) : duration;
     if (h_max > 0)
@@ -83,7 +118,8 @@ static int mk_integrate(int variant, const double *p, const double *stops, const
         const int last = h >= duration - t;
         const double h_try = last ? duration - t : h;
         double err, sum = 0.0;
-        for (s = 1; s < 7; s++) {
+        rc = 0;
+        for (s = 1; s < 7 && !rc; s++) {
             for (i = 0; i < n; i++) {
                 double acc = 0.0;
                 for (j = 0; j < s; j++)
@@ -91,24 +127,53 @@ static int mk_integrate(int variant, const double *p, const double *stops, const
                 yi[i] = y[i] + h_try * acc;
             }
             rc = mk_knee_rhs_variant(variant, p, stops, kc, yi, pe_cmd, pf_cmd, k + s * MK_MAX_STATES, fault);
-            if (rc)
-                return rc;
         }
-        for (i = 0; i < n; i++) {
-            double e = 0.0, scale;
-            y_new[i] = yi[i];  /* the 7th stage is evaluated at the 5th-order solution */
-            for (j = 0; j < 7; j++)
-                e += MK_E[j] * k[j * MK_MAX_STATES + i];
-            e *= h_try;
-            scale = atol[i] + rtol * MK_PY_MAX(fabs(y[i]), fabs(y_new[i]));
-            sum += (e / scale) * (e / scale);
-        }
-        err = sqrt(sum / n);
-        if (err <= 1.0) {
-            double factor;
-            t = last ? duration : t + h_try;
+        if (rc == MK_FAULT_DOMAIN) {  /* a trial stage outside the domain: reject the step, as too large */
+            domain_failed = 1;
+            err = INFINITY;
+        } else if (rc) {
+            return rc;
+        } else {
             for (i = 0; i < n; i++) {
-                y[i] = y_new[i];
+                double e = 0.0, scale;
+                for (j = 0; j < 7; j++)
+                    e += MK_E[j] * k[j * MK_MAX_STATES + i];
+                e *= h_try;
+                scale = atol[i] + rtol * MK_PY_MAX(fabs(y[i]), fabs(yi[i]));
+                sum += (e / scale) * (e / scale);
+            }
+            err = sqrt(sum / n);
+        }
+        if (err <= 1.0) {  /* yi: the 5th-order solution, where the 7th stage was evaluated */
+            double factor;
+            const double t_new = last ? duration : t + h_try;
+            double Q[4 * MK_MAX_STATES];
+            int have_Q = 0;
+            while (dense && dense->next <= dense->last) {
+                const long sample = dense->next;
+                double tau;
+                if (dense->stop_at && !dense->stop_at[sample] && sample != dense->last) {
+                    dense->next += 1;
+                    continue;
+                }
+                tau = dense->time[sample] - dense->time[dense->first];
+                if (!(last || tau <= t_new))
+                    break;
+                if (tau >= t_new) {  /* on the step's end (the run's last sample is the end itself) */
+                    for (i = 0; i < n; i++)
+                        dense->states[sample * n + i] = yi[i];
+                } else {
+                    if (!have_Q) {
+                        mk_dense_matrix(n, k, Q);
+                        have_Q = 1;
+                    }
+                    mk_dense_state(n, y, Q, h_try, (tau - t) / h_try, dense->states + sample * n);
+                }
+                dense->next += 1;
+            }
+            t = t_new;
+            for (i = 0; i < n; i++) {
+                y[i] = yi[i];
                 k[i] = k[6 * MK_MAX_STATES + i];
             }
             steps += 1;
@@ -116,8 +181,10 @@ static int mk_integrate(int variant, const double *p, const double *stops, const
             h = last ? MK_PY_MAX(MK_PY_MAX(h, h_hint), h_try * factor) : h_try * factor;
         } else {
             h = h_try * MK_PY_MAX(MK_MAX_SHRINK, MK_SAFETY * pow(err, MK_REJECT_EXPONENT));
-            if (h < MK_COLLAPSE * MK_PY_MAX(MK_PY_MAX(1.0, duration), t))
-                return mk_fault_code(fault, MK_FAULT_COLLAPSE);
+            if (h < MK_COLLAPSE * MK_PY_MAX(MK_PY_MAX(1.0, duration), t)) {
+                *k1_valid = 0;
+                return domain_failed ? MK_FAULT_DOMAIN : mk_fault_code(fault, MK_FAULT_COLLAPSE);
+            }
         }
         if (h_max > 0)
             h = MK_PY_MIN(h, h_max);
@@ -146,7 +213,7 @@ static int mk_step_variant(int variant, const double *p, const double *stops, co
     for (i = 0; i < n; i++)
         y_try[i] = y[i];
     rc = mk_integrate(variant, p, stops, kc, pe_cmd, pf_cmd, y_try, dt, *h_hint, atol, rtol, -1.0, k, k1_valid,
-                      &h_next, fault);
+                      &h_next, NULL, fault);
     if (rc) {
         *k1_valid = 0;
         return rc;
@@ -187,20 +254,21 @@ int mk_knee_outputs(const double *p, const double *y, double pe_cmd, double pf_c
                                         out, fault);
 }
 
-/* A whole record, as mkctl.physics.simulate.simulate_knee (stop_at NULL, outputs given) and knee_states
- * (stop_at given, outputs NULL) run it: commands held from each sample to the next, the integrator
- * stopping at sample k when stop_at[k] (NULL: every sample). On entry y holds the initial state and
- * *h_hint the first step to try. states: n * nstate, filled at sample 0 and at every stop. outputs:
- * n * MK_KNEE_NOUT (every sample; needs stop_at NULL) or NULL. On a fault, fault->sample is the sample
- * being computed, and y, *h_hint are left as they were at the previous stop (so a caller can resume). */
+/* A whole record, as mkctl.physics.simulate._run_record runs it for simulate_knee (stop_at NULL, outputs
+ * given) and knee_states (stop_at given, outputs NULL): commands held from each sample to the next, one
+ * integration per run of held commands (a command changes at each run's last sample), the states at the
+ * samples with stop_at[j] (NULL: every sample) and at every run's end read off its dense output. On entry y
+ * holds the initial state and *h_hint the first step to try. states: n * nstate, filled at sample 0 and at
+ * every stop. outputs: n * MK_KNEE_NOUT (needs stop_at NULL) or NULL. On a fault, fault->sample is the first
+ * sample of the failing run, and y, *h_hint are left as they were there (so a caller can resume). */
 int mk_knee_record(const double *p, const double *stops, long n, const double *time, const double *pe_cmd,
                    const double *pf_cmd, const unsigned char *stop_at, double rtol, const double *atol,
                    double *h_hint, double *y, double *states, double *outputs, mk_fault *fault)
 {
     const int variant = mk_variant(p);
-    double k[7 * MK_MAX_STATES], k_pe = 0.0, k_pf = 0.0, kc[MK_MAX_CONSTANTS], ko[MK_MAX_CONSTANTS];
-    int k1_valid = 0, nstate, lag, i, rc;
-    long j, previous = 0;
+    double k[7 * MK_MAX_STATES], kc[MK_MAX_CONSTANTS], ko[MK_MAX_CONSTANTS];
+    int k1_valid, nstate, lag, i, rc;
+    long j, first = 0, last;
     if (variant < 0)
         return mk_fault_code(fault, MK_FAULT_VARIANT);
     nstate = mk_variant_nstate(variant);
@@ -217,28 +285,47 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
         if (rc)
             return rc;
     }
-    for (j = 1; j < n; j++) {
-        if (stop_at && !stop_at[j])
-            continue;
-        double y_before[MK_MAX_STATES], h_before = *h_hint;
+    while (first < n - 1) {
+        double y_before[MK_MAX_STATES], h_next = *h_hint;
+        mk_dense dense;
+        last = first + 1;
+        while (last < n - 1 && pe_cmd[last] == pe_cmd[first] && pf_cmd[last] == pf_cmd[first])
+            last += 1;
+        if (fault)
+            fault->sample = first;
         for (i = 0; i < nstate; i++)
             y_before[i] = y[i];
-        if (fault)
-            fault->sample = j;
-        rc = mk_step_variant(variant, p, stops, kc, y, time[j] - time[previous], pe_cmd[previous],
-                             pf_cmd[previous], rtol, atol, h_hint, k, &k1_valid, &k_pe, &k_pf, fault);
-        if (!rc && outputs)
-            rc = mk_knee_outputs_variant(variant, p, NULL, ko, y[0], y[1], lag ? y[2] : pe_cmd[j],
-                                         lag ? y[3] : pf_cmd[j], outputs + j * MK_KNEE_NOUT, fault);
-        if (rc) {  /* leave y and the step as they were at the previous stop */
+        rc = mk_step_checks(p, pe_cmd[first], pf_cmd[first], fault);
+        if (!rc && time[last] - time[first] > 0) {
+            dense.time = time;
+            dense.stop_at = stop_at;
+            dense.states = states;
+            dense.first = first;
+            dense.next = first + 1;
+            dense.last = last;
+            k1_valid = 0;
+            rc = mk_integrate(variant, p, stops, kc, pe_cmd[first], pf_cmd[first], y, time[last] - time[first],
+                              MK_PY_MIN(*h_hint, time[first + 1] - time[first]), atol, rtol, -1.0, k, &k1_valid,
+                              &h_next, &dense, fault);
+        } else if (!rc) {  /* nothing to integrate, as a step of length <= 0 */
+            for (j = first + 1; j <= last; j++)
+                for (i = 0; i < nstate; i++)
+                    states[j * nstate + i] = y[i];
+        }
+        for (j = first + 1; j <= last && !rc && outputs; j++) {
+            const double *x = states + j * nstate;
+            rc = mk_knee_outputs_variant(variant, p, NULL, ko, x[0], x[1], lag ? x[2] : pe_cmd[j],
+                                         lag ? x[3] : pf_cmd[j], outputs + j * MK_KNEE_NOUT, fault);
+        }
+        if (rc) {  /* leave y and the step as they were at the start of this run */
             for (i = 0; i < nstate; i++)
                 y[i] = y_before[i];
-            *h_hint = h_before;
+            if (fault)
+                fault->sample = first;
             return rc;
         }
-        for (i = 0; i < nstate; i++)
-            states[j * nstate + i] = y[i];
-        previous = j;
+        *h_hint = h_next;
+        first = last;
     }
     return 0;
 }

@@ -111,13 +111,42 @@ class KneeSimulator:
             self.time += dt
         return self.state
 
+    def advance(self, times, pe_cmd: float, pf_cmd: float, first_step: float) -> np.ndarray:
+        """Advance to ``times[-1]`` [s from now] with the commands pe_cmd, pf_cmd [Pa] held, in one integration
+        whose steps are not cut at the ``times`` (increasing): returns the states there (len(times) x nstate),
+        read off the integrator's continuous extension. first_step [s]: the largest first step to try (the
+        commands have just changed; the record's sample interval). What a record runs between command changes.
+        """
+        actuator.check_pressure(pe_cmd)
+        actuator.check_pressure(pf_cmd)
+        times = np.asarray(times, dtype=float)
+        states = np.empty((times.size, self.state.size))
+        if not times[-1] > 0:  # nothing to integrate, as step() with dt <= 0
+            states[:] = self.state
+            return states
+
+        def rhs(y):
+            return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
+
+        self.state, self.step_hint, _ = integrate(rhs, self.state, times[-1], min(self.step_hint, first_step),
+                                                  self.atol, self.rtol, dense_times=times, dense_out=states)
+        self.time += times[-1]
+        self._fsal_key, self._fsal_k = None, None
+        return states
+
     def outputs(self, pe_cmd: float, pf_cmd: float) -> dict[str, float]:
         """Every output of model-spec section 7 at the present state (a1, a2 without the end stops)."""
-        Pe, Pf = self.pressures(pe_cmd, pf_cmd)
-        values = {name: float(value) for name, value in
-                  knee_outputs(float(self.state[0]), float(self.state[1]), Pe, Pf, self.params).items()}
-        values["stable"] = bool(values["a1"] < 0 and values["a2"] < 0)
-        return values
+        return state_outputs(self.state, pe_cmd, pf_cmd, self.params)
+
+
+def state_outputs(state, pe_cmd: float, pf_cmd: float, params: Params = DEFAULT) -> dict[str, float]:
+    """Every output of model-spec section 7 at a knee state (X, V and with a lag Pe, Pf) with the commands
+    pe_cmd, pf_cmd [Pa] (the pressures when there is no lag); a1, a2 without the end stops."""
+    Pe, Pf = (float(state[2]), float(state[3])) if params.tau > 0 else (float(pe_cmd), float(pf_cmd))
+    values = {name: float(value) for name, value in
+              knee_outputs(float(state[0]), float(state[1]), Pe, Pf, params).items()}
+    values["stable"] = bool(values["a1"] < 0 and values["a2"] < 0)
+    return values
 
 
 #: Parameters a state at rest does not feel: damping c V and friction Fc tanh(V / vs) vanish at V = 0, and
@@ -156,12 +185,22 @@ def _native_core(params: Params):
     return compiled.core_for(params)
 
 
+def held_command_runs(pe_cmd, pf_cmd) -> list[tuple[int, int]]:
+    """The runs (first, last) of sample indices over which the commands are held: pe_cmd[first], pf_cmd[first]
+    act from sample first to sample last, and a command changes at each last but the record's end."""
+    n = len(pe_cmd)
+    changes = np.flatnonzero((pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])) + 1
+    bounds = [0, *changes.tolist()] + ([n - 1] if changes.size == 0 or changes[-1] != n - 1 else [])
+    return list(zip(bounds[:-1], bounds[1:])) if n > 1 else []
+
+
 def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_outputs):
     """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each sample to
-    the next, the integrator stopping at every sample k with stop_at[k] (stop_at None: every sample).
+    the next, one integration per run of held commands (:func:`held_command_runs`), the states at the samples
+    with stop_at[k] (stop_at None: every sample) and at each run's end read off the integrator's dense output.
 
     The compiled core runs it in one call when available; the Python loop below is the fallback, and it
-    also resumes after a fault of the compiled run (at the last good sample) to raise its own error.
+    also resumes after a fault of the compiled run (at the start of the failing run) to raise its own error.
     Returns the states (n x nstate, filled at sample 0 and every stop) and the outputs (n x outputs) or None.
     """
     n = time.size
@@ -170,23 +209,25 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
     sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
     states = np.empty((n, sim.state.size))
     outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
-    start, previous = 0, 0
+    resume = 0
     core = _native_core(params) if n > 0 else None
     if core is not None:
-        start, previous = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, outputs)
-    if start == 0:
+        resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, outputs)
+    if resume == 0 and n > 0:
         states[0] = sim.state
         if with_outputs:
-            outputs[0] = list(sim.outputs(pe_cmd[0], pf_cmd[0]).values())
-        start = 1
-    for k in range(start, n):
-        if stop_at is not None and not stop_at[k]:
+            outputs[0] = list(state_outputs(sim.state, pe_cmd[0], pf_cmd[0], params).values())
+    for first, last in (held_command_runs(pe_cmd, pf_cmd) if resume < n - 1 else ()):
+        if first < resume:
             continue
-        sim.step(time[k] - time[previous], pe_cmd[previous], pf_cmd[previous])
-        states[k] = sim.state
+        wanted = np.arange(first + 1, last + 1)
+        if stop_at is not None:
+            wanted = wanted[stop_at[first + 1:last + 1] | (wanted == last)]
+        states[wanted] = sim.advance(time[wanted] - time[first], pe_cmd[first], pf_cmd[first],
+                                     time[first + 1] - time[first])
         if with_outputs:
-            outputs[k] = list(sim.outputs(pe_cmd[k], pf_cmd[k]).values())
-        previous = k
+            for k in wanted:
+                outputs[k] = list(state_outputs(states[k], pe_cmd[k], pf_cmd[k], params).values())
     return states, outputs
 
 
@@ -213,17 +254,18 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
     """Hip height X [m] and velocity V [m/s] at the sample indices ``at`` (default: all), cheaply.
 
     The same run as :func:`simulate_knee` (commands held from each sample to the next; X0 None: at rest in
-    the equilibrium of the first commands), but the integrator only stops where a command changes or a
-    sample is asked for, and no other output is computed: what fitting many simulations needs.
+    the equilibrium of the first commands), but only the asked samples are read off the integration and no
+    other output is computed: what fitting many simulations needs.
     Runs in the compiled core when it is available, in one call.
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
-    n = time.size
-    at = np.arange(n) if at is None else np.asarray(at, dtype=int)
-    stop_at = np.zeros(n, dtype=bool)
-    stop_at[1:] = (pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])
+    if at is None:
+        states, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None, False)
+        return states[:, 0], states[:, 1]
+    at = np.asarray(at, dtype=int)
+    stop_at = np.zeros(time.size, dtype=bool)
     stop_at[at] = True
     states, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, False)
     return states[at, 0], states[at, 1]
