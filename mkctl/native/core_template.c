@@ -303,10 +303,11 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
             dense.first = first;
             dense.next = first + 1;
             dense.last = last;
+            const double interval = time[first + 1] - time[first];
             k1_valid = 0;
             rc = mk_integrate(variant, p, stops, kc, pe_cmd[first], pf_cmd[first], y, time[last] - time[first],
-                              MK_PY_MIN(*h_hint, time[first + 1] - time[first]), atol, rtol, -1.0, k, &k1_valid,
-                              &h_next, &dense, fault);
+                              interval > 0 ? MK_PY_MIN(*h_hint, interval) : *h_hint, atol, rtol, -1.0, k,
+                              &k1_valid, &h_next, &dense, fault);
         } else if (!rc) {  /* nothing to integrate, as a step of length <= 0 */
             for (j = first + 1; j <= last; j++)
                 for (i = 0; i < nstate; i++)

@@ -115,7 +115,8 @@ class KneeSimulator:
         """Advance to ``times[-1]`` [s from now] with the commands pe_cmd, pf_cmd [Pa] held, in one integration
         whose steps are not cut at the ``times`` (increasing): returns the states there (len(times) x nstate),
         read off the integrator's continuous extension. first_step [s]: the largest first step to try (the
-        commands have just changed; the record's sample interval). What a record runs between command changes.
+        commands have just changed; the record's sample interval; ignored if not positive). What a record runs
+        between command changes.
         """
         actuator.check_pressure(pe_cmd)
         actuator.check_pressure(pf_cmd)
@@ -128,8 +129,9 @@ class KneeSimulator:
         def rhs(y):
             return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
 
-        self.state, self.step_hint, _ = integrate(rhs, self.state, times[-1], min(self.step_hint, first_step),
-                                                  self.atol, self.rtol, dense_times=times, dense_out=states)
+        hint = min(self.step_hint, first_step) if first_step > 0 else self.step_hint
+        self.state, self.step_hint, _ = integrate(rhs, self.state, times[-1], hint, self.atol, self.rtol,
+                                                  dense_times=times, dense_out=states)
         self.time += times[-1]
         self._fsal_key, self._fsal_k = None, None
         return states
