@@ -8,17 +8,19 @@ command around the 60 deg equilibrium), sampling every output at every milliseco
 - FMU: ``fmpy.simulate_fmu`` on McKibbenKnee.fmu, the whole call (extracting, loading, stepping, recording),
   built fresh by ``build_fmu.py`` into a temporary folder (an FMU in ``dist`` may predate the library it is
   compared with), or taken from ``--fmu-dir`` when given;
-- direct: ``mkctl.physics.simulate.simulate_knee`` on the same samples.
+- direct: ``mkctl.physics.simulate.simulate_knee`` on the same samples, on the Python path (``MKCTL_NATIVE=0``:
+  the model the pythonfmu FMU runs, so the ratio is what the FMU adds) and with the compiled core (for scale).
 
-Each run is a fresh process (so the FMU uses its packed mkctl), the two alternate ``--repeat`` times and the
-fastest of each is kept, so that a busy machine slows both alike. Prints both times, the ratio FMU/direct
-(target: at most 1.5), the real-time factor of the FMU run (simulated time / wall time) and the largest
-difference between the two hip heights.
+Each run is a fresh process (so the FMU uses its packed mkctl), the three alternate ``--repeat`` times and the
+fastest of each is kept, so that a busy machine slows them alike. Prints the times, the ratio FMU / direct on
+the Python path (target: at most 1.5), the real-time factors (simulated time / wall time) and the largest
+difference between the hip heights.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import subprocess
 import sys
 import tempfile
@@ -57,9 +59,11 @@ print(json.dumps({"elapsed": elapsed, "X": X, "end": end}))
 
 
 def _run(mode: str, duration: float, fmu: Path, commands: tuple[float, float]) -> dict:
+    """One fresh process: mode "fmu", "python" (simulate_knee, MKCTL_NATIVE=0) or "compiled"."""
     pe0, pf = commands
-    done = subprocess.run([sys.executable, "-c", _CASE, str(duration), mode, str(fmu), str(ROOT), repr(pe0), repr(pf)],
-                          capture_output=True, text=True, check=True)
+    env = {**os.environ, "MKCTL_NATIVE": "0" if mode == "python" else "1"}
+    done = subprocess.run([sys.executable, "-c", _CASE, str(duration), "fmu" if mode == "fmu" else "direct", str(fmu),
+                           str(ROOT), repr(pe0), repr(pf)], capture_output=True, text=True, check=True, env=env)
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
@@ -89,25 +93,26 @@ def _bench(args, fmu: Path) -> int:
     from mkctl.physics.simulate import default_commands  # at rest at the default posture (alpha = 60 deg)
 
     commands = default_commands()
-    best = {"fmu": None, "direct": None}
+    best = {"fmu": None, "python": None, "compiled": None}
     for _ in range(args.repeat):
         for mode in best:
             result = _run(mode, args.duration, fmu, commands)
             if best[mode] is None or result["elapsed"] < best[mode]["elapsed"]:
                 best[mode] = result
-    fmu_run, direct = best["fmu"], best["direct"]
+    fmu_run, python, compiled = best["fmu"], best["python"], best["compiled"]
     if abs(fmu_run["end"] - args.duration) > 1e-9:
         print(f"FMU run stopped early at t = {fmu_run['end']} s", file=sys.stderr)
         return 1
-    difference = max(abs(a - b) for a, b in zip(fmu_run["X"], direct["X"]))
-    ratio = fmu_run["elapsed"] / direct["elapsed"]
+    ratio = fmu_run["elapsed"] / python["elapsed"]
     print(f"{args.duration:g} s of knee motion, 1 ms communication step, best of {args.repeat}:")
-    print(f"  FMU through fmpy      {fmu_run['elapsed']:7.3f} s  (real-time factor "
-          f"{args.duration / fmu_run['elapsed']:.1f}x)")
-    print(f"  mkctl directly        {direct['elapsed']:7.3f} s  (real-time factor "
-          f"{args.duration / direct['elapsed']:.1f}x)")
-    print(f"  ratio FMU / direct    {ratio:7.2f}     (target <= 1.5)")
-    print(f"  max |X_fmu - X_direct| {difference:.2e} m")
+    for label, run in (("pythonfmu FMU through fmpy", fmu_run), ("simulate_knee, Python path", python),
+                       ("simulate_knee, compiled", compiled)):
+        print(f"  {label:<28} {run['elapsed']:8.4f} s  (real-time factor {args.duration / run['elapsed']:.1f}x)")
+    print(f"  ratio FMU / Python path      {ratio:8.2f}    (target <= 1.5: what the FMU and fmpy add to the model)")
+    print(f"  ratio FMU / compiled         {fmu_run['elapsed'] / compiled['elapsed']:8.0f}")
+    for label, run in (("Python path", python), ("compiled", compiled)):
+        difference = max(abs(a - b) for a, b in zip(fmu_run["X"], run["X"]))
+        print(f"  max |X_fmu - X_{label}| {difference:.2e} m")
     return 0
 
 
