@@ -1,8 +1,8 @@
 """The cases the diagnosis was tried on, and its score on each: regenerates the table in docs/diagnosis.md.
 
 Each case makes a record with the virtual test bench (:func:`mkctl.analysis.synth.synthesize`: hidden effects,
-command shape, output and input noise, coloured noise, offsets, angle output, measured pressures), reads it
-back as a user's file and diagnoses it. Scores:
+command shape, output and input noise, coloured noise, offsets, angle output, an encoder's counts, measured
+pressures), reads it back as a user's file and diagnoses it. Scores:
 
 - ``right``: the verdict is "diagnosed" (or "nothing missing") with exactly the hidden effects, every value
   within 4 of its reported standard errors of the truth (plus the file's rounding);
@@ -51,6 +51,8 @@ CASES = [
     ("knee, damping, chirp (commands change every sample)", "knee", {"c": 30.0},
      {"samples": 3000, "rate": 1000.0, "shape": "chirp"}),
     ("knee, damping, angle output beta_deg", "knee", {"c": 30.0}, {**KNEE, "output": "beta_deg"}),
+    ("knee, damping + friction, 12-bit joint encoder (beta_deg)", "knee", {"c": 30.0, "Fc": 2.0},
+     {**KNEE, "output": "beta_deg", "noise": 0.0005, "resolution": 360 / 2 ** 12}),
     ("knee, damping + lag, measured pressures (0.5 kPa noise)", "knee", {"c": 30.0, "tau": 0.04},
      {**KNEE, "pressures": True, "input_noise": 0.5}),
     ("knee, damping, coloured noise (20 ms)", "knee", {"c": 30.0}, {**KNEE, "noise_tau": 0.02}),
@@ -79,7 +81,8 @@ def run_case(case) -> dict:
     special = options.pop("offset", 0.0)
     if isinstance(special, float):
         options["offset"] = special
-    record = synthesize(experiment, hidden, known, baseline, 0.01, 1, **options)
+    noise = options.pop("noise", 0.01)
+    record = synthesize(experiment, hidden, known, baseline, noise, 1, **options)
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "case.csv"
         if isinstance(special, str):  # a user's mistake in the file

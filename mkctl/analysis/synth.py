@@ -27,6 +27,8 @@ Default inputs (chosen to excite what each experiment can show):
 - Measured inputs: the isotonic bladder pressure, and the knee's bladder pressures when ``pressures`` is
   set (written as ``pe_kPa``, ``pf_kPa``: the truth's pressures after any lag), get Gaussian sensor noise
   of ``input_noise`` kPa; the truth is simulated with the clean pressures.
+- A sensor's resolution: ``resolution`` (output column's unit; an encoder's count, 360 / 2^bits deg for
+  ``beta_deg``) rounds the measured output to multiples of it, after the noise, as a digital sensor does.
 - A sensor offset: ``offset`` (output column's unit) is added to the written output; with
   ``declare_offset`` the file declares it (``x_offset_mm = ...``) and a reader removes it, without it the
   file holds the offset like a sensor zeroed elsewhere.
@@ -198,6 +200,7 @@ class SyntheticRecord:
     offset: float = 0.0  #: sensor offset in the output column's unit, added to what the file holds
     declare_offset: bool = False  #: whether the file's metadata declares the offset
     inputs_clean: dict | None = None  #: the inputs before sensor noise (SI)
+    resolution: float = 0.0  #: the output sensor's resolution in the output column's unit (0: none)
 
     @property
     def hidden_effects(self) -> list[str]:
@@ -212,7 +215,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
                noise: float | None = DEFAULT_NOISE_MM, seed: int = 0, samples: int | None = None,
                rate: float = DEFAULT_RATE, *, shape: str | None = None, output: str | None = None,
                input_noise: float = 0.0, noise_tau: float = 0.0, offset: float = 0.0,
-               declare_offset: bool = False, pressures: bool = False) -> SyntheticRecord:
+               declare_offset: bool = False, pressures: bool = False, resolution: float = 0.0) -> SyntheticRecord:
     """Simulate a record of ``experiment`` with the truth = baseline + hidden, and add noise.
 
     Parameters
@@ -245,8 +248,13 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         Declare the offset in the file's metadata (the reader then removes it).
     pressures : bool
         Knee: also write the measured bladder pressures ``pe_kPa``, ``pf_kPa``.
+    resolution : float
+        The output sensor's resolution [output column's unit]: the measured output is rounded to multiples of
+        it (a 12-bit joint encoder: ``output="beta_deg", resolution=360 / 2**12``); 0: none.
     """
     if experiment == "isometric":  # the blocked-force bench (noise in N)
+        if resolution:
+            raise ParameterError("resolution rounds a knee or isotonic output; the isometric bench has none")
         return synthesize_isometric(hidden, known, DEFAULT_NOISE_N if noise is None else noise, offset=offset,
                                     seed=seed, samples=ISOMETRIC_SAMPLES if samples is None else samples,
                                     baseline=baseline, declare_offset=declare_offset)
@@ -255,7 +263,8 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
         raise ParameterError(f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
-    for name, value in (("noise", noise), ("input noise", input_noise), ("noise correlation time", noise_tau)):
+    for name, value in (("noise", noise), ("input noise", input_noise), ("noise correlation time", noise_tau),
+                        ("resolution", resolution)):
         if not (value >= 0 and np.isfinite(value)):
             raise ParameterError(f"{name} must be a finite number >= 0, got {value!r}")
     if not np.isfinite(offset):
@@ -298,8 +307,11 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
             inputs["pressure"] = inputs["pressure"] + _sensor_noise(rng, input_noise * 1e3, time.size)
     factor = UNIT_FACTORS[out_quantity.kind][out_quantity.unit]
     measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
+    if resolution > 0:
+        measured = np.round(measured / (resolution * factor)) * (resolution * factor)
     return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
-                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs)
+                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs,
+                           resolution)
 
 
 def _output_quantity(spec, column: str):
@@ -371,6 +383,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
             "input_noise_kPa": record.input_noise,
             "offset": record.offset,
             "offset_declared": bool(record.declare_offset and record.offset),
+            "resolution": record.resolution,
             "seed": record.seed,
             "samples": int(record.time.size),
         }, indent=2) + "\n", encoding="utf-8")

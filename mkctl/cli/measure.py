@@ -71,6 +71,9 @@ def register(subparsers) -> None:
                    help="declare the offset in the file's metadata (x_offset_mm = ...), as a user who knows it would")
     p.add_argument("--pressures", action="store_true",
                    help="knee: also write the measured bladder pressures pe_kPa, pf_kPa")
+    p.add_argument("--resolution", type=float, default=0.0,
+                   help="the output sensor's resolution [the output column's unit]: the output is rounded to it "
+                        "(a 12-bit joint encoder: --output-column beta_deg --resolution 0.087890625); default 0")
     p.add_argument("--no-truth", action="store_true", help="do not write <stem>.truth.json")
     add_params_option(p)
     p.set_defaults(func=run_synth)
@@ -120,7 +123,8 @@ def run_synth(args) -> int:
     record = synthesize(args.experiment, split_items(args.hidden), known,
                         args.baseline, args.noise, args.seed, args.samples, args.rate, shape=args.shape,
                         output=args.output_column, input_noise=args.input_noise, noise_tau=args.noise_tau,
-                        offset=args.offset, declare_offset=args.declare_offset, pressures=args.pressures)
+                        offset=args.offset, declare_offset=args.declare_offset, pressures=args.pressures,
+                        resolution=args.resolution)
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
     effects = ", ".join(record.hidden_effects) or "none"
@@ -133,6 +137,8 @@ def run_synth(args) -> int:
         extras.append(f"coloured (correlation time {record.noise_tau:g} s)")
     if record.input_noise:
         extras.append(f"pressure sensor noise {record.input_noise:g} kPa")
+    if record.resolution:
+        extras.append(f"resolution {record.resolution:g} {unit}")
     if record.offset:
         extras.append(f"sensor offset {record.offset:g} {unit}" + (" (declared)" if record.declare_offset else ""))
     print(f"noise {record.noise:g} {unit}, seed {record.seed}; " + ", ".join(extras)
