@@ -274,6 +274,34 @@ def quantization_step(signal) -> float:
     return q if on_grid.mean() >= 0.95 else 0.0
 
 
+#: An interval between samples longer than this many times the median interval is a gap in the record.
+GAP_FACTOR = 5.0
+
+
+def time_gaps(time) -> list[tuple[float, float]]:
+    """The gaps of a record: (last time before, first time after) of every interval between samples longer than
+    :data:`GAP_FACTOR` times the median interval (a logger that dropped samples)."""
+    t = np.asarray(time, dtype=float)
+    if t.size < 3:
+        return []
+    steps = np.diff(t)
+    long = np.flatnonzero(steps > GAP_FACTOR * float(np.median(steps)))
+    return [(float(t[k]), float(t[k + 1])) for k in long]
+
+
+def gap_note(measurement) -> str | None:
+    """A note on the record's gaps, or None: the commands are held across a gap (model-spec section 5), so
+    if they changed there the model cannot follow what comes after it."""
+    gaps = time_gaps(measurement.time)
+    if not gaps:
+        return None
+    first = gaps[0]
+    where = f"t = {first[0]:g}-{first[1]:g} s" + (f" and {len(gaps) - 1} more" if len(gaps) > 1 else "")
+    return (f"the record has {len(gaps)} gap{'s' if len(gaps) > 1 else ''} without samples ({where}): the "
+            f"commands are held across {'them' if len(gaps) > 1 else 'it'}, so if they changed there no model "
+            f"follows what comes after; cut the record there if they did")
+
+
 def output_noise(signal) -> float:
     """Noise standard deviation of a measured output, in its units: :func:`input_noise`, but at least the
     rounding error q / sqrt(12) of a sensor that reads in counts of q (:func:`quantization_step`). A fine
@@ -1009,6 +1037,10 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         for name in ("pe", "pf"):
             noise_info.setdefault(name, {"sigma": input_noise(m.inputs[name]) / 1e3, "unit": "kPa", "smoothed": False})
     notes += input_notes
+    gaps = gap_note(m)
+    if gaps:
+        notes.append(gaps)
+        say(gaps)
     out_sigma = output_noise(m.output)
     for note in input_notes:
         say(note)

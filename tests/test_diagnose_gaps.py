@@ -1,0 +1,41 @@
+"""A record with a gap (a logger that dropped samples) is said to have one; jittered time stamps are not gaps."""
+import numpy as np
+
+from mkctl.analysis import diagnose as dg
+from mkctl.analysis.synth import synthesize
+from mkctl.io.measurements import measurement_from_arrays, read_measurement, write_measurement
+
+
+def knee_record(tmp_path, keep, time=None):
+    record = synthesize("knee", {"c": 30.0}, seed=1, samples=1500, rate=500.0)
+    t = record.time if time is None else time
+    path = write_measurement(tmp_path / "knee.csv", "knee", t[keep], {k: v[keep] for k, v in record.inputs.items()},
+                             record.output[keep], metadata=record.known, baseline="model2")
+    return read_measurement(path)
+
+
+def test_gaps_are_found_where_samples_are_missing_and_only_there():
+    t = np.arange(100) * 0.01
+    assert dg.time_gaps(t) == []
+    jittered = t + np.random.default_rng(0).uniform(-0.002, 0.002, t.size)
+    assert dg.time_gaps(np.sort(jittered)) == []
+    keep = np.ones(t.size, bool)
+    keep[40:60] = False
+    gaps = dg.time_gaps(t[keep])
+    assert len(gaps) == 1 and np.allclose(gaps[0], (0.39, 0.60))
+
+
+def test_a_record_with_a_gap_gets_a_note_and_one_without_does_not(tmp_path):
+    keep = np.ones(1500, bool)
+    keep[700:900] = False  # 0.4 s dropped, across a command step of the bench
+    result = dg.diagnose(knee_record(tmp_path, keep))
+    notes = [n for n in result.notes if "gap" in n]
+    assert len(notes) == 1 and "t = 1.398-1.8 s" in notes[0]
+    whole = dg.diagnose(knee_record(tmp_path, np.ones(1500, bool)))
+    assert not [n for n in whole.notes if "gap" in n]
+    assert whole.verdict == "diagnosed"
+
+
+def test_a_short_record_has_no_gaps():
+    m = measurement_from_arrays("knee", [0.0, 1.0], {"pe_cmd": [1.7e6, 1.7e6], "pf_cmd": [1e5, 1e5]}, [0.85, 0.85])
+    assert dg.gap_note(m) is None
