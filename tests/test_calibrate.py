@@ -79,6 +79,35 @@ def test_sensor_offset_is_recovered_when_asked_for():
     assert_within_stderr(result, {"b": 0.30, "n": 3.5, "Fc": 1.5, "offset": 3.0})
 
 
+def test_each_isometric_file_gets_its_own_offset(tmp_path):
+    """Two blocked-force files of one muscle, the load cell re-tared in between (+1.5 N, -2 N): one offset per
+    file. Their common part trades off against the rubber's force and is held with a note; their difference is
+    what the data show. One offset shared by both files cannot follow the step between them."""
+    from mkctl.analysis.calibrate import offset_names, plot_fits
+    truth = {"L0": 0.208, "D0": 0.013, "t0": 0.0015}
+    records = []
+    for i, (lengths, offset) in enumerate([((0.19, 0.20), 1.5), ((0.17, 0.18), -2.0)]):
+        rec = synthesize_isometric(None, truth, offset=offset, seed=10 + i, lengths=lengths)
+        records.append(isometric_record(rec.inputs["length"], rec.inputs["pressure"], rec.output + rec.offset,
+                                        rec.inputs["branch"], rec.known, source=f"bench_{i}.csv"))
+    assert offset_names(records) == ["offset_1", "offset_2"] and offset_names(records[:1]) == ["offset"]
+    per_file = calibrate(records, fit=["offset"], effects=())
+    none = calibrate(records, effects=())
+    assert {"offset_1", "offset_2"} <= set(per_file.fitted)
+    assert any("offset_1 for bench_0.csv, offset_2 for bench_1.csv" in note for note in per_file.notes)
+    assert abs((per_file.fitted["offset_1"] - per_file.fitted["offset_2"]) - 3.5) < 0.6
+    assert per_file.nrms_after < 0.6 * none.nrms_after
+    # a shared offset (both records read as one file's) is no better than none here
+    shared_force = np.concatenate([r.force for r in records])
+    one = isometric_record(np.concatenate([r.length for r in records]), np.concatenate([r.pressure for r in records]),
+                           shared_force, np.concatenate([r.sign for r in records]), records[0].overrides,
+                           source="both.csv")
+    shared = calibrate([one], fit=["offset"], effects=())
+    assert per_file.nrms_after < 0.6 * shared.nrms_after
+    paths = plot_fits(per_file, tmp_path, "two")  # each file drawn with its own offset
+    assert [p.name for p in paths] == ["two_fit_1.png", "two_fit_2.png"] and all(p.stat().st_size > 0 for p in paths)
+
+
 def test_c1_and_c2_are_reported_as_not_identifiable():
     result = calibrate([record(seed=6)])
     assert result.not_identifiable == [["C1", "C2"]]

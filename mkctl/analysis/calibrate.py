@@ -226,6 +226,26 @@ def merged_metadata(records: list[ForceRecord]) -> dict:
     return merged
 
 
+def is_offset(name: str) -> bool:
+    """Whether a fitted name is a load cell's zero offset: ``offset``, or ``offset_<k>`` with several files."""
+    return name == "offset" or name.startswith("offset_")
+
+
+def offset_names(records: list[ForceRecord]) -> list:
+    """The name of each record's force offset when offsets are fitted: ``offset`` when one record is isometric,
+    ``offset_1``, ``offset_2``, ... for the isometric records in order when several are (each file its own load
+    cell zero: a rig re-tared between tests); None for an isotonic record (its force is a hanging load)."""
+    isometric = [i for i, r in enumerate(records) if r.experiment == "isometric"]
+    names = [None] * len(records)
+    for k, i in enumerate(isometric, 1):
+        names[i] = "offset" if len(isometric) == 1 else f"offset_{k}"
+    return names
+
+
+def _scale(name: str) -> float:
+    return SCALES["offset" if is_offset(name) else name]
+
+
 def _bounds(name: str, records: list[ForceRecord], start: Params, fitting=()) -> tuple[float, float]:
     """(lower, upper) of a fitted name [SI]: the physical range (see the module docstring)."""
     longest = max(float(r.length.max()) for r in records)
@@ -236,7 +256,7 @@ def _bounds(name: str, records: list[ForceRecord], start: Params, fitting=()) ->
         shortest = min(float(r.length.min()) for r in records)
         return 0.5 * shortest, 2.0 * longest
     return {"n": (0.05, 200.0), "C1": (0.0, 1e8), "C2": (0.0, 1e8), "D0": (1e-4, 1.0), "t0": (1e-6, 0.1),
-            "Fc": (0.0, 1e4), "offset": (-1e5, 1e5)}[name]
+            "Fc": (0.0, 1e4), "offset": (-1e5, 1e5)}["offset" if is_offset(name) else name]
 
 
 class _Model:
@@ -244,12 +264,13 @@ class _Model:
 
     def __init__(self, records, base: Params, names: tuple, link_n: bool):
         self.records, self.base, self.names, self.link_n = records, base, tuple(names), link_n
-        self.scales = np.array([SCALES[n] for n in self.names])
+        self.scales = np.array([_scale(n) for n in self.names])
+        self.offset_names = offset_names(records)
         self.force = np.concatenate([r.force for r in records])
         self.size = self.force.size
 
     def params_at(self, values: dict) -> Params:
-        physical = {k: v for k, v in values.items() if k != "offset"}
+        physical = {k: v for k, v in values.items() if not is_offset(k)}
         if self.link_n:
             physical.pop("n", None)
             merged = {**self.base.as_dict(), **physical}
@@ -260,10 +281,15 @@ class _Model:
         values = {n: float(v) for n, v in zip(self.names, np.asarray(x) * self.scales)}
         return values
 
-    def predict(self, params: Params, offset: float = 0.0):
-        """The model's force at every point [N], stacked over the records (raises DomainError outside)."""
+    def offsets(self, values: dict) -> tuple:
+        """Each record's force offset [N] in values (0 where none is fitted)."""
+        return tuple(values.get(name, 0.0) if name else 0.0 for name in self.offset_names)
+
+    def predict(self, params: Params, offsets=None):
+        """The model's force at every point [N], stacked over the records, with each record's offset
+        (:meth:`offsets`; None: none) (raises DomainError outside)."""
         parts = []
-        for r in self.records:
+        for r, offset in zip(self.records, offsets or (0.0,) * len(self.records)):
             if r.experiment == "isometric":
                 parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
             else:
@@ -276,7 +302,7 @@ class _Model:
 
     def residual_values(self, values: dict):
         params = self.params_at(values)
-        return self.force - self.predict(params, values.get("offset", 0.0))
+        return self.force - self.predict(params, self.offsets(values))
 
     def residual(self, x):
         try:
@@ -331,8 +357,8 @@ def starting_points(records: list[ForceRecord], start: Params, names: tuple) -> 
     L = np.concatenate([r.length for r in records])
     P = np.concatenate([r.pressure for r in records])
     F = np.concatenate([r.force for r in records])
-    base = {n: float(getattr(start, n)) for n in names if n not in ("offset", "Fc")}
-    base.update({"offset": 0.0} if "offset" in names else {})
+    base = {n: float(getattr(start, n)) for n in names if not is_offset(n) and n != "Fc"}
+    base.update({n: 0.0 for n in names if is_offset(n)})
     base.update({"Fc": start.Fc} if "Fc" in names else {})
     points = []
     b_starts = [max(longest, start.L0) * k for k in (1.05, 1.25, 1.6)] if "b" in names else [start.b]
@@ -360,7 +386,7 @@ class CalibrationResult(Result):
     """
 
     params: Params  #: the calibrated muscle (every section 2 and 4 parameter)
-    fitted: dict  #: the fitted values by name (SI), ``offset`` [N] included when fitted
+    fitted: dict  #: the fitted values by name (SI), the force offsets [N] included when fitted (:func:`offset_names`)
     stderr: dict  #: standard errors by name; absent for parameters in ``not_identifiable``
     not_identifiable: list  #: groups of names the data cannot separate, e.g. [["C1", "C2"]]
     ambiguous: dict  #: names that another, equally good fit puts elsewhere: {name: [other values]}
@@ -381,7 +407,7 @@ class CalibrationResult(Result):
     notes: list  #: plain sentences: defaults used, bounds hit, what the data cannot tell
     stopped: dict | None = None  #: why no further effect was added: reason and the candidates of that round
     records: list = field(repr=False, default_factory=list)
-    curves: dict = field(repr=False, default_factory=dict)  #: step label -> (Params, offset)
+    curves: dict = field(repr=False, default_factory=dict)  #: step label -> (Params, each record's offset [N])
 
     def summary_lines(self) -> list[str]:
         fitted = ", ".join(f"{k} = {v:.4g}" + (f" +- {self.stderr[k]:.2g}" if k in self.stderr else "")
@@ -448,7 +474,8 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         e.g. from :func:`isometric_record`), all of the same muscle.
     fit : iterable of str
         Names fitted besides ``b, n, C1, C2``: any of ``L0, D0, t0`` (else taken from the files' metadata,
-        then ``params``, then Table I) and ``offset``, a force sensor's zero offset [N] on isometric records.
+        then ``params``, then Table I) and ``offset``, a force sensor's zero offset [N] on isometric records: one
+        per isometric record (``offset_1``, ``offset_2``, ... when there are several, see :func:`offset_names`).
     params : Params
         What is known (and the start of the fit); the files' metadata wins over it. Default: Table I.
     link_n : bool
@@ -489,7 +516,13 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     if "b" not in metadata:  # the start's braid must fit around these lengths (the fit moves it anyway)
         values["b"] = max(start.b, 1.15 * max(metadata.get("L0", start.L0), longest))
     start = start.replace(**values)
-    names = tuple(n for n in STATIC if not (link_n and n == "n")) + tuple(n for n in OPTIONAL if n in extra)
+    names = tuple(n for n in STATIC if not (link_n and n == "n")) + tuple(n for n in OPTIONAL if n in extra
+                                                                      and n != "offset")
+    if "offset" in extra:
+        names += tuple(n for n in offset_names(records) if n)
+        if sum(1 for n in offset_names(records) if n) > 1:
+            notes.append("one force offset per isometric file: " + ", ".join(
+                f"{n} for {Path(r.source).name}" for n, r in zip(offset_names(records), records) if n))
     if "L0" not in names and longest >= start.L0 * B_OVER_L0:
         raise CalibrationError(f"a measured length {longest:g} m is not below the braid length b of any physical braid "
                                f"with L0 = {start.L0:g} m (b < L0 / cos {MAX_BRAID_ANGLE:g} deg = "
@@ -521,7 +554,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     steps.append({"label": "start", "effects": [], "nrms": nrms_start,
                   "rms": None if nrms_start is None else nrms_start * force_range, "params": {}})
     if nrms_start is not None:
-        curves["start"] = (start, 0.0)
+        curves["start"] = (start, (0.0,) * len(records))
     say("start (the files' parameters): NRMS " + ("n/a (outside the model's domain)" if nrms_start is None
                                                    else f"{nrms_start:.2%}"))
 
@@ -534,7 +567,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         lows, highs = bounds_for(fit_names, base)
         full_starts = []
         for s in starts:
-            point = {n: s.get(n, getattr(base, n, 0.0) if n != "offset" else 0.0) for n in fit_names}
+            point = {n: s.get(n, 0.0 if is_offset(n) else getattr(base, n, 0.0)) for n in fit_names}
             full_starts.append(point)
         result = _least_squares(model, full_starts, lows, highs, mask, max_evaluations)
         evaluations += result.evaluations
@@ -547,7 +580,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     train_fit, _, _ = fit_with([], start, [current.values], train)
     added: list[str] = []
     nrms_before = _nrms(current.residual, force_range)
-    curves["static fit"] = (current.params, current.values.get("offset", 0.0))
+    curves["static fit"] = (current.params, current_model.offsets(current.values))
     steps.append({"label": "static fit", "effects": [], "nrms": nrms_before, "rms": nrms_before * force_range,
                   "params": dict(current.values)})
     say(f"static fit: NRMS {nrms_before:.2%}")
@@ -594,7 +627,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         bic_now, hold_now = best["bic"], best["rms_holdout"]
         nrms = _nrms(current.residual, force_range)
         label = "+ " + best["effect"]
-        curves[label] = (current.params, current.values.get("offset", 0.0))
+        curves[label] = (current.params, current_model.offsets(current.values))
         steps.append({"label": label, "effects": list(added), "nrms": nrms, "rms": nrms * force_range,
                       "bic": bic_now, "rms_holdout": hold_now, "params": dict(current.values),
                       "candidates": public_rows})
@@ -618,12 +651,12 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     if groups:
         for group in groups:
             for name in group[1:]:
-                held[name] = float(getattr(start, name)) if name != "offset" else 0.0
+                held[name] = 0.0 if is_offset(name) else float(getattr(start, name))
         notes.append("the data cannot separate " + "; ".join(" and ".join(g) for g in groups) + ": "
                      + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')}" for k, v in held.items())
                      + " and the rest refitted")
         keep = tuple(n for n in current_model.names if n not in held)
-        base = current.params.replace(**{k: v for k, v in held.items() if k != "offset"})
+        base = current.params.replace(**{k: v for k, v in held.items() if not is_offset(k)})
         model = _Model(records, base, keep, link_n)
         lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, base, keep) for n in keep]))
         refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, max_evaluations)
@@ -636,12 +669,12 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     at_bound = []
     lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, current.params, current.names) for n in current.names]))
     for name, low, high in zip(current.names, lows, highs):
-        value, tolerance = current.values[name], 1e-6 * SCALES[name]
+        value, tolerance = current.values[name], 1e-6 * _scale(name)
         if value - low <= tolerance or high - value <= tolerance:
             at_bound.append(name)
             current.values[name] = float(low if value - low <= tolerance else high)  # 0, not 4e-14
     if at_bound:
-        current.params = current.params.replace(**{n: current.values[n] for n in at_bound if n != "offset"})
+        current.params = current.params.replace(**{n: current.values[n] for n in at_bound if not is_offset(n)})
     for name in at_bound:
         value = current.values[name]
         if value == 0:
@@ -655,7 +688,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
               if n in current.values}
     params_final = current.params
     braid = math.sqrt(params_final.b ** 2 - params_final.L0 ** 2) / (math.pi * params_final.n)
-    curves["final"] = (params_final, current.values.get("offset", 0.0))
+    curves["final"] = (params_final, current_model.offsets(current.values))
     if abs(nrms_after - steps[-1]["nrms"]) > 1e-3 * steps[-1]["nrms"]:  # holding a parameter cost something
         steps.append({"label": "final (" + ", ".join(held) + " held)", "effects": list(added), "nrms": nrms_after,
                       "rms": nrms_after * force_range, "params": dict(current.values)})
@@ -775,10 +808,11 @@ def plot_fits(result: CalibrationResult, folder, stem: str) -> list[Path]:
         curves = {"calibrated (no effects added)": result.curves["final"]}
     for number, record in enumerate(result.records):
         name = f"{stem}_fit.png" if len(result.records) == 1 else f"{stem}_fit_{number + 1}.png"
+        own = {label: (params, offsets[number]) for label, (params, offsets) in curves.items()}  # its offset
         title = f"{Path(record.source).name}: blocked force, data and fits (NRMS {result.nrms_before:.2%} -> " \
                 f"{result.nrms_after:.2%})"
         if record.experiment == "isometric":
-            paths.append(plot_isometric(record.length, record.pressure, record.force, record.sign, curves,
+            paths.append(plot_isometric(record.length, record.pressure, record.force, record.sign, own,
                                         folder / name, title, L0=result.params.L0))
         else:
             paths.append(_plot_isotonic(record, result, folder / name))

@@ -39,7 +39,7 @@ def register(subparsers) -> None:
                    help="with --each: a running Dask scheduler (tcp://HOST:PORT) instead of local processes")
     p.add_argument("--fit", action="append", default=[], metavar="NAMES",
                    help=f"also fit these (comma-separated): {', '.join(OPTIONAL)} (offset: a force sensor's zero "
-                        "offset on isometric files) - else L0, D0, t0 come from the files' metadata")
+                        "offset, one per isometric file) - else L0, D0, t0 come from the files' metadata")
     p.add_argument("--link-n", action="store_true",
                    help="tie n to b, L0, D0 (n = sqrt(b^2 - L0^2) / (pi D0), model-spec section 2) instead of "
                         "fitting it")
