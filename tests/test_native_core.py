@@ -331,6 +331,24 @@ def test_without_a_compiler_the_python_path_gives_the_same_results(hide, tmp_pat
     assert_agree({"X": result["X"], "F": result["F"]}, reference, ("X", "F"))
 
 
+#: Test files run again with the compiler hidden: the simulation, the control analysis and a diagnosis.
+NO_COMPILER_SUITE = ("tests/test_simulate.py", "tests/test_typed_results.py", "tests/test_control.py",
+                     "tests/test_diagnose_encoder.py")
+
+
+def test_the_simulation_tests_pass_without_a_compiler(tmp_path):
+    """A machine with no C compiler: these test files pass on the Python path, and no core is built."""
+    cache = tmp_path / "empty-cache"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), build.ENV_CACHE: str(cache), "CC": "/nonexistent/cc"}
+    env.pop(build.ENV_SWITCH, None)
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-p", "no:randomly",
+                           *NO_COMPILER_SUITE], capture_output=True, text=True, env=env, cwd=ROOT, timeout=600)
+    assert done.returncode == 0, done.stdout[-3000:]
+    summary = done.stdout.strip().splitlines()[-1]
+    assert re.search(r"\d+ passed", summary) and "failed" not in summary and "error" not in summary, summary
+    assert not list(cache.glob("native/core-*")), "a core was built although the compiler is hidden"
+
+
 def test_the_build_is_cached_by_generated_source(tmp_path, monkeypatch):
     if build.find_compiler() is None:
         pytest.skip("no C compiler here")
