@@ -1,4 +1,5 @@
-"""A record with a gap (a logger that dropped samples) is said to have one; jittered time stamps are not gaps."""
+"""Records as long loggers write them: a gap (a logger that dropped samples) is said to have one, jittered time
+stamps are not gaps, and a minute-long record is fitted on samples close enough to see its transients."""
 import numpy as np
 
 from mkctl.analysis import diagnose as dg
@@ -39,3 +40,17 @@ def test_a_record_with_a_gap_gets_a_note_and_one_without_does_not(tmp_path):
 def test_a_short_record_has_no_gaps():
     m = measurement_from_arrays("knee", [0.0, 1.0], {"pe_cmd": [1.7e6, 1.7e6], "pf_cmd": [1e5, 1e5]}, [0.85, 0.85])
     assert dg.gap_note(m) is None
+
+
+def test_a_minute_long_record_is_fitted_on_samples_close_enough_to_see_its_transients(tmp_path):
+    """60 s at 1 kHz with four command steps: thinned to 200 samples (0.3 s apart, half the knee's natural period)
+    the fits missed the transients, and the diagnosis took the damping for friction ("incomplete")."""
+    record = synthesize("knee", {"c": 30.0}, seed=0, samples=60000)
+    path = write_measurement(tmp_path / "long.csv", "knee", record.time, record.inputs, record.output,
+                             metadata=record.known, baseline="model2")
+    measurement = read_measurement(path)
+    assert dg._knee_stride(measurement.time) == 20  # 3000 samples, 20 ms apart
+    result = dg.diagnose(measurement)
+    assert result.verdict == "diagnosed" and result.missing == ["viscous_damping"]
+    assert abs(result.params["c"] - 30.0) < 4 * result.uncertainty["c"]
+    assert dg._knee_stride(np.arange(3000) * 1e-3) == 15  # the bench's 3 s records: about 200 samples, as before

@@ -33,9 +33,9 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
-For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points), so n in
-BIC is the number of those samples. RMSE in the steps and before/after is over every sample. All RMSE
-are in the units of the file's output column; parameters are SI.
+For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most
+:data:`MAX_FIT_SPACING` apart), so n in BIC is the number of those samples. RMSE in the steps and before/after
+is over every sample. All RMSE are in the units of the file's output column; parameters are SI.
 """
 from __future__ import annotations
 
@@ -66,8 +66,11 @@ BIC_THRESHOLD = RULE.bic_threshold
 HOLDOUT_GAIN = RULE.holdout_gain
 #: ... and beats every other physical candidate's held-out RMSE by this fraction.
 HOLDOUT_MARGIN = RULE.holdout_margin
-#: About how many samples the knee's fits are evaluated on.
+#: About how many samples the knee's fits are evaluated on ...
 FIT_POINTS = 200
+#: ... but never further apart than this [s]: the knee's transients last a few tenths of a second (its
+#: natural period is 0.58 s at the default posture), and a long record thinned to 200 samples would skip them.
+MAX_FIT_SPACING = 0.02
 #: Tolerance of the one-parameter search, in decades (0.01: 2.3 %; the joint fits refine it).
 FIT_XATOL = 0.01
 #: The knee's fits hold the commands over blocks so that they change at most about this often.
@@ -514,9 +517,18 @@ class _Problem:
         return Score.from_residuals(r[self.train], r[~self.train], k + self.extra_parameters), offset
 
 
+def _knee_stride(time) -> int:
+    """Every how many samples the knee's fits compare: about :data:`FIT_POINTS` samples over the record, at most
+    :data:`MAX_FIT_SPACING` apart (a 60 s record at 1 kHz: every 20th sample, 3000 in all)."""
+    n = len(time)
+    interval = float(np.median(np.diff(time))) if n > 1 else 0.0
+    widest = max(1, int(MAX_FIT_SPACING / interval)) if interval > 0 else n
+    return max(1, min(n // FIT_POINTS, widest))
+
+
 def _problem(measurement: Measurement, fit_offset: bool) -> _Problem:
     n = measurement.samples
-    stride = 1 if measurement.experiment in ("isotonic", "isometric") else max(1, n // FIT_POINTS)
+    stride = 1 if measurement.experiment in ("isotonic", "isometric") else _knee_stride(measurement.time)
     grid = np.arange(0, n, stride)
     if grid[-1] != n - 1:
         grid = np.append(grid, n - 1)
