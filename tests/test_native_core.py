@@ -182,6 +182,42 @@ def test_compiled_record_with_measured_commands_agrees_with_the_python_path(monk
                  ("X", "V"))
 
 
+@pytest.mark.parametrize("params", [Params(c=200.0), Params(c=200.0, Fc=1.5), Params(c=50.0, model=1),
+                                    Params(c=300.0, Fc=2.0, slack=1)], ids=["damped", "damped+friction", "model 1",
+                                                                            "damped+friction+slack"])
+def test_compiled_damped_isotonic_test_agrees_with_the_python_path(params, monkeypatch):
+    """The damped isotonic test (backward Euler, Newton in a bracket) in C against the Python loop, on a pressure
+    sweep with the load doubled halfway; model 1 cannot carry it at low pressure and saturates at the braid
+    limit there."""
+    from mkctl.physics import isotonic
+    core_or_fail(params)
+    t = np.arange(1500) * 2e-3
+    pressure = 300e3 * (1 - np.cos(2 * np.pi * t / 3.0)) / 2  # 0 -> 300 kPa -> 0
+    load = np.where(t < 1.0, 60.0, 120.0)
+    native = isotonic.simulate_isotonic(t, pressure, load, params)
+    python_path(monkeypatch)
+    python = isotonic.simulate_isotonic(t, pressure, load, params)
+    assert np.ptp(python) > 0.01
+    np.testing.assert_allclose(native, python, rtol=0, atol=TOLERANCE * np.ptp(python))
+    at_limit = python == isotonic.length_limits(params)[1]
+    np.testing.assert_array_equal(native == isotonic.length_limits(params)[1], at_limit)
+    assert at_limit.any() == (params.model == 1)  # model 1 has no rubber: at low pressure nothing carries the load
+
+
+def test_compiled_damped_isotonic_test_raises_the_python_error(monkeypatch):
+    from mkctl.physics import isotonic
+    params = Params(c=200.0, model=1)
+    core_or_fail(params)
+    t = np.arange(50) * 1e-2
+    args = (t, np.zeros(t.size), np.full(t.size, 50.0), params, 0.15)
+    with pytest.raises(DomainError) as native:  # model 1 with no pressure carries no load
+        isotonic.simulate_isotonic(*args, saturate=False)
+    python_path(monkeypatch)
+    with pytest.raises(DomainError) as python:
+        isotonic.simulate_isotonic(*args, saturate=False)
+    assert str(native.value) == str(python.value)
+
+
 def test_compiled_step_is_kneesimulator_step():
     # mk_knee_step is what a native FMU's doStep calls: steps of any size, first-same-as-last reuse
     from mkctl.physics.simulate import KneeSimulator

@@ -39,7 +39,7 @@ from typing import NamedTuple
 import sympy
 from sympy.printing.c import C99CodePrinter
 
-from ..physics import actuator, integrate, knee, simulate
+from ..physics import actuator, integrate, isotonic, knee, simulate
 from ..physics.params import PARAMETER_NAMES, rubber_volume
 from . import TEMPLATE
 from .variants import ALL_VARIANTS, Variant
@@ -247,7 +247,13 @@ KINDS = {
     "actuator_tension": ("double L, double P, double Ldot, double *out, mk_fault *fault", "L, P, Ldot, out, fault"),
     "actuator_lagged_pressure": ("double P, double P_cmd, double dt, double *out, mk_fault *fault",
                                  "P, P_cmd, dt, out, fault"),
+    "actuator_static": ("double L, double P, double *out, mk_fault *fault", "L, P, out, fault"),
 }
+
+
+def _static_tension_and_slope(L, P, params):
+    """What the damped isotonic test's Newton steps need: (actuator.static_tension, actuator.static_tension_dL)."""
+    return actuator.static_tension(L, P, params), actuator.static_tension_dL(L, P, params)
 
 
 def variant_functions(variant: Variant, checks: CheckTable) -> str:
@@ -282,6 +288,8 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
                       trace(actuator.tension, L_, P_, Ldot_, sp)))
     parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"}, constant,
                       trace(actuator.lagged_pressure, P_, P_cmd_, sp.tau, dt_)))
+    parts.append(emit("actuator_static", {**parameters, "L": "L", "P": "P"}, constant,
+                      trace(_static_tension_and_slope, L_, P_, sp)))
     return "\n".join(parts)
 
 
@@ -373,6 +381,11 @@ def _tableau() -> str:
              ",\n".join("    {" + ", ".join(_c_number(d) for d in row) + "}" for row in integrate.DENSE), "};"]
     lines += [f"#define {name} ({_c_number(value)})" for name, value in constants.items()]
     lines.append(f"#define MK_MAX_STEPS {int(integrate.MAX_STEPS)}L")
+    lines += ["/* the damped isotonic test (mkctl/physics/isotonic.py): the length bracket as fractions of b, and the",
+              " * most Newton/bisection steps per sample */",
+              f"#define MK_ISO_SHORTEST ({_c_number(isotonic.SHORTEST)})",
+              f"#define MK_ISO_LONGEST ({_c_number(isotonic.LONGEST)})",
+              f"#define MK_ISO_ITERATIONS {int(isotonic.MAX_ITERATIONS)}"]
     return "\n".join(lines)
 
 

@@ -58,6 +58,9 @@ class Core:
             function.restype = ctypes.c_int
             function.argtypes = [_DOUBLE_P, ctypes.c_double, ctypes.c_double, ctypes.c_double, _DOUBLE_P,
                                  ctypes.POINTER(Fault)]
+        lib.mk_isotonic_damped.restype = ctypes.c_int
+        lib.mk_isotonic_damped.argtypes = [_DOUBLE_P, ctypes.c_long, _DOUBLE_P, _DOUBLE_P, _DOUBLE_P, ctypes.c_double,
+                                           ctypes.c_int, _DOUBLE_P, ctypes.POINTER(Fault)]
         lib.mk_stop_positions.restype = ctypes.c_int
         lib.mk_stop_positions.argtypes = [_DOUBLE_P, _DOUBLE_P, ctypes.POINTER(Fault)]
         lib.mk_knee_nstate.restype = ctypes.c_int
@@ -92,6 +95,16 @@ class Core:
         rc = getattr(self.lib, f"mk_actuator_{name}")(_pointer(p), *map(float, args), _pointer(out),
                                                       ctypes.byref(fault))
         return None if rc else float(out[0])
+
+    def isotonic_damped(self, params: Params, time, pressure, load, L_start: float, saturate: bool):
+        """The damped isotonic test (:func:`mkctl.physics.isotonic.simulate_isotonic` with c > 0) in one C call:
+        the lengths [m] at every sample, or None after a fault (the Python loop then raises its own error)."""
+        p = parameter_vector(params)
+        time, pressure, load = (np.ascontiguousarray(a, dtype=float) for a in (time, pressure, load))
+        L, fault = np.empty(time.size), Fault()
+        rc = self.lib.mk_isotonic_damped(_pointer(p), time.size, _pointer(time), _pointer(pressure), _pointer(load),
+                                         float(L_start), int(bool(saturate)), _pointer(L), ctypes.byref(fault))
+        return None if rc else L
 
     def stop_positions(self, params: Params) -> tuple[float, float]:
         p, out, fault = parameter_vector(params), np.empty(2), Fault()

@@ -330,3 +330,125 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
     }
     return 0;
 }
+
+/* ---- the damped isotonic test: the algorithm of mkctl/physics/isotonic.py, written in C ------------ */
+
+#define MK_FAULT_NO_ROOT 5    /* no length in the domain carries the load (and saturate is off) */
+
+/* g(x) = load - f_static(x, P) - gain (x - previous) [N], and f_static'(x) [N/m] */
+static int mk_isotonic_g(int variant, const double *p, const double *ks, double x, double pressure, double load,
+                         double gain, double previous, double *value, double *slope, mk_fault *fault)
+{
+    double out[2];
+    int rc = mk_actuator_static_variant(variant, p, NULL, ks, x, pressure, out, fault);
+    if (rc)
+        return rc;
+    *value = load - out[0] - gain * (x - previous);
+    *slope = out[1];
+    return 0;
+}
+
+/* The root of g (isotonic._backward_euler_length): Newton steps with the analytic slope, kept inside a
+ * bracket that shrinks with every evaluation (bisection when a step leaves it). Where the root lies beyond
+ * the domain the length stops at the limit (saturate), or MK_FAULT_NO_ROOT. */
+static int mk_isotonic_length(int variant, const double *p, const double *ks, double previous, double pressure,
+                              double load, double gain, int saturate, double *root, mk_fault *fault)
+{
+    const double shortest = p[MK_P_b] * MK_ISO_SHORTEST, longest = p[MK_P_b] * MK_ISO_LONGEST;
+    double value, slope, edge, edge_slope, low, high, x;
+    int i, rc = mk_isotonic_g(variant, p, ks, previous, pressure, load, gain, previous, &value, &slope, fault);
+    if (rc)
+        return rc;
+    if (value == 0) {
+        *root = previous;
+        return 0;
+    }
+    if (value > 0) {
+        low = previous;
+        high = longest;
+        rc = mk_isotonic_g(variant, p, ks, high, pressure, load, gain, previous, &edge, &edge_slope, fault);
+        if (rc)
+            return rc;
+        if (edge > 0) {
+            *root = longest;
+            return saturate ? 0 : mk_fault_code(fault, MK_FAULT_NO_ROOT);
+        }
+    } else {
+        low = shortest;
+        high = previous;
+        rc = mk_isotonic_g(variant, p, ks, low, pressure, load, gain, previous, &edge, &edge_slope, fault);
+        if (rc)
+            return rc;
+        if (edge < 0) {
+            *root = shortest;
+            return saturate ? 0 : mk_fault_code(fault, MK_FAULT_NO_ROOT);
+        }
+    }
+    x = previous;
+    for (i = 0; i < MK_ISO_ITERATIONS; i++) {
+        const double denominator = slope + gain;
+        const double step = denominator > 0 ? value / denominator : 2 * (high - low);
+        double candidate;
+        if (fabs(step) < 1e-15) {  /* converged (1 fm): nothing left to gain */
+            *root = (low <= x + step && x + step <= high) ? x + step : x;
+            return 0;
+        }
+        candidate = x + step;
+        x = (low < candidate && candidate < high) ? candidate : 0.5 * (low + high);
+        rc = mk_isotonic_g(variant, p, ks, x, pressure, load, gain, previous, &value, &slope, fault);
+        if (rc)
+            return rc;
+        if (value == 0) {
+            *root = x;
+            return 0;
+        }
+        if (value > 0)
+            low = x;
+        else
+            high = x;
+        if (high - low < 1e-15)
+            break;
+    }
+    *root = x;
+    return 0;
+}
+
+/* The damped isotonic test (isotonic._damped_isotonic): backward Euler on c Ldot = F - f_static(L, P)
+ * - Fc sign(Ldot), friction in its play limit, from L_start; L: n lengths [m]. On a fault fault->sample is
+ * the sample being computed. */
+int mk_isotonic_damped(const double *p, long n, const double *time, const double *pressure, const double *load,
+                       double L_start, int saturate, double *L, mk_fault *fault)
+{
+    const int variant = mk_variant(p);
+    double ks[MK_MAX_CONSTANTS], previous = L_start;
+    long k;
+    if (variant < 0)
+        return mk_fault_code(fault, MK_FAULT_VARIANT);
+    mk_actuator_static_constants_variant(variant, p, NULL, ks);
+    for (k = 0; k < n; k++) {
+        const double dt = k == 0 ? 0.0 : time[k] - time[k - 1];
+        double out[2], excess;
+        int rc;
+        if (fault)
+            fault->sample = k;
+        if (dt <= 0) {
+            L[k] = previous;
+            continue;
+        }
+        rc = mk_actuator_static_variant(variant, p, NULL, ks, previous, pressure[k], out, fault);
+        if (rc)
+            return rc;
+        excess = load[k] - out[0];
+        if (fabs(excess) <= p[MK_P_Fc]) {  /* friction holds */
+            L[k] = previous;
+        } else {
+            const double held = load[k] - (excess > 0 ? 1.0 : -1.0) * p[MK_P_Fc];
+            rc = mk_isotonic_length(variant, p, ks, previous, pressure[k], held, p[MK_P_c] / dt, saturate, L + k,
+                                    fault);
+            if (rc)
+                return rc;
+        }
+        previous = L[k];
+    }
+    return 0;
+}

@@ -25,7 +25,9 @@ from . import actuator
 from ..errors import DomainError
 from .params import DEFAULT, Params
 
-_BISECTIONS = 60  # halves the bracket (0, b) to below 1e-18 m
+#: Most bisection (static_length) or Newton-with-bracket (damped test) steps per length: 60 halvings take the
+#: bracket (0, b) below 1e-18 m. mkctl.native compiles the damped test with the same cap.
+MAX_ITERATIONS = 60
 
 
 #: Shortest and longest length of the bisection bracket, as fractions of the braid length b.
@@ -73,7 +75,7 @@ def static_length(pressure, load, params: Params = DEFAULT, saturate: bool = Fal
         i = np.flatnonzero(unreachable)[0]
         raise DomainError(f"no actuator length carries the load {F.flat[i]:g} N at pressure {P.flat[i]:g} Pa "
                           f"(the tension can only range from {f_low.flat[i]:.4g} to {f_high.flat[i]:.4g} N)")
-    for _ in range(_BISECTIONS):
+    for _ in range(MAX_ITERATIONS):
         mid = 0.5 * (low + high)
         too_long = actuator.static_tension(mid, P, params) > F
         high = np.where(too_long, mid, high)
@@ -122,7 +124,17 @@ def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: f
 
 
 def _damped_isotonic(time, P, F, params: Params, L_start: float, saturate: bool = True):
-    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit)."""
+    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit).
+
+    Runs in the compiled core (:mod:`mkctl.native`, the same algorithm in C) when it is available; the loop
+    below is the fallback, and it also runs again after a fault of the compiled run, to raise its own error."""
+    from .simulate import native_core  # the knee's simulation knows how to find the compiled core
+
+    core = native_core(params) if time.size else None
+    if core is not None:
+        L = core.isotonic_damped(params, time, P, F, L_start, saturate)
+        if L is not None:
+            return L
     L = np.empty(time.size)
     previous = L_start
     dt = np.diff(time, prepend=time[0])
@@ -172,7 +184,7 @@ def _backward_euler_length(previous: float, pressure: float, load: float, gain: 
                 return shortest
             static_length(pressure, load, params)
     x = previous
-    for _ in range(_BISECTIONS):
+    for _ in range(MAX_ITERATIONS):
         slope = float(actuator.static_tension_dL(x, pressure, params)) + gain
         step = value / slope if slope > 0 else 2 * (high - low)  # a step that leaves the bracket: bisect
         if abs(step) < 1e-15:  # converged (1 fm): nothing left to gain

@@ -177,7 +177,7 @@ def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
     return X0
 
 
-def _native_core(params: Params):
+def native_core(params: Params):
     """The compiled core (:mod:`mkctl.native`) for params' structure, or None: no compiler, switched off
     (``MKCTL_NATIVE=0``), or mkctl.native absent (a pythonfmu FMU packs only the modules it imports)."""
     try:
@@ -212,7 +212,7 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
     states = np.empty((n, sim.state.size))
     outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
     resume = 0
-    core = _native_core(params) if n > 0 else None
+    core = native_core(params) if n > 0 else None
     if core is not None:
         resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, outputs)
     if resume == 0 and n > 0:
