@@ -61,7 +61,7 @@ BAD_FILES = [
     (knee_text("0,1,1", "1,1,1", header="pe_cmd_kPa,pf_cmd_kPa,x_mm"), 2, "missing column 'time_s'"),
     (knee_text("0,1,1", "1,1,1", header="time_s,pe_cmd_kPa,pf_cmd_kPa"), 2, "missing the measured output: a column x_mm or beta_deg"),
     ("# experiment = isotonic\ntime_s,pressure_kPa,length_mm\n0,1,1\n1,1,1\n", 2,
-     "missing column 'force_N' (any unit N/kN will do; an isotonic file needs time_s, pressure_kPa, force_N, length_mm)"),
+     "missing column 'force_N' (any unit N/kN/lbf/kgf will do; an isotonic file needs time_s, pressure_kPa, force_N, length_mm)"),
     (knee_text("0;1;1;1", "1;1;1;1", header=KNEE_HEADER.replace(",", ";")), 2, "not comma-separated"),
     (knee_text("0\t1\t1\t1", "1\t1\t1\t1", header=KNEE_HEADER.replace(",", "\t")), 2,
      "not comma-separated: the header row is separated by tabs"),

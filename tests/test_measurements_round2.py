@@ -130,3 +130,16 @@ def test_spreadsheet_exports_with_quotes_and_trailing_commas_read_the_same():
     assert b.output_column == "beta_deg"
     with pytest.raises(MeasurementFileError, match="line 3: expected 4 cells as in the header, found 5"):
         parse_measurement(plain.replace("155\n", "155,7\n", 1))
+
+
+def test_forces_in_pounds_and_kilograms_force_are_read_in_newtons(tmp_path):
+    """A US load cell logs lbf, a hanging mass is often written in kgf: both convert exactly to N."""
+    from mkctl.io.measurements import read_measurement
+    path = tmp_path / "iso.csv"
+    path.write_text("# experiment = isometric\nlength_in,pressure_psi,force_lbf,branch\n7.5,40,10,up\n"
+                    "7.5,50,12.5,up\n7.5,60,15,up\n", encoding="utf-8")
+    m = read_measurement(path)
+    np.testing.assert_allclose(m.output, [44.482216152605, 55.60277019075625, 66.7233242289075], rtol=1e-15)
+    path.write_text("# experiment = isotonic\ntime_s,pressure_kPa,force_kgf,length_mm\n0,100,5,190\n1,110,5,189\n"
+                    "2,120,5,188\n", encoding="utf-8")
+    np.testing.assert_allclose(read_measurement(path).inputs["force"], 5 * 9.80665, rtol=1e-15)

@@ -106,7 +106,7 @@ EXPERIMENTS = {
 UNIT_FACTORS = {
     "time": {"s": 1.0, "ms": 1e-3},
     "pressure": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6, "bar": 1e5, "psi": 6894.757293168361},
-    "force": {"N": 1.0, "kN": 1e3},
+    "force": {"N": 1.0, "kN": 1e3, "lbf": 4.4482216152605, "kgf": 9.80665},  # lbf, kgf: exact by definition
     "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254},
     "angle": {"rad": 1.0, "deg": math.pi / 180.0},
 }
