@@ -38,6 +38,8 @@ def test_hidden_slack_is_found_and_absent_slack_is_not_added():
     report = found.to_dict()
     assert report["missing"] == ["slack"]
     assert report["rmse_after"] < 2 * 0.01 < report["rmse_before"]  # mm: down to the noise
+    from mkctl.io.diagnosis_report import summary
+    assert "  slack = 1 (on)" in summary(found)  # a switch, not a value with a standard error
     t, pe, pf, X = _record(Params(m=3.0), 2)
     clean = diagnose(measurement_from_arrays("knee", t, {"pe_cmd": pe, "pf_cmd": pf}, X, params={"m": 3.0}))
     assert clean.to_dict()["missing"] == []

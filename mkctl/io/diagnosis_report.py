@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..physics.params import UNITS
+from ..physics.params import INTEGER_PARAMETERS, UNITS
 from .plotting import new_figure, save_png
 
 #: How the signature pictures label their x axis.
@@ -201,6 +201,9 @@ def summary(result) -> list[str]:
     if result.missing:
         lines.append("missing: " + ", ".join(result.missing))
         for name, value in result.params.items():
+            if name in INTEGER_PARAMETERS:  # a switch (slack = 1): on, no standard error to give
+                lines.append(f"  {name} = {int(value)} (on)")
+                continue
             error = result.uncertainty.get(name)
             plus = f" +- {error:.2g}" if error is not None else ""
             lines.append(f"  {name} = {value:.4g}{plus} {UNITS[name]}")
