@@ -17,6 +17,8 @@ Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``.
 2. A whole :func:`mkctl.analysis.diagnose.diagnose` of a 3000-sample synthetic knee record with hidden
    viscous damping. Target: less time than 5 reference simulations. ``--python`` also times it on the
    Python path (slow).
+3. The damped isotonic test (:func:`mkctl.physics.isotonic.simulate_isotonic` with c > 0) on 20000 samples,
+   compiled against the Python path.
 
 Times are the best of several repetitions (wall clock); the compiled core is built (or found in the cache)
 before any timing, and that one-off cost is printed too.
@@ -40,6 +42,7 @@ from mkctl.native import build, compiled
 from mkctl.native.variants import ALL_VARIANTS
 from mkctl.physics import knee, stability
 from mkctl.physics.params import Params
+from mkctl.physics.isotonic import simulate_isotonic
 from mkctl.physics.simulate import knee_states, simulate_knee
 
 SAMPLES, RATE = 6000, 1000.0
@@ -154,6 +157,16 @@ def main() -> int:
             slow, _ = best_of(lambda: python_path(lambda: diagnose(measurement)), 1)
             print(f"   diagnose, Python path: {slow:.2f} s ({slow / diagnose_time:.0f}x the compiled one)")
     ok_diagnose = diagnose_time < DIAGNOSE_TARGET * ref_time
+
+    print("\n3. the damped isotonic test (c = 200 N s/m, Fc = 1.5 N), a 20000-sample synthetic record")
+    record = synth.synthesize("isotonic", {"c": 200.0}, seed=0, samples=20000)
+    iso_params = Params(c=200.0, Fc=1.5)
+    iso_args = (record.time, record.inputs["pressure"], record.inputs["force"], iso_params)
+    simulate_isotonic(*iso_args)  # load the library
+    compiled_time, compiled_L = best_of(lambda: simulate_isotonic(*iso_args), args.repeat * 2)
+    python_time, python_L = best_of(lambda: python_path(lambda: simulate_isotonic(*iso_args)), 1)
+    print(f"   simulate_isotonic, Python path {1e3 * python_time:9.1f} ms; compiled {1e3 * compiled_time:7.2f} ms: "
+          f"{python_time / compiled_time:.0f}x; max |L difference| {np.max(np.abs(compiled_L - python_L)):.1e} m")
     return 0 if ok_speed and ok_diagnose else 1
 
 
