@@ -15,6 +15,7 @@ import subprocess
 import sys
 import sysconfig
 import zipfile
+from importlib import metadata
 from pathlib import Path
 
 import numpy as np
@@ -137,14 +138,16 @@ def test_valgrind_sees_the_invalid_exit_access_in_pythonfmus_binary_and_not_in_o
 
 
 def test_the_exit_fix_writes_ret_where_the_symbol_table_says_and_refuses_other_binaries(built_fmus):
-    from pythonfmu.builder import HERE as PYTHONFMU
-    original = (PYTHONFMU / "resources" / "binaries" / "linux64" / "libpythonfmu-export.so").read_bytes()
+    # the installed distribution's file, not ``pythonfmu.builder.HERE``: a pythonfmu FMU loaded earlier in this
+    # process may have put its packed copy of pythonfmu (without binaries, in a folder since deleted) first
+    binary = Path(metadata.distribution("pythonfmu").locate_file(
+        "pythonfmu/resources/binaries/linux64/libpythonfmu-export.so"))
+    original = binary.read_bytes()
     if hashlib.sha256(original).hexdigest() not in VERIFIED_BINARIES:
         pytest.skip("the installed pythonfmu binary is not the verified one (the build refuses it: tested below)")
     offset, size = elf_symbol_offset(original, EXIT_HANDLER)
     if shutil.which("nm"):  # an independent reader of the symbol table: binutils
-        listing = subprocess.run(["nm", "-D", "--defined-only", str(PYTHONFMU / "resources" / "binaries" / "linux64"
-                                                                    / "libpythonfmu-export.so")],
+        listing = subprocess.run(["nm", "-D", "--defined-only", str(binary)],
                                  capture_output=True, text=True, check=True).stdout
         address = next(int(line.split()[0], 16) for line in listing.splitlines() if line.endswith(" " + EXIT_HANDLER))
         assert offset == address  # in this library the text segment's file offsets equal its addresses

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 import shutil
+import sys
 import zipfile
 from pathlib import Path
 
@@ -166,6 +167,7 @@ class KneeFMU:
         free_instance(self.fmu)
         if self._own_dir:
             shutil.rmtree(self._unzipdir, ignore_errors=True)
+            forget_resources(self._unzipdir)
 
     def __enter__(self):
         return self
@@ -190,6 +192,22 @@ def free_instance(fmu) -> None:
     fmu.fmi2FreeInstance(fmu.component)
 
 
+def prefer_installed_pythonfmu() -> None:
+    """Import the installed pythonfmu, if there is one, before a pythonfmu FMU loads in this process: its slave
+    script then uses it, not the copy packed in the FMU's resources, whose folder is deleted after the run (a
+    later ``import pythonfmu`` would find that deleted copy first on ``sys.path``)."""
+    try:
+        import pythonfmu  # noqa: F401
+    except ImportError:  # a host with fmpy only: the FMU brings its own
+        pass
+
+
+def forget_resources(unzipdir) -> None:
+    """Drop the ``sys.path`` entries a pythonfmu FMU added inside its (now deleted) extraction folder."""
+    root = str(Path(unzipdir).resolve())
+    sys.path[:] = [entry for entry in sys.path if not (entry and str(Path(entry).resolve()).startswith(root))]
+
+
 def instantiate(md, unzipdir, name: str = "run", callbacks=None, logging_on: bool = False):
     """A co-simulation instance (fmpy's FMU2Slave, instantiated) of the FMU described by md, extracted in unzipdir.
 
@@ -199,6 +217,7 @@ def instantiate(md, unzipdir, name: str = "run", callbacks=None, logging_on: boo
     """
     from fmpy.fmi2 import FMU2Slave
 
+    prefer_installed_pythonfmu()
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
                     instanceName=name)
     fmu.instantiate(callbacks=callbacks, loggingOn=logging_on)
@@ -236,6 +255,7 @@ def flow_map_jacobian(path, start_values: dict, X0: float, inputs, lag: bool, dt
         x0, x0_next = _collect(instance, after_step, samples, u0, X0, n, lag, hX, hP, t_prep)
     finally:
         shutil.rmtree(unzipdir, ignore_errors=True)
+        forget_resources(unzipdir)
     dz = np.array([np.concatenate([x - x0, u - u0]) for x, u, _ in samples])
     dy = np.array([y - x0_next for _, _, y in samples])
     # scale columns so that the fit weighs states (m, m/s) and pressures (Pa) alike
@@ -338,6 +358,7 @@ def fmu_step_response(path, start_values: dict, inputs0, inputs1, t_step: float,
     finally:
         free_instance(fmu)
         shutil.rmtree(unzipdir, ignore_errors=True)
+        forget_resources(unzipdir)
     if not math.isclose(result["time"][-1], duration, rel_tol=0, abs_tol=output_interval / 2):
         raise FMUAnalysisError(f"the FMU stopped at t = {result['time'][-1]:g} s before {duration:g} s")
     return {"time": np.asarray(result["time"], dtype=float), **{k: np.asarray(result[k], dtype=float) for k in outputs}}
