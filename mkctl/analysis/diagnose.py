@@ -1035,8 +1035,9 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     -------
     DiagnosisResult
         ``verdict`` is ``"diagnosed"``, ``"nothing missing"``, ``"undecided"`` (the record cannot tell the
-        effects in ``undecided`` apart), ``"incomplete"`` (what was added leaves many times the output
-        noise: something outside the candidates is missing) or ``"not diagnosed"`` (``problems`` says why).
+        effects in ``undecided`` apart), ``"incomplete"`` (the final model, with what was added or with nothing
+        added, leaves many times the output noise: something outside the candidates is missing, or the record
+        cannot show which) or ``"not diagnosed"`` (``problems`` says why).
     """
     say = progress or (lambda text: None)
     m = measurement
@@ -1141,6 +1142,13 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         notes.append(f"the model with {', '.join(added)} still leaves {left:.3g} times the estimated output noise "
                      f"({out_sigma * to_file:.2g} {m.output_unit}): something outside the candidates is missing, or "
                      f"effects this record cannot separate; do not trust the values as physical")
+        say(notes[-1])
+    elif verdict == "nothing missing" and left > INCOMPLETE_FACTOR:
+        # no candidate passed the rule, but the model is far from the data: that is not "nothing missing"
+        verdict = "incomplete"
+        notes.append(f"no candidate passes the rule, yet the model leaves {left:.3g} times the estimated output noise "
+                     f"({out_sigma * to_file:.2g} {m.output_unit}): something is missing that the candidates do not "
+                     f"supply, or this record cannot show which (see why the last round stopped)")
         say(notes[-1])
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(

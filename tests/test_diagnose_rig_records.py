@@ -1,5 +1,6 @@
-"""Records as long loggers write them: a gap (a logger that dropped samples) is said to have one, jittered time
-stamps are not gaps, and a minute-long record is fitted on samples close enough to see its transients."""
+"""Records as rigs and loggers write them: a gap (a logger that dropped samples) is said to have one, jittered time
+stamps are not gaps, a minute-long record is fitted on samples close enough to see its transients, and a record
+the candidates cannot explain is never called "nothing missing"."""
 import numpy as np
 
 from mkctl.analysis import diagnose as dg
@@ -54,3 +55,18 @@ def test_a_minute_long_record_is_fitted_on_samples_close_enough_to_see_its_trans
     assert result.verdict == "diagnosed" and result.missing == ["viscous_damping"]
     assert abs(result.params["c"] - 30.0) < 4 * result.uncertainty["c"]
     assert dg._knee_stride(np.arange(3000) * 1e-3) == 15  # the bench's 3 s records: about 200 samples, as before
+
+
+def test_a_model_far_from_the_data_is_never_nothing_missing(tmp_path):
+    """A 20 s chirp at 100 Hz through the knee's resonance with damping hidden: the undamped baseline and the
+    truth both end on an end stop, so the held-out part (the last 30 %) is at the noise and no candidate can pass
+    the held-out criterion. The baseline leaves thousands of times the noise before that: "incomplete", with a
+    note, not "nothing missing"."""
+    record = synthesize("knee", {"c": 30.0}, known={"m": 10.0}, seed=7, samples=2000, rate=100.0, shape="chirp",
+                        output="beta_deg", noise=0.005)
+    path = write_measurement(tmp_path / "chirp.csv", "knee", record.time, record.inputs, record.output,
+                             metadata=record.known, baseline="model2", output_column="beta_deg")
+    result = dg.diagnose(read_measurement(path))
+    assert result.rmse_after > 100 * result.to_dict()["output_noise"]
+    assert result.verdict == "incomplete"
+    assert any("no candidate passes the rule, yet the model leaves" in note for note in result.notes)
