@@ -70,3 +70,20 @@ def test_a_model_far_from_the_data_is_never_nothing_missing(tmp_path):
     assert result.rmse_after > 100 * result.to_dict()["output_noise"]
     assert result.verdict == "incomplete"
     assert any("no candidate passes the rule, yet the model leaves" in note for note in result.notes)
+
+
+def test_damping_is_found_on_a_record_that_ends_with_a_long_rest(tmp_path):
+    """Steps, then 3 s at rest: the 1-D search for c met a small rise of the cost at light damping before its
+    deep minimum at the truth, stopped its grid there, and called damping off (then took friction instead)."""
+    from mkctl.physics.simulate import simulate_knee
+    record = synthesize("knee", {"c": 30.0}, seed=1, samples=3000)
+    n = 3000
+    t = np.arange(2 * n) * 1e-3
+    pe = np.concatenate([record.inputs["pe_cmd"], np.full(n, record.inputs["pe_cmd"][-1])])
+    pf = np.concatenate([record.inputs["pf_cmd"], np.full(n, record.inputs["pf_cmd"][-1])])
+    X = simulate_knee(t, pe, pf, record.truth).X + np.random.default_rng(0).normal(0.0, 1e-5, t.size)
+    path = write_measurement(tmp_path / "rest.csv", "knee", t, {"pe_cmd": pe, "pf_cmd": pf}, X,
+                             metadata=record.known, baseline="model2")
+    result = dg.diagnose(read_measurement(path))
+    assert result.verdict == "diagnosed" and result.missing == ["viscous_damping"]
+    assert abs(result.params["c"] - 30.0) < 4 * result.uncertainty["c"]

@@ -186,6 +186,17 @@ def test_best_value_stops_the_grid_once_the_cost_rises_twice():
     assert max(calls) == pytest.approx(1e6)
 
 
+def test_best_value_walks_past_a_small_bump_at_small_values():
+    """A light damper first raises the cost a little (it shifts the phase of an oscillation it barely calms);
+    the minimum lies two decades further up. The early stop must not end the walk on such a bump (it did:
+    damping came out "off" on a knee record with a rest at its end)."""
+    def cost(v):
+        bump = 0.06 * math.exp(-(math.log10(v) - 0.0) ** 2)  # +6 % around 1
+        return 1.0 + bump - 0.999 * math.exp(-4.0 * (math.log10(v) - math.log10(30.0)) ** 2)
+    value, best = best_value(cost, (1e-2, 1e4), cost_off=1.0)
+    assert value == pytest.approx(30.0, rel=1e-2) and best < 0.01
+
+
 def test_stop_reasons_name_the_best_candidate_and_each_criterion_it_failed():
     weak = Candidate("viscous_damping", score(rms_for_delta_bic(CURRENT, -5.0, 1), 1.0, 1))
     worse = Candidate("coulomb_friction", score(rms_for_delta_bic(CURRENT, 3.0, 1), 1.0, 1))
