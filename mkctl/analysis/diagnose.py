@@ -1148,7 +1148,9 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         verdict = "incomplete"
         notes.append(f"no candidate passes the rule, yet the model leaves {left:.3g} times the estimated output noise "
                      f"({out_sigma * to_file:.2g} {m.output_unit}): something is missing that the candidates do not "
-                     f"supply, or this record cannot show which (see why the last round stopped)")
+                     f"supply, or this record cannot show which (see why the last round stopped); if this is your "
+                     f"own muscle, its static parameters (b, n, C1, C2) may not be the ones assumed here: calibrate "
+                     f"it (mkctl calibrate) and diagnose with --params MUSCLE.json")
         say(notes[-1])
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
