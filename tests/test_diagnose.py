@@ -88,6 +88,17 @@ def test_knee_two_effects_at_once(tmp_path):
     check(result, record, result.missing)
 
 
+def test_knee_three_effects_at_once(tmp_path):
+    """Damping, friction and a lag hidden together: every single effect and every pair leaves the fit far from
+    the noise, so forward selection ends on a tie; the wider search's three-at-once fit settles it (it used to
+    answer "undecided")."""
+    result, record = run(tmp_path, "knee", {"c": 20.0, "Fc": 1.0, "tau": 0.03}, known={"m": 3.0}, seed=17,
+                         samples=3000, rate=1000.0)
+    assert sorted(result.missing) == ["coulomb_friction", "pressure_lag", "viscous_damping"]
+    check(result, record, result.missing)
+    assert any(step.get("wider_search") and len(step["added_with"]) == 2 for step in result.steps)
+
+
 def test_isotonic_two_effects_at_once(tmp_path):
     result, record = run(tmp_path, "isotonic", ["elasticity", "coulomb_friction"], baseline="model1")
     check(result, record, ["elasticity", "coulomb_friction"])

@@ -40,6 +40,7 @@ is over every sample. All RMSE are in the units of the file's output column; par
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -1095,10 +1096,10 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     pending_all = [e for e in candidates_for(m, start) if e not in exclude]
     state = _Search(problem, start, pending_all, rule, to_file, say)
     state.forward(current)
-    if state.undecided == [] and state.added and len(pending_all) >= 2:
+    if (state.added or state.undecided) and len(pending_all) >= 2:
         inadequate = _inadequacy(problem, state.current, out_sigma)
         if inadequate > WIDER_SEARCH_FACTOR:
-            say(f"the model leaves {inadequate:.3g} times the output noise: trying the candidates in pairs")
+            say(f"the model leaves {inadequate:.3g} times the output noise: trying the candidates in pairs and threes")
             if state.wider():
                 state.forward(state.current)
     for params in state.step_params:
@@ -1163,7 +1164,8 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         signatures=sigs, signature_order=order)
 
 
-#: When what was added leaves more than this many times the output noise, the candidates are tried in pairs.
+#: When what was added leaves more than this many times the output noise, the candidates are tried in pairs and
+#: threes.
 WIDER_SEARCH_FACTOR = 3.0
 #: ... and when the final model still leaves more than this, the verdict is "incomplete".
 INCOMPLETE_FACTOR = 10.0
@@ -1175,7 +1177,7 @@ def _inadequacy(problem: _Problem, fit: _Fit, out_sigma: float) -> float:
 
 
 class _Search:
-    """Forward selection with the rule, and the wider search in pairs; collects the report's steps."""
+    """Forward selection with the rule, and the wider search in pairs and threes; collects the report's steps."""
 
     def __init__(self, problem: _Problem, start: Params, pending: list, rule: Rule, to_file: float, say):
         self.problem, self.start, self.pending_all, self.rule = problem, start, pending, rule
@@ -1283,43 +1285,46 @@ class _Search:
                  + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items()))
 
     def wider(self) -> bool:
-        """Fit every pair of candidates jointly (from their round-1 values) and judge the best against the
-        forward model by the rule; adopt it (replacing what forward selection added) when it passes."""
+        """Fit every pair, then every three, of candidates jointly (from their round-1 values) and judge the best
+        (by BIC, not on a bound) against the forward model by the rule; adopt it (replacing what forward
+        selection added) when it passes. Three effects at once leave every pair short, and forward selection
+        then stops on a tie it cannot break."""
         problem, say = self.problem, self.say
         before = self.current
         names = [e for e in self.pending_all if self.individual.get(e, 0.0) > 0]
+        experiment = problem.measurement.experiment
         best = None
-        for i, a in enumerate(names):
-            for b in names[i + 1:]:
-                if {a, b} == set(self.added):
+        for size in (2, 3):
+            for combo in itertools.combinations(names, size):
+                if set(combo) == set(self.added):
                     continue
-                start = {CANDIDATES[e].parameter: self.individual[e] for e in (a, b)}
-                values, _, _, params = _joint_fit(problem, self.start, [a, b], start, train_only=True, rough=True)
+                start = {CANDIDATES[e].parameter: self.individual[e] for e in combo}
+                values, _, _, params = _joint_fit(problem, self.start, list(combo), start, train_only=True, rough=True)
                 fit = _evaluate(problem, params, values)
                 if fit is None:
                     continue
-                experiment = problem.measurement.experiment
                 pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
-                                 and not CANDIDATES[e].switch)
-                             for e in (a, b))
-                say(f"  pair {a} + {b}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
+                              and not CANDIDATES[e].switch) for e in combo)
+                say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
                     f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
                 if not pinned and (best is None or fit.score.bic < best[1].score.bic):
-                    best = ((a, b), fit)
+                    best = (combo, fit)
         if best is None:
             return False
-        (a, b), fit = best
-        decision = decide(before.score, [Outcome(f"{a}+{b}", fit.score)], self.rule)
+        combo, fit = best
+        decision = decide(before.score, [Outcome("+".join(combo), fit.score)], self.rule)
         if decision.verdict != "add" or not fit.score.rss_train < before.score.rss_train:
-            say(f"  the best pair ({a} + {b}) does not pass the rule against {', '.join(self.added)}")
+            say(f"  the best combination ({' + '.join(combo)}) does not pass the rule against "
+                f"{', '.join(self.added) or 'the baseline'}")
             return False
         replaced = list(self.added)
-        self.added = [a, b]
+        self.added = list(combo)
         self.current = self._refit(fit)
-        self._record({"added": a, "added_with": [b], "dropped": [e for e in replaced if e not in (a, b)],
-                      "replaced": replaced, "bic_before": before.score.bic,
-                      "rmse_holdout_before": before.score.rmse_holdout * self.to_file, "candidates": [],
-                      "ties": [], "wider_search": True})
+        self.undecided, self.stopped = [], None  # the combination settles what forward selection could not
+        self._record({"added": combo[0], "added_with": list(combo[1:]),
+                      "dropped": [e for e in replaced if e not in combo], "replaced": replaced,
+                      "bic_before": before.score.bic, "rmse_holdout_before": before.score.rmse_holdout * self.to_file,
+                      "candidates": [], "ties": [], "wider_search": True})
         return True
 
 
