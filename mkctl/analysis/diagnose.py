@@ -1293,7 +1293,7 @@ class _Search:
         before = self.current
         names = [e for e in self.pending_all if self.individual.get(e, 0.0) > 0]
         experiment = problem.measurement.experiment
-        best = None
+        best, tried = None, []
         for size in (2, 3):
             for combo in itertools.combinations(names, size):
                 if set(combo) == set(self.added):
@@ -1307,11 +1307,23 @@ class _Search:
                               and not CANDIDATES[e].switch) for e in combo)
                 say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
                     f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
-                if not pinned and (best is None or fit.score.bic < best[1].score.bic):
-                    best = (combo, fit)
+                if not pinned:
+                    tried.append((combo, fit))
+                    if best is None or fit.score.bic < best[1].score.bic:
+                        best = (combo, fit)
         if best is None:
             return False
         combo, fit = best
+        # two combinations that explain the record equally well are a finding, not an answer: another that is
+        # neither part of the best nor contains it must be beaten on the held-out part by the margin
+        margin = 1.0 - self.rule.holdout_margin
+        rivals = [other for other, other_fit in tried
+                  if not (set(other) <= set(combo) or set(combo) <= set(other))
+                  and not fit.score.rmse_holdout < margin * other_fit.score.rmse_holdout]
+        if rivals:
+            say(f"  the best combination ({' + '.join(combo)}) does not beat "
+                f"{'; '.join(' + '.join(r) for r in rivals)} on the held-out part by {self.rule.holdout_margin:.0%}")
+            return False
         decision = decide(before.score, [Outcome("+".join(combo), fit.score)], self.rule)
         if decision.verdict != "add" or not fit.score.rss_train < before.score.rss_train:
             say(f"  the best combination ({' + '.join(combo)}) does not pass the rule against "
