@@ -108,6 +108,26 @@ def test_each_isometric_file_gets_its_own_offset(tmp_path):
     assert [p.name for p in paths] == ["two_fit_1.png", "two_fit_2.png"] and all(p.stat().st_size > 0 for p in paths)
 
 
+def test_friction_that_grows_with_pressure_is_measured_from_the_branches_and_reported():
+    """Half the gap between the falling and rising branches is the friction (spec section 5), whatever the static
+    model: injected as 0.4 N + 1.5e-5 N/Pa it is read back; a constant Fc is read back flat, with no note."""
+    from mkctl.analysis.calibrate import hysteresis_growth
+    rec = synthesize_isometric({**MUSCLE}, known=KNOWN, noise=0.3, seed=3)
+    P, sign = rec.inputs["pressure"], rec.inputs["branch"]
+    growing = rec.output - sign * (0.4 + 1.5e-5 * P)  # up: f - friction, down: f + friction
+    record_growing = isometric_record(rec.inputs["length"], P, growing, sign, rec.known, source="growing")
+    found = hysteresis_growth([record_growing])
+    assert found["grows"] and abs(found["slope"] - 1.5e-5) < 5 * found["slope_stderr"]
+    assert found["low"][1] == pytest.approx(0.4 + 1.5e-5 * found["low"][0], abs=0.15)
+    result = calibrate([record_growing], effects=("coulomb_friction",))
+    assert any("grows with pressure" in note for note in result.notes)
+    constant = record({"Fc": 2.0}, noise=0.3, seed=3)
+    flat = hysteresis_growth([constant])
+    assert not flat["grows"] and flat["low"][1] == pytest.approx(2.0, abs=0.15)
+    assert flat["high"][1] == pytest.approx(2.0, abs=0.15)
+    assert not any("grows with pressure" in note for note in calibrate([constant]).notes)
+
+
 def test_c1_and_c2_are_reported_as_not_identifiable():
     result = calibrate([record(seed=6)])
     assert result.not_identifiable == [["C1", "C2"]]

@@ -453,6 +453,55 @@ class CalibrationResult(Result):
         })
 
 
+# --- What the data say on their own ------------------------------------------------------------------
+
+#: The friction-gap check (:func:`hysteresis_growth`) calls a growth real when the slope is this many standard
+#: errors from zero and the gap at high pressure is at least this factor times the gap at low pressure.
+GROWTH_SIGMAS, GROWTH_FACTOR = 5.0, 1.5
+
+
+def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
+    """How the gap between the rising and falling branches of the isometric records changes with pressure.
+
+    At a clamped length the measured tension is ``f - Fc`` on the rising branch and ``f + Fc`` on the falling
+    one (model-spec section 5), so half the gap between the branches at one pressure is the friction there,
+    whatever the static model. The falling branch is interpolated at the rising branch's pressures, length by
+    length, and ``half gap = a + b P`` is fitted over all of them by least squares. Returns None without two
+    branches to compare, else {"low": (P [Pa], half gap [N]), "high": (P, half gap), "slope": b [N/Pa],
+    "slope_stderr", "grows": whether the gap grows clearly (:data:`GROWTH_SIGMAS`, :data:`GROWTH_FACTOR`)}:
+    a friction that grows with pressure, which the spec's constant Fc cannot follow.
+    """
+    pressures, gaps = [], []
+    for r in records:
+        if r.experiment != "isometric":
+            continue
+        for length in np.unique(np.round(r.length, 7)):
+            at = np.isclose(r.length, length, rtol=0, atol=1e-7)
+            up, down = at & (r.sign > 0), at & (r.sign < 0)
+            if up.sum() < 3 or down.sum() < 3:
+                continue
+            order = np.argsort(r.pressure[down])
+            P_down, F_down = r.pressure[down][order], r.force[down][order]
+            inside = up & (r.pressure >= P_down[0]) & (r.pressure <= P_down[-1])
+            pressures.append(r.pressure[inside])
+            gaps.append(0.5 * (np.interp(r.pressure[inside], P_down, F_down) - r.force[inside]))
+    if not pressures:
+        return None
+    P, gap = np.concatenate(pressures), np.concatenate(gaps)
+    if P.size < 6 or np.ptp(P) <= 0:
+        return None
+    design = np.column_stack([np.ones_like(P), P])
+    (a, b), *_ = np.linalg.lstsq(design, gap, rcond=None)
+    residual = gap - design @ np.array([a, b])
+    sigma2 = float(residual @ residual) / max(P.size - 2, 1)
+    stderr = math.sqrt(sigma2 * float(np.linalg.inv(design.T @ design)[1, 1]))
+    low, high = float(np.percentile(P, 10)), float(np.percentile(P, 90))
+    gap_low, gap_high = float(a + b * low), float(a + b * high)
+    grows = bool(b > GROWTH_SIGMAS * stderr and gap_high > GROWTH_FACTOR * max(gap_low, 0.0) and gap_high > 0)
+    return {"low": (low, gap_low), "high": (high, gap_high), "slope": float(b), "slope_stderr": stderr,
+            "grows": grows}
+
+
 # --- The calibration ---------------------------------------------------------------------------------
 
 def _nrms(residual, force_range: float) -> float:
@@ -683,6 +732,14 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         else:
             notes.append(f"{name} ended on its bound ({value:.4g} {UNITS.get(name, 'N')}): the data push it out of "
                          "the physical range; its standard error means little")
+    growth = hysteresis_growth(records)
+    if growth and growth["grows"]:
+        (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
+        notes.append(f"the gap between the rising and falling branches grows with pressure: half of it is "
+                     f"{gap_low:.2g} N at {low / 1e3:.0f} kPa and {gap_high:.2g} N at {high / 1e3:.0f} kPa. That is "
+                     f"friction growing with pressure, which the constant Fc of the model cannot follow"
+                     + (f" (the fitted Fc = {current.values['Fc']:.3g} N is an average)" if "Fc" in current.values
+                        else "") + "; expect the largest errors at the extremes of pressure")
     nrms_after = _nrms(current.residual, force_range)
     fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
               if n in current.values}
