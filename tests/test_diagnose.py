@@ -125,6 +125,20 @@ def test_clean_isotonic_data_with_pressure_sensor_noise_stays_clean(tmp_path):
     assert any("smoothed" in note for note in result.notes)
 
 
+@pytest.mark.parametrize("seed, input_noise", [(0, 2.0), (24, 0.5)])
+def test_pressure_held_on_levels_with_sensor_noise_does_not_make_friction(tmp_path, seed, input_noise):
+    """The pressure held on levels (steps), read with sensor noise: the filter left a third of the noise on each
+    level, and a small friction won by ignoring the wiggles the model passed on (Fc = 0.06-0.4 N found, nothing
+    hidden). A level is now taken as its straight line."""
+    result, _ = run(tmp_path, "isotonic", {}, input_noise=input_noise, seed=seed, shape="steps", samples=2000,
+                    noise=0.05)
+    assert result.verdict == "nothing missing" and result.missing == []
+    friction, _ = run(tmp_path, "isotonic", {"Fc": 1.5}, input_noise=input_noise, seed=seed, shape="steps",
+                      samples=2000, noise=0.05)
+    assert friction.missing == ["coulomb_friction"]  # a real friction is still found
+    assert abs(friction.params["Fc"] - 1.5) < SE_TOLERANCE * friction.uncertainty["Fc"]  # no bias left
+
+
 def test_pressure_noise_does_not_hide_a_real_effect(tmp_path):
     result, record = run(tmp_path, "isotonic", {"Fc": 1.5}, input_noise=1.0, seed=2)
     assert result.missing == ["coulomb_friction"]
