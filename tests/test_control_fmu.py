@@ -107,26 +107,36 @@ def test_step_responses_api_runs_the_fmu(built_fmus, cases):
     assert np.abs(result["fmu"] - result["nonlinear"]).max() < 1e-9
 
 
-def test_an_fmu_run_in_process_leaves_no_trace_on_the_import_path(built_fmus, tmp_path):
+#: Two ways the library runs a pythonfmu FMU in the calling process: its own instance (the control analysis's
+#: probe) and fmpy's simulate_fmu (the scenarios).
+IN_PROCESS_RUNS = {
+    "probe": "from mkctl.analysis import control as mc\n"
+             "mc.step_responses(mc.operating_point(alpha=1.0472), 1e3, duration=0.3, fmu=FMU)\n",
+    "simulate_fmu": "from mkctl.scenarios.common import simulate\nsimulate(FMU, 0.05)\n",
+}
+
+
+@pytest.mark.parametrize("how", list(IN_PROCESS_RUNS))
+def test_an_fmu_run_in_process_leaves_no_trace_on_the_import_path(built_fmus, tmp_path, how):
     """After a pythonfmu FMU ran in a process (and its extraction folder was deleted), ``import pythonfmu`` still
     finds the installed package, and no ``sys.path`` entry points into the deleted folder. (It used to find the
     FMU's packed copy in the deleted folder: found by a test that read pythonfmu's binary after such a run.)"""
+    import json
+    import os
     import subprocess
     import sys
 
     script = (
         "import json, os, sys\n"
         "before = list(sys.path)\n"
-        "from mkctl.analysis import control as mc\n"
-        "op = mc.operating_point(alpha=1.0472)\n"
-        f"mc.step_responses(op, 1e3, duration=0.3, fmu={str(built_fmus['knee'])!r})\n"
+        f"FMU = {str(built_fmus['knee'])!r}\n"
+        + IN_PROCESS_RUNS[how] +
         "import pythonfmu\n"
         "print(json.dumps({'pythonfmu': pythonfmu.__file__, 'missing': [p for p in sys.path if p not in before "
         "and not os.path.exists(p)]}))\n")
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, cwd=tmp_path, timeout=300,
-                          env={**__import__("os").environ, "PYTHONPATH": str(ROOT)})
+                          env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert done.returncode == 0, done.stderr[-2000:]
-    import json
     seen = json.loads(done.stdout.strip().splitlines()[-1])
     assert Path(seen["pythonfmu"]).exists(), seen
     assert seen["missing"] == [], seen

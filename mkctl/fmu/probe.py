@@ -166,8 +166,7 @@ class KneeFMU:
             pass
         free_instance(self.fmu)
         if self._own_dir:
-            shutil.rmtree(self._unzipdir, ignore_errors=True)
-            forget_resources(self._unzipdir)
+            remove_extraction(self._unzipdir)
 
     def __enter__(self):
         return self
@@ -202,9 +201,11 @@ def prefer_installed_pythonfmu() -> None:
         pass
 
 
-def forget_resources(unzipdir) -> None:
-    """Drop the ``sys.path`` entries a pythonfmu FMU added inside its (now deleted) extraction folder."""
+def remove_extraction(unzipdir) -> None:
+    """Delete an FMU's extraction folder, and the ``sys.path`` entries a pythonfmu FMU run in this process added
+    inside it (a later import would look there first)."""
     root = str(Path(unzipdir).resolve())
+    shutil.rmtree(unzipdir, ignore_errors=True)
     sys.path[:] = [entry for entry in sys.path if not (entry and str(Path(entry).resolve()).startswith(root))]
 
 
@@ -254,8 +255,7 @@ def flow_map_jacobian(path, start_values: dict, X0: float, inputs, lag: bool, dt
     try:
         x0, x0_next = _collect(instance, after_step, samples, u0, X0, n, lag, hX, hP, t_prep)
     finally:
-        shutil.rmtree(unzipdir, ignore_errors=True)
-        forget_resources(unzipdir)
+        remove_extraction(unzipdir)
     dz = np.array([np.concatenate([x - x0, u - u0]) for x, u, _ in samples])
     dy = np.array([y - x0_next for _, _, y in samples])
     # scale columns so that the fit weighs states (m, m/s) and pressures (Pa) alike
@@ -357,8 +357,7 @@ def fmu_step_response(path, start_values: dict, inputs0, inputs1, t_step: float,
         raise FMUAnalysisError(f"the FMU failed: {error}") from error
     finally:
         free_instance(fmu)
-        shutil.rmtree(unzipdir, ignore_errors=True)
-        forget_resources(unzipdir)
+        remove_extraction(unzipdir)
     if not math.isclose(result["time"][-1], duration, rel_tol=0, abs_tol=output_interval / 2):
         raise FMUAnalysisError(f"the FMU stopped at t = {result['time'][-1]:g} s before {duration:g} s")
     return {"time": np.asarray(result["time"], dtype=float), **{k: np.asarray(result[k], dtype=float) for k in outputs}}

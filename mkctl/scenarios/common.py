@@ -247,16 +247,22 @@ def input_signal(rows) -> np.ndarray:
 def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_values=None) -> np.ndarray:
     """Run an FMU with fmpy at a fixed communication step; raise ScenarioError (with the FMU's last logged
     error) unless it reaches the stop time."""
-    from fmpy import simulate_fmu
+    from fmpy import extract, simulate_fmu
 
     from fmpy.fmi1 import FMICallException
 
+    from ..fmu.probe import prefer_installed_pythonfmu, remove_extraction
+
     log = FMULog()
+    unzipdir = extract(str(fmu))  # ours to remove, with what a pythonfmu FMU adds to sys.path inside it
+    prefer_installed_pythonfmu()
     try:
-        result = simulate_fmu(str(fmu), stop_time=stop, output_interval=step, input=inputs,
+        result = simulate_fmu(unzipdir, stop_time=stop, output_interval=step, input=inputs,
                               start_values=start_values or {}, debug_logging=True, logger=log)
     except FMICallException:  # the FMUs answer invalid parameters with fmi2Fatal at initialization
         raise ScenarioError(f"{Path(fmu).name} refused to start: {log.reason()}") from None
+    finally:
+        remove_extraction(unzipdir)
     if abs(result["time"][-1] - stop) > 1e-9 * max(1.0, stop):
         raise ScenarioError(f"{Path(fmu).name} stopped at t = {result['time'][-1]:g} s instead of {stop:g} s: "
                             f"{log.reason()}")

@@ -13,7 +13,6 @@ Writes isotonic_sweep.csv and plots the contraction against the pressure.
 from __future__ import annotations
 
 import math
-import shutil
 import sys
 
 import numpy as np
@@ -21,7 +20,7 @@ import numpy as np
 from .common import (FMULog, ScenarioError, UsageError, checked_params, finish, fmu_path,
                      main_guard, new_figure, parse_args, require)
 from mkctl.errors import MkctlError
-from mkctl.fmu.probe import free_instance, instantiate
+from mkctl.fmu.probe import free_instance, instantiate, remove_extraction
 from mkctl.physics.isotonic import contraction as contraction_of, static_length
 
 DT = 0.05  # longest sample interval [s]
@@ -49,7 +48,7 @@ class ActuatorFMU:
         try:
             self.fmu = instantiate(md, self._unzipdir, "actuator", callbacks=self._callbacks, logging_on=True)
         except Exception as error:  # fmpy raises a plain Exception when fmi2Instantiate returns NULL
-            shutil.rmtree(self._unzipdir, ignore_errors=True)
+            remove_extraction(self._unzipdir)
             raise ScenarioError(f"the actuator FMU could not be instantiated ({error}): {self.log.reason()}") from None
         try:
             self.fmu.setupExperiment(startTime=0.0)
@@ -84,7 +83,7 @@ class ActuatorFMU:
         except FMICallException:  # a failed instance may refuse terminate; freeing it is what matters
             pass
         free_instance(self.fmu)
-        shutil.rmtree(self._unzipdir, ignore_errors=True)
+        remove_extraction(self._unzipdir)
 
 
 def check(args):
