@@ -24,11 +24,29 @@ import os
 import subprocess
 import sys
 import tempfile
+import textwrap
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl
     sys.path.insert(0, str(ROOT))
+
+#: The knee motion the FMU benches drive (here and in bench_native_fmu.py), as code for their fresh processes:
+#: from duration [s] and the holding commands pe0, pf [Pa], samples t every 1 ms and a 0.5 Hz sinusoidal extensor
+#: command pe of 5 % around pe0; the knee has c = 40 N s/m.
+MOTION = """
+t = np.round(np.arange(0.0, duration + 5e-4, 1e-3), 9)
+pe = pe0 * (1 + 0.05 * np.sin(2 * np.pi * 0.5 * t))
+"""
+#: That motion through ``fmpy.simulate_fmu`` on ``fmu``, timed: sets elapsed [s], X (every sample) and end [s].
+SIMULATE_FMU = """
+from fmpy import simulate_fmu
+signal = np.array(list(zip(t, pe, np.full_like(t, pf))), dtype=[("time", float), ("pe_cmd", float), ("pf_cmd", float)])
+start = time.perf_counter()
+run = simulate_fmu(fmu, stop_time=duration, output_interval=1e-3, input=signal, start_values={"c": 40.0})
+elapsed = time.perf_counter() - start
+X, end = run["X"].tolist(), float(run["time"][-1])
+"""
 
 _CASE = """
 import json, sys, time
@@ -36,16 +54,9 @@ import numpy as np
 import scipy.optimize  # imported before the clock starts in both modes: library loading is not the model's cost
 duration, mode, fmu = float(sys.argv[1]), sys.argv[2], sys.argv[3]
 pe0, pf = float(sys.argv[5]), float(sys.argv[6])  # mkctl.physics.simulate.default_commands(), from the parent process
-t = np.round(np.arange(0.0, duration + 5e-4, 1e-3), 9)
-pe = pe0 * (1 + 0.05 * np.sin(2 * np.pi * 0.5 * t))
+""" + MOTION + """
 if mode == "fmu":
-    from fmpy import simulate_fmu
-    signal = np.array(list(zip(t, pe, np.full_like(t, pf))),
-                      dtype=[("time", float), ("pe_cmd", float), ("pf_cmd", float)])
-    start = time.perf_counter()
-    run = simulate_fmu(fmu, stop_time=duration, output_interval=1e-3, input=signal, start_values={"c": 40.0})
-    elapsed = time.perf_counter() - start
-    X, end = run["X"].tolist(), float(run["time"][-1])
+""" + textwrap.indent(SIMULATE_FMU, "    ") + """
 else:
     sys.path.insert(0, sys.argv[4])
     from mkctl.physics.params import Params

@@ -26,27 +26,24 @@ import json
 import subprocess
 import sys
 import tempfile
+import textwrap
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:  # run as a script from anywhere: find mkctl
     sys.path.insert(0, str(ROOT))
 
+from bench_fmu import MOTION, SIMULATE_FMU  # noqa: E402  (the same motion as bench_fmu.py; bench/ is the script's folder)
+
 _CASE = """
 import json, sys, time
 import numpy as np
 duration, fmu, pe0, pf, how = float(sys.argv[1]), sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), sys.argv[5]
-from fmpy import extract, read_model_description, simulate_fmu
+from fmpy import extract, read_model_description
 from fmpy.fmi2 import FMU2Slave
-t = np.round(np.arange(0.0, duration + 5e-4, 1e-3), 9)
-pe = pe0 * (1 + 0.05 * np.sin(2 * np.pi * 0.5 * t))
+""" + MOTION + """
 if how == "simulate_fmu":
-    signal = np.array(list(zip(t, pe, np.full_like(t, pf))),
-                      dtype=[("time", float), ("pe_cmd", float), ("pf_cmd", float)])
-    start = time.perf_counter()
-    run = simulate_fmu(fmu, stop_time=duration, output_interval=1e-3, input=signal, start_values={"c": 40.0})
-    elapsed = time.perf_counter() - start
-    X, end = run["X"].tolist(), float(run["time"][-1])
+""" + textwrap.indent(SIMULATE_FMU, "    ") + """
 else:  # the host's own loop over fmpy's FMU2Slave: set the inputs, doStep, read every Real output
     import ctypes
     md = read_model_description(fmu)
