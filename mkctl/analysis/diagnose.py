@@ -1161,20 +1161,16 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     rmse_after = rmse(y, full_after * to_file)
     verdict = "undecided" if state.undecided else ("diagnosed" if added else "nothing missing")
     left = rmse_after / (out_sigma * to_file) if out_sigma > 0 else 0.0
-    if verdict == "diagnosed" and left > INCOMPLETE_FACTOR:
+    if verdict in ("diagnosed", "nothing missing") and left > INCOMPLETE_FACTOR:
+        # far from the data: neither what was added nor "nothing missing" can be trusted
+        noise = f"{left:.3g} times the estimated output noise ({out_sigma * to_file:.2g} {m.output_unit})"
+        notes.append(f"the model with {', '.join(added)} still leaves {noise}: something outside the candidates is "
+                     f"missing, or effects this record cannot separate; do not trust the values as physical" if added
+                     else f"no candidate passes the rule, yet the model leaves {noise}: something is missing that the "
+                     f"candidates do not supply, or this record cannot show which (see why the last round stopped); "
+                     f"if this is your own muscle, its static parameters (b, n, C1, C2) may not be the ones assumed "
+                     f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
         verdict = "incomplete"
-        notes.append(f"the model with {', '.join(added)} still leaves {left:.3g} times the estimated output noise "
-                     f"({out_sigma * to_file:.2g} {m.output_unit}): something outside the candidates is missing, or "
-                     f"effects this record cannot separate; do not trust the values as physical")
-        say(notes[-1])
-    elif verdict == "nothing missing" and left > INCOMPLETE_FACTOR:
-        # no candidate passed the rule, but the model is far from the data: that is not "nothing missing"
-        verdict = "incomplete"
-        notes.append(f"no candidate passes the rule, yet the model leaves {left:.3g} times the estimated output noise "
-                     f"({out_sigma * to_file:.2g} {m.output_unit}): something is missing that the candidates do not "
-                     f"supply, or this record cannot show which (see why the last round stopped); if this is your "
-                     f"own muscle, its static parameters (b, n, C1, C2) may not be the ones assumed here: calibrate "
-                     f"it (mkctl calibrate) and diagnose with --params MUSCLE.json")
         say(notes[-1])
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
@@ -1326,8 +1322,7 @@ class _Search:
                 fit = _evaluate(problem, params, values)
                 if fit is None:
                     continue
-                pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
-                              and not CANDIDATES[e].switch) for e in combo)
+                pinned = _pinned(values, combo, experiment)
                 say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
                     f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
                 if not pinned:
@@ -1363,6 +1358,12 @@ class _Search:
         return True
 
 
+def _pinned(values: dict, effects, experiment: str) -> bool:
+    """Whether a joint fit left a parameter of ``effects`` on a bound of its search range (switches excepted)."""
+    return any(at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment]) and not CANDIDATES[e].switch
+               for e in effects)
+
+
 def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits: dict, say):
     """Fit the best candidate together with each rival; (rival, fit) of the first pair that needs both."""
     best = decision.effect
@@ -1377,9 +1378,7 @@ def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits:
         both = _evaluate(problem, params, values)
         if both is None:
             continue
-        experiment = problem.measurement.experiment
-        pinned = any((at_bound(values[CANDIDATES[e].parameter], CANDIDATES[e].bounds[experiment])
-                                 and not CANDIDATES[e].switch) for e in effects)
+        pinned = _pinned(values, effects, problem.measurement.experiment)
         say(f"  {best} and {rival} together: dBIC {both.score.bic - fits[best].score.bic:+.1f} against {best} "
             f"alone" + (" (a parameter on its bound)" if pinned else ""))
         if not pinned and pair_needed([fits[best].score, fits[rival].score], both.score):
