@@ -220,7 +220,7 @@ def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
 
 
 def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") -> ct.StateSpace:
-    """The linearization at op from the analytic partials of :func:`mkctl.physics.knee.knee_force_partials`.
+    """The linearization at op from the exact partials of :func:`mkctl.physics.knee.linearization`.
 
     Without a lag ``A = [[0, 1], [a2, a1]]`` (Eq. 18; a2 = dF/dX / m [1/s^2], a1 = dF/dV / m [1/s]) and
     ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]`` [m/(s^2 Pa)]; with a lag tau [s] the states Pe, Pf follow
@@ -231,15 +231,8 @@ def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") ->
     References: seed paper Eq. 17-20.
     """
     p = op.params
-    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.Pe, op.Pf, p)
-    row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
-    gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
-    if p.tau > 0:
-        A = np.array([[0, 1, 0, 0], [*row, *gains], [0, 0, -1 / p.tau, 0], [0, 0, 0, -1 / p.tau]])
-        B = np.array([[0, 0], [0, 0], [1 / p.tau, 0], [0, 1 / p.tau]])
-    else:
-        A = np.array([[0.0, 1.0], row])
-        B = np.array([[0.0, 0.0], gains])
+    # every entry an exact derivative: sympy.diff of the traced effect terms (the lag block included)
+    A, B = knee.linearization(op.X, op.Pe, op.Pf, *op.inputs, p)
     return _named_ss(A, B, p, name)
 
 

@@ -52,9 +52,9 @@ from scipy.optimize import least_squares
 from ..errors import MkctlError
 from ..io import diagnosis_report
 from ..io.measurements import Measurement
-from ..physics import actuator, isotonic, knee
+from ..physics import actuator, effects, isotonic, knee
 from ..physics.isometric import isometric_tension
-from ..physics.params import UNITS, Params
+from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide, pair_needed, to_drop
@@ -106,61 +106,17 @@ class Candidate:
         return params.replace(**{self.parameter: value})
 
 
-#: The candidates, in the spec's order. Elasticity fits C1 with C2 kept at its (Table I) value: C2 is
-#: 150 times smaller and its share of the tension is not separable from C1's in these experiments.
-CANDIDATES = {
-    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)},
-                            "the rubber's tension (model 2 minus model 1) at the measured length",
-                            "model 2 instead of model 1: the rubber's Mooney-Rivlin tension"),
-    "viscous_damping": Candidate("viscous_damping", "c", {"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
-                                 "the damping force per N s/m at the measured velocity", "f += c Ldot"),
-    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0),
-                                                             "isometric": (1e-3, 100.0)},
-                                  "the friction force per N at the measured direction of motion",
-                                  "f += Fc tanh(Ldot / vs) (a play operator in the isotonic test)"),
-    "pressure_lag": Candidate("pressure_lag", "tau", {"knee": (1e-3, 2.0)},
-                              "the force a lag of 1 s takes away at the measured pressure-command rate",
-                              "tau dP/dt = P_cmd - P"),
-    # slack is a switch (0 or 1): its one-point search interval just compares on with off
-    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
-                       "the model's tension, where it is negative (a slack muscle carries nothing there)",
-                       "f = max(f, 0), applied last: a braided muscle cannot push"),
-}
+#: The candidates, in the registry's order (:mod:`mkctl.physics.effects`: every effect with a fitted parameter and
+#: the experiments it shows in). Elasticity fits C1 with C2 kept at its (Table I) value: C2 is 150 times smaller
+#: and its share of the tension is not separable from C1's in these experiments. Slack is a switch (0 or 1): its
+#: one-point search interval just compares on with off.
+CANDIDATES = LiveMapping(lambda: {
+    e.name: Candidate(e.name, e.fitted, dict(e.experiments), e.regressor, effects.why(e.name))
+    for e in effects.all_effects() if e.fitted is not None and e.experiments})
 
-#: The experiment that tells two candidates apart, for records that cannot.
-DISCRIMINATING_EXPERIMENTS = {
-    frozenset({"viscous_damping", "pressure_lag"}):
-        "a pressure step with the leg clamped (a lag delays the force even without motion, damping needs "
-        "motion), or a slow command ramp followed by a fast step (damping grows with speed, a lag delays "
-        "both by tau); with measured bladder pressures (pe_kPa, pf_kPa) the lag shows directly",
-    frozenset({"viscous_damping", "coulomb_friction"}):
-        "a pressure step instead of a ramp, or sweeps at two rates: friction leaves a rate-independent "
-        "hysteresis loop (and stops a step's ringing at a fixed amplitude), damping's loop shrinks to "
-        "nothing at low rates (and its ringing decays in proportion)",
-    frozenset({"coulomb_friction", "pressure_lag"}):
-        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only "
-        "delays the response by tau",
-    frozenset({"elasticity", "viscous_damping"}):
-        "an isotonic test held at constant pressures under several loads: elasticity changes where the "
-        "length settles, damping only how fast it gets there",
-    frozenset({"elasticity", "coulomb_friction"}):
-        "an isotonic sweep down to low pressure under several loads: elasticity bends the "
-        "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps apart",
-    frozenset({"elasticity", "pressure_lag"}):
-        "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
-    frozenset({"elasticity", "slack"}):
-        "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
-        "positive, elasticity bends the whole curve",
-    frozenset({"coulomb_friction", "slack"}):
-        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
-        "everywhere, slack only flattens them at zero",
-    frozenset({"viscous_damping", "slack"}):
-        "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
-        "needs motion",
-    frozenset({"pressure_lag", "slack"}):
-        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
-        "positive, a lag only delays each reading",
-}
+#: The experiment that tells two candidates apart, for records that cannot (each effect's definition).
+DISCRIMINATING_EXPERIMENTS = LiveMapping(lambda: {
+    frozenset({e.name, other}): text for e in effects.all_effects() for other, text in e.separation.items()})
 
 _LN10 = math.log(10.0)
 _FAILED = object()
@@ -734,8 +690,10 @@ def _lagged(time, command, tau):
     return out
 
 
-#: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1).
-_REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0, "slack": 1.0}
+#: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1), from the
+#: effects' definitions.
+_REFERENCE = LiveMapping(lambda: {e.fitted: e.reference for e in effects.all_effects()
+                                  if e.fitted is not None and e.reference is not None})
 
 
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:

@@ -45,7 +45,8 @@ import numpy as np
 from ..errors import ParameterError
 from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import BASELINES, EXPERIMENTS, UNIT_FACTORS, round_to_file, write_measurement
-from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, Params
+from ..physics import effects
+from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, LiveMapping, Params
 from ..physics.simulate import default_commands, simulate_knee
 
 #: Default samples per experiment.
@@ -54,9 +55,10 @@ DEFAULT_SAMPLES = {"knee": 3000, "isotonic": 2000}
 DEFAULT_RATE = 1000.0
 #: Default noise standard deviation of the measured output [mm].
 DEFAULT_NOISE_MM = 0.01
-#: Values an effect takes when it is hidden by name alone (SI); elasticity takes Table I's C1, C2.
-DEFAULT_EFFECT_VALUES = {"elasticity": {}, "viscous_damping": {"c": 45.0}, "coulomb_friction": {"Fc": 2.0},
-                         "pressure_lag": {"tau": 0.05}}
+#: Values an effect takes when it is hidden by name alone (SI; each parameter's typical value in the registry);
+#: elasticity takes Table I's C1, C2. Switches (slack) are hidden by value (slack=1).
+DEFAULT_EFFECT_VALUES = LiveMapping(lambda: {e.name: e.typical_values for e in effects.all_effects()
+                                             if not e.is_switch})
 #: Knee extensor command steps: (fraction of the record, factor on the holding pressure).
 KNEE_STEPS = ((0.05, 1.04), (0.275, 0.97), (0.50, 1.03), (0.725, 0.98))
 #: Isotonic sweeps: loads [N], pressure range [Pa], slow and fast cycle durations [s].

@@ -10,16 +10,14 @@ from pathlib import Path
 
 import numpy as np
 
-from ..physics.params import INTEGER_PARAMETERS, UNITS
+from ..physics import effects
+from ..physics.params import INTEGER_PARAMETERS, UNITS, LiveMapping
 from .plotting import new_figure, save_png
 
 #: How the signature pictures label their x axis.
-SIGNATURE_AXIS = {"viscous_damping": "velocity [mm/s]", "coulomb_friction": "velocity [mm/s]",
-                  "pressure_lag": "extensor pressure rate (smoothed) [kPa/s]",
-                  "elasticity": "rubber tension of the model's C1, C2 [N]",
-                  "slack": "tension the slack muscle would not carry [N]",
-                  ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling "
-                                                     "pressure"}
+SIGNATURE_AXIS = LiveMapping(lambda: {
+    **{e.name: e.signature_axis or e.regressor for e in effects.all_effects()},
+    ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling pressure"})
 
 
 def rmse(measured, simulated) -> float:

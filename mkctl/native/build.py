@@ -85,7 +85,35 @@ def input_key(variants) -> str:
     except metadata.PackageNotFoundError:
         raise BuildUnavailable("sympy is not installed (it generates the C)") from None
     digest.update(",".join(v.name for v in variants).encode())
+    digest.update(registry_fingerprint().encode())
     return digest.hexdigest()[:20]
+
+
+def _function_fingerprint(function) -> str:
+    """What a term computes, as far as Python shows it: its byte code, constants and names (nested code too)."""
+    if function is None:
+        return "-"
+    code = getattr(function, "__code__", None)
+    if code is None:
+        return repr(function)
+
+    def of(code):
+        consts = [of(c) if hasattr(c, "co_code") else repr(c) for c in code.co_consts]
+        return f"{code.co_code.hex()}|{consts}|{code.co_names}"
+    return of(code)
+
+
+def registry_fingerprint() -> str:
+    """The registered effects as the generated C depends on them: every effect's parameters and structure, and the
+    code of the terms of effects not built in (a built-in's code is in the physics modules hashed above)."""
+    from ..physics import effects
+    parts = []
+    for e in effects.all_effects():
+        parts.append(repr((e.name, e.parameters, e.switched_by, e.structural, e.quasi_static, e.builtin)))
+        if not e.builtin:
+            parts += [_function_fingerprint(f) for f in (e.tension, e.pressure_rate, e.pressure_step, e.final,
+                                                          e.play, e.viscous)]
+    return "\n".join(parts)
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
