@@ -42,10 +42,10 @@ from pathlib import Path
 import control as ct
 import numpy as np
 
-from ..fmu import probe
+from . import fmu_probe as probe
 from ..physics import knee, stability
 from ..errors import DomainError, MkctlError
-from ..fmu.probe import FMUAnalysisError, fmu_step_response
+from .fmu_probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
 from ..results import Result
 from .control_defaults import DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
@@ -263,7 +263,7 @@ def numerical_linearization(op: KneeOperatingPoint, scale: dict | None = None, e
 
 def fmu_linearization(op: KneeOperatingPoint, fmu, dt: float = probe.DT,
                       hX: float = probe.HX, hP: float = probe.HP, name: str = "knee_fmu") -> ct.StateSpace:
-    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu.probe`).
+    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.analysis.fmu_probe`).
 
     A one-step Jacobian of the FMU's flow map (perturbed X0 and inputs, velocity states prepared and
     restored with fmi2Get/SetFMUstate) turned into A, B by a matrix logarithm, dt halved until it is short

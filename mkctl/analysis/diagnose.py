@@ -310,6 +310,14 @@ def output_noise(signal) -> float:
 
 #: Window [samples] of the local cubic whose residual :func:`noise_model` reads the noise's colour from.
 NOISE_WINDOW = 31
+#: A correlated noise is estimated again over this many of its correlation times 1 / (1 - phi) ...
+NOISE_WINDOW_PER_TIME = 8
+#: ... but over no more samples than this.
+MAX_NOISE_WINDOW = 201
+#: The largest lag-one correlation of the output noise that is resolved ...
+MAX_NOISE_CORRELATION = 0.99
+#: ... and a longer window's estimate above this is taken as the signal leaking into it, not noise.
+SIGNAL_LEAK_CORRELATION = 0.98
 #: Below this lag-one correlation the output noise is taken as white (the estimate's own scatter on white
 #: noise is a few hundredths; a signal's kinks leak a little into the local cubic's residual).
 WHITE_NOISE_CORRELATION = 0.3
@@ -384,31 +392,49 @@ def noise_model(signal, window: int = NOISE_WINDOW) -> NoiseModel:
     The signal is taken out by a local cubic (Savitzky-Golay over ``window`` samples); what is left is the
     noise through a known filter h. Its robust variance v and robust lag-one correlation r (from the spreads
     of the sum and difference of neighbours) are matched to those of AR(1) noise through h,
-    ``v = sigma^2 sum_ij h_i h_j phi^|i-j|`` (and the same for r), which r fixes phi and v then sigma. For
-    white noise (phi below :data:`WHITE_NOISE_CORRELATION`) sigma is :func:`output_noise`. The lag-one estimate
-    alone reads AR(1) noise of phi = 0.9 as about a quarter of its size.
+    ``v = sigma^2 sum_ij h_i h_j phi^|i-j|`` (and the same for r): r fixes phi, then v sigma. Noise that stays
+    correlated over much of the window is estimated again over a window :data:`NOISE_WINDOW_PER_TIME`
+    correlation times long (at most :data:`MAX_NOISE_WINDOW`), else the cubic takes much of it for signal. For
+    white noise (phi below :data:`WHITE_NOISE_CORRELATION`) sigma is :func:`output_noise`. The lag-one
+    estimate alone reads AR(1) noise of phi = 0.9 as about a quarter of its size.
     """
+    x = np.asarray(signal, dtype=float)
+    white = NoiseModel(output_noise(x))
+    estimate = _ar1_estimate(x, window)
+    if estimate is None or estimate[1] < WHITE_NOISE_CORRELATION:
+        return white
+    longer = min(MAX_NOISE_WINDOW, x.size // 4)
+    longer = min(longer, int(NOISE_WINDOW_PER_TIME / (1.0 - estimate[1]))) | 1
+    if longer > window:  # kept unless the signal leaked in (phi driven to the largest it resolves)
+        refined = _ar1_estimate(x, longer)
+        if refined is not None and refined[1] < SIGNAL_LEAK_CORRELATION:
+            estimate = refined
+    sigma, phi = estimate
+    if phi < WHITE_NOISE_CORRELATION:
+        return white
+    return NoiseModel(max(sigma, white.sigma), phi)
+
+
+def _ar1_estimate(x: np.ndarray, window: int) -> tuple[float, float] | None:
+    """(sigma, phi) of :func:`noise_model` from the residual of a local cubic over ``window`` samples, or None
+    (too short a record, no spread)."""
     from scipy.optimize import brentq
     from scipy.signal import lfilter
 
-    x = np.asarray(signal, dtype=float)
-    white = NoiseModel(output_noise(x))
     if x.size < 4 * window:
-        return white
+        return None
     h = _residual_filter(window)
     e = lfilter(h, [1.0], x)[h.size - 1:]
     plus, minus = _robust_variance(e[1:] + e[:-1]), _robust_variance(e[1:] - e[:-1])
     if not plus + minus > 0:
-        return white
+        return None
     r = (plus - minus) / (plus + minus)
-    low, high = _ar1_moments(h, 0.0)[1], _ar1_moments(h, 0.98)[1]
+    low, high = _ar1_moments(h, 0.0)[1], _ar1_moments(h, MAX_NOISE_CORRELATION)[1]
     if r <= low:
-        return white
-    phi = 0.98 if r >= high else brentq(lambda p: _ar1_moments(h, p)[1] - r, 0.0, 0.98, xtol=1e-4)
-    if phi < WHITE_NOISE_CORRELATION:
-        return white
-    sigma = math.sqrt(_robust_variance(e) / _ar1_moments(h, phi)[0])
-    return NoiseModel(max(sigma, white.sigma), float(phi))
+        return 0.0, 0.0
+    phi = MAX_NOISE_CORRELATION if r >= high else brentq(lambda p: _ar1_moments(h, p)[1] - r, 0.0,
+                                                         MAX_NOISE_CORRELATION, xtol=1e-4)
+    return math.sqrt(_robust_variance(e) / _ar1_moments(h, phi)[0]), float(phi)
 
 
 #: A piece of a measured input between steps that stays within this many times its noise of a level (or a
@@ -937,6 +963,7 @@ class DiagnosisResult(Result):
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
+    params_after: Params | None = field(default=None, repr=False)  #: the final model's parameters
     simulated_before: np.ndarray | None = field(default=None, repr=False)
     simulated_after: np.ndarray | None = field(default=None, repr=False)
     error_steps: list = field(default_factory=list, repr=False)  #: RMSE after each step, file units
@@ -1292,7 +1319,7 @@ def _not_diagnosed(record: _Record, say) -> DiagnosisResult:
                            rmse_before=before, rmse_after=before, fit_percent_before=fit_before,
                            fit_percent_after=fit_before, problems=record.problems, notes=record.notes,
                            simulated_before=record.full_before, simulated_after=record.full_before,
-                           error_steps=[before])
+                           error_steps=[before], params_after=record.measurement.params)
 
 
 def _select(problem: _Problem, record: _Record, rule: Rule, say):
@@ -1418,7 +1445,7 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         offset=final.offset * to_file if record.fit_offset else None,
         adequacy={"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "worst_window": worst,
                   "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text()},
-        simulated_before=before, simulated_after=final.simulated, error_steps=steps_rmse,
+        simulated_before=before, simulated_after=final.simulated, error_steps=steps_rmse, params_after=final.params,
         signatures=sigs, signature_order=order)
 
 
