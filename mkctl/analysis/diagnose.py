@@ -310,6 +310,8 @@ def output_noise(signal) -> float:
 
 #: Window [samples] of the local cubic whose residual :func:`noise_model` reads the noise's colour from.
 NOISE_WINDOW = 31
+#: The AR(1) estimate needs a record this many windows long (else the noise is taken as white).
+NOISE_WINDOWS_NEEDED = 10
 #: A correlated noise is estimated again over this many of its correlation times 1 / (1 - phi) ...
 NOISE_WINDOW_PER_TIME = 8
 #: ... but over no more samples than this.
@@ -395,14 +397,16 @@ def noise_model(signal, window: int = NOISE_WINDOW) -> NoiseModel:
     ``v = sigma^2 sum_ij h_i h_j phi^|i-j|`` (and the same for r): r fixes phi, then v sigma. Noise that stays
     correlated over much of the window is estimated again over a window :data:`NOISE_WINDOW_PER_TIME`
     correlation times long (at most :data:`MAX_NOISE_WINDOW`), else the cubic takes much of it for signal. For
-    white noise (phi below :data:`WHITE_NOISE_CORRELATION`) sigma is :func:`output_noise`. The lag-one
+    white noise (phi below :data:`WHITE_NOISE_CORRELATION`), a record shorter than :data:`NOISE_WINDOWS_NEEDED`
+    windows, or a correlation at :data:`SIGNAL_LEAK_CORRELATION` or above (a signal too rough for the cubic, or
+    a drift slower than the record resolves) sigma is :func:`output_noise`, white. The lag-one
     estimate alone reads AR(1) noise of phi = 0.9 as about a quarter of its size.
     """
     x = np.asarray(signal, dtype=float)
     white = NoiseModel(output_noise(x))
     estimate = _ar1_estimate(x, window)
-    if estimate is None or estimate[1] < WHITE_NOISE_CORRELATION:
-        return white
+    if estimate is None or not WHITE_NOISE_CORRELATION <= estimate[1] < SIGNAL_LEAK_CORRELATION:
+        return white  # white, or a "noise" correlated beyond what the record resolves: the signal leaked in
     longer = min(MAX_NOISE_WINDOW, x.size // 4)
     longer = min(longer, int(NOISE_WINDOW_PER_TIME / (1.0 - estimate[1]))) | 1
     if longer > window:  # kept unless the signal leaked in (phi driven to the largest it resolves)
@@ -421,7 +425,7 @@ def _ar1_estimate(x: np.ndarray, window: int) -> tuple[float, float] | None:
     from scipy.optimize import brentq
     from scipy.signal import lfilter
 
-    if x.size < 4 * window:
+    if x.size < NOISE_WINDOWS_NEEDED * window:
         return None
     h = _residual_filter(window)
     e = lfilter(h, [1.0], x)[h.size - 1:]
@@ -1287,7 +1291,8 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
     if gaps:
         notes.append(gaps)
         say(gaps)
-    noise = noise_model(m.output)
+    # a blocked-force record's points are not a time series: its noise is white by construction
+    noise = noise_model(m.output) if m.has_time and m.experiment != "isometric" else NoiseModel(output_noise(m.output))
     for note in input_notes:
         say(note)
     try:
