@@ -21,9 +21,12 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
 3. **Fit** each candidate's one parameter on simulation error over the training part
    (:func:`mkctl.analysis.diagnosis_rule.best_value`: log-space grid, bounded Brent, "off" as an
    option). From the second round on, each is refitted jointly with the effects already added.
-4. **Judge** with the rule of :mod:`mkctl.analysis.diagnosis_rule`: physical (not switched off, not on
-   a bound), BIC lower by more than 10, held-out RMSE lower by 2 %, and held-out RMSE better than every
-   other physical candidate's by 2 %. When the best does not beat a rival, the two are fitted together:
+4. **Judge** with the rule of :mod:`mkctl.analysis.diagnosis_rule` and its forward selection: physical
+   (not switched off, not on a bound), BIC lower by more than 10 (BIC counting the effective samples when
+   the output noise is correlated, :func:`noise_model`), held-out RMSE lower by 2 %, held-out RMSE better
+   than every other physical candidate's by 2 %, more gained than the noise alone gives it (the null test:
+   refitted on the current model's simulation plus the estimated noise) and a signature that does not go
+   against the force the model lacks. When the best does not beat a rival, the two are fitted together:
    if each is needed beside the other both are added, otherwise the diagnosis stops with the verdict
    ``"undecided"``, saying plainly which effects this record cannot tell apart and which experiment
    would (:data:`DISCRIMINATING_EXPERIMENTS`). After an acceptance, earlier effects that no longer earn
@@ -31,6 +34,9 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
 5. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
    the Jacobian of the residuals, ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS / (n - k)``, widened for
    correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
+6. **Verdict** (:func:`verdict_of`): "diagnosed" only when the final model leaves what the noise explains,
+   over the whole record and in each tenth of it (:func:`mkctl.analysis.diagnosis_rule.adequacy`: the
+   output noise and the measured inputs' noise passed through the model); else "incomplete".
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most

@@ -20,13 +20,22 @@ A candidate effect is **accepted** (:func:`decide`) only when all of these hold:
    explanation);
 2. it lowers BIC by more than :attr:`Rule.bic_threshold` (``dBIC < -10``);
 3. it lowers the held-out RMSE by at least :attr:`Rule.holdout_gain` (2 %);
-4. its held-out RMSE beats every other physical candidate's by :attr:`Rule.holdout_margin` (2 %).
+4. its held-out RMSE beats every other physical candidate's by :attr:`Rule.holdout_margin` (2 %);
+5. it gains more than noise alone gives it: its dBIC less what the same candidate gains when refitted on
+   the current model's simulation plus the estimated noise (:attr:`Candidate.null_delta_bic`, when that is
+   negative) still passes 2;
+6. its own force term does not go against the force the model lacks: the correlation of its signature is
+   at least :attr:`Rule.min_signature_correlation` (when there is one).
 
-Among the candidates that pass 1-3, the best BIC is the one judged by 4. When 4 fails, the record cannot
+Among the candidates that pass 1-3, 5 and 6, the best BIC is the one judged by 4. When 4 fails, the record cannot
 tell the best from its rivals: the verdict is ``"undecided"`` (the loop then tries them together, see
 :func:`pair_needed`, and otherwise reports the tie with the experiment that would separate them). After
 an acceptance, an earlier effect is dropped (:func:`to_drop`) when removing it costs less than the
-threshold in BIC.
+threshold in BIC. :func:`forward_selection` runs these rounds for the diagnosis and the calibration alike.
+
+When the selection is over, :func:`adequacy` says whether the final model leaves only what the noise explains
+(a chi-square test with the effective sample count, never stricter than :attr:`Rule.adequate_factor`), over
+the whole record and window by window.
 """
 from __future__ import annotations
 
