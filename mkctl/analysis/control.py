@@ -42,10 +42,10 @@ from pathlib import Path
 import control as ct
 import numpy as np
 
-from ..fmu import probe
+from . import fmu_probe as probe
 from ..physics import knee, stability
 from ..errors import DomainError, MkctlError
-from ..fmu.probe import FMUAnalysisError, fmu_step_response
+from .fmu_probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
 from ..results import Result
 from .control_defaults import DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
@@ -256,7 +256,7 @@ def numerical_linearization(op: KneeOperatingPoint, scale: dict | None = None, e
 
 def fmu_linearization(op: KneeOperatingPoint, fmu, dt: float = probe.DT,
                       hX: float = probe.HX, hP: float = probe.HP, name: str = "knee_fmu") -> ct.StateSpace:
-    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.fmu.probe`).
+    """The linearization of the knee FMU itself at op, from its interface only (see :mod:`mkctl.analysis.fmu_probe`).
 
     A one-step Jacobian of the FMU's flow map (perturbed X0 and inputs, velocity states prepared and
     restored with fmi2Get/SetFMUstate) turned into A, B by a matrix logarithm, dt halved until it is short
@@ -529,6 +529,36 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     ControlAnalysisError
         For a step, duration or dt that cannot be simulated, or when the nonlinear model fails.
     """
+    _check_step(op, dpe, duration, t_step, dt)
+    p = op.params
+    steps = int(round(duration / dt))
+    time = np.arange(steps + 1) * dt
+    after = time >= t_step - 1e-12
+    lin = analytic_linearization(op)
+    lin_out = np.zeros_like(time)
+    resp = ct.step_response(lin[0, 0], time[after] - time[after][0])  # X per unit pe_cmd
+    lin_out[after] = dpe * np.asarray(resp.outputs).ravel()
+    try:
+        nonlin, _ = knee_states(time, np.where(after, op.Pe + dpe, op.Pe), op.Pf, p, X0=op.X)
+    except MkctlError as error:
+        raise ControlAnalysisError(f"the nonlinear model failed: {error}") from error
+    nonlin = nonlin - op.X
+    fmu_out, fmu_note = _fmu_step(op, dpe, fmu, time, t_step, duration, dt)
+    result = StepResponses(time, lin_out, nonlin, fmu_out, dpe, t_step, end_stop=_end_stop(time, nonlin + op.X, p),
+                           fmu_note=fmu_note)
+    # final values: the linear model's DC gain; for the nonlinear model and the FMU the library's stable
+    # equilibrium at the new pressure, if the run went there (a leg that falls to a stop ends where it ends)
+    settled = _settled_offset(op, dpe, nonlin)
+    finals = {"linear": dpe * float(ct.dcgain(lin[0, 0])), "nonlinear": settled, "fmu": settled}
+    result.info = {
+        name: _response_info(time[after] - t_step, result[name][after], finals[name])
+        for name in StepResponses.MODELS if result[name] is not None
+    }
+    return result
+
+
+def _check_step(op: KneeOperatingPoint, dpe: float, duration: float, t_step: float, dt: float) -> None:
+    """One-line errors for a step, duration or sampling that cannot be simulated (:func:`step_responses`)."""
     if not (math.isfinite(dpe) and dpe != 0):
         raise ControlAnalysisError(f"pressure step dpe = {dpe!r} Pa must be a non-zero number")
     if op.Pe + dpe < 0:
@@ -542,47 +572,27 @@ def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_
     if not (math.isfinite(dt) and 0 < dt < duration):
         raise ControlAnalysisError(f"sampling dt = {dt!r} s must be positive and shorter than the duration "
                                    f"{duration:g} s")
-    p = op.params
-    steps = int(round(duration / dt))
-    time = np.arange(steps + 1) * dt
-    after = time >= t_step - 1e-12
 
-    lin = analytic_linearization(op)
-    lin_out = np.zeros_like(time)
-    resp = ct.step_response(lin[0, 0], time[after] - time[after][0])  # X per unit pe_cmd
-    lin_out[after] = dpe * np.asarray(resp.outputs).ravel()
 
+def _fmu_step(op: KneeOperatingPoint, dpe: float, fmu, time, t_step: float, duration: float, dt: float):
+    """The knee FMU's response X - X_op [m] on ``time`` (None without an FMU) and the note saying why not."""
+    if fmu is None:
+        return None, "FMU response not asked for"
+    if not Path(fmu).is_file():
+        return None, f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
+    run = fmu_step_response(fmu, {**op.params.as_dict(), "X0": op.X}, op.inputs, (op.Pe + dpe, op.Pf), t_step,
+                            duration, dt)
+    return np.interp(time, run["time"], run["X"]) - op.X, None
+
+
+def _settled_offset(op: KneeOperatingPoint, dpe: float, nonlin) -> float | None:
+    """X_eq - X_op [m] of the library's stable equilibrium at the new pressure, if the nonlinear run (X - X_op)
+    ends near it (within half its travel); None when there is none or the leg went elsewhere (a stop)."""
     try:
-        nonlin, _ = knee_states(time, np.where(after, op.Pe + dpe, op.Pe), op.Pf, p, X0=op.X)
-    except MkctlError as error:
-        raise ControlAnalysisError(f"the nonlinear model failed: {error}") from error
-    nonlin = nonlin - op.X
-
-    fmu_out, fmu_note = None, None
-    if fmu is not None and Path(fmu).is_file():
-        run = fmu_step_response(fmu, {**p.as_dict(), "X0": op.X}, op.inputs, (op.Pe + dpe, op.Pf), t_step,
-                                duration, dt)
-        fmu_out = np.interp(time, run["time"], run["X"]) - op.X
-    elif fmu is not None:
-        fmu_note = f"FMU {fmu} not found (build it with: python build_fmu.py); FMU response skipped"
-    else:
-        fmu_note = "FMU response not asked for"
-    result = StepResponses(time, lin_out, nonlin, fmu_out, dpe, t_step, end_stop=_end_stop(time, nonlin + op.X, p),
-                           fmu_note=fmu_note)
-    # final values: the linear model's DC gain; for the nonlinear model and the FMU the library's stable
-    # equilibrium at the new pressure, if there is one (a leg that falls to a stop ends where it ends)
-    finals = {"linear": dpe * float(ct.dcgain(lin[0, 0]))}
-    try:
-        finals["nonlinear"] = finals["fmu"] = stability.equilibrium_hip_height(op.Pe + dpe, op.Pf, p) - op.X
-        if abs(finals["nonlinear"] - nonlin[-1]) > 0.5 * abs(nonlin[-1] - nonlin[0]):
-            raise DomainError("the run went elsewhere")
+        final = stability.equilibrium_hip_height(op.Pe + dpe, op.Pf, op.params) - op.X
     except DomainError:
-        finals["nonlinear"] = finals["fmu"] = None
-    result.info = {
-        name: _response_info(time[after] - t_step, result[name][after], finals[name])
-        for name in StepResponses.MODELS if result[name] is not None
-    }
-    return result
+        return None
+    return final if abs(final - nonlin[-1]) <= 0.5 * abs(nonlin[-1] - nonlin[0]) else None
 
 
 def _end_stop(time, X, params: Params):

@@ -261,6 +261,28 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
                                     seed=seed, samples=ISOMETRIC_SAMPLES if samples is None else samples,
                                     baseline=baseline, declare_offset=declare_offset)
     noise = DEFAULT_NOISE_MM if noise is None else noise
+    _check_options(experiment, baseline, noise, input_noise, noise_tau, resolution, offset, pressures)
+    spec = EXPERIMENTS[experiment]
+    output_column = output or f"{spec.output.name}_{spec.output.unit}"
+    out_quantity = _output_quantity(spec, output_column)
+    known, hidden, truth = _truth(known, hidden, baseline)
+    samples = DEFAULT_SAMPLES[experiment] if samples is None else samples
+    shape = shape or SHAPES[experiment][0]
+    rng = np.random.default_rng(seed)
+    time, inputs, clean, clean_inputs = _simulate_truth(experiment, truth, samples, rate, shape, out_quantity.name,
+                                                        pressures, input_noise, rng)
+    factor = UNIT_FACTORS[out_quantity.kind][out_quantity.unit]
+    measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
+    if resolution > 0:
+        measured = np.round(measured / (resolution * factor)) * (resolution * factor)
+    return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
+                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs,
+                           resolution)
+
+
+def _check_options(experiment: str, baseline: str, noise: float, input_noise: float, noise_tau: float,
+                   resolution: float, offset: float, pressures: bool) -> None:
+    """One-line errors for options :func:`synthesize` cannot use."""
     if experiment not in ("knee", "isotonic"):
         raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
@@ -271,22 +293,26 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
             raise ParameterError(f"{name} must be a finite number >= 0, got {value!r}")
     if not np.isfinite(offset):
         raise ParameterError(f"offset must be a finite number, got {offset!r}")
-    spec = EXPERIMENTS[experiment]
-    output_column = output or f"{spec.output.name}_{spec.output.unit}"
-    out_quantity = _output_quantity(spec, output_column)
     if pressures and experiment != "knee":
         raise ParameterError("measured pressures (pe, pf) belong to a knee record; the isotonic pressure is measured "
                              "anyway")
+
+
+def _truth(known: dict | None, hidden, baseline: str) -> tuple[dict, dict, Params]:
+    """(known, hidden, truth): the file's declared parameters, the hidden ones, and the Params that simulate."""
     known = dict(known or {})
     if "model" in known:
         raise ParameterError("choose the model with the baseline (model1 or model2), not 'model'")
     hidden = dict(hidden) if isinstance(hidden, dict) else hidden_values(hidden)
     if hidden.get("model") == 2 and baseline == "model2":
         raise ParameterError("elasticity is already in the model2 baseline: hide it with --baseline model1")
-    truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
-    samples = DEFAULT_SAMPLES[experiment] if samples is None else samples
-    shape = shape or SHAPES[experiment][0]
-    rng = np.random.default_rng(seed)
+    return known, hidden, Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
+
+
+def _simulate_truth(experiment: str, truth: Params, samples: int, rate: float, shape: str, quantity: str,
+                    pressures: bool, input_noise: float, rng):
+    """The inputs as the file will hold them (measured ones with sensor noise), the truth's clean output [SI] and
+    the clean inputs: (time, inputs, clean output, clean inputs)."""
     if experiment == "knee":
         time, pe, pf = knee_inputs(samples, rate, truth, shape)
         inputs = {"pe_cmd": pe, "pf_cmd": pf}
@@ -298,7 +324,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
     clean_inputs = dict(inputs)
     if experiment == "knee":
         run = simulate_knee(time, inputs["pe_cmd"], inputs["pf_cmd"], truth)
-        clean = run["beta"] if out_quantity.name == "beta" else run["X"]
+        clean = run["beta"] if quantity == "beta" else run["X"]
         if pressures:
             clean_inputs.update({"pe": run["Pe"], "pf": run["Pf"]})
             inputs.update({name: clean_inputs[name] + _sensor_noise(rng, input_noise * 1e3, time.size)
@@ -307,13 +333,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         clean = simulate_isotonic(time, inputs["pressure"], inputs["force"], truth)
         if input_noise > 0:
             inputs["pressure"] = inputs["pressure"] + _sensor_noise(rng, input_noise * 1e3, time.size)
-    factor = UNIT_FACTORS[out_quantity.kind][out_quantity.unit]
-    measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
-    if resolution > 0:
-        measured = np.round(measured / (resolution * factor)) * (resolution * factor)
-    return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
-                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs,
-                           resolution)
+    return time, inputs, clean, clean_inputs
 
 
 def _output_quantity(spec, column: str):

@@ -139,7 +139,7 @@ def _fmu_path(args):
             print(f"note: FMU {CLI_DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
         return default
-    from ..fmu.probe import check_fmu
+    from ..analysis.fmu_probe import check_fmu
 
     return check_fmu(args.fmu)
 

@@ -1,6 +1,7 @@
 """Pictures and text of a comparison or a diagnosis (:mod:`mkctl.analysis.compare`, :mod:`mkctl.analysis.diagnose`).
 
-Only drawing and wording here: the numbers come from the analysis. Every picture is saved as PNG through
+Only drawing and wording here: the numbers come from the analysis, through the results it hands over (this
+module imports nothing from :mod:`mkctl.analysis`). Every picture is saved as PNG through
 :mod:`mkctl.io.plotting`; :func:`summary` turns a :class:`mkctl.analysis.diagnose.DiagnosisResult` into
 readable lines.
 """
@@ -10,7 +11,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ..errors import MkctlError
 from ..physics import effects
+from ..physics.isometric import isometric_tension
 from ..physics.params import INTEGER_PARAMETERS, UNITS, LiveMapping
 from .plotting import new_figure, save_png
 
@@ -74,6 +77,55 @@ def plot_residuals(measurement, residuals: dict, path, title: str = "") -> Path:
     return save_png(fig, path)
 
 
+def plot_isometric(length, pressure, force, branch, curves: dict, path, title: str = "", L0: float | None = None,
+                   columns: int = 2) -> Path:
+    """Blocked-force data and models: tension against pressure, one panel per clamped length, both branches.
+
+    Parameters: length [m], pressure [Pa], force [N], branch (+1 up, -1 down) of the measured points;
+    curves {label: Params or (Params, force offset [N])}, each drawn over the measured pressure range at
+    every length, rising branch solid and falling branch dashed
+    (:func:`mkctl.physics.isometric.isometric_tension`); L0 [m] to label each panel's length as a share of
+    it. Measured points: up-pointing markers on the rising branch, down-pointing on the falling one.
+    """
+    length, pressure, force, branch = (np.asarray(a, dtype=float) for a in (length, pressure, force, branch))
+    lengths = np.unique(length)
+    columns = max(1, min(columns, lengths.size))
+    rows = -(-lengths.size // columns)
+    fig, axes = new_figure(rows, columns, figsize=(3.6 * columns + 0.6, 2.9 * rows + 0.5), squeeze=False,
+                           sharex=True)
+    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
+    grid = np.linspace(pressure.min(), pressure.max(), 200)
+    for number, (ax, value) in enumerate(zip(axes.flat, lengths)):
+        here = length == value
+        for sign, marker, name in ((1, "^", "measured, pressure rising"), (-1, "v", "measured, pressure falling")):
+            pick = here & (branch == sign)
+            ax.plot(pressure[pick] / 1e3, force[pick], marker, ms=3.5, mfc="none", color="0.35" if sign > 0 else "0.6",
+                    lw=0, label=name if number == 0 else None)
+        for color, (label, model) in zip(colors, curves.items()):
+            params, offset = model if isinstance(model, tuple) else (model, 0.0)
+            try:
+                up = isometric_tension(value, grid, 1, params) + offset
+                down = isometric_tension(value, grid, -1, params) + offset
+            except MkctlError:  # this model cannot reach this length: no curve
+                continue
+            ax.plot(grid / 1e3, up, "-", color=color, lw=1.3, label=label if number == 0 else None)
+            if params.Fc:
+                ax.plot(grid / 1e3, down, "--", color=color, lw=1.1)
+        ax.axhline(0, color="k", lw=0.5)
+        share = f" ({value / L0:.0%} of L0)" if L0 else ""
+        ax.set_title(f"L = {value * 1e3:.1f} mm{share}", fontsize=9)
+        ax.grid(alpha=0.3)
+    for ax in axes[-1]:
+        ax.set_xlabel("pressure [kPa]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("tension [N]")
+    for ax in list(axes.flat)[lengths.size:]:
+        ax.set_visible(False)
+    fig.legend(loc="outside lower center", ncol=2, fontsize=8, frameon=False)
+    fig.suptitle(title or "blocked force: tension against pressure at each clamped length", fontsize=10)
+    return save_png(fig, path, dpi=150)
+
+
 def _binned(x, y, bins: int = 12):
     """Mean of y in bins of equal counts of x (for the signature pictures)."""
     order = np.argsort(x)
@@ -119,11 +171,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     }, folder / f"{stem}_residuals.png")
 
     if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
-        from ..analysis.compare import plot_isometric
-        from ..analysis.diagnose import CANDIDATES
-        after = measurement.params
-        for effect in result.missing:
-            after = CANDIDATES[effect].apply(after, result.params[CANDIDATES[effect].parameter])
+        after = result.params_after  # the final model's parameters, from the result
         paths["isometric"] = plot_isometric(measurement.inputs["length"], measurement.inputs["pressure"],
                                             measurement.output, measurement.branch,
                                             {"baseline": measurement.params, after_label: after},
