@@ -473,18 +473,20 @@ def _core_object(sources: Path, compiler: list[str]) -> Path:
     return target
 
 
-def compile_binary(sources: Path, units: list[str], target: Path) -> None:
+def compile_binary(sources: Path, units: list[str], target: Path, compiler: list[str] | None = None,
+                   link_flags: tuple[str, ...] = ()) -> None:
     """Compile the units into a shared library (only the fmi2* functions exported), with the compiler the core
-    uses (:func:`mkctl.native.build.find_compiler`: $CC, else cc, gcc or clang)."""
+    uses (:func:`mkctl.native.build.find_compiler`: $CC, else cc, gcc or clang), or another one (a cross compiler,
+    :mod:`mkctl.native.cross`) with its own link_flags."""
     from .build import find_compiler
-    found = find_compiler()
+    found = find_compiler() if compiler is None else compiler
     if found is None:
         raise NativeBuildError("no C compiler found (CC, cc, gcc, clang): the native FMUs need one to build")
     target.parent.mkdir(parents=True, exist_ok=True)
     objects = [str(_core_object(sources, found))] if "mkctl_core.c" in units else []
     own = [str(sources / u) for u in units if u != "mkctl_core.c"]
-    _run_compiler([*found, *_compiler_flags(), "-shared", "-I", str(sources), "-o", str(target), *own, *objects,
-                   "-lm"], target.name)
+    _run_compiler([*found, *_compiler_flags(), "-shared", *link_flags, "-I", str(sources), "-o", str(target), *own,
+                   *objects, "-lm"], target.name)
 
 
 def _validate(fmu: Path) -> None:
@@ -503,6 +505,8 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         units = write_sources(interface, guid, stage / "sources", model_source)
         (stage / "modelDescription.xml").write_bytes(model_description(interface, guid, units))
         compile_binary(stage / "sources", units, stage / "binaries" / "linux64" / f"{model_name}.so")
+        from .cross import add_windows_binary  # win64 too, when MinGW-w64 is installed (model-spec 7c)
+        add_windows_binary(stage / "sources", units, stage / "binaries" / "win64" / f"{model_name}.dll")
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as fmu:
             for path in sorted(stage.rglob("*")):
