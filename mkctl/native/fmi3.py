@@ -122,10 +122,11 @@ def build_description(model_name: str, units: list[str]) -> bytes:
     return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
 
 
-def write_sources(interface: Interface, token: str, dest: Path) -> list[str]:
+def write_sources(interface: Interface, token: str, dest: Path, model_source: Path | None = None) -> list[str]:
     """The FMI 2.0 FMU's sources with the FMI 3.0 headers and ``fmi3_wrapper.c`` as the compilation unit in place
-    of ``fmi2_wrapper.c`` (which stays in ``sources/``: ``fmi3_wrapper.c`` includes it). Returns the units."""
-    units = fmi2.write_sources(interface, token, dest)
+    of ``fmi2_wrapper.c`` (which stays in ``sources/``: ``fmi3_wrapper.c`` includes it). Returns the units.
+    model_source: as :func:`mkctl.native.fmu.write_sources` (the benchmark's no-op model)."""
+    units = fmi2.write_sources(interface, token, dest, model_source)
     headers = fmi3_headers()
     for name in HEADERS:
         shutil.copy2(headers / name, dest / name)
@@ -133,15 +134,15 @@ def write_sources(interface: Interface, token: str, dest: Path) -> list[str]:
     return ["fmi3_wrapper.c" if name == "fmi2_wrapper.c" else name for name in units]
 
 
-def build_one(model_name: str, target: Path, params: Params | None = None) -> Path:
-    """Generate, compile, pack and validate one FMI 3.0 FMU at target."""
+def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None) -> Path:
+    """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`)."""
     from .cross import add_windows_binary
     interface = fmi2.slave_interface(model_name, params)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_fmi3_") as temp:
         stage = Path(temp) / "fmu"
         sources = stage / "sources"
-        units = write_sources(interface, token, sources)
+        units = write_sources(interface, token, sources, model_source)
         (sources / "buildDescription.xml").write_bytes(build_description(model_name, units))
         (stage / "modelDescription.xml").write_bytes(model_description(interface, token))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
