@@ -1,7 +1,8 @@
 """The native FMUs (model-spec section 7b): built by mkctl.native.fmu, checked against the pythonfmu FMUs.
 
 - same interface: every variable's name, value reference, type, causality, variability, unit, description and
-  start value, the units, the default experiment, as read from both modelDescription.xml files;
+  start value, the units, the default experiment, as read from both modelDescription.xml files (Model Exchange's
+  local variables follow the slave's: tests/test_native_me.py);
 - same results: both FMUs driven by fmpy with the same inputs, each in a fresh process, agree to 1e-9 (relative
   to the output's range) on every output: a pressure step with c, tau and Fc, runs onto both end stops, the
   actuator under changing inputs;

@@ -775,11 +775,11 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
 /* Log a Model Exchange failure once (a host's integrator may call a function many times at the same point). */
 static void log_me_failure(mk_instance *inst, fmi2Status status, const char *what, const char *msg)
 {
-    char text[MK_MESSAGE];
-    snprintf(text, sizeof text, "%s at t = %g s: %s", what, inst->d.s.time, msg);
-    if (strcmp(text, inst->me_logged) == 0) return;
-    snprintf(inst->me_logged, sizeof inst->me_logged, "%s", text);
-    mk_log(inst, status, "%s", text);
+    char key[MK_MESSAGE];
+    snprintf(key, sizeof key, "%s: %s", what, msg); /* the same failure at another time is not logged again */
+    if (strcmp(key, inst->me_logged) == 0) return;
+    snprintf(inst->me_logged, sizeof inst->me_logged, "%s", key);
+    mk_log(inst, status, "%s at t = %g s: %s", what, inst->d.s.time, msg);
 }
 
 /* The run as the present values build it (Model Exchange functions may be called in initialization mode). */
