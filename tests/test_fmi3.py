@@ -7,9 +7,13 @@
 - same results: both driven by fmpy's simulate_fmu on the same steps agree to 1e-12 (relative to the output's
   range) on every output, on the cases the native FMUs are checked with against the pythonfmu ones (a pressure
   step with c, tau and Fc, runs onto both end stops, the actuator under changing inputs);
+- Model Exchange through fmpy's CVode agrees with the FMI 2.0 Model Exchange to 1e-12 (a knee step onto the stop
+  with damping and lag, one without a lag, the actuator's lag); the event indicators, variables in FMI 3.0, are
+  those fmi3GetEventIndicators gives and change sign at the stop;
 - a refused step ends the run: fmi3DoStep answers a NaN input with fmi3Discard and terminateSimulation = true,
-  the state kept at lastSuccessfulTime, and simulate_fmu stops there with the message logged; a bad parameter is
-  refused at fmi3ExitInitializationMode with Params' message, as in FMI 2.0; messages name FMI 3.0 functions;
+  the state kept at lastSuccessfulTime, and simulate_fmu stops there with the message logged (Model Exchange: a
+  negative pressure ends the run at once); a bad parameter is refused at fmi3ExitInitializationMode with Params'
+  message, as in FMI 2.0; messages name FMI 3.0 functions;
 - FMU state: a replay from a saved and a serialized state is identical;
 - ``sources/`` builds with fmpy's compile (CMake, buildDescription.xml) into a binary that gives the same results.
 """
@@ -55,7 +59,8 @@ def _describe(path: Path) -> dict:
     md = read_model_description(str(path))
     types = {"Real": "Float64", "Integer": "Int32"}
     variables = [(v.name, v.valueReference, types.get(v.type, v.type), v.causality, v.variability, v.description,
-                  v.unit, None if v.start is None else str(v.start).lower())
+                  v.unit, None if v.start is None else str(v.start).lower(),
+                  None if v.derivative is None else v.derivative.name)
                  for v in md.modelVariables]
     units = {u.name: (u.baseUnit.kg, u.baseUnit.m, u.baseUnit.s, u.baseUnit.rad) if u.baseUnit else None
              for u in md.unitDefinitions}
@@ -63,7 +68,10 @@ def _describe(path: Path) -> dict:
     return {"name": md.modelName, "variables": variables, "units": units,
             "experiment": (experiment.startTime, experiment.stopTime, experiment.stepSize),
             "outputs": [u.variable.name for u in md.outputs],
-            "initial": [u.variable.name for u in md.initialUnknowns],
+            "derivatives": [u.variable.name for u in md.derivatives],
+            "initial": sorted(u.variable.name for u in md.initialUnknowns),
+            "event indicators": md.numberOfEventIndicators,
+            "interfaces": (md.modelExchange is not None, md.coSimulation is not None),
             "token": md.guid, "version": md.fmiVersion}
 
 
@@ -75,9 +83,15 @@ def test_fmi3_fmu_validates_and_shows_the_fmi2_fmus_interface(fmus, model):
     three, two = _describe(fmus["fmi3"][model]), _describe(fmus["fmi2"][model])
     assert (three.pop("version"), two.pop("version")) == ("3.0", "2.0")
     assert three.pop("token") != two.pop("token")  # two builds, two tokens
-    time = three["variables"].pop(0)
-    assert time == ("time", len(two["variables"]), "Float64", "independent", "continuous", "simulation time", "s",
-                    None)
+    nv, nz = len(two["variables"]), two["event indicators"]
+    assert three["interfaces"] == two["interfaces"] == (True, True) and (nz > 0) == (model == "knee")
+    # FMI 3.0's own variables: time and the event indicators, after the FMI 2.0 FMU's
+    time = three["variables"].pop(0)  # declared first
+    assert time == ("time", nv, "Float64", "independent", "continuous", "simulation time", "s", None, None)
+    indicators = three["variables"][nv:]
+    del three["variables"][nv:]
+    assert [(v[0], v[1], v[3]) for v in indicators] == [(f"event_indicator_{k}", nv + k, "local")
+                                                       for k in range(1, nz + 1)]
     assert three["units"].pop("s", None) == two["units"].pop("s", (0, 0, 1, 0))  # the knee has no other "s"
     assert three == two
     with zipfile.ZipFile(fmus["fmi3"][model]) as fmu:
@@ -112,6 +126,87 @@ def test_fmi3_gives_the_fmi2_results_to_1e_12(fmus, model, name):
         assert np.abs(three[output] - ref).max() <= 1e-12 * scale, f"{name}: output {output}"
         moved += np.ptp(ref) > 0
     assert moved >= 3  # the case exercises the model
+
+
+# --- Model Exchange -------------------------------------------------------------------------------------------------
+
+def _signal(name_values: dict, at: float, stop: float):
+    """An fmpy input signal: every input at its first value, each stepping to its second at time `at`."""
+    rows = [(0.0, *[v[0] for v in name_values.values()]), (at, *[v[0] for v in name_values.values()]),
+            (at, *[v[1] for v in name_values.values()]), (stop, *[v[1] for v in name_values.values()])]
+    return np.array(rows, dtype=[("time", float)] + [(n, float) for n in name_values])
+
+
+ME_CASES = {  # the Model Exchange cases of tests/test_native_me.py: damping, lag, an end-stop contact
+    "knee step onto the stop": ("knee", {"c": 40.0, "tau": 0.02},
+                                {"pe_cmd": (PE0, 3e6), "pf_cmd": (PF0, PF0)}, 0.6),
+    "knee without a lag, slack, friction": ("knee", {"c": 40.0, "slack": 1, "Fc": 2.0},
+                                            {"pe_cmd": (PE0, 3e6), "pf_cmd": (PF0, PF0)}, 0.5),
+    "actuator lag": ("actuator", {"tau": 0.05, "c": 10.0},
+                     {"p_cmd": (1e5, 4e5), "L": (0.18, 0.18), "Ldot": (0.0, 0.01)}, 0.4),
+}
+
+
+@pytest.mark.parametrize("name", list(ME_CASES))
+def test_fmi3_model_exchange_gives_the_fmi2_results_to_1e_12(fmus, name):
+    """Both through fmpy's CVode, the same tolerance: the same calls give the same numbers."""
+    from fmpy import simulate_fmu
+    model, start, inputs, stop = ME_CASES[name]
+    runs = [simulate_fmu(str(fmus[version][model]), fmi_type="ModelExchange", stop_time=stop, output_interval=1e-3,
+                         input=_signal(inputs, 0.1, stop), start_values=dict(start), relative_tolerance=1e-10)
+            for version in ("fmi3", "fmi2")]
+    three, two = ({n: r[n].astype(float) for n in r.dtype.names} for r in runs)
+    assert two["time"][-1] == pytest.approx(stop) and len(two["time"]) > stop / 1e-3  # events add rows
+    assert three.keys() == two.keys()
+    for output, ref in two.items():
+        assert three[output].shape == ref.shape, output
+        assert np.abs(three[output] - ref).max() <= 1e-12 * max(1.0, np.abs(ref).max()), f"{name}: {output}"
+    assert np.ptp(two["X" if model == "knee" else "P"]) > 0
+
+
+def test_fmi3_event_indicators_are_variables_and_flip_at_the_stop(fmus, tmp_path):
+    from fmpy import extract, read_model_description
+    from fmpy.fmi3 import FMU3Model
+    from mkctl.physics import knee
+    from mkctl.physics.params import Params
+    path = fmus["fmi3"]["knee"]
+    md = read_model_description(str(path))
+    indicators = [v.valueReference for v in md.modelVariables if v.name.startswith("event_indicator_")]
+    nx, nz = len(md.derivatives), len(indicators)
+    assert nz == md.numberOfEventIndicators > 0
+    fmu = FMU3Model(guid=md.guid, unzipDirectory=extract(str(path), str(tmp_path / "knee")),
+                    modelIdentifier=md.modelExchange.modelIdentifier, instanceName="test")
+    fmu.instantiate()
+    try:
+        fmu.enterInitializationMode(startTime=0.0)
+        fmu.exitInitializationMode()
+        fmu.updateDiscreteStates()
+        fmu.enterContinuousTimeMode()
+        assert (fmu.getNumberOfContinuousStates(), fmu.getNumberOfEventIndicators()) == (nx, nz)
+        x = (ctypes.c_double * nx)()
+        fmu.getContinuousStates(x, nx)
+        signs = []
+        for X in (x[0], knee.stop_positions(Params())[1] + 1e-3):  # at rest, then beyond the upper stop
+            x[0] = X
+            fmu.setContinuousStates(x, nx)
+            z = (ctypes.c_double * nz)()
+            fmu.getEventIndicators(z, nz)
+            assert fmu.getFloat64(indicators) == list(z)  # the variables are the indicators
+            signs.append(np.sign(list(z)))
+        assert (signs[0] != signs[1]).any()
+    finally:
+        fmu.terminate()
+        fmu.freeInstance()
+
+
+def test_a_negative_pressure_ends_an_fmi3_model_exchange_run_with_the_message(fmus, capsys):
+    from fmpy import simulate_fmu
+    signal = _signal({"pe_cmd": (PE0, -1e5), "pf_cmd": (PF0, PF0)}, 0.1, 0.5)
+    result = simulate_fmu(str(fmus["fmi3"]["knee"]), fmi_type="ModelExchange", stop_time=0.5, output_interval=1e-3,
+                          input=signal, start_values={"c": 40.0})
+    assert result["time"][-1] == pytest.approx(0.1)
+    shown = capsys.readouterr().out
+    assert shown.count("fmi3UpdateDiscreteStates at t = 0.1 s: input pe_cmd = -100000.0 Pa is below 0") == 1
 
 
 # --- the FMI 3.0 calls themselves --------------------------------------------------------------------------------

@@ -3,12 +3,14 @@
     python -m mkctl.native.fmi3 [--out DIR]      # writes DIR/fmi3/McKibbenKnee.fmu, DIR/fmi3/McKibbenActuator.fmu
 
 Same variables (names, value references, causality, variability, units, descriptions, start values), model
-names and default experiments as the FMI 2.0 FMUs, read from the same declaration (:func:`mkctl.native.fmu.
-slave_interface`), plus FMI 3.0's independent variable ``time`` (value reference: the one after the model's
-variables). The C is the FMI 2.0 FMU's (:func:`mkctl.native.fmu.write_sources`) with ``fmi3_wrapper.c`` in place
-of ``fmi2_wrapper.c``: the FMI 3.0 functions over the FMI 2.0 implementation (included, under other names), so
-both FMUs compute the same numbers with the same code. Types: Real -> Float64, Integer -> Int32, Boolean ->
-Boolean. Co-Simulation only, no event mode.
+names and default experiments as the FMI 2.0 FMUs, read from the same declarations (:func:`mkctl.native.fmu.
+slave_interface` and the Model Exchange variables of :func:`mkctl.native.fmu.me_variables`), plus what FMI 3.0
+asks for: the independent variable ``time`` (value reference: the one after the FMI 2.0 FMU's variables, ``NV``)
+and one variable per event indicator (``event_indicator_1`` ..., the value references after ``time``). The C is the
+FMI 2.0 FMU's (:func:`mkctl.native.fmu.write_sources`) with ``fmi3_wrapper.c`` in place of ``fmi2_wrapper.c``: the
+FMI 3.0 functions over the FMI 2.0 implementation (included, under other names), so both FMUs compute the same
+numbers with the same code. Types: Real -> Float64, Integer -> Int32, Boolean -> Boolean. Both interfaces, Model
+Exchange and Co-Simulation (no event mode in Co-Simulation).
 
 Each FMU carries ``sources/`` (an FMI 3.0 source-code FMU: ``sources/buildDescription.xml`` lists the compilation
 units) and the binaries ``binaries/x86_64-linux/<model>.so`` and, when MinGW-w64 is installed
@@ -41,6 +43,8 @@ HEADERS = ("fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")
 TYPES = {"Real": "Float64", "Integer": "Int32", "Boolean": "Boolean"}
 #: The independent variable every FMI 3.0 FMU declares.
 TIME = ("time", "simulation time", "s")
+#: FMI 3.0 declares event indicators as variables (ModelStructure/EventIndicator): their names, numbered from 1.
+EVENT_INDICATOR = "event_indicator_{}"
 
 
 def fmi3_headers() -> Path:
@@ -52,12 +56,18 @@ def fmi3_headers() -> Path:
     return folder
 
 
-def time_reference(interface: Interface) -> int:
-    """The value reference of ``time``: the one after the model's (which are 0 .. NV-1, as the C table needs)."""
-    references = sorted(v.vr for v in interface.variables)
+def all_variables(interface: Interface) -> tuple:
+    """The FMI 2.0 FMU's variables: the slave's and those Model Exchange adds (value references 0 .. NV-1)."""
+    variables = interface.variables + fmi2.me_variables(interface)
+    references = sorted(v.vr for v in variables)
     if references != list(range(len(references))):
         raise NativeBuildError(f"{interface.model_name}: value references are not 0 .. {len(references) - 1}")
-    return len(references)
+    return variables
+
+
+def time_reference(interface: Interface) -> int:
+    """The value reference of ``time``: NV, the one after the FMI 2.0 FMU's (fmi3_wrapper.c: MK3_VR_TIME)."""
+    return len(all_variables(interface))
 
 
 def _start(v) -> str:
@@ -66,24 +76,31 @@ def _start(v) -> str:
     return str(int(v.start)) if v.type == "Integer" else repr(float(v.start))
 
 
-def model_description(interface: Interface, token: str) -> bytes:
-    """modelDescription.xml of the FMI 3.0 FMU (co-simulation; the sources are listed in buildDescription.xml)."""
+def model_description(interface: Interface, token: str, event_indicators: int) -> bytes:
+    """modelDescription.xml of the FMI 3.0 FMU: Model Exchange and Co-Simulation (the sources are listed in
+    buildDescription.xml); event_indicators: their number (:func:`mkctl.native.fmu.core_event_indicators`)."""
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    variables_all = all_variables(interface)
+    vr = {v.name: v.vr for v in variables_all}
+    time_vr = len(variables_all)
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "3.0", "modelName": interface.model_name, "instantiationToken": token,
         "description": interface.description, "author": interface.author,
         "generationTool": "mkctl.native.fmi3 (C generated from mkctl's equations)",
         "generationDateAndTime": now, "variableNamingConvention": "structured"})
+    common = {"modelIdentifier": interface.model_name, "needsExecutionTool": "false",
+              "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
+              "canSerializeFMUState": "true", "providesDirectionalDerivatives": "false",
+              "providesAdjointDerivatives": "false"}
+    ET.SubElement(root, "ModelExchange", {**common, "needsCompletedIntegratorStep": "true",
+                                          "providesEvaluateDiscreteStates": "false"})
     ET.SubElement(root, "CoSimulation", {
-        "modelIdentifier": interface.model_name, "needsExecutionTool": "false",
-        "canBeInstantiatedOnlyOncePerProcess": "false", "canGetAndSetFMUState": "true",
-        "canSerializeFMUState": "true", "providesDirectionalDerivatives": "false",
-        "providesAdjointDerivatives": "false", "canHandleVariableCommunicationStepSize": "true",
+        **common, "canHandleVariableCommunicationStepSize": "true",
         "maxOutputDerivativeOrder": "0", "providesIntermediateUpdate": "false",
         "mightReturnEarlyFromDoStep": "false", "canReturnEarlyAfterIntermediateUpdate": "false",
         "hasEventMode": "false"})
     try:
-        root.append(fmi2.unit_definitions([TIME[2], *(v.unit for v in interface.variables if v.unit is not None)]))
+        root.append(fmi2.unit_definitions([TIME[2], *(v.unit for v in variables_all if v.unit is not None)]))
     except ValueError as error:
         raise NativeBuildError(str(error)) from None
     categories = ET.SubElement(root, "LogCategories")
@@ -91,22 +108,35 @@ def model_description(interface: Interface, token: str) -> bytes:
         ET.SubElement(categories, "Category", name=name, description=text.replace("fmi2", "fmi3"))
     ET.SubElement(root, "DefaultExperiment", interface.default_experiment)
     variables = ET.SubElement(root, "ModelVariables")
-    ET.SubElement(variables, "Float64", {"name": TIME[0], "valueReference": str(time_reference(interface)),
+    ET.SubElement(variables, "Float64", {"name": TIME[0], "valueReference": str(time_vr),
                                          "description": TIME[1], "causality": "independent",
                                          "variability": "continuous", "unit": TIME[2]})
-    for v in interface.variables:
+    states = {f"der({state.name})": state.name for state in fmi2.ME_STATES[interface.model_name]}
+    for v in variables_all:
         attributes = {"name": v.name, "valueReference": str(v.vr), "description": v.description,
                       "causality": v.causality, "variability": v.variability}
         if v.start is not None:
             attributes["start"] = _start(v)
         if v.unit is not None:
             attributes["unit"] = v.unit
+        if v.name in states:  # FMI 3.0: the state's value reference (FMI 2.0: its index)
+            attributes["derivative"] = str(vr[states[v.name]])
         ET.SubElement(variables, TYPES[v.type], attributes)
+    indicators = [time_vr + k for k in range(1, event_indicators + 1)]
+    for k, reference in enumerate(indicators, start=1):
+        ET.SubElement(variables, "Float64", {
+            "name": EVENT_INDICATOR.format(k), "valueReference": str(reference),
+            "description": f"event indicator {k} (Model Exchange): a function of the state and inputs whose sign "
+                           "change switches the right-hand side (an end-stop contact, slack, a lag's direction)",
+            "causality": "local", "variability": "continuous"})
     structure = ET.SubElement(root, "ModelStructure")
-    outputs = [str(v.vr) for v in interface.variables if v.causality == "output"]
-    for section in ("Output", "InitialUnknown"):
-        for vr in outputs:
-            ET.SubElement(structure, section, valueReference=vr)
+    outputs = [v.vr for v in variables_all if v.causality == "output"]
+    derivatives = [vr[name] for name in states]
+    initial = sorted({*outputs, *derivatives, *(vr[name] for name in states.values())})
+    for section, references in (("Output", outputs), ("ContinuousStateDerivative", derivatives),
+                                ("InitialUnknown", initial), ("EventIndicator", indicators)):
+        for reference in references:
+            ET.SubElement(structure, section, valueReference=str(reference))
     return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
 
 
@@ -144,7 +174,8 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         sources = stage / "sources"
         units = write_sources(interface, token, sources, model_source)
         (sources / "buildDescription.xml").write_bytes(build_description(model_name, units))
-        (stage / "modelDescription.xml").write_bytes(model_description(interface, token))
+        (stage / "modelDescription.xml").write_bytes(
+            model_description(interface, token, fmi2.core_event_indicators(model_name)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
         add_windows_binary(sources, units, stage / "binaries" / WINDOWS / f"{model_name}.dll")
         target.parent.mkdir(parents=True, exist_ok=True)

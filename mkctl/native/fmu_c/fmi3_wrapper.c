@@ -12,7 +12,10 @@
  * - fmi3DoStep: a step the FMU refuses returns fmi3Discard with terminateSimulation = true and lastSuccessfulTime
  *   at the start of the step (the state is kept there): the host ends the run, it never retries the same step;
  *   a failed start (a bad parameter) returns fmi3Error at every step, as in FMI 2.0;
- * - no event mode, no clocks, no intermediate update, no early return, no derivatives: refused with a message.
+ * - Model Exchange maps one to one (fmi3UpdateDiscreteStates = fmi2NewDiscreteStates, ...); FMI 3.0 declares the
+ *   event indicators as variables, readable with fmi3GetFloat64 too;
+ * - Co-Simulation has no event mode; no clocks, no intermediate update, no early return, no directional
+ *   derivatives: refused with a message.
  */
 #include <stdarg.h>
 #include <stdbool.h>
@@ -31,6 +34,8 @@
 /* FMI 3.0's independent variable "time" (modelDescription.xml, mkctl/native/fmi3.py): the value reference after
  * the model's variables (0 .. NV - 1) */
 #define MK3_VR_TIME NV
+/* the event indicators, declared as variables in FMI 3.0: value references NV + 1 .. NV + MK_ME_NZ */
+#define MK3_VR_EVENT_INDICATOR(k) (NV + 1 + (k))
 
 typedef struct {
     fmi2Component c2;                 /* the FMI 2.0 instance doing the work */
@@ -51,6 +56,12 @@ static const char *const RENAMED[][2] = {
     {"fmi2GetFMUstate", "fmi3GetFMUState"}, {"fmi2SetFMUstate", "fmi3SetFMUState"},
     {"fmi2SerializeFMUstate", "fmi3SerializeFMUState"}, {"fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState"},
     {"fmi2DoStep", "fmi3DoStep"}, {"fmi2Terminate", "fmi3Terminate"}, {"fmi2Error", "fmi3Error"},
+    {"fmi2EnterEventMode", "fmi3EnterEventMode"}, {"fmi2NewDiscreteStates", "fmi3UpdateDiscreteStates"},
+    {"fmi2EnterContinuousTimeMode", "fmi3EnterContinuousTimeMode"},
+    {"fmi2CompletedIntegratorStep", "fmi3CompletedIntegratorStep"}, {"fmi2SetTime", "fmi3SetTime"},
+    {"fmi2SetContinuousStates", "fmi3SetContinuousStates"}, {"fmi2GetContinuousStates", "fmi3GetContinuousStates"},
+    {"fmi2GetDerivatives", "fmi3GetContinuousStateDerivatives"}, {"fmi2GetEventIndicators", "fmi3GetEventIndicators"},
+    {"fmi2GetNominalsOfContinuousStates", "fmi3GetNominalsOfContinuousStates"},
     {"fmi2Discard", "fmi3Discard"}, {"fmi2Fatal", "fmi3Fatal"}, {"fmi2OK", "fmi3OK"},
 };
 #define N_RENAMED (sizeof RENAMED / sizeof RENAMED[0])
@@ -149,10 +160,8 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage)
 {
-    (void)instanceName; (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
-    log_without_instance(instanceEnvironment, logMessage, MK_MODEL_NAME " (FMI 3.0) is a co-simulation FMU only "
-                         "(fmi3InstantiateModelExchange)");
-    return NULL;
+    return instantiate(instanceName, fmi2ModelExchange, instantiationToken, resourcePath, visible, loggingOn,
+                       instanceEnvironment, logMessage);
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken,
@@ -213,9 +222,8 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance)
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance)
 {
-    INSTANCE3(instance);
-    return refuse3(inst, fmi3Error, "fmi3EnterEventMode: %s has no event mode (hasEventMode is false)",
-                   MK_MODEL_NAME);
+    INSTANCE3(instance); /* Model Exchange; a Co-Simulation instance is refused (hasEventMode is false) */
+    return (fmi3Status)mk2_fmi2EnterEventMode(inst->c2);
 }
 
 fmi3Status fmi3Terminate(fmi3Instance instance)
@@ -248,14 +256,20 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
     INSTANCE3(instance);
     if (check_count(inst, "fmi3GetFloat64", nValueReferences, nValues) != fmi3OK) return fmi3Error;
     for (k = 0; k < nValueReferences; k++)
-        if (valueReferences[k] == MK3_VR_TIME) break;
-    if (k == nValueReferences) /* no time among them: one call */
+        if (valueReferences[k] >= MK3_VR_TIME) break;
+    if (k == nValueReferences) /* none of FMI 3.0's own variables among them: one call */
         return (fmi3Status)mk2_fmi2GetReal(inst->c2, valueReferences, nValueReferences, values);
     for (k = 0; k < nValueReferences; k++) {
-        if (valueReferences[k] == MK3_VR_TIME)
+        fmi3ValueReference vr = valueReferences[k];
+        if (vr == MK3_VR_TIME) {
             s = mk2_fmi2GetRealStatus(inst->c2, fmi2LastSuccessfulTime, &values[k]); /* the state's time */
-        else
+        } else if (vr >= MK3_VR_EVENT_INDICATOR(0) && vr < MK3_VR_EVENT_INDICATOR(MK_ME_NZ)) {
+            fmi2Real z[MK_ME_NZ > 0 ? MK_ME_NZ : 1];
+            s = mk2_fmi2GetEventIndicators(inst->c2, z, MK_ME_NZ);
+            values[k] = z[vr - MK3_VR_EVENT_INDICATOR(0)];
+        } else {
             s = mk2_fmi2GetReal(inst->c2, &valueReferences[k], 1, &values[k]);
+        }
         if (s > fmi2Warning) return (fmi3Status)s;
         if (s > status) status = s;
     }
@@ -268,10 +282,14 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
     size_t k;
     INSTANCE3(instance);
     if (check_count(inst, "fmi3SetFloat64", nValueReferences, nValues) != fmi3OK) return fmi3Error;
-    for (k = 0; k < nValueReferences; k++)
+    for (k = 0; k < nValueReferences; k++) {
         if (valueReferences[k] == MK3_VR_TIME)
             return refuse3(inst, fmi3Error, "fmi3SetFloat64: time (value reference %u) is the independent variable "
-                           "and cannot be set", (unsigned)MK3_VR_TIME);
+                           "and cannot be set (Model Exchange: fmi3SetTime)", (unsigned)MK3_VR_TIME);
+        if (valueReferences[k] > MK3_VR_TIME)
+            return refuse3(inst, fmi3Error, "fmi3SetFloat64: value reference %u is an event indicator and cannot "
+                           "be set", (unsigned)valueReferences[k]);
+    }
     return (fmi3Status)mk2_fmi2SetReal(inst->c2, valueReferences, nValueReferences, values);
 }
 
@@ -424,13 +442,7 @@ NOT_PROVIDED(fmi3GetAdjointDerivative, (fmi3Instance instance, const fmi3ValueRe
                                         size_t nSensitivity), "providesAdjointDerivatives is false")
 NOT_PROVIDED(fmi3EnterConfigurationMode, (fmi3Instance instance), "no structural parameters")
 NOT_PROVIDED(fmi3ExitConfigurationMode, (fmi3Instance instance), "no structural parameters")
-NOT_PROVIDED(fmi3EvaluateDiscreteStates, (fmi3Instance instance), "no event mode, no clocks")
-NOT_PROVIDED(fmi3UpdateDiscreteStates, (fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
-                                        fmi3Boolean *terminateSimulation,
-                                        fmi3Boolean *nominalsOfContinuousStatesChanged,
-                                        fmi3Boolean *valuesOfContinuousStatesChanged,
-                                        fmi3Boolean *nextEventTimeDefined, fmi3Float64 *nextEventTime),
-             "no event mode")
+NOT_PROVIDED(fmi3EvaluateDiscreteStates, (fmi3Instance instance), "providesEvaluateDiscreteStates is false")
 NOT_PROVIDED(fmi3EnterStepMode, (fmi3Instance instance), "no event mode: the instance is in step mode after "
              "fmi3ExitInitializationMode")
 NOT_PROVIDED(fmi3GetOutputDerivatives, (fmi3Instance instance, const fmi3ValueReference valueReferences[],
@@ -438,25 +450,101 @@ NOT_PROVIDED(fmi3GetOutputDerivatives, (fmi3Instance instance, const fmi3ValueRe
                                         size_t nValues), "maxOutputDerivativeOrder is 0")
 NOT_PROVIDED(fmi3ActivateModelPartition, (fmi3Instance instance, fmi3ValueReference clockReference,
                                           fmi3Float64 activationTime), "no scheduled execution")
-/* Model Exchange: not in this FMU (fmi3InstantiateModelExchange returns NULL) */
-NOT_PROVIDED(fmi3EnterContinuousTimeMode, (fmi3Instance instance), "co-simulation only")
-NOT_PROVIDED(fmi3CompletedIntegratorStep, (fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
-                                           fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation),
-             "co-simulation only")
-NOT_PROVIDED(fmi3SetTime, (fmi3Instance instance, fmi3Float64 time), "co-simulation only")
-NOT_PROVIDED(fmi3SetContinuousStates, (fmi3Instance instance, const fmi3Float64 continuousStates[],
-                                       size_t nContinuousStates), "co-simulation only")
-NOT_PROVIDED(fmi3GetContinuousStateDerivatives, (fmi3Instance instance, fmi3Float64 derivatives[],
-                                                 size_t nContinuousStates), "co-simulation only")
-NOT_PROVIDED(fmi3GetEventIndicators, (fmi3Instance instance, fmi3Float64 eventIndicators[], size_t nEventIndicators),
-             "co-simulation only")
-NOT_PROVIDED(fmi3GetContinuousStates, (fmi3Instance instance, fmi3Float64 continuousStates[],
-                                       size_t nContinuousStates), "co-simulation only")
-NOT_PROVIDED(fmi3GetNominalsOfContinuousStates, (fmi3Instance instance, fmi3Float64 nominals[],
-                                                 size_t nContinuousStates), "co-simulation only")
-NOT_PROVIDED(fmi3GetNumberOfEventIndicators, (fmi3Instance instance, size_t *nEventIndicators), "co-simulation only")
-NOT_PROVIDED(fmi3GetNumberOfContinuousStates, (fmi3Instance instance, size_t *nContinuousStates),
-             "co-simulation only")
+/* --- Model Exchange: the FMI 2.0 functions ------------------------------------------------------------------- */
+
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
+                                    fmi3Float64 *nextEventTime)
+{
+    fmi2EventInfo info = {fmi2False, fmi2False, fmi2False, fmi2False, fmi2False, 0.0};
+    fmi2Status status;
+    INSTANCE3(instance);
+    status = mk2_fmi2NewDiscreteStates(inst->c2, &info);
+    if (discreteStatesNeedUpdate != NULL) *discreteStatesNeedUpdate = info.newDiscreteStatesNeeded != fmi2False;
+    if (terminateSimulation != NULL) *terminateSimulation = info.terminateSimulation != fmi2False;
+    if (nominalsOfContinuousStatesChanged != NULL)
+        *nominalsOfContinuousStatesChanged = info.nominalsOfContinuousStatesChanged != fmi2False;
+    if (valuesOfContinuousStatesChanged != NULL)
+        *valuesOfContinuousStatesChanged = info.valuesOfContinuousStatesChanged != fmi2False;
+    if (nextEventTimeDefined != NULL) *nextEventTimeDefined = info.nextEventTimeDefined != fmi2False;
+    if (nextEventTime != NULL) *nextEventTime = info.nextEventTime;
+    return (fmi3Status)status;
+}
+
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2EnterContinuousTimeMode(inst->c2);
+}
+
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation)
+{
+    fmi2Boolean event = fmi2False, terminate = fmi2False;
+    fmi2Status status;
+    INSTANCE3(instance);
+    status = mk2_fmi2CompletedIntegratorStep(inst->c2, noSetFMUStatePriorToCurrentPoint ? fmi2True : fmi2False,
+                                             &event, &terminate);
+    if (enterEventMode != NULL) *enterEventMode = event != fmi2False;
+    if (terminateSimulation != NULL) *terminateSimulation = terminate != fmi2False;
+    return (fmi3Status)status;
+}
+
+fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 time)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2SetTime(inst->c2, time);
+}
+
+fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 continuousStates[],
+                                   size_t nContinuousStates)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2SetContinuousStates(inst->c2, continuousStates, nContinuousStates);
+}
+
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 derivatives[],
+                                             size_t nContinuousStates)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2GetDerivatives(inst->c2, derivatives, nContinuousStates);
+}
+
+fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 eventIndicators[], size_t nEventIndicators)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2GetEventIndicators(inst->c2, eventIndicators, nEventIndicators);
+}
+
+fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 continuousStates[], size_t nContinuousStates)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2GetContinuousStates(inst->c2, continuousStates, nContinuousStates);
+}
+
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 nominals[], size_t nContinuousStates)
+{
+    INSTANCE3(instance);
+    return (fmi3Status)mk2_fmi2GetNominalsOfContinuousStates(inst->c2, nominals, nContinuousStates);
+}
+
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *nEventIndicators)
+{
+    INSTANCE3(instance);
+    if (nEventIndicators == NULL) return refuse3(inst, fmi3Error, "fmi3GetNumberOfEventIndicators: no pointer given");
+    *nEventIndicators = MK_ME_NZ;
+    return fmi3OK;
+}
+
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *nContinuousStates)
+{
+    INSTANCE3(instance);
+    if (nContinuousStates == NULL)
+        return refuse3(inst, fmi3Error, "fmi3GetNumberOfContinuousStates: no pointer given");
+    *nContinuousStates = MK_ME_NX;
+    return fmi3OK;
+}
 
 /* --- FMU state -------------------------------------------------------------------------------------------------- */
 
