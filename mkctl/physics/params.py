@@ -174,6 +174,7 @@ class Params:
             object.__setattr__(self, "n", derived_turns(self.b, self.L0, self.D0))
         elif self.n <= 0:
             raise ParameterError(f"parameter n must be positive, got {self.n!r}")
+        check_domain(self)
 
     @property
     def V_r(self) -> float:
@@ -210,6 +211,42 @@ class Params:
     def as_dict(self) -> dict[str, float]:
         """All values by name (n included), e.g. for a JSON report or an FMU's start values."""
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+
+
+# --- The model's domain: the values a real muscle and knee can take ---------------------------------
+
+#: The range [low, high] of each parameter (SI) that the model accepts: every real muscle and knee lies well
+#: inside it (lengths from a micrometre to 10 m, masses from a gram to 10 t, ...), and every value inside it
+#: keeps the equations' intermediate numbers far from overflow and underflow. Names without an entry (effects
+#: registered elsewhere) are checked by their own bounds. A value outside gives a one-line ParameterError.
+DOMAIN = MappingProxyType({
+    **{name: (1e-6, 10.0) for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
+    "Lec": (0.0, 10.0), "Lfc": (0.0, 10.0),
+    "n": (1e-4, 1e4),
+    "C1": (0.0, 1e9), "C2": (0.0, 1e9),
+    "m": (1e-3, 1e4),
+    "g": (1e-3, 100.0),
+    "c": (0.0, 1e6),
+    "Fc": (0.0, 1e6),
+    "vs": (1e-9, 100.0),
+    "tau": (0.0, 100.0),
+})
+
+
+def check_domain(params) -> None:
+    """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``params`` lies in
+    :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than the extensor's thigh
+    anchor distance ``L1``, so that ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3) is defined
+    for every kneecap angle alpha in (0, pi/2)."""
+    for name, (low, high) in DOMAIN.items():
+        value = getattr(params, name, None)
+        if value is not None and not low <= value <= high:
+            unit = "" if UNITS.get(name, "1") == "1" else " " + UNITS[name]
+            raise ParameterError(f"parameter {name} = {value:.6g}{unit} is outside the model's domain "
+                                 f"[{low:g}, {high:g}]{unit}")
+    if params.r >= params.L1:
+        raise ParameterError(f"parameter r = {params.r:.6g} m must be shorter than L1 = {params.L1:.6g} m: the "
+                             "kneecap lever cannot reach past the extensor's thigh anchor (no knee geometry)")
 
 
 #: Every parameter name accepted by :meth:`Params.replace`, a measurement file and the FMUs.
