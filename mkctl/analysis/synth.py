@@ -44,6 +44,7 @@ import numpy as np
 
 from ..errors import ParameterError, check_memory
 from ..physics.isotonic import simulate_isotonic
+from ..io.text import write_text_atomic
 from ..io.measurements import BASELINES, EXPERIMENTS, LARGEST, UNIT_FACTORS, round_to_file, write_measurement
 from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, Params
 from ..physics.simulate import default_commands, simulate_knee
@@ -414,7 +415,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
     truth_path = None
     if truth_file:
         truth_path = truth_path_for(path)
-        truth_path.write_text(json.dumps({
+        write_text_atomic(truth_path, json.dumps({
             "file": path.name,
             "experiment": record.experiment,
             "baseline": record.baseline,
@@ -431,7 +432,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
             "resolution": record.resolution,
             "seed": record.seed,
             "samples": int(record.time.size),
-        }, indent=2) + "\n", encoding="utf-8")
+        }, indent=2, allow_nan=False) + "\n")
     return path, truth_path
 
 

@@ -151,9 +151,9 @@ def _fmu_path(args):
             print(f"note: FMU {CLI_DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
         return default
-    from ..fmu.probe import check_fmu
+    from ..fmu.probe import check_knee_fmu
 
-    return check_fmu(args.fmu)
+    return check_knee_fmu(args.fmu)
 
 
 def _fmt_poles(eig) -> str:

@@ -46,7 +46,7 @@ import numpy as np
 
 from ..errors import MeasurementFileError, ParameterError
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
-from .text import read_user_text
+from .text import read_user_text, write_text_atomic
 
 
 class Quantity(NamedTuple):
@@ -587,7 +587,4 @@ def write_measurement(path, experiment: str, time, inputs: dict, output, metadat
     if hasattr(path, "write"):
         path.write("\n".join(lines) + "\n")
         return path
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_text_atomic(path, "\n".join(lines) + "\n")

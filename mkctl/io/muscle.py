@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..errors import MkctlError, ParameterError
 from ..physics.params import DEFAULT, INTEGER_PARAMETERS, PARAMETER_NAMES, Params
-from .text import read_user_text
+from .text import read_user_text, write_text_atomic
 
 
 class MuscleFileError(MkctlError, ValueError):
@@ -80,7 +80,4 @@ def write_muscle(path, params: Params, **report) -> Path:
     ``nrms_before``, ``nrms_after``, ``stderr``, ``not_identifiable``, ``steps``, ...). Returns the path."""
     values = {name: (int(v) if name in INTEGER_PARAMETERS else float(v)) for name, v in params.as_dict().items()}
     data = {"params": values, "effects": list(params.effects), **report}
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n", encoding="utf-8")
-    return path
+    return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=False) + "\n")

@@ -216,12 +216,12 @@ class Params:
 # --- The model's domain: the values a real muscle and knee can take ---------------------------------
 
 #: The range [low, high] of each parameter (SI) that the model accepts: every real muscle and knee lies well
-#: inside it (lengths from a micrometre to 10 m, masses from a gram to 10 t, ...), and every value inside it
+#: inside it (lengths from a micrometre to 100 m, masses from a gram to 10 t, ...), and every value inside it
 #: keeps the equations' intermediate numbers far from overflow and underflow. Names without an entry (effects
 #: registered elsewhere) are checked by their own bounds. A value outside gives a one-line ParameterError.
 DOMAIN = MappingProxyType({
-    **{name: (1e-6, 10.0) for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
-    "Lec": (0.0, 10.0), "Lfc": (0.0, 10.0),
+    **{name: (1e-6, 100.0) for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
+    "Lec": (0.0, 100.0), "Lfc": (0.0, 100.0),
     "n": (1e-4, 1e4),
     "C1": (0.0, 1e9), "C2": (0.0, 1e9),
     "m": (1e-3, 1e4),
