@@ -100,8 +100,11 @@ def grid_values(name: str, spec) -> np.ndarray:
     _check_name(name)
     if isinstance(spec, tuple) and len(spec) == 3:
         start, stop, count = spec
-        if int(count) != count or count < 1:
+        if not (math.isfinite(count) and int(count) == count and count >= 1):
             raise SweepError(f"{name}: the number of grid values must be a whole number >= 1, got {count!r}")
+        if not (math.isfinite(float(start)) and math.isfinite(float(stop))):
+            raise SweepError(f"{name}: the grid's ends must be finite numbers, got {start!r} and {stop!r}")
+        _check_points_memory(count, 1)
         values = np.linspace(float(start), float(stop), int(count))
     else:
         values = np.atleast_1d(np.asarray(spec, dtype=float))

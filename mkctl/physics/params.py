@@ -233,6 +233,11 @@ DOMAIN = MappingProxyType({
 })
 
 
+#: Parameters whose value is 0 (the effect off) or at least this much: a time constant of 1e-320 s is no lag, but its
+#: rate 1/tau overflows.
+OFF_OR_AT_LEAST = MappingProxyType({"tau": 1e-6})
+
+
 def check_domain(params) -> None:
     """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``params`` lies in
     :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than the extensor's thigh
@@ -244,6 +249,11 @@ def check_domain(params) -> None:
             unit = "" if UNITS.get(name, "1") == "1" else " " + UNITS[name]
             raise ParameterError(f"parameter {name} = {value:.6g}{unit} is outside the model's domain "
                                  f"[{low:g}, {high:g}]{unit}")
+    for name, smallest in OFF_OR_AT_LEAST.items():
+        value = getattr(params, name, None)
+        if value is not None and 0 < value < smallest:
+            raise ParameterError(f"parameter {name} = {value:.6g} {UNITS.get(name, '')} must be 0 (off) or at least "
+                                 f"{smallest:g} {UNITS.get(name, '')}")
     if params.r >= params.L1:
         raise ParameterError(f"parameter r = {params.r:.6g} m must be shorter than L1 = {params.L1:.6g} m: the "
                              "kneecap lever cannot reach past the extensor's thigh anchor (no knee geometry)")
