@@ -44,7 +44,7 @@ import numpy as np
 
 from . import fmu_probe as probe
 from ..physics import knee, stability
-from ..errors import DomainError, MkctlError
+from ..errors import DomainError, MkctlError, check_memory
 from .fmu_probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
 from ..results import Result
@@ -442,10 +442,25 @@ def _response_info(time, y, final=None):
 
     ``final``: the known final value (else the last sample is taken as final).
     """
+    flat = {"RiseTime": math.nan, "Overshoot": math.nan, "SettlingTime": math.nan}
     if not np.any(y):
-        return {"RiseTime": math.nan, "Overshoot": math.nan, "SettlingTime": math.nan}
-    info = ct.step_info(y, time, final_output=final)
+        return flat
+    try:
+        info = ct.step_info(y, time, final_output=final)
+    except (IndexError, ValueError):  # python-control 0.10: a response that never rises to 10 % of its final value
+        return flat
     return {k: float(info[k]) for k in ("RiseTime", "Overshoot", "SettlingTime", "Peak", "SteadyStateValue")}
+
+
+def describe_response(info: dict) -> str:
+    """Rise time, overshoot and settling time of one step response (:func:`_response_info`) in words: a value
+    that does not exist is said so ("no settling time: it does not settle within the run"), never printed as nan."""
+    rise, overshoot, settling = (info.get(k, math.nan) for k in ("RiseTime", "Overshoot", "SettlingTime"))
+    parts = [f"rise {rise:.4g} s" if math.isfinite(rise) else "no rise time (it does not rise to 90 % within the run)",
+             f"overshoot {overshoot:.4g} %" if math.isfinite(overshoot) else "no overshoot figure",
+             f"settling {settling:.4g} s" if math.isfinite(settling) else
+             "no settling time (it does not settle within 2 % in the run: unstable, undamped or too slow)"]
+    return ", ".join(parts)
 
 
 @dataclass(repr=False, eq=False)
@@ -482,14 +497,19 @@ class StepResponses(Result):
         for name in self.MODELS:
             if name in self.info:
                 i = self.info[name]
-                lines.append(f"{name}: rise {i['RiseTime']:.4g} s, overshoot {i['Overshoot']:.4g} %, settling "
-                             f"{i['SettlingTime']:.4g} s, final X - X_op = {1e3 * self[name][-1]:+.4g} mm")
+                lines.append(f"{name}: {describe_response(i)}, final X - X_op = {1e3 * self[name][-1]:+.4g} mm")
         lines += [note for note in (self.end_stop and f"note: hit the {self.end_stop}", self.fmu_note) if note]
         return lines
 
     def table(self) -> dict[str, np.ndarray]:
         """Columns ``time`` [s] and one X - X_op [m] per model present."""
         return {"time": self.time, **{name: self[name] for name in self.MODELS if self[name] is not None}}
+
+
+#: Most samples of one step response (a million: 1000 s at 1 ms), and about what each takes in memory [bytes]
+#: (time, three responses, the nonlinear states and outputs, the plot).
+MAX_RESPONSE_SAMPLES = 1e6
+RESPONSE_BYTES_PER_SAMPLE = 30 * 8
 
 
 def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = STEP_TIME,
@@ -572,6 +592,12 @@ def _check_step(op: KneeOperatingPoint, dpe: float, duration: float, t_step: flo
     if not (math.isfinite(dt) and 0 < dt < duration):
         raise ControlAnalysisError(f"sampling dt = {dt!r} s must be positive and shorter than the duration "
                                    f"{duration:g} s")
+    check_memory(f"a step response of {duration:g} s sampled every {dt:g} s ({duration / dt:.3g} samples)",
+                 duration / dt, RESPONSE_BYTES_PER_SAMPLE)
+    if not duration / dt <= MAX_RESPONSE_SAMPLES:
+        raise ControlAnalysisError(f"a response of {duration:g} s sampled every {dt:g} s has {duration / dt:.3g} "
+                                   f"samples, more than {MAX_RESPONSE_SAMPLES:g}: choose a longer interval or a "
+                                   "shorter response")
 
 
 def _fmu_step(op: KneeOperatingPoint, dpe: float, fmu, time, t_step: float, duration: float, dt: float):

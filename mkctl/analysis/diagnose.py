@@ -548,8 +548,13 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
                             f"{sim_level * to_file:.4g} {unit}: {cause}")
     if problems:
         return problems
+    # A unit mistake scales the level with the motion. When the level was judged above (no offset fitted) and
+    # matched, a range of motion some factor off is the dynamics the baseline lacks (a chirp through an undamped
+    # resonance swings ten times wider than the damped record), not a unit: judge the range only where a fitted
+    # offset hides the level.
+    level_judged = not fit_offset
     spread, sim_spread = float(np.ptp(y)), float(np.ptp(sim))
-    if spread > 0 and sim_spread > 0:
+    if spread > 0 and sim_spread > 0 and not level_judged:
         ratio = spread / sim_spread
         for factor, text in _UNIT_MISTAKES.items():
             if factor in (math.pi / 180, 180 / math.pi) and output_quantity(m) != "beta":

@@ -177,6 +177,7 @@ def run_compare(args) -> int:
 
 def run_diagnose(args) -> int:
     from ..analysis.diagnose import diagnose, public, save_pictures, summary
+    from ..io.text import write_text_atomic
     from ..io.measurements import read_measurement
 
     if len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0]):  # a batch
@@ -201,8 +202,7 @@ def run_diagnose(args) -> int:
         print(line)
     if json_path:
         path = json_path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(public(result), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
+        write_text_atomic(path, json.dumps(public(result), indent=2, allow_nan=False, default=float) + "\n")
         print(f"report: {path}")
     print("pictures: " + ", ".join(result.pictures.values()))
     if result.verdict == "not diagnosed":

@@ -75,6 +75,7 @@ class Parameter:
     default: float | None = None
     values_text: str = ""  #: the allowed values in words, for a switch ("0 (off) or 1 (on)")
     fit_range: tuple[float, float] | None = None  #: the range a calibration searches (default: lower, upper)
+    smallest_on: float = 0.0  #: a value other than off must be at least this (1e-320 s is no lag; 1/tau overflows)
 
     @property
     def start(self) -> float:
@@ -96,6 +97,9 @@ class Parameter:
             raise ParameterError(f"parameter {self.name} must {words}, got {value!r}")
         if value > self.upper:
             raise ParameterError(f"parameter {self.name} must be at most {self.upper:g}, got {value!r}")
+        if value != self.off and abs(value - self.off) < self.smallest_on:
+            raise ParameterError(f"parameter {self.name} = {value:.6g} {self.unit} must be {self.off:g} (off) or at "
+                                 f"least {self.smallest_on:g} {self.unit}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -416,7 +420,7 @@ BUILTIN = (
         signature_axis="rubber tension of the model's C1, C2 [N]", separation=_separations("elasticity")),
     Effect(
         "viscous_damping", "f += c * Ldot",
-        parameters=(Parameter("c", "N s/m", off=0.0, lower=0.0, typical=45.0, scale=10.0,
+        parameters=(Parameter("c", "N s/m", off=0.0, lower=0.0, upper=1e6, typical=45.0, scale=10.0,
                               description="viscous damping of each actuator: f += c Ldot"),),
         tension=_viscous_term, quasi_static="viscous", viscous=lambda p: p.c, structural=False, fitted="c",
         experiments={"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
@@ -424,9 +428,9 @@ BUILTIN = (
         separation=_separations("viscous_damping")),
     Effect(
         "coulomb_friction", "f += Fc * tanh(Ldot / vs); in a quasi-static test a play operator of half-width Fc",
-        parameters=(Parameter("Fc", "N", off=0.0, lower=0.0, typical=2.0, scale=1.0, fit_range=(0.0, 1e4),
+        parameters=(Parameter("Fc", "N", off=0.0, lower=0.0, upper=1e6, typical=2.0, scale=1.0, fit_range=(0.0, 1e4),
                               description="Coulomb friction of each actuator: f += Fc tanh(Ldot / vs)"),
-                    Parameter("vs", "m/s", off=1e-3, lower=0.0, strict=True, fitted=False, scale=1e-3,
+                    Parameter("vs", "m/s", off=1e-3, lower=1e-9, upper=100.0, fitted=False, scale=1e-3,
                               description="velocity scale of the smoothed Coulomb friction (not fitted)")),
         switched_by="Fc", tension=_friction_term, quasi_static="play", play=lambda P, p, xp: p.Fc,
         structural=False, fitted="Fc",
@@ -435,7 +439,7 @@ BUILTIN = (
         separation=_separations("coulomb_friction"), calibrate=True),
     Effect(
         "pressure_lag", "tau dP/dt = P_cmd - P for each actuator; P(0) = P_cmd(0)",
-        parameters=(Parameter("tau", "s", off=0.0, lower=0.0, typical=0.05, scale=0.01,
+        parameters=(Parameter("tau", "s", off=0.0, lower=0.0, upper=100.0, smallest_on=1e-6, typical=0.05, scale=0.01,
                               description="pressure lag time constant: tau dP/dt = P_cmd - P"),),
         pressure_rate=_lag_rate, pressure_step=_lag_step, fitted="tau", experiments={"knee": (1e-3, 2.0)},
         regressor="the force a lag of 1 s takes away at the measured pressure-command rate",

@@ -226,6 +226,7 @@ class Params:
             own["n"] = derived_turns(own["b"], own["L0"], own["D0"])
         elif own["n"] <= 0:
             raise ParameterError(f"parameter n must be positive, got {own['n']!r}")
+        check_domain(own)
 
     def __getattr__(self, name: str):
         # only names not set in __init__ land here: an effect registered after this set was made is off
@@ -294,6 +295,39 @@ class Params:
     def as_dict(self) -> dict[str, float]:
         """All values by name (n included), e.g. for a JSON report or an FMU's start values."""
         return {name: getattr(self, name) for name in PARAMETER_NAMES}
+
+
+# --- The model's domain: the values a real muscle and knee can take ---------------------------------
+
+#: The range [low, high] of each parameter (SI) that the model accepts: every real muscle and knee lies well
+#: inside it (lengths from a micrometre to 100 m, masses from a gram to 10 t, ...), and every value inside it
+#: keeps the equations' intermediate numbers far from overflow and underflow. The effects' parameters are checked
+#: by their own bounds in the registry (:class:`mkctl.physics.effects.Parameter`). A value outside gives a
+#: one-line ParameterError.
+DOMAIN = MappingProxyType({
+    **{name: (1e-6, 100.0) for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
+    "Lec": (0.0, 100.0), "Lfc": (0.0, 100.0),
+    "n": (1e-4, 1e4),
+    "C1": (0.0, 1e9), "C2": (0.0, 1e9),
+    "m": (1e-3, 1e4),
+    "g": (1e-3, 100.0),
+})
+
+
+def check_domain(values) -> None:
+    """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``values`` (names
+    to values) lies in :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than the extensor's thigh
+    anchor distance ``L1``, so that ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3) is defined
+    for every kneecap angle alpha in (0, pi/2)."""
+    for name, (low, high) in DOMAIN.items():
+        value = values.get(name)
+        if value is not None and not low <= value <= high:
+            unit = "" if UNITS.get(name, "1") == "1" else " " + UNITS[name]
+            raise ParameterError(f"parameter {name} = {value:.6g}{unit} is outside the model's domain "
+                                 f"[{low:g}, {high:g}]{unit}")
+    if values["r"] >= values["L1"]:
+        raise ParameterError(f"parameter r = {values['r']:.6g} m must be shorter than L1 = {values['L1']:.6g} m: the "
+                             "kneecap lever cannot reach past the extensor's thigh anchor (no knee geometry)")
 
 
 _BASE_DEFAULTS = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}
