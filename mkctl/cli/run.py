@@ -36,10 +36,17 @@ class RunError(MkctlError):
     """A step of the main job failed; the message names the step and what it printed."""
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "run": "the whole job: FMUs, a scenario, the paper, control analysis, a diagnosis; one index page",
+}
+
+
 def register(subparsers) -> None:
     """Add ``run`` to the ``mkctl`` parser."""
     p = subparsers.add_parser(
-        "run", help="the whole job: FMUs, a scenario, the paper, control analysis, a diagnosis; one index page",
+        "run", help=COMMANDS["run"],
         description="Build and check the FMUs, drive the knee FMU through fmpy, reproduce the paper's figures "
                     "and claims, run the control analysis, make a measurement with a hidden effect and "
                     "diagnose it, and write everything into one folder with an index page (index.md, "
