@@ -139,12 +139,19 @@ def run_all(args) -> int:
           "The knee as an FMI 2.0 co-simulation FMU (spec section 7), validated with fmpy; load it in any FMI host.")
     s.add(built["actuator"], "McKibbenActuator.fmu",
           "One muscle as an FMU (inputs p_cmd, L, Ldot; outputs f, P), for composing robots in other tools.")
-    for which, title in (("native_knee", "native/McKibbenKnee.fmu"), ("native_actuator", "native/McKibbenActuator.fmu")):
+    native = {
+        "native_knee": ("native/McKibbenKnee.fmu",
+                        "The same knee compiled from the generated C (spec section 7b): no Python needed in the host; "
+                        "per 1 ms step 8 times faster through fmpy's simulate_fmu (fmpy's own cost is then the floor) "
+                        "and 27 times in a lean host loop (docs/fmu.md); use it unless you need to edit the model in "
+                        "Python."),
+        "native_actuator": ("native/McKibbenActuator.fmu",
+                            "The same muscle compiled from the generated C (spec section 7b): no Python needed in the "
+                            "host, the same inputs and outputs as McKibbenActuator.fmu."),
+    }
+    for which, (title, sentence) in native.items():
         if which in built:
-            s.add(built[which], title, "The same FMU compiled from the generated C (spec section 7b): no Python "
-                  "needed in the host; per 1 ms step 8 times faster through fmpy's simulate_fmu (fmpy's own cost is "
-                  "then the floor) and 27 times in a lean host loop (docs/fmu.md); use it unless you need to edit "
-                  "the model in Python.")
+            s.add(built[which], title, sentence)
 
     # 2. A scenario through fmpy
     scenario_dir = out / "scenario"
