@@ -262,8 +262,9 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)
             ax.legend(fontsize=6, loc="upper right")
         axes[0, 0].set_ylabel("force the baseline lacks [N]")
-        fig.suptitle("signatures: the force the baseline lacks (equation error at the smoothed measured states) "
-                     "against what each effect acts through", fontsize=9)
+        fig.suptitle("signatures: the force the baseline lacks (at the smoothed measured states) against what "
+                     "each effect acts through" if len(names) > 2 else
+                     "signatures: the force the baseline lacks\nagainst what each effect acts through", fontsize=9)
         paths["signatures"] = save_png(fig, folder / f"{stem}_signatures.png")
     result.pictures = {k: str(v) for k, v in paths.items()}
     return result.pictures
