@@ -244,12 +244,14 @@ def _diagnosis_sentence(name: str) -> str:
         "_compare_overlay.png": "mkctl compare: the measured hip height against the baseline model's simulation "
                                 "of the same pressure commands.",
         "_compare_residual.png": "mkctl compare: what the baseline misses, sample by sample.",
-        "_error_steps.png": "The error falling step by step as the diagnosis adds each missing effect.",
+        "_error_steps.png": "The error falling step by step as the diagnosis adds each missing effect; the last "
+                            "bar is the final fit on the whole record.",
         "_overlay.png": "The measurement against the model before and after the diagnosis.",
         "_residuals.png": "The residual before (the baseline) and after (with the effects found): only noise "
                           "is left.",
         "_signatures.png": "The force the baseline lacks against what each candidate effect acts through "
-                           "(velocity, direction, pressure rate): the evidence behind the choice.",
+                           "(velocity, direction of motion, the pressure a lag holds back, the smaller muscle "
+                           "tension): the evidence behind the choice.",
     }
     for ending, sentence in sentences.items():
         if name.endswith(ending) and not (ending == "_overlay.png" and name.endswith("_compare_overlay.png")):
