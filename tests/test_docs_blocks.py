@@ -47,7 +47,8 @@ def python_blocks():
     for page in PAGES:
         for i, block in enumerate(re.findall(r"```python\n(.*?)```", page.read_text(), re.S)):
             name = f"{page.name}-{i}"
-            marks = [pytest.mark.slow] if name in SLOW_BLOCKS else []
+            slow = name in SLOW_BLOCKS or "diagnose_batch(" in block  # a batch starts a local cluster: ~10 s
+            marks = [pytest.mark.slow] if slow else []
             yield pytest.param(page, block, id=name, marks=marks)
 
 
