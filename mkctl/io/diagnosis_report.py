@@ -12,7 +12,7 @@ import numpy as np
 
 from ..physics.actuator import lagged_pressure
 from ..physics.params import INTEGER_PARAMETERS, UNITS
-from .plotting import new_figure, save_png
+from .plotting import new_figure, plain_log_ticks, save_png
 
 #: How the signature pictures label their x axis: each effect's own regressor (see
 #: :func:`mkctl.analysis.diagnose.signatures`; the lag's is drawn here from its fitted tau, :func:`_lag_regressor`).
@@ -211,6 +211,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
         ax.annotate(f"{value:.4g}", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom", fontsize=8)
     ax.set_xticks(range(len(values)), labels, fontsize=8)
     ax.set_yscale("log")
+    plain_log_ticks(ax.yaxis)
     ax.set_ylabel(f"RMSE [{unit}] (log)")
     ax.set_title("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
