@@ -671,7 +671,13 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
     taus, open_loop, closed = lag_sweep(op, taus, gain, ti)
     fig, axes = new_figure(1, 3, figsize=(15, 4.8))
     colour = np.log10(np.repeat(taus[:, None], open_loop.shape[1], axis=1))
-    lim = 4 * float(np.abs(analytic_linearization(op.with_params(tau=0.0)).poles()).max())
+    # every pole of the range on the plot: the lag pole -1/tau reaches -1000 1/s at tau = 1 ms, the mechanical
+    # poles sit within tens of 1/s of the origin, so the real axis is linear near 0 and logarithmic beyond
+    mechanical = float(np.abs(analytic_linearization(op.with_params(tau=0.0)).poles()).max())
+    every = np.concatenate([open_loop[np.isfinite(open_loop)], closed[np.isfinite(closed)]])
+    left = 1.3 * max(float(-every.real.min()), mechanical)
+    right = max(0.3 * mechanical, 1.3 * float(every.real.max()), 1.0)
+    top = 1.2 * max(float(np.abs(every.imag).max()), mechanical)
     for ax, rows, title in ((axes[0], open_loop, "open loop: lag poles -1/tau move, mechanical poles stay"),
                             (axes[1], closed, f"closed loop, height P{'I' if ti else ''} gain K = {gain:.3g} Pa/m")):
         cols = colour if rows.shape == colour.shape else np.log10(np.repeat(taus[:, None], rows.shape[1], axis=1))
@@ -684,8 +690,10 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
         ax.plot(mech.real, mech.imag, "kx", ms=8, label=label)
         ax.legend(fontsize=8, loc="lower left")
         _pole_axes(ax, title)
-        ax.set_xlim(-lim, 0.3 * lim)
-        ax.set_ylim(-0.8 * lim, 0.8 * lim)
+        ax.set_xscale("symlog", linthresh=2 * mechanical, linscale=1.5)
+        ax.set_xlim(-left, right)
+        ax.set_ylim(-top, top)
+        ax.set_xlabel("real part [1/s] (linear within +-%.0f, logarithmic beyond)" % (2 * mechanical))
     fig.colorbar(sc, ax=axes[:2], label="log10(tau / s)")
     kc = np.array([critical_gain(height_loop(op.with_params(tau=float(t)), ti)) for t in taus])
     axes[2].loglog(taus, kc, "-", label="critical gain K_crit(tau)")
@@ -707,26 +715,28 @@ def plot_gain_locus(op: KneeOperatingPoint, gains, ti: float | None = None, tau:
 
     fig, ax = new_figure(figsize=(7, 5.4))
     summary = {}
+    shown = []
     for case, style, label in ((op.with_params(tau=0.0), "tab:blue", "no lag"),
                                (op.with_params(tau=tau), "tab:red", f"lag tau = {tau:g} s")):
         g, loci = height_root_locus(case, gains, ti)
         finite = np.abs(loci) < 1e6
-        ax.plot(loci[finite].real, loci[finite].imag, ".", ms=2, color=style, label=label)
-        ol = height_loop(case, ti).poles()
-        ax.plot(ol.real, ol.imag, "x", color=style, ms=8)
+        shown.append(loci[finite])
         kc = critical_gain(height_loop(case, ti))
         summary[label] = kc
+        ax.plot(loci[finite].real, loci[finite].imag, ".", ms=2, color=style,
+                label=f"{label}: loci" + ("" if math.isfinite(kc) else " (stable for every K)"))
+        ol = height_loop(case, ti).poles()
+        shown.append(ol)
+        ax.plot(ol.real, ol.imag, "x", color=style, ms=8, label=f"{label}: poles at K = 0")
         if math.isfinite(kc):
             at = closed_loop_poles(height_loop(case, ti), kc)
             ax.plot(at.real, at.imag, "o", mfc="none", color=style, ms=9,
-                    label=f"{label}: critical K = {kc:.4g} Pa/m")
-        else:
-            ax.plot([], [], " ", label=f"{label}: stable for every K")
-    box = np.abs(closed_loop_poles(height_loop(op.with_params(tau=tau), ti), gains[-1]))
-    lim = 1.3 * float(box.max())
-    ax.set_xlim(-lim, 0.4 * lim)
+                    label=f"{label}: at the critical K = {kc:.4g} Pa/m")
+    every = np.concatenate(shown)
+    lim = 1.15 * float(np.abs(every).max())
+    ax.set_xlim(-lim, max(0.4 * lim, 1.15 * float(every.real.max())))
     ax.set_ylim(-lim, lim)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, markerscale=1.5)
     _pole_axes(ax, f"Height P{'I' if ti else ''} control through pe_cmd, K = {gains[0]:.3g} .. {gains[-1]:.3g} Pa/m; "
                    f"c = {op.params.c:.4g} N s/m")
     return (save_png(fig, path) if path else fig), summary

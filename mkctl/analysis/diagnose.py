@@ -701,7 +701,7 @@ def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: flo
 
     value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off, xatol=FIT_XATOL)
     if progress:
-        progress(f"    {candidate.effect}: {candidate.parameter} = {value:.4g} {UNITS[candidate.parameter]} "
+        progress(f"    {candidate.effect}: {diagnosis_report.parameter_text(candidate.parameter, value)} "
                  f"({evaluations[0]} simulations)")
     return value, evaluations[0]
 
@@ -858,7 +858,8 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
             ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
             args = (states["L"], states["P"], states["branch"])
             term = isometric_tension(*args, cand.apply(params, ref)) - isometric_tension(*args, params)
-            x = -states["branch"] if name == "coulomb_friction" else term
+            x = (-states["branch"] if name == "coulomb_friction"
+                 else isometric_tension(*args, params) if name == "slack" else term)  # slack: where it acts, < 0
             out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
         return out
     speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
@@ -877,7 +878,14 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
                         - actuator.tension(states["L"], states["P"], states["Ldot"], params))
             else:
                 term = _knee_force(states, with_effect) - _knee_force(states, params)
-            x = term if name in ("elasticity", "slack") else speed
+            if name == "coulomb_friction":  # friction acts through the direction of motion
+                x = np.tanh(speed / (params.vs * 1e3))
+            elif name == "slack" and not isotonic:  # the smaller tension: slack acts where it would be < 0
+                forces = knee.knee_force(knee.geometry_at_X(states["X"], params), states["V"], states["Pe"],
+                                         states["Pf"], params)
+                x = np.minimum(forces.fe, forces.ff)
+            else:
+                x = term if name in ("elasticity", "slack") else speed
         out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
     return out
 
@@ -1588,7 +1596,7 @@ class _Search:
         added = [step["added"], *step.get("added_with", [])]
         self.say(f"  added {' and '.join(added)}" + (f", dropped {', '.join(step['dropped'])}" if step["dropped"]
                                                     else "") + ": "
-                 + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items()))
+                 + ", ".join(diagnosis_report.parameter_text(k, v) for k, v in current.values.items()))
 
     def wider(self) -> bool:
         """Fit every pair, then every three, of candidates jointly (from their round-1 values) and judge the best

@@ -35,12 +35,19 @@ def _check_jobs(args) -> None:
         raise UsageError(f"--jobs must be 0 or more, got {args.jobs}")
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "sweep": "the model over a grid or a random sample of parameters: stability, poles, step metrics",
+}
+
+
 def register(subparsers) -> None:
     """Add ``sweep`` to the `mkctl` parser."""
     from ..analysis.sweep import QUANTITIES
 
     p = subparsers.add_parser(
-        "sweep", help="the model over a grid or a random sample of parameters: stability, poles, step metrics",
+        "sweep", help=COMMANDS["sweep"],
         description="For every point (parameters of model-spec sections 2-4 in SI, the posture alpha_deg [deg] "
                     "and the flexor pressure pf_kPa [kPa]) compute the extensor pressure that holds the posture, "
                     "a1 and a2 of Eq. 18 and the Routh-Hurwitz verdict, the poles, the damping ratio, and the "

@@ -74,9 +74,18 @@ def _add_fmu(parser) -> None:
     parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "linearize": "operating point, linear model, poles and the damping for zeta",
+    "rootlocus": "root loci against c, tau or the height-control gain",
+    "step": "pressure-step responses: linear, nonlinear and FMU",
+}
+
+
 def register(subparsers) -> None:
     """Add ``linearize``, ``rootlocus`` and ``step`` to the ``mkctl`` parser."""
-    p = subparsers.add_parser("linearize", help="operating point, linear model, poles and the damping for zeta",
+    p = subparsers.add_parser("linearize", help=COMMANDS["linearize"],
                               description="Find the rest state at a posture, linearize there (analytic, "
                                           "python-control's linearize, and the FMU), print A, B, the poles, "
                                           "Eq. 19 and the damping c for a damping ratio; save a pole map.")
@@ -84,7 +93,7 @@ def register(subparsers) -> None:
     _add_fmu(p)
     p.set_defaults(func=run_linearize)
 
-    p = subparsers.add_parser("rootlocus", help="root loci against c, tau or the height-control gain",
+    p = subparsers.add_parser("rootlocus", help=COMMANDS["rootlocus"],
                               description="Root locus against the damping c (exact velocity feedback), a sweep "
                                           "of the lag tau (open and closed loop), or the gain of a height "
                                           "controller through pe_cmd with and without the lag.")
@@ -96,7 +105,7 @@ def register(subparsers) -> None:
     p.add_argument("--ti", type=float, metavar="S", help="integral time: PI instead of P height control")
     p.set_defaults(func=run_rootlocus)
 
-    p = subparsers.add_parser("step", help="pressure-step responses: linear, nonlinear and FMU",
+    p = subparsers.add_parser("step", help=COMMANDS["step"],
                               description="Responses of the hip height to a step of pe_cmd, small and large, "
                                           "from the linear model, the nonlinear model and the FMU, with rise "
                                           "time, overshoot and settling time.")

@@ -25,12 +25,21 @@ from .options import (add_params_option, base_params, muscle_values, output_file
                       parse_assignments, split_items)
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "synth": "write a synthetic measurement file with hidden effects (the virtual test bench)",
+    "compare": "compare the baseline with a measurement file: RMSE, fit, overlay and residual PNGs",
+    "diagnose": "find the effects a measurement shows that the baseline lacks, fit them, report",
+}
+
+
 def register(subparsers) -> None:
     """Add ``synth``, ``compare`` and ``diagnose`` to the `mkctl` parser."""
     from ..analysis.synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE, SHAPES
 
     p = subparsers.add_parser(
-        "synth", help="write a synthetic measurement file with hidden effects (the virtual test bench)",
+        "synth", help=COMMANDS["synth"],
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
@@ -79,7 +88,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_synth)
 
     p = subparsers.add_parser(
-        "compare", help="compare the baseline with a measurement file: RMSE, fit, overlay and residual PNGs",
+        "compare", help=COMMANDS["compare"],
         description="Simulate the file's baseline on its inputs; print RMSE and fit = 100 (1 - |y - yhat| / "
                     "|y - mean(y)|) and save <stem>_compare_overlay.png and <stem>_compare_residual.png.")
     p.add_argument("file", metavar="FILE.csv")
@@ -88,7 +97,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_compare)
 
     p = subparsers.add_parser(
-        "diagnose", help="find the effects a measurement shows that the baseline lacks, fit them, report",
+        "diagnose", help=COMMANDS["diagnose"],
         description="Rank the candidate effects (model-spec section 4) the baseline lacks, add the best while BIC "
                     "and the held-out error support it, fit their parameters on simulation error, and report "
                     "(JSON as model-spec section 6, plus PNGs: the error step by step, before/after overlay, "

@@ -424,7 +424,8 @@ BUILTIN = (
                               description="viscous damping of each actuator: f += c Ldot"),),
         tension=_viscous_term, quasi_static="viscous", viscous=lambda p: p.c, structural=False, fitted="c",
         experiments={"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
-        regressor="the damping force per N s/m at the measured velocity", signature_axis="velocity [mm/s]",
+        regressor="the damping force per N s/m at the measured velocity",
+        signature_axis="velocity [mm/s] (damping: c times it)",
         separation=_separations("viscous_damping")),
     Effect(
         "coulomb_friction", "f += Fc * tanh(Ldot / vs); in a quasi-static test a play operator of half-width Fc",
@@ -435,7 +436,8 @@ BUILTIN = (
         switched_by="Fc", tension=_friction_term, quasi_static="play", play=lambda P, p, xp: p.Fc,
         structural=False, fitted="Fc",
         experiments={"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0), "isometric": (1e-3, 100.0)},
-        regressor="the friction force per N at the measured direction of motion", signature_axis="velocity [mm/s]",
+        regressor="the friction force per N at the measured direction of motion",
+        signature_axis="direction of motion tanh(v / vs): -1 down, +1 up",
         separation=_separations("coulomb_friction"), calibrate=True),
     Effect(
         "pressure_lag", "tau dP/dt = P_cmd - P for each actuator; P(0) = P_cmd(0)",
@@ -450,7 +452,8 @@ BUILTIN = (
                               description="1: a braided muscle cannot push, f = max(f, 0) (a switch, not fitted)"),),
         final=_slack_limit, fitted="slack", experiments={"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
         regressor="the model's tension, where it is negative (a slack muscle carries nothing there)",
-        signature_axis="tension the slack muscle would not carry [N]", separation=_separations("slack"),
+        signature_axis="the smaller muscle tension of the model [N] (slack acts below 0)",
+        separation=_separations("slack"),
         calibrate=True),
 )
 
