@@ -57,6 +57,7 @@ from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, Params
 from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
+from .discovery import discover
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide, pair_needed, to_drop
 
 #: Share of the record (at its end) held out from fitting.
@@ -831,6 +832,7 @@ class DiagnosisResult(Result):
     saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
     pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
@@ -867,6 +869,7 @@ class DiagnosisResult(Result):
             "stopped": self.stopped, "notes": self.notes, "input_noise": self.input_noise,
             "output_noise": self.output_noise, "saturation": self.saturation, "offset": self.offset,
             "pressure_lag": self.pressure_lag,
+            "discovery": self.discovery,
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
@@ -1172,8 +1175,10 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
                      f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
         verdict = "incomplete"
         say(notes[-1])
+    # spec 6b: what the candidates cannot explain is regressed on a library of physical terms
+    found = discover(prepared, start, progress=say) if verdict == "incomplete" else None
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
-    return DiagnosisResult(
+    return DiagnosisResult(discovery=found, 
         **common, verdict=verdict, missing=added, params=final_values, uncertainty=uncertainty,
         rmse_before=rmse(y, before * to_file), rmse_after=rmse_after,
         fit_percent_before=fit_percent(y, before * to_file), fit_percent_after=fit_percent(y, full_after * to_file),

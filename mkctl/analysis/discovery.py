@@ -96,6 +96,27 @@ TERM_MATCHES = {
 }
 
 
+#: How each tension term is written in an effect file (spec 4c, :mod:`mkctl.analysis.effect_files`): the effect's
+#: name, its parameter's name and the term as Python with ``p.{k}`` for the parameter. Terms that change the
+#: pressure (lag, dead time, pressure rate) or are a built-in's own form (rubber, slack) are not written.
+WRITABLE = {
+    "Ldot": ("linear_drag", "c_lin", "p.{k} * Ldot"),
+    "Ldot * |Ldot|": ("quadratic_drag", "c_quad", "p.{k} * Ldot * xp.abs(Ldot)"),
+    "Ldot * P": ("pressure_damping", "c_press", "p.{k} * Ldot * P"),
+    "sign(Ldot)": ("direction_friction", "F_dir", "p.{k} * xp.tanh(Ldot / p.vs)"),
+    "P * sign(Ldot)": ("friction_with_pressure", "Fc_press", "p.{k} * P * xp.tanh(Ldot / p.vs)"),
+    "1": ("tension_offset", "f_offset", "p.{k} + 0.0 * L"),
+    "L - L0": ("length_spring", "k_len", "p.{k} * (L - p.L0)"),
+    "(L - L0)^2": ("length_spring_quadratic", "k_len2", "p.{k} * (L - p.L0) ** 2"),
+    "P": ("pressure_gain", "k_press", "p.{k} * P"),
+    # the threshold of spec 4b with P0 the coefficient: P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
+    **{f"threshold(P0 = {P0 / 1e3:g} kPa)": (
+        "threshold_pressure", "P0_found",
+        "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k} * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
+       for P0 in THRESHOLDS},
+}
+
+
 @dataclass(frozen=True)
 class Term:
     """One library term: its label, the unit of its coefficient, and how to evaluate it per actuator.
@@ -442,16 +463,12 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
     return result
 
 
-def summary_lines(found: dict) -> list[str]:
-    """The discovery as readable lines (for the diagnosis report)."""
-    if not found["terms"]:
-        return [f"discovery: nothing proposed: {found.get('reason') or 'no term explains the missing force'}"]
-    lines = [f"discovery: the missing force (RMS {found['missing_force_rms']:.3g} N) follows "
-             f"{' + '.join(t['term'] for t in found['terms'])}: {found['explained']:.0%} explained "
-             f"({found['explained_holdout']:.0%} on the held-out blocks)"]
-    for t in found["terms"]:
-        match = f"the form of the registered effect {t['matches']}" if t["matches"] else "registered nowhere: a new effect"
-        lines.append(f"  {t['term']:<24} coefficient {t['coefficient']:.4g} +- {t['stderr']:.2g} {t['unit']}  ({match})")
-    if found.get("effect_file"):
-        lines.append(f"  suggested effect file: {found['effect_file']} (diagnose again with --effects {found['effect_file']})")
-    return lines
+def registered_effects() -> set:
+    """The effects the diagnosis already offers as candidates (a term of their form needs no effect file).
+
+    Today the candidates of :data:`mkctl.analysis.diagnose.CANDIDATES`; this should come from the effect
+    registry (``mkctl.physics.effects``) once it is merged.
+    """
+    from .diagnose import CANDIDATES
+
+    return set(CANDIDATES)
