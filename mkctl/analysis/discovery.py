@@ -197,14 +197,23 @@ def _lag(time, values, tau: float):
     return out
 
 
-def _knee_pressures(m: Measurement, params: Params):
-    """The pressures the model's actuators see: the measured ones, or the commands (through the lag, if any)."""
+def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
+    """The pressures the model's actuators see at the samples: the measured ones, or the commands (through the
+    lag, if any).
+
+    Commands without a lag are held from each sample to the next, so a step happens at a sample instant; a
+    sample of the smoothed force stands for the half-interval on either side of it, so with ``held_average``
+    the held commands are averaged over that (the mean of a sample's command and the previous one's): taken as
+    they are, every step came half a sample early, which the pressure rate term explained as a lag.
+    """
     if "pe" in m.inputs and "pf" in m.inputs:
         return np.asarray(m.inputs["pe"], dtype=float), np.asarray(m.inputs["pf"], dtype=float)
     pe, pf = (np.asarray(m.inputs[name], dtype=float) for name in ("pe_cmd", "pf_cmd"))
     if params.tau > 0:
         return _lag(m.time, pe, params.tau), _lag(m.time, pf, params.tau)
-    return pe, pf
+    if not held_average:
+        return pe, pf
+    return tuple(np.r_[p[0], 0.5 * (p[1:] + p[:-1])] for p in (pe, pf))
 
 
 def acceleration_kernels(window: int, dt: float, order: int = 3):
@@ -225,8 +234,8 @@ def acceleration_kernels(window: int, dt: float, order: int = 3):
 
 def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delays=DELAYS):
     """Eq. 17's equation error of the knee and each term's share of it, smoothed alike (see
-    :func:`acceleration_kernels`): ``m (k2 * X + g) - g * (F + F_stop)``, with F at the smoothed X, V and the
-    model's pressures as they are (commands held, or measured). Returns (error [N], {label: column}, edge)."""
+    :func:`acceleration_kernels`): ``m (k2 * X + g) - g * (F + F_stop)``, with F at the measured X, the smoothed
+    V and the model's pressures as they are (commands held, or measured). Returns (error [N], {label: column}, edge)."""
     from scipy.signal import savgol_filter
 
     from .diagnose import KNEE_SMOOTHING_S
@@ -239,7 +248,9 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delay
         raise MkctlError(f"the record is too short ({n} samples) for the equation error's {window}-sample window")
     k2, g = acceleration_kernels(window, dt)
     measured = knee.hip_height(m.output, params) if m.output_quantity == "beta" else np.asarray(m.output, float)
-    X = savgol_filter(measured, window, 3)
+    # the force at the measured X itself (smoothing X first bends it by up to 0.1 N where the leg rings; the
+    # sensor's noise moves it by the leg's stiffness times the noise, far less), at the smoothed velocity
+    X = measured
     V = savgol_filter(measured, window, 3, deriv=1, delta=dt)
     A = np.convolve(measured, k2, mode="same")
     Pe, Pf = _knee_pressures(m, params)
@@ -253,13 +264,13 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delay
     commands = not ("pe" in m.inputs and "pf" in m.inputs)
     late, slow = {}, {}
     if commands and any(t.commands_only for t in terms):
-        lagged = params.tau > 0
         for d in delays:  # the commands d late, through the model's lag if it has one
             shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": _delayed(m.time, m.inputs["pe_cmd"], d),
                                                      "pf_cmd": _delayed(m.time, m.inputs["pf_cmd"], d)})
-            late[d] = _knee_pressures(shifted, params) if lagged else (shifted.inputs["pe_cmd"], shifted.inputs["pf_cmd"])
+            late[d] = _knee_pressures(shifted, params)
+        held = _knee_pressures(m, params, held_average=False)
         for tau in LAGS:  # the model's pressures through a further lag tau
-            slow[tau] = tuple(_lag(m.time, p, tau) for p in (Pe, Pf))
+            slow[tau] = tuple(_lag(m.time, p, tau) for p in held)
     rates = (np.gradient(Pe, m.time), np.gradient(Pf, m.time))
     extensor = _actuator_states(geo.Le, -geo.G_e * V, Pe, params, rates[0], {d: v[0] for d, v in late.items()},
                                 {tau: v[0] for tau, v in slow.items()})
