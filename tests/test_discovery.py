@@ -89,6 +89,23 @@ def test_a_lag_and_a_dead_time_are_told_apart():
     assert delay == pytest.approx(30.0, abs=3.0)
 
 
+def test_a_threshold_pressure_is_named_and_its_p0_estimated(tmp_path):
+    """Spec 4b's threshold (the rig's own P_eff), damping known (without it the rig's leg rings past straight):
+    the threshold terms match pressure_threshold, and their coefficients (each an estimate of its share of P0)
+    add up to P0. The written effect (the spec's form with P0 the coefficient) loads."""
+    P0 = 1e5
+    found = D.discover(rig.knee_record({"P0": P0, "c": 30.0}, params=Params(c=30.0)))
+    assert found["terms"] and {t["matches"] for t in found["terms"]} == {"pressure_threshold"}, found
+    assert sum(t["coefficient"] for t in found["terms"]) == pytest.approx(P0, rel=0.1)
+    # one threshold effect, its P0 the sum of the terms' shares
+    (effect,) = load_effect_file(write_suggestion(tmp_path / "threshold.py", found))
+    (q,) = effect.parameters
+    assert q.typical == pytest.approx(P0, rel=0.1)
+    p = Params()
+    high = effect.tension(0.2, 0.0, 2e6, {q.name: q.typical})  # far above P0: -gain * P0
+    assert high == pytest.approx(-(3 * 0.2 ** 2 - p.b ** 2) / (4 * math.pi * p.n ** 2) * q.typical, rel=1e-6)
+
+
 @pytest.mark.parametrize("noise, noise_tau, pressures, seed", [
     (1e-5, 0.01, False, 0),   # the clean record: nothing hidden but the 1 ms mismatch
     (1e-5, 0.2, True, 1),     # strongly coloured noise, noisy measured pressures

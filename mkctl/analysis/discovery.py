@@ -1,8 +1,9 @@
 """Discovery: when no registered effect explains a record, which term does the missing force follow?
 
-Model-spec section 6b. The force the model lacks (:func:`mkctl.analysis.diagnose.missing_force`: Eq. 17's
-equation error ``m (Xddot + g) - F - F_stop`` for the knee, ``F_load - f(L, P, Ldot)`` for the isotonic test,
-the measured minus the model's tension for the isometric one) is regressed on a library of physically
+Model-spec section 6b. The force the model lacks (Eq. 17's equation error ``m (Xddot + g) - F - F_stop`` for
+the knee, smoothed alike on both sides by :func:`knee_equation_error`; ``F_load - f(L, P, Ldot)`` for the
+isotonic test and the measured minus the model's tension for the isometric one, as
+:func:`mkctl.analysis.diagnose.missing_force` gives them) is regressed on a library of physically
 meaningful terms, each a term added to every actuator's tension, ``t(L, Ldot, P)``, with one coefficient:
 
 ==========================  ===========  ============================================================
@@ -123,7 +124,8 @@ class Term:
 
     ``tension(a)`` returns the term's tension [N per unit coefficient] from an actuator's states ``a`` (a dict:
     L, Ldot, P [SI], sign (smoothed), rate (dP/dt), gain (df/dP), static (model tension), delayed
-    {d: P(t - d)}); ``knee_only``: needs commanded (not measured) pressures.
+    {d: P(t - d)}, lagged {tau: P through a further lag tau}); ``commands_only``: offered only where the knee
+    is driven by its commands (with measured pressures a lag or dead time before them is not in the force).
     """
 
     label: str

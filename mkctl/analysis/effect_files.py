@@ -320,6 +320,20 @@ def effect_source(name: str, parameter: str, unit: str, expression: str, coeffic
     return function, entry
 
 
+def _merged_thresholds(terms: list) -> list:
+    """The terms with every threshold term (one per reference P0) merged into one: each coefficient is its share
+    of P0, so the written effect's P0 is their sum (standard errors added in quadrature)."""
+    thresholds = [t for t in terms if t["term"].startswith("threshold")]
+    if len(thresholds) < 2:
+        return list(terms)
+    merged = {**thresholds[0], "term": " + ".join(t["term"] for t in thresholds),
+              "coefficient": float(sum(t["coefficient"] for t in thresholds)),
+              "stderr": float(math.sqrt(sum(t["stderr"] ** 2 for t in thresholds)))}
+    out = [t for t in terms if not t["term"].startswith("threshold")]
+    out.insert(terms.index(thresholds[0]), merged)
+    return out
+
+
 def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path | None:
     """Write the terms of a discovery (:func:`mkctl.analysis.discovery.discover`) as an effect file.
 
@@ -332,9 +346,9 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
 
     path = Path(path)
     functions, entries, notes = [], [], []
-    for term in found.get("terms", []):
+    for term in _merged_thresholds(found.get("terms", [])):
         label, matches = term["term"], term.get("matches")
-        recipe = WRITABLE.get(label)
+        recipe = WRITABLE.get(label.split(" + ")[0])
         if matches in registered:
             notes.append(f"{label} has the form of the registered effect {matches}: it is a candidate already")
             continue
@@ -343,6 +357,10 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
                          f"not the tension: " + (f"use the built-in effect {matches}" if matches else "not written"))
             continue
         name, parameter, expression = recipe
+        if label.startswith("threshold") and not term["coefficient"] > 0:
+            notes.append(f"{label} came out with a threshold of {term['coefficient']:.3g} Pa, not a physical one: "
+                         f"not written")
+            continue
         if matches:
             name = f"found_{matches}"
         description = (f"{label}, found by mkctl's discovery" + (f" in {source}" if source else "")
