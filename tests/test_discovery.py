@@ -106,6 +106,27 @@ def test_a_threshold_pressure_is_named_and_its_p0_estimated(tmp_path):
     assert high == pytest.approx(-(3 * 0.2 ** 2 - p.b ** 2) / (4 * math.pi * p.n ** 2) * q.typical, rel=1e-6)
 
 
+def test_terms_the_record_hardly_tells_apart_are_reported_as_alternatives():
+    """Damping: on this record Ldot * P (the extensor's pressure hardly moves) fits the fitting blocks within
+    1 % of Ldot; the checking blocks pick Ldot, and Ldot * P is named as an alternative."""
+    found = D.discover(rig.knee_record({"c": 30.0}, noise_tau=0.02, seed=7))
+    assert terms(found) == ["Ldot"] and found["terms"][0]["alternatives"] == ["Ldot * P"], found
+    clear = D.discover(rig.knee_record({"cq": 2000.0}, seed=0))
+    assert terms(clear) == ["Ldot * |Ldot|"] and clear["terms"][0]["alternatives"] == []
+
+
+def test_a_user_effects_term_joins_the_library_and_names_the_term(tmp_path):
+    body = ("def drag(L, Ldot, P, p, xp):\n    return p.k_drag * Ldot * xp.abs(Ldot)\n"
+            'EFFECTS = [{"name": "my_drag", "parameters": [{"name": "k_drag", "unit": "N s^2/m^2", "off": 0, '
+            '"lower": 0, "upper": 1e5, "typical": 100}], "term": drag}]\n')
+    (effect,) = load_effect_file(effect_file(tmp_path, body, "mine.py"))
+    found = D.discover(rig.knee_record({"cq": 2000.0}, seed=0), effects=[effect])
+    (term,) = found["terms"]
+    assert term["term"] == "my_drag term" and term["matches"] == "my_drag" and term["unit"] == "N s^2/m^2"
+    assert "Ldot * |Ldot|" in term["alternatives"]  # the same column: the record cannot tell them apart
+    assert abs(term["coefficient"] - 2000.0) < SE_TOLERANCE * term["stderr"]
+
+
 @pytest.mark.parametrize("noise, noise_tau, pressures, seed", [
     (1e-5, 0.01, False, 0),   # the clean record: nothing hidden but the 1 ms mismatch
     (1e-5, 0.2, True, 1),     # strongly coloured noise, noisy measured pressures

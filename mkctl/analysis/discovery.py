@@ -31,8 +31,10 @@ For the knee a tension term enters the hip force as ``G_e t(Le, -G_e V, Pe) - G_
 (virtual work, Eq. 14-16), so every coefficient is the per-actuator parameter an effect file would carry.
 
 Selection (:func:`select_terms`) is forward stepwise on standardized terms, judged on a held-out half:
-the samples are cut into :data:`BLOCKS` contiguous blocks, the even ones fit and the odd ones check. A term
-is added only if (1) it lowers an information criterion computed with the *effective* sample count (the
+the samples are cut into :data:`BLOCKS` contiguous blocks, the even ones fit and the odd ones check. Each step
+takes the term that fits the fitting blocks best; terms within :data:`RIVAL_FACTOR` of its residual are rivals
+the fit cannot rank, the checking blocks choose among them, and the others are reported as ``alternatives``.
+A term is added only if (1) it lowers an information criterion computed with the *effective* sample count (the
 missing force is smoothed and correlated: ``n_eff = n / (1 + 2 sum rho_k)``) by more than
 :data:`BIC_THRESHOLD`, and (2) the held-out blocks, predicted with the fitted coefficients, gain at least
 :data:`MIN_HELDOUT_GAIN` of their missing force explained. The selection ends with nothing proposed unless the
@@ -70,6 +72,9 @@ MIN_EXPLAINED = 0.3
 HOLD_RATIO = 0.5
 #: At most this many terms are proposed.
 MAX_TERMS = 3
+#: Terms that leave at most this many times the least residual sum of squares on the fitting blocks are rivals:
+#: the checking blocks choose among them and the others are reported as alternatives.
+RIVAL_FACTOR = 1.25
 #: Delays of the delayed-pressure terms [s] (dead times of real regulators: 20-40 ms).
 DELAYS = (0.01, 0.02, 0.04)
 #: Time constants of the lagged-pressure terms [s] (regulators: 43-131 ms; mkctl's bench: 50 ms).
@@ -132,10 +137,24 @@ class Term:
     unit: str
     tension: Callable[[dict], np.ndarray]
     commands_only: bool = False
+    effect: str | None = None  #: the effect whose own term this is (a user effect's), else see TERM_MATCHES
 
     @property
     def matches(self) -> str | None:
-        return TERM_MATCHES.get(self.label)
+        return self.effect or TERM_MATCHES.get(self.label)
+
+
+def effect_term(effect) -> Term:
+    """The library term of a user effect (:class:`mkctl.analysis.effect_files.UserEffect`, one parameter): its
+    tension per unit of the parameter, at its typical value (exact for a term linear in the parameter)."""
+    if effect.term is None or len(effect.parameters) != 1:
+        raise MkctlError(f"effect {effect.name}: discovery takes effects with a tension term and one parameter")
+    (q,) = effect.parameters
+    if q.typical == q.off:
+        raise MkctlError(f"effect {effect.name}: its typical value equals its off value; no term to regress on")
+    scale = q.typical - q.off
+    return Term(f"{effect.name} term", q.unit,
+                lambda a: effect.tension(a["L"], a["Ldot"], a["P"], {q.name: q.typical}) / scale, effect=effect.name)
 
 
 def _threshold_term(P0: float, params: Params):
@@ -144,10 +163,12 @@ def _threshold_term(P0: float, params: Params):
     return lambda a: -gain(a) * np.where(a["P"] > 0, 1.0 - np.exp(-np.maximum(a["P"], 0.0) / P0), 0.0)
 
 
-def library(params: Params, delays=DELAYS) -> list[Term]:
-    """The terms the missing force is regressed on (module docstring), per unit coefficient."""
+def library(params: Params, delays=DELAYS, effects=()) -> list[Term]:
+    """The terms the missing force is regressed on (module docstring), per unit coefficient; the terms of the
+    user ``effects`` (:func:`effect_term`) come first, so that a term equal to one of theirs is named by it."""
     base = params.replace(slack=0)
     terms = [
+        *[effect_term(e) for e in effects],
         Term("Ldot", "N s/m", lambda a: a["Ldot"]),
         Term("Ldot * |Ldot|", "N s^2/m^2", lambda a: a["Ldot"] * np.abs(a["Ldot"])),
         Term("Ldot * P", "N s/(m Pa)", lambda a: a["Ldot"] * a["P"]),
@@ -366,26 +387,29 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
     steps = []
     reason = None
     while len(selected) < MAX_TERMS:
-        best = None
+        tried = {}
         for j in range(len(labels)):
             if j in selected:
                 continue
             cols = [*selected, j]
             coef, *_ = np.linalg.lstsq(A[train][:, cols], y[train], rcond=None)
             r = y[train] - A[train][:, cols] @ coef
-            new_rss = float(r @ r)
-            if best is None or new_rss < best[1]:
-                best = (j, new_rss, coef, r)
-        if best is None:
+            tried[j] = (float(r @ r), coef, r, _explained(y[test], A[test][:, cols] @ coef))
+        if not tried:
             break
-        j, new_rss, coef, r = best
+        # terms that fit (nearly) as well are rivals the fitting blocks cannot rank: the checking blocks pick
+        # among them, and the others are reported as alternatives
+        least = min(v[0] for v in tried.values())
+        rivals = [j for j, v in tried.items() if v[0] <= RIVAL_FACTOR * least]
+        j = max(rivals, key=lambda i: (tried[i][3], -i))
+        new_rss, coef, r, new_held = tried[j]
+        alternatives = [labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
         cols = [*selected, j]
         n_eff = effective_samples(r)
         delta = n_eff * math.log(max(new_rss, 1e-300) / max(rss, 1e-300)) + math.log(max(n_eff, 2.0))
-        new_held = _explained(y[test], A[test][:, cols] @ coef)
         new_fitted = 1.0 - new_rss / float(y[train] @ y[train])
         step = {"term": labels[j], "delta_bic": delta, "explained_train": new_fitted,
-                "explained_holdout": new_held, "effective_samples": n_eff}
+                "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives}
         steps.append(step)
         say(f"  discovery: {labels[j]}: explains {new_fitted:.1%} fitted, {new_held:.1%} held out, "
             f"dBIC {delta:+.1f} (n_eff {n_eff:.0f})")
@@ -406,7 +430,9 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
         selected = []
     if not selected and reason is None:
         reason = "no term of the library explains the missing force"
-    return {"selected": [labels[j] for j in selected], "explained_train": fitted if selected else 0.0,
+    alternatives = {step["term"]: step["alternatives"] for step in steps[:len(selected)]}
+    return {"selected": [labels[j] for j in selected], "alternatives": alternatives,
+            "explained_train": fitted if selected else 0.0,
             "explained_holdout": held if selected else 0.0, "steps": steps, "reason": None if selected else reason}
 
 
@@ -420,7 +446,7 @@ def _blocks(used) -> np.ndarray:
     return train
 
 
-def discover(measurement: Measurement, params: Params | None = None, progress=None) -> dict:
+def discover(measurement: Measurement, params: Params | None = None, progress=None, effects=()) -> dict:
     """Regress the force ``params`` lacks on the library and propose the term(s) that explain it (spec 6b).
 
     Parameters
@@ -432,6 +458,8 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
         registered effects it lacks then show as their own terms (``matches`` names them).
     progress : callable, optional
         Receives one line per selection step.
+    effects : sequence of UserEffect, optional
+        User effects (:func:`mkctl.analysis.effect_files.load_effect_file`) whose terms join the library.
 
     Returns
     -------
@@ -439,7 +467,8 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
         ``explained`` (fraction of the missing force's sum of squares the terms explain, every usable sample),
         ``explained_holdout`` (on the checking blocks, from the fitting blocks' coefficients), ``terms``
         (``term``, ``coefficient`` (SI, per actuator), ``stderr``, ``unit``, ``matches``: the registered effect
-        whose form it is, or None), ``effect_file`` (None here; set by the writer), ``missing_force_rms`` [N],
+        whose form it is, or None, ``alternatives``: terms that fit the fitting blocks nearly as well, which the
+        record hardly tells from it), ``effect_file`` (None here; set by the writer), ``missing_force_rms`` [N],
         ``samples``, ``effective_samples``, ``steps`` (the selection's), ``reason`` (why nothing is proposed).
     """
     m = measurement
@@ -447,7 +476,8 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
     empty = {"explained": 0.0, "explained_holdout": 0.0, "terms": [], "effect_file": None, "missing_force_rms": None,
              "samples": 0, "effective_samples": None, "steps": []}
     try:
-        y, columns, used = regressors(m, params)
+        terms = library(params, effects=effects)
+        y, columns, used = regressors(m, params, terms)
     except MkctlError as error:
         return {**empty, "reason": f"the missing force cannot be computed at the measured states: {error}"}
     y_used = y[used]
@@ -465,13 +495,16 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
     coef, *_ = np.linalg.lstsq(A, y_used, rcond=None)
     r = y_used - A @ coef
     n_eff = effective_samples(r)
-    dof = max(n_eff - len(labels), 1.0)
-    cov = float(r @ r) / y_used.size * (y_used.size / dof) * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff)
-    units = {t.label: t.unit for t in library(params)}
+    # s^2 (A^T A)^-1, widened by n / n_eff: correlated residuals carry the information of n_eff white samples
+    s2 = float(r @ r) / max(y_used.size - len(labels), 1)
+    cov = s2 * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff)
+    units = {t.label: t.unit for t in terms}
+    matches = {t.label: t.matches for t in terms}
     result.update({
         "explained": _explained(y_used, A @ coef), "effective_samples": n_eff,
         "terms": [{"term": k, "coefficient": float(c), "stderr": float(math.sqrt(max(cov[i, i], 0.0))),
-                   "unit": units[k], "matches": TERM_MATCHES.get(k)} for i, (k, c) in enumerate(zip(labels, coef))],
+                   "unit": units[k], "matches": matches[k], "alternatives": selection["alternatives"].get(k, [])}
+                  for i, (k, c) in enumerate(zip(labels, coef))],
     })
     return result
 

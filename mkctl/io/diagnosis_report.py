@@ -233,6 +233,8 @@ def discovery_lines(found: dict | None) -> list[str]:
         match = (f"the form of the effect {t['matches']}" if t["matches"] else "registered nowhere: a new effect")
         lines.append(f"  {t['term']:<26} coefficient {t['coefficient']:.4g} +- {t['stderr']:.2g} {t['unit']} "
                      f"per actuator ({match})")
+        if t.get("alternatives"):
+            lines.append(f"    the record hardly tells it from: {', '.join(t['alternatives'])}")
     if found.get("effect_file"):
         lines.append(f"  suggested effect file: {found['effect_file']} (add it with --effects {found['effect_file']})")
     return lines
