@@ -63,6 +63,7 @@ from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
+from .discovery import discover
 from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
                              forward_selection, judge, pair_needed, to_drop)
 
@@ -941,6 +942,7 @@ class DiagnosisResult(Result):
     saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
     pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
@@ -979,6 +981,7 @@ class DiagnosisResult(Result):
             "output_noise": self.output_noise, "output_noise_correlation": self.output_noise_correlation,
             "adequacy": self.adequacy, "saturation": self.saturation, "offset": self.offset,
             "pressure_lag": self.pressure_lag,
+            "discovery": self.discovery,
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
@@ -1414,12 +1417,15 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     if note:
         notes.append(note)
         say(note)
+    # spec 6b: what the final model cannot explain is regressed on a library of physical terms
+    found = discover(record.prepared, final.params, progress=say) if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
-        **record.common, verdict=verdict, missing=final.added, params=final.values, uncertainty=final.uncertainty,
+        **record.common, discovery=found, verdict=verdict, missing=final.added, params=final.values,
+        uncertainty=final.uncertainty,
         rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, final.simulated * to_file),
         fit_percent_before=fit_percent(y, before * to_file),
         fit_percent_after=fit_percent(y, final.simulated * to_file),

@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 from .batch import add_engine_options, run_diagnose_batch
-from .options import (add_params_option, base_params, muscle_values, output_file, output_folder,
+from .options import (UsageError, add_params_option, base_params, muscle_values, output_file, output_folder,
                       parse_assignments, split_items)
 
 
@@ -113,6 +113,9 @@ def register(subparsers) -> None:
                    help="fit a constant sensor offset of the measured output (a sensor zeroed at rest, an encoder "
                         "mounted off by a few degrees); without it, an output the model cannot reach is not "
                         "diagnosed (exit status 3)")
+    p.add_argument("--suggest", metavar="FILE.py", default=None,
+                   help="when the verdict is incomplete, write the terms the discovery found as an effect file "
+                        "(model-spec section 4c) to add with --effects FILE.py")
     add_params_option(p)
     add_engine_options(p)
     p.set_defaults(func=run_diagnose)
@@ -189,9 +192,13 @@ def run_diagnose(args) -> int:
     from ..io.text import write_text_atomic
     from ..io.measurements import read_measurement
 
-    if len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0]):  # a batch
+    batch = len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0])
+    if batch and getattr(args, "suggest", None):
+        raise UsageError("--suggest takes one record, not a batch")
+    if batch:
         return run_diagnose_batch(args)
     args.file = args.file[0]
+    suggest = output_file(args.suggest, "--suggest") if getattr(args, "suggest", None) else None
 
     # every output path is checked before the fit, which takes seconds to minutes
     json_path = output_file(args.json, "--json") if args.json else None
@@ -206,6 +213,8 @@ def run_diagnose(args) -> int:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
     result = diagnose(measurement, progress, fit_offset=args.fit_offset)
+    if suggest:
+        _write_suggestion(result, suggest, args.file)
     save_pictures(measurement, result, folder, Path(args.file).stem)
     for line in summary(result):
         print(line)
@@ -218,3 +227,22 @@ def run_diagnose(args) -> int:
         print(f"mkctl diagnose: {args.file}: not diagnosed: " + "; ".join(result.problems), file=sys.stderr)
         return 3
     return 0
+
+
+def _write_suggestion(result, path: Path, source: str) -> None:
+    """--suggest: the discovery's terms as an effect file (spec 4c); the report's ``effect_file`` names it."""
+    from ..analysis.discovery import registered_effects
+    from ..analysis.effect_files import write_suggestion
+
+    found = result.discovery
+    if not found or not found["terms"]:
+        why = (f"the verdict is {result.verdict}, not incomplete" if not found
+               else "the discovery proposed nothing")
+        print(f"--suggest: nothing written: {why}", file=sys.stderr)
+        return
+    written = write_suggestion(path, found, source=source, registered=registered_effects())
+    if written is None:
+        print("--suggest: nothing written: the terms found are registered effects' or change the pressure "
+              "(see the discovery lines)", file=sys.stderr)
+        return
+    found["effect_file"] = str(written)

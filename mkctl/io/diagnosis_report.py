@@ -385,5 +385,26 @@ def summary(result) -> list[str]:
         lines.append(f"sensor offset (fitted): {result.offset:.4g} {unit}")
     lines.append(f"after: RMSE {result.rmse_after:.4g} {unit} (whole record), {fit_text(result.fit_percent_after)}"
                  + (f"; output noise about {result.output_noise:.2g} {unit}" if result.output_noise else ""))
+    lines += discovery_lines(getattr(result, "discovery", None))
     lines.append(f"verdict: {result.verdict}")
+    return lines
+
+
+def discovery_lines(found: dict | None) -> list[str]:
+    """The discovery of an incomplete diagnosis (spec 6b, :mod:`mkctl.analysis.discovery`) as lines; [] without."""
+    if not found:
+        return []
+    if not found["terms"]:
+        return [f"discovery: nothing proposed: {found.get('reason') or 'no term explains the missing force'}"]
+    lines = [f"discovery: the force the baseline lacks (RMS {found['missing_force_rms']:.3g} N) follows "
+             f"{' + '.join(t['term'] for t in found['terms'])}: {found['explained']:.0%} of it explained "
+             f"({found['explained_holdout']:.0%} on held-out blocks)"]
+    for t in found["terms"]:
+        match = (f"the form of the effect {t['matches']}" if t["matches"] else "registered nowhere: a new effect")
+        lines.append(f"  {t['term']:<26} coefficient {t['coefficient']:.4g} +- {t['stderr']:.2g} {t['unit']} "
+                     f"per actuator ({match})")
+        if t.get("alternatives"):
+            lines.append(f"    the record hardly tells it from: {', '.join(t['alternatives'])}")
+    if found.get("effect_file"):
+        lines.append(f"  suggested effect file: {found['effect_file']} (add it with --effects {found['effect_file']})")
     return lines
