@@ -17,7 +17,6 @@ import independent_rig as rig  # noqa: E402
 
 from mkctl.analysis import discovery as D  # noqa: E402
 from mkctl.analysis.effect_files import EffectFileError, load_effect_file, write_suggestion  # noqa: E402
-from mkctl.io.measurements import write_measurement  # noqa: E402
 from mkctl.physics.params import Params  # noqa: E402
 
 SE_TOLERANCE = 4.0
@@ -204,7 +203,8 @@ def effect_file(tmp_path, body, name="bad.py"):
      '"upper": 1, "typical": 0.5}, {"name": "k", "unit": "N s/m", "off": 0, "lower": 0, "upper": 1, "typical": 0.5}], '
      '"term": t}]', "effect 'drag': parameter 'k' is named twice"),
     (GOOD_TERM + 'EFFECTS = [{"name": "drag", "parameters": [{"name": "k", "unit": "N s/m", "off": 0, "lower": 1, '
-     '"upper": 10, "typical": 5}], "term": t}]', "effect 'drag': parameter 'k': bounds [1, 10] exclude its off value 0"),
+     '"upper": 10, "typical": 5}], "term": t}]',
+     "effect 'drag': parameter 'k': bounds [1, 10] exclude its off value 0"),
     ("def t(L, Ldot, P, p, xp):\n    return p.k * Ldot if Ldot > 0 else 0.0\n"
      'EFFECTS = [{"name": "one_way", "parameters": [{"name": "k", "unit": "N s/m", "off": 0, "lower": 0, '
      '"upper": 1, "typical": 0.5}], "term": t}]', "effect 'one_way': term cannot be traced with sympy"),
@@ -212,7 +212,8 @@ def effect_file(tmp_path, body, name="bad.py"):
      'EFFECTS = [{"name": "numpy_only", "parameters": [{"name": "k", "unit": "N", "off": 0, "lower": 0, '
      '"upper": 1, "typical": 0.5}], "term": t}]', "effect 'numpy_only': term cannot be traced with sympy"),
     (GOOD_TERM + 'EFFECTS = [{"name": "viscous_damping", "parameters": [{"name": "k", "unit": "N s/m", "off": 0, '
-     '"lower": 0, "upper": 1, "typical": 0.5}], "term": t}]', "effect 'viscous_damping': the name of a built-in effect"),
+     '"lower": 0, "upper": 1, "typical": 0.5}], "term": t}]',
+     "effect 'viscous_damping': the name of a built-in effect"),
     (GOOD_TERM + 'EFFECTS = [{"name": "drag", "parameters": [{"name": "c", "unit": "N s/m", "off": 0, '
      '"lower": 0, "upper": 1, "typical": 0.5}], "term": t}]', "effect 'drag': parameter 'c' is an mkctl parameter"),
     ("def t(L, Ldot, P, p, xp):\n    return p.k + Ldot\n"

@@ -118,7 +118,8 @@ WRITABLE = {
     # the threshold of spec 4b with P0 the coefficient: P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
     **{f"threshold(P0 = {P0 / 1e3:g} kPa)": (
         "threshold_pressure", "P0_found",
-        "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k} * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
+        "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k}"
+        " * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
        for P0 in THRESHOLDS},
 }
 
@@ -175,8 +176,8 @@ def library(params: Params, delays=DELAYS, effects=()) -> list[Term]:
         Term("sign(Ldot)", "N", lambda a: a["sign"]),
         Term("P * sign(Ldot)", "N/Pa", lambda a: a["P"] * a["sign"]),
         Term("-df/dP * dP/dt", "s", lambda a: -a["gain"] * a["rate"], commands_only=True),
-        *[Term(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1", (lambda d: lambda a: a["gain"] * (a["delayed"][d] - a["P"]))(d),
-               commands_only=True) for d in delays],
+        *[Term(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1",
+               (lambda d: lambda a: a["gain"] * (a["delayed"][d] - a["P"]))(d), commands_only=True) for d in delays],
         *[Term(f"f(P lagged {tau * 1e3:g} ms) - f(P)", "1",
                (lambda tau: lambda a: a["gain"] * (a["lagged"][tau] - a["P"]))(tau), commands_only=True)
           for tau in LAGS],

@@ -243,7 +243,8 @@ def _check_parameters(raw, fail) -> tuple:
                 raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
             values[key] = float(value)
         if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper {values['upper']:g}")
+            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper "
+                       f"{values['upper']:g}")
         if not values["lower"] <= values["off"] <= values["upper"]:
             raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its off "
                        f"value {values['off']:g}")
