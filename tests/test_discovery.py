@@ -40,6 +40,20 @@ def test_the_rig_reproduces_the_spec_tables():
         assert float(rig.ground_force(height, 0.0, 5e5, 1e5, p, {})) == pytest.approx(F, abs=1e-5)
 
 
+def test_the_rigs_asymmetric_lag_exhausts_slower_and_equals_the_lag_when_the_same():
+    steps = ((0.1, 1.04), (0.5, 0.97))
+    plain = rig.knee_truth({"tau": 0.03}, samples=800, steps=steps)
+    same = rig.knee_truth({"tau": 0.03, "tau_exhaust": 0.03}, samples=800, steps=steps)
+    slow = rig.knee_truth({"tau": 0.03, "tau_exhaust": 0.09}, samples=800, steps=steps)
+    assert np.allclose(plain[4], same[4], rtol=0, atol=1e-6)
+    time, command, pressure, slower = plain[0], plain[1], plain[4], slow[4]
+    filling = (time > 0.1 * time[-1]) & (time < 0.5 * time[-1])
+    assert np.allclose(pressure[filling], slower[filling], rtol=0, atol=1e-6)  # filling: tau alone
+    after = np.flatnonzero(time > 0.5 * time[-1] + 0.03)[0]  # one tau into the exhausting step
+    gap = lambda p: p[after] - command[after]  # noqa: E731
+    assert gap(slower) > 1.5 * gap(pressure) > 0
+
+
 def test_the_knee_equation_error_smooths_both_sides_alike():
     """k2 * X = g * Xddot, so a noise-free record of the model itself leaves no equation error even at its
     command steps (a plain smoothing of the force left about 1 N there, which looked like a 7 ms dead time)."""
