@@ -1178,7 +1178,7 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     # spec 6b: what the candidates cannot explain is regressed on a library of physical terms
     found = discover(prepared, start, progress=say) if verdict == "incomplete" else None
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
-    return DiagnosisResult(discovery=found, 
+    return DiagnosisResult(discovery=found,
         **common, verdict=verdict, missing=added, params=final_values, uncertainty=uncertainty,
         rmse_before=rmse(y, before * to_file), rmse_after=rmse_after,
         fit_percent_before=fit_percent(y, before * to_file), fit_percent_after=fit_percent(y, full_after * to_file),
