@@ -88,6 +88,10 @@ def workspace(tmp_path_factory, built_fmus):
     (folder / "dist").mkdir()
     for path in built_fmus.values():
         shutil.copy(path, folder / "dist" / path.name)
+    from mkctl.native.build import find_compiler
+    if find_compiler() is not None:  # docs/fmu.md's blocks also run the native FMUs (dist/native/)
+        from mkctl.native.fmu import build_native
+        build_native(folder / "dist")
     synth = subprocess.run([sys.executable, "-m", "mkctl", "synth", "knee", "leg.csv", "--hidden",
                             "viscous_damping,pressure_lag"], cwd=folder, capture_output=True, text=True)
     assert synth.returncode == 0, synth.stderr

@@ -53,7 +53,7 @@ from xml.etree import ElementTree as ET
 
 from ..errors import MkctlError, ParameterError
 from ..fmu.units import fmi_unit, unit_definitions
-from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
+from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "fmu_c"
@@ -389,6 +389,10 @@ def variables_source(interface: Interface) -> str:
     pressures = [v.vr for v in interface.variables if v.causality == "input" and v.unit == "Pa"]
     integer_rules = [(v.vr, *integer_rule(v.name)) for v in interface.variables
                      if v.causality == "parameter" and v.type == "Integer"]
+    range_rules = [(v.vr, *domain, outside_domain_message(v.name, "%.6g", *domain, UNITS.get(v.name, "1")).replace("%", "%%")
+                    .replace("%%.6g", "%.6g")) for v in interface.variables
+                   if v.causality == "parameter" and v.type == "Real" and v.name != "n"  # n: checked only when given
+                   and (domain := domain_of(v.name)) is not None]
     states = ME_STATES[interface.model_name]
     refused = [(names[name].vr, reason) for name, reason in ME_REFUSED_PARAMETERS.items()
                if name in names and names[name].causality == "parameter"]
@@ -399,6 +403,10 @@ def variables_source(interface: Interface) -> str:
               "const mk_integer_rule mk_integer_rules[] = {",
               *[f"    {{{vr}, {low}, {high}, {_c_string(message)}}}," for vr, low, high, message in integer_rules],
               "    {-1, 0, 0, \"\"}", "};", f"const int mk_n_integer_rules = {len(integer_rules)};",
+              "const mk_range_rule mk_range_rules[] = {",
+              *[f"    {{{vr}, {_c_double(low)}, {_c_double(high)}, {_c_string(message)}}},"
+                for vr, low, high, message in range_rules],
+              "    {-1, 0.0, 0.0, \"\"}", "};", f"const int mk_n_range_rules = {len(range_rules)};",
               "const mk_pressure_output mk_pressure_outputs[] = {",
               *[f"    {{{names[o].vr}, {_c_string(muscle)}}}," for o, muscle in interface.pressure_outputs.items()
                 if "P_rated" in names],

@@ -96,9 +96,8 @@ class Parameter:
             words = "not be negative" if self.lower == 0 else f"be at least {self.lower:g}"
             raise ParameterError(f"parameter {self.name} must {words}, got {value!r}")
         if value > self.upper:
-            unit = "" if self.unit == "1" else " " + self.unit
-            raise ParameterError(f"parameter {self.name} = {value:.6g}{unit} is outside the model's domain "
-                                 f"[{self.lower:g}, {self.upper:g}]{unit}")
+            from .params import outside_domain_message
+            raise ParameterError(outside_domain_message(self.name, f"{value:.6g}", self.lower, self.upper, self.unit))
         if value != 0 and abs(value) < self.smallest_on:
             either = "0 (off) or " if self.off == 0 else ""
             raise ParameterError(f"parameter {self.name} = {value:.6g} {self.unit} must be {either}at least "

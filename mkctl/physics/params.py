@@ -314,6 +314,22 @@ DOMAIN = MappingProxyType({
 })
 
 
+def outside_domain_message(name: str, value_text: str, low: float, high: float, unit: str) -> str:
+    """The one line for a parameter outside its range: ``parameter b = 1e+300 m is outside the model's domain
+    [1e-06, 100] m``. ``value_text`` is the value as printed (``%.6g``; the native FMUs pass the C format)."""
+    unit = "" if unit == "1" else " " + unit
+    return f"parameter {name} = {value_text}{unit} is outside the model's domain [{low:g}, {high:g}]{unit}"
+
+
+def domain_of(name: str) -> tuple[float, float] | None:
+    """The range [low, high] a parameter must lie in (the paper's from :data:`DOMAIN`, an effect's from its
+    registry bounds), or None when it has no finite range."""
+    if name in DOMAIN:
+        return DOMAIN[name]
+    q = next((q for q in effects.parameters() if q.name == name and not q.switch), None)
+    return (q.lower, q.upper) if q is not None and math.isfinite(q.upper) else None
+
+
 def check_domain(values) -> None:
     """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``values`` (names
     to values) lies in :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than the extensor's thigh
@@ -322,9 +338,7 @@ def check_domain(values) -> None:
     for name, (low, high) in DOMAIN.items():
         value = values.get(name)
         if value is not None and not low <= value <= high:
-            unit = "" if UNITS.get(name, "1") == "1" else " " + UNITS[name]
-            raise ParameterError(f"parameter {name} = {value:.6g}{unit} is outside the model's domain "
-                                 f"[{low:g}, {high:g}]{unit}")
+            raise ParameterError(outside_domain_message(name, f"{value:.6g}", low, high, UNITS.get(name, "1")))
     if values["r"] >= values["L1"]:
         raise ParameterError(f"parameter r = {values['r']:.6g} m must be shorter than L1 = {values['L1']:.6g} m: the "
                              "kneecap lever cannot reach past the extensor's thigh anchor (no knee geometry)")

@@ -161,6 +161,13 @@ static int check_parameters(const mk_data *d, char *msg, size_t size)
             return 1;
         }
     }
+    for (k = 0; k < mk_n_range_rules; k++) {
+        const mk_range_rule *rule = &mk_range_rules[k];
+        if (!(d->v[rule->vr] >= rule->low && d->v[rule->vr] <= rule->high)) {
+            snprintf(msg, size, rule->message, d->v[rule->vr]);
+            return 1;
+        }
+    }
     for (k = 0; k < mk_n_integer_rules; k++) {
         const mk_integer_rule *rule = &mk_integer_rules[k];
         if (d->v[rule->vr] < rule->low || d->v[rule->vr] > rule->high) {

@@ -39,6 +39,14 @@ typedef struct {
 } mk_integer_rule;
 extern const mk_integer_rule mk_integer_rules[];
 extern const int mk_n_integer_rules;
+/* the Real parameters with a range (the model's domain): low <= value <= high, else the message (%.6g: the value) */
+typedef struct {
+    int vr;
+    double low, high;
+    const char *message;
+} mk_range_rule;
+extern const mk_range_rule mk_range_rules[];
+extern const int mk_n_range_rules;
 /* the pressure outputs checked against P_rated (none when the FMU has no P_rated) */
 typedef struct {
     int vr;
