@@ -404,7 +404,7 @@ def test_cli_missing_default_fmu_is_a_note_and_skipped(tmp_path, capsys, monkeyp
 
 
 def test_fmu_analysis_refuses_a_file_that_is_not_an_fmu(tmp_path):
-    from mkctl.fmu import probe
+    from mkctl.analysis import fmu_probe as probe
 
     not_fmu = tmp_path / "afile.fmu"
     not_fmu.write_text("not a zip")

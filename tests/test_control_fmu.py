@@ -1,7 +1,7 @@
 """The control analysis against the packed knee FMU: its own linearization, and its step responses.
 
 The FMU runs in a fresh interpreter (``run_python`` of conftest.py) so that it uses its packed copy of mkctl.
-That interpreter loads :mod:`mkctl.fmu.probe` by file path (the module imports nothing from mkctl), so no
+That interpreter loads :mod:`mkctl.analysis.fmu_probe` by file path (the module imports nothing from mkctl), so no
 mkctl of this checkout is imported there before the FMU brings its own. The references (the analytic
 linearization, the linear and nonlinear step responses) are computed here with mkctl.
 """
@@ -60,7 +60,7 @@ def probe(built_fmus, run_python, cases):
                   for op, dpe in cases["steps"]],
     }
     import json
-    return run_python(PROBE, ROOT / "mkctl" / "fmu" / "probe.py", built_fmus["knee"], json.dumps(job), timeout=300)
+    return run_python(PROBE, ROOT / "mkctl" / "analysis" / "fmu_probe.py", built_fmus["knee"], json.dumps(job), timeout=300)
 
 
 def test_the_fmu_used_its_packed_mkctl(probe):

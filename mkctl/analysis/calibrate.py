@@ -21,10 +21,13 @@ The fit, step by step (each step's NRMS is shown, and drawn in the error-fall fi
 3. **effects**, forward stepwise as in model-spec section 6: each candidate (:data:`CANDIDATES`: ``slack``,
    ``coulomb_friction``) is fitted *together with the static parameters* on a training part (three of
    every four points of each record; every fourth is held out), scored by
-   ``BIC = n ln(RSS / n) + k ln n`` on the training part and by its RMS error on the held-out points.
-   The best is added only if it lowers BIC by more than ``BIC_THRESHOLD`` (10) and the held-out error by
-   at least ``HOLDOUT_GAIN`` (2 %), the rule of :mod:`mkctl.analysis.diagnose`. Then all parameters are
-   refitted on every point and the next round starts. ``slack`` is a switch, counted as one parameter.
+   ``BIC = n ln(RSS / n) + k ln n`` on the training part and by its RMS error on the held-out points,
+   and judged by the diagnosis's rule and forward selection (:mod:`mkctl.analysis.diagnosis_rule`): the
+   best is added only if it lowers BIC by more than ``Rule.bic_threshold`` (10) and the held-out error by
+   at least ``Rule.holdout_gain`` (2 %), and is not switched off (Fc = 0). When the held-out points do
+   not separate it from the other candidate by ``Rule.holdout_margin``, the lower BIC is added and a note
+   says so. Then all parameters are refitted on every point and the next round starts. ``slack`` is a
+   switch, counted as one parameter.
 
 Physical bounds keep every trial muscle a real one: ``b`` above every measured length and below ``L0 / cos 80 deg`` (a braid angle at rest below 80 deg),
 ``n`` in (0.05, 200), ``C1, C2, Fc >= 0``, ``D0 > 2 t0 > 0``. **n is fitted freely** (not tied to D0 by
@@ -53,6 +56,7 @@ bound is listed in ``at_bound``.
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -61,24 +65,28 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import DomainError, MkctlError, ParameterError
-from ..physics import actuator
+from ..physics import actuator, effects
 from ..physics.isometric import isometric_tension
-from ..physics.params import UNITS, Params
+from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
-from .diagnose import BIC_THRESHOLD, HOLDOUT_GAIN
+from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_selection, judge
 
 #: Parameters always fitted (model-spec section 5b: the ones a user cannot measure).
 STATIC = ("b", "n", "C1", "C2")
 #: Parameters fitted only on request (``fit=``); by default they come from the files' metadata.
 OPTIONAL = ("L0", "D0", "t0", "offset")
-#: The effects calibrate can add, in the order they are tried, with the parameter each brings.
-CANDIDATES = {"slack": None, "coulomb_friction": "Fc"}
+#: The effects calibrate can add (those of the registry marked ``calibrate``), in the order they are tried
+#: (switches first), with the parameter each brings (None for a switch).
+CANDIDATES = LiveMapping(lambda: {
+    e.name: None if e.is_switch else e.fitted
+    for e in sorted((e for e in effects.all_effects() if e.calibrate), key=lambda e: not e.is_switch)})
 #: Every point whose index in its record is ``HOLDOUT_EVERY - 1`` modulo this is held out.
 HOLDOUT_EVERY = 4
 #: Estimates correlated beyond this cannot be told apart.
 IDENTIFIABLE_CORRELATION = 0.99
 #: Typical magnitudes: the fit works on value / scale.
-SCALES = {"b": 0.1, "n": 1.0, "C1": 1e5, "C2": 1e4, "L0": 0.1, "D0": 0.01, "t0": 1e-3, "Fc": 1.0, "offset": 1.0}
+SCALES = LiveMapping(lambda: {"b": 0.1, "n": 1.0, "C1": 1e5, "C2": 1e4, "L0": 0.1, "D0": 0.01, "t0": 1e-3,
+                               **{q.name: q.scale for q in effects.parameters()}, "offset": 1.0})
 #: The steepest braid angle at rest a real braid has [deg]: ``b = L0 / cos(angle)`` stays below L0 / cos of it.
 MAX_BRAID_ANGLE = 80.0
 B_OVER_L0 = 1.0 / math.cos(math.radians(MAX_BRAID_ANGLE))
@@ -255,8 +263,9 @@ def _bounds(name: str, records: list[ForceRecord], start: Params, fitting=()) ->
     if name == "L0":
         shortest = min(float(r.length.min()) for r in records)
         return 0.5 * shortest, 2.0 * longest
+    effect_ranges = {q.name: q.fit_range or (q.lower, q.upper) for q in effects.parameters()}
     return {"n": (0.05, 200.0), "C1": (0.0, 1e8), "C2": (0.0, 1e8), "D0": (1e-4, 1.0), "t0": (1e-6, 0.1),
-            "Fc": (0.0, 1e4), "offset": (-1e5, 1e5)}["offset" if is_offset(name) else name]
+            **effect_ranges, "offset": (-1e5, 1e5)}["offset" if is_offset(name) else name]
 
 
 class _Model:
@@ -293,10 +302,11 @@ class _Model:
             if r.experiment == "isometric":
                 parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
             else:
-                f = actuator.static_tension(r.length, r.pressure, params)
-                moving = actuator.slack_tension(f - r.sign * params.Fc, params.slack)
+                f = actuator.compose_tension(r.length, r.pressure, 0.0, params, quasi_static=True)
+                width = actuator.play_half_width(r.pressure, params)  # the effects' play band (Fc) [N]
+                moving = actuator.apply_limits(f - r.sign * width, params)
                 # at rest the load may lie anywhere in [f - Fc, f + Fc]: the model "predicts" the nearest edge
-                still = np.clip(r.force, f - params.Fc, f + params.Fc)
+                still = np.clip(r.force, f - width, f + width)
                 parts.append(np.where(r.sign != 0, moving, still))
         return np.concatenate(parts)
 
@@ -508,12 +518,9 @@ def _nrms(residual, force_range: float) -> float:
     return float(np.sqrt(np.mean(residual * residual)) / force_range)
 
 
-def _bic(rss: float, n: int, k: int) -> float:
-    return n * math.log(max(rss, 1e-300) / n) + k * math.log(n)
-
-
 def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool = False,
-              effects=tuple(CANDIDATES), max_evaluations: int = MAX_EVALUATIONS, progress=None) -> CalibrationResult:
+              effects=tuple(CANDIDATES), max_evaluations: int = MAX_EVALUATIONS, progress=None,
+              rule: Rule = RULE) -> CalibrationResult:
     """Calibrate one muscle on its measurements (see the module docstring for the method).
 
     Parameters
@@ -535,6 +542,10 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         Cap on the model evaluations of each least-squares run, per fitted parameter plus one.
     progress : callable or None
         Called with a line of text at each step.
+    rule : Rule
+        The acceptance rule's thresholds (:data:`mkctl.analysis.diagnosis_rule.RULE`); the held-out points are
+        every :data:`HOLDOUT_EVERY`-th of each record (the points of a quasi-static test have no time order
+        to hold out the end of).
 
     Returns
     -------
@@ -543,6 +554,55 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     say = progress or (lambda text: None)
     records = [force_record(m) for m in measurements]
     check_records(records)
+    extra = _check_arguments(records, fit, effects)
+    notes: list = []
+    start, names = _starting_muscle(records, params, extra, link_n, notes)
+    force = np.concatenate([r.force for r in records])
+    force_range = float(np.ptp(force))
+    if force_range <= 0:
+        raise CalibrationError("every measured force is the same: nothing to calibrate on")
+    fitter = _Fitter(records, names, link_n, max_evaluations)
+    steps, curves = [], {}
+    _record_start(records, start, force_range, steps, curves, say)
+    static_starts = starting_points(records, start, names)
+    say(f"static fit of {', '.join(names)} from {len(static_starts)} starting points")
+    current, current_model, _ = fitter.fit([], start, static_starts)
+    _check_converged(current, "the static fit", max_evaluations, force_range)
+    nrms_before = _nrms(current.residual, force_range)
+    curves["static fit"] = (current.params, current_model.offsets(current.values))
+    steps.append({"label": "static fit", "effects": [], "nrms": nrms_before, "rms": nrms_before * force_range,
+                  "params": dict(current.values)})
+    say(f"static fit: NRMS {nrms_before:.2%}")
+    selection = _EffectSelection(fitter, records, static_starts, force_range, rule, steps, curves, notes, say)
+    current, current_model, added, stopped = selection.run(current, current_model, [e for e in CANDIDATES
+                                                                                     if e in effects])
+    current, current_model, uncertainty, ambiguous = _refit_from_every_start(fitter, current, current_model, added,
+                                                                             static_starts, force.size, notes)
+    current, stderr, correlation, groups, held = _separate(fitter, current, current_model, uncertainty, start,
+                                                           ambiguous, notes)
+    at_bound = _settle_bounds(records, current, notes)
+    _note_hysteresis(records, current, notes)
+    nrms_after = _nrms(current.residual, force_range)
+    fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
+              if n in current.values}
+    params_final = current.params
+    braid = math.sqrt(params_final.b ** 2 - params_final.L0 ** 2) / (math.pi * params_final.n)
+    curves["final"] = (params_final, current_model.offsets(current.values))
+    if abs(nrms_after - steps[-1]["nrms"]) > 1e-3 * steps[-1]["nrms"]:  # holding a parameter cost something
+        steps.append({"label": "final (" + ", ".join(held) + " held)", "effects": list(added), "nrms": nrms_after,
+                      "rms": nrms_after * force_range, "params": dict(current.values)})
+    return CalibrationResult(
+        params=params_final, fitted=fitted, stderr=stderr, not_identifiable=[list(g) for g in groups], ambiguous=ambiguous,
+        held=held,
+        at_bound=at_bound, effects=list(added), nrms_start=steps[0]["nrms"], nrms_before=nrms_before,
+        nrms_after=nrms_after,
+        rms_after=nrms_after * force_range, steps=steps, correlation=correlation, braid_diameter=braid,
+        converged=current.converged, evaluations=fitter.evaluations, sources=[r.source for r in records],
+        points=int(force.size), notes=notes, stopped=stopped, records=records, curves=curves)
+
+
+def _check_arguments(records: list[ForceRecord], fit, effects) -> tuple:
+    """The extra names asked for (``fit``), checked with the effects against what calibrate can do."""
     extra = tuple(dict.fromkeys(fit))
     unknown = [n for n in extra if n not in (*STATIC, *OPTIONAL)]
     if unknown:
@@ -553,8 +613,14 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         raise CalibrationError(f"unknown effect {bad_effects[0]!r} (calibrate can add {', '.join(CANDIDATES)})")
     if "offset" in extra and not any(r.experiment == "isometric" for r in records):
         raise CalibrationError("offset is a force sensor's offset on isometric records; there is none here")
+    return extra
+
+
+def _starting_muscle(records: list[ForceRecord], params: Params | None, extra: tuple, link_n: bool,
+                     notes: list) -> tuple[Params, tuple]:
+    """Step 1: the start (metadata over ``params`` over Table I, a braid around the longest length) and the
+    names fitted; notes what was not given."""
     metadata = merged_metadata(records)
-    notes = []
     start = (params or Params())
     for name in ("L0", "D0", "t0"):
         if params is None and name not in metadata and name not in extra:
@@ -576,28 +642,34 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         raise CalibrationError(f"a measured length {longest:g} m is not below the braid length b of any physical braid "
                                f"with L0 = {start.L0:g} m (b < L0 / cos {MAX_BRAID_ANGLE:g} deg = "
                                f"{start.L0 * B_OVER_L0:.4g} m): check the length unit and L0")
-    force = np.concatenate([r.force for r in records])
-    force_range = float(np.ptp(force))
-    if force_range <= 0:
-        raise CalibrationError("every measured force is the same: nothing to calibrate on")
-    holdout = np.concatenate([np.arange(r.size) % HOLDOUT_EVERY == HOLDOUT_EVERY - 1 for r in records])
-    train = ~holdout
+    return start, names
 
-    def model_for(names_, base):
-        return _Model(records, base, names_, link_n)
 
-    def bounds_for(names_, base):
-        pairs = [_bounds(n, records, base, names_) for n in names_]
-        return np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+class _Fitter:
+    """Fits the static names plus the chosen effects' parameters; counts the model evaluations."""
 
-    evaluations = 0
-    steps = []
-    curves = {}
-    # step 0: the start
-    start_model = model_for((), start)
+    def __init__(self, records: list[ForceRecord], names: tuple, link_n: bool, max_evaluations: int):
+        self.records, self.names, self.link_n, self.max_evaluations = records, names, link_n, max_evaluations
+        self.evaluations = 0
+
+    def fit(self, effect_list, base: Params, starts, mask=None):
+        """Fit from each start (on the points in mask); returns (_Fit, its _Model, k counting slack as one)."""
+        base = base.replace(slack=1 if "slack" in effect_list else 0)
+        fit_names = self.names + tuple(CANDIDATES[e] for e in effect_list if CANDIDATES[e])
+        model = _Model(self.records, base, fit_names, self.link_n)
+        pairs = [_bounds(n, self.records, base, fit_names) for n in fit_names]
+        lows, highs = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
+        full_starts = [{n: s.get(n, 0.0 if is_offset(n) else getattr(base, n, 0.0)) for n in fit_names}
+                       for s in starts]
+        result = _least_squares(model, full_starts, lows, highs, mask, self.max_evaluations)
+        self.evaluations += result.evaluations
+        return result, model, len(fit_names) + (1 if "slack" in effect_list else 0)
+
+
+def _record_start(records, start: Params, force_range: float, steps: list, curves: dict, say) -> None:
+    """Step 0 of the error fall: the files' parameters, nothing fitted (None outside the model's domain)."""
     try:
-        start_residual = start_model.residual_values({})
-        nrms_start = _nrms(start_residual, force_range)
+        nrms_start = _nrms(_Model(records, start, (), False).residual_values({}), force_range)
     except (DomainError, ParameterError):
         nrms_start = None
     steps.append({"label": "start", "effects": [], "nrms": nrms_start,
@@ -607,116 +679,145 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     say("start (the files' parameters): NRMS " + ("n/a (outside the model's domain)" if nrms_start is None
                                                    else f"{nrms_start:.2%}"))
 
-    def fit_with(effect_list, base, starts, mask=None):
-        """Fit the static names plus the effects' parameters; returns (_Fit, k)."""
-        nonlocal evaluations
-        base = base.replace(slack=1 if "slack" in effect_list else 0)
-        fit_names = names + tuple(CANDIDATES[e] for e in effect_list if CANDIDATES[e])
-        model = model_for(fit_names, base)
-        lows, highs = bounds_for(fit_names, base)
-        full_starts = []
-        for s in starts:
-            point = {n: s.get(n, 0.0 if is_offset(n) else getattr(base, n, 0.0)) for n in fit_names}
-            full_starts.append(point)
-        result = _least_squares(model, full_starts, lows, highs, mask, max_evaluations)
-        evaluations += result.evaluations
-        return result, model, len(fit_names) + (1 if "slack" in effect_list else 0)
 
-    static_starts = starting_points(records, start, names)
-    say(f"static fit of {', '.join(names)} from {len(static_starts)} starting points")
-    current, current_model, k_now = fit_with([], start, static_starts)
-    _check_converged(current, "the static fit", max_evaluations, force_range)
-    train_fit, _, _ = fit_with([], start, [current.values], train)
-    added: list[str] = []
-    nrms_before = _nrms(current.residual, force_range)
-    curves["static fit"] = (current.params, current_model.offsets(current.values))
-    steps.append({"label": "static fit", "effects": [], "nrms": nrms_before, "rms": nrms_before * force_range,
-                  "params": dict(current.values)})
-    say(f"static fit: NRMS {nrms_before:.2%}")
+class _EffectSelection:
+    """Step 3: the effects, by the diagnosis's forward selection and rule
+    (:func:`mkctl.analysis.diagnosis_rule.forward_selection`), each candidate fitted with the static names on
+    the training points."""
 
-    def scores(fit_train: _Fit, k: int):
+    def __init__(self, fitter: _Fitter, records, static_starts, force_range: float, rule: Rule, steps: list,
+                 curves: dict, notes: list, say):
+        self.fitter, self.records, self.static_starts, self.force_range = fitter, records, static_starts, force_range
+        self.rule, self.steps, self.curves, self.notes, self.say = rule, steps, curves, notes, say
+        self.holdout = np.concatenate([np.arange(r.size) % HOLDOUT_EVERY == HOLDOUT_EVERY - 1 for r in records])
+        self.train = ~self.holdout
+        self.added: list[str] = []
+        self.rows: dict = {}
+
+    def score(self, fit_train: _Fit, k: int) -> Score:
+        """The rule's score of a fit on the training points: BIC there, RMS error [N] on the held-out points."""
         r = fit_train.residual
-        rss_train = float(r[train] @ r[train])
-        return _bic(rss_train, int(train.sum()), k), float(np.sqrt(np.mean(r[holdout] ** 2)))
+        return Score.from_residuals(r[self.train], r[self.holdout], k)
 
-    bic_now, hold_now = scores(train_fit, k_now)
-    steps[-1].update({"bic": bic_now, "rms_holdout": hold_now})
-    pending = [e for e in CANDIDATES if e in effects]
-    stopped = None
-    while pending:
-        rows = []
-        for effect in pending:
-            trial = [*added, effect]
+    def run(self, current: _Fit, model: _Model, pending: list):
+        """Select among ``pending``; returns (final fit, its model, the effects added, the round that stopped)."""
+        self.current, self.model, self.pending = current, model, pending
+        train_fit, _, k_now = self.fitter.fit([], current.params, [current.values], self.train)
+        self.now = self.score(train_fit, k_now)
+        self.steps[-1].update({"bic": self.now.bic, "rms_holdout": self.now.rmse_holdout})
+        decision = forward_selection(self.now, lambda: [e for e in self.pending if e not in self.added],
+                                     self._fit_round, self._add, self.rule, break_tie=self._break_tie)
+        stopped = None
+        if decision.judgements:
+            stopped = self.steps[-1]["stop"] = {"candidates": self.public_rows, "reason": decision.reason}
+            self.say(f"  stop: {decision.reason}")
+        return self.current, self.model, self.added, stopped
+
+    def _fit_round(self, left: list[str]) -> list[Outcome]:
+        current, rows, outcomes = self.current, [], []
+        for effect in left:
             starts = [dict(current.values)]
             if CANDIDATES[effect] == "Fc":
-                sign = np.concatenate([r.sign for r in records])
+                sign = np.concatenate([r.sign for r in self.records])
                 guess = float(np.mean(-sign * current.residual)) if np.any(sign) else 0.0
                 starts = [{**current.values, "Fc": max(guess, 0.01)}]
-            starts += [{**s, **{k: v for k, v in starts[0].items() if k not in s}} for s in static_starts]
-            fitted_train, _, k = fit_with(trial, current.params, starts, train)
-            bic, hold = scores(fitted_train, k)
-            rows.append({"effect": effect, "bic": bic, "delta_bic": bic - bic_now, "rms_holdout": hold,
-                         "nrms_train": float(np.sqrt(np.mean(fitted_train.residual[train] ** 2)) / force_range),
-                         "params": {CANDIDATES[effect]: fitted_train.values[CANDIDATES[effect]]}
-                         if CANDIDATES[effect] else {"slack": 1},
-                         "passes_bic": bool(bic - bic_now < -BIC_THRESHOLD),
-                         "passes_holdout": bool(hold < (1 - HOLDOUT_GAIN) * hold_now), "_fit": fitted_train})
-            say(f"  candidate {effect}: dBIC {bic - bic_now:+.1f}, held-out RMS {hold:.4g} N (now {hold_now:.4g} N)")
+            starts += [{**s, **{k: v for k, v in starts[0].items() if k not in s}} for s in self.static_starts]
+            fitted_train, _, k = self.fitter.fit([*self.added, effect], current.params, starts, self.train)
+            score = self.score(fitted_train, k)
+            value = fitted_train.values.get(CANDIDATES[effect]) if CANDIDATES[effect] else 1
+            outcome = Outcome(effect, score, switched_off=not value > 0)
+            judgement = judge(self.now, outcome, self.rule)
+            rows.append({"effect": effect, "bic": score.bic, "delta_bic": judgement.delta_bic,
+                         "rms_holdout": score.rmse_holdout,
+                         "nrms_train": float(np.sqrt(np.mean(fitted_train.residual[self.train] ** 2))
+                                             / self.force_range),
+                         "params": {CANDIDATES[effect]: value} if CANDIDATES[effect] else {"slack": 1},
+                         "passes_bic": judgement.passes_bic, "passes_holdout": judgement.passes_holdout,
+                         "_fit": fitted_train, "_score": score})
+            outcomes.append(outcome)
+            self.say(f"  candidate {effect}: dBIC {judgement.delta_bic:+.1f}, held-out RMS {score.rmse_holdout:.4g} N "
+                     f"(now {self.now.rmse_holdout:.4g} N)")
         rows.sort(key=lambda r: r["bic"])
-        best = rows[0]
-        public_rows = [{k: v for k, v in r.items() if not k.startswith("_")} for r in rows]
-        if not (best["passes_bic"] and best["passes_holdout"]):
-            stopped = steps[-1]["stop"] = {"candidates": public_rows, "reason": _stop_reason(best)}
-            say(f"  stop: {_stop_reason(best)}")
-            break
-        added.append(best["effect"])
-        pending.remove(best["effect"])
-        current, current_model, k_now = fit_with(added, current.params, [best["_fit"].values, current.values])
-        _check_converged(current, f"the fit with {', '.join(added)}", max_evaluations, force_range)
-        bic_now, hold_now = best["bic"], best["rms_holdout"]
-        nrms = _nrms(current.residual, force_range)
-        label = "+ " + best["effect"]
-        curves[label] = (current.params, current_model.offsets(current.values))
-        steps.append({"label": label, "effects": list(added), "nrms": nrms, "rms": nrms * force_range,
-                      "bic": bic_now, "rms_holdout": hold_now, "params": dict(current.values),
-                      "candidates": public_rows})
-        say(f"added {best['effect']}: NRMS {nrms:.2%}")
+        self.rows = {r["effect"]: r for r in rows}
+        self.public_rows = [{k: v for k, v in r.items() if not k.startswith("_")} for r in rows]
+        return outcomes
 
-    # several starting points once more for the final model: another muscle that fits as well?
+    def _break_tie(self, decision):
+        """The held-out points do not separate the best from a rival: the best BIC is added, with a note."""
+        self.notes.append(f"the held-out points do not separate {decision.effect} from {', '.join(decision.rivals)}: "
+                          f"{decision.reason}; {decision.effect} (the lower BIC) is added")
+        return dataclasses.replace(decision, verdict="add")
+
+    def _add(self, decision) -> Score:
+        best = self.rows[decision.effect]
+        self.added.append(decision.effect)
+        current, model, _ = self.fitter.fit(self.added, self.current.params, [best["_fit"].values, self.current.values])
+        _check_converged(current, f"the fit with {', '.join(self.added)}", self.fitter.max_evaluations,
+                         self.force_range)
+        self.current, self.model = current, model
+        self.now = best["_score"]
+        nrms = _nrms(current.residual, self.force_range)
+        label = "+ " + decision.effect
+        self.curves[label] = (current.params, model.offsets(current.values))
+        self.steps.append({"label": label, "effects": list(self.added), "nrms": nrms, "rms": nrms * self.force_range,
+                           "bic": self.now.bic, "rms_holdout": self.now.rmse_holdout, "params": dict(current.values),
+                           "candidates": self.public_rows})
+        self.say(f"added {decision.effect}: NRMS {nrms:.2%}")
+        return self.now
+
+
+def _refit_from_every_start(fitter: _Fitter, current: _Fit, model: _Model, added: list, static_starts: list,
+                            points: int, notes: list):
+    """The final model fitted once more from every starting point: kept if better; another end that fits as well
+    but elsewhere is reported as ambiguous (:func:`_ambiguous`)."""
     final_starts = [{**s_, **{k: v for k, v in current.values.items() if k not in s_}} for s_ in static_starts]
-    again, again_model, _ = fit_with(added, current.params, [current.values, *final_starts])
+    again, again_model, _ = fitter.fit(added, current.params, [current.values, *final_starts])
     if again.converged and again.rss < current.rss:
-        current, current_model = again, again_model
-    # uncertainty and what the data cannot separate
-    stderr, correlation, groups = _uncertainty(current, current_model)
-    ambiguous = _ambiguous(current, again.ends, stderr, force.size)
+        current, model = again, again_model
+    uncertainty = _uncertainty(current, model)
+    ambiguous = _ambiguous(current, again.ends, uncertainty[0], points)
     if ambiguous:
         notes.append("another muscle fits these data as well (within 2 standard errors of the fit's RSS): "
                      + "; ".join(f"{k} = {current.values[k]:.4g} or {', '.join(f'{v:.4g}' for v in vs)} "
                                  f"{UNITS.get(k, 'N')}" for k, vs in ambiguous.items())
                      + ": the data do not pin these down, so no standard error is given for them")
-        stderr = {k: v for k, v in stderr.items() if k not in ambiguous}
+    return current, model, uncertainty, ambiguous
+
+
+def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple, start: Params, ambiguous: dict,
+              notes: list):
+    """What the data cannot separate (``uncertainty``: :func:`_uncertainty` of the fit): the later of each group
+    is held at its start and the rest refitted. Returns (fit, standard errors, correlation, groups, held values)."""
+    stderr, correlation, groups = uncertainty
+    stderr = {k: v for k, v in stderr.items() if k not in ambiguous}
     held = {}
-    if groups:
-        for group in groups:
-            for name in group[1:]:
-                held[name] = 0.0 if is_offset(name) else float(getattr(start, name))
-        notes.append("the data cannot separate " + "; ".join(" and ".join(g) for g in groups) + ": "
-                     + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')}" for k, v in held.items())
-                     + " and the rest refitted")
-        keep = tuple(n for n in current_model.names if n not in held)
-        base = current.params.replace(**{k: v for k, v in held.items() if not is_offset(k)})
-        model = _Model(records, base, keep, link_n)
-        lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, base, keep) for n in keep]))
-        refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, max_evaluations)
-        evaluations += refit.evaluations
-        current = refit
-        current.values.update({k: v for k, v in held.items()})
-        stderr, _, more = _uncertainty(refit, model)
-        groups += [g for g in more if g not in groups]  # what the refit still cannot separate
-        stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
+    if not groups:
+        return current, stderr, correlation, groups, held
+    records = fitter.records
+    for group in groups:
+        for name in group[1:]:
+            held[name] = 0.0 if is_offset(name) else float(getattr(start, name))
+    notes.append("the data cannot separate " + "; ".join(" and ".join(g) for g in groups) + ": "
+                 + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')}" for k, v in held.items())
+                 + " and the rest refitted")
+    keep = tuple(n for n in model.names if n not in held)
+    base = current.params.replace(**{k: v for k, v in held.items() if not is_offset(k)})
+    model = _Model(records, base, keep, fitter.link_n)
+    lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, base, keep) for n in keep]))
+    refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, fitter.max_evaluations)
+    fitter.evaluations += refit.evaluations
+    refit.values.update({k: v for k, v in held.items()})
+    stderr, _, more = _uncertainty(refit, model)
+    groups += [g for g in more if g not in groups]  # what the refit still cannot separate
+    stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
+    return refit, stderr, correlation, groups, held
+
+
+def _settle_bounds(records, current: _Fit, notes: list) -> list:
+    """The names that ended on a bound of their range, set exactly on it (0, not 4e-14), with a note each."""
     at_bound = []
-    lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, current.params, current.names) for n in current.names]))
+    lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, current.params, current.names)
+                                              for n in current.names]))
     for name, low, high in zip(current.names, lows, highs):
         value, tolerance = current.values[name], 1e-6 * _scale(name)
         if value - low <= tolerance or high - value <= tolerance:
@@ -732,6 +833,11 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         else:
             notes.append(f"{name} ended on its bound ({value:.4g} {UNITS.get(name, 'N')}): the data push it out of "
                          "the physical range; its standard error means little")
+    return at_bound
+
+
+def _note_hysteresis(records, current: _Fit, notes: list) -> None:
+    """A note when the gap between the branches grows with pressure (friction the constant Fc cannot follow)."""
     growth = hysteresis_growth(records)
     if growth and growth["grows"]:
         (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
@@ -740,22 +846,6 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
                      f"friction growing with pressure, which the constant Fc of the model cannot follow"
                      + (f" (the fitted Fc = {current.values['Fc']:.3g} N is an average)" if "Fc" in current.values
                         else "") + "; expect the largest errors at the extremes of pressure")
-    nrms_after = _nrms(current.residual, force_range)
-    fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
-              if n in current.values}
-    params_final = current.params
-    braid = math.sqrt(params_final.b ** 2 - params_final.L0 ** 2) / (math.pi * params_final.n)
-    curves["final"] = (params_final, current_model.offsets(current.values))
-    if abs(nrms_after - steps[-1]["nrms"]) > 1e-3 * steps[-1]["nrms"]:  # holding a parameter cost something
-        steps.append({"label": "final (" + ", ".join(held) + " held)", "effects": list(added), "nrms": nrms_after,
-                      "rms": nrms_after * force_range, "params": dict(current.values)})
-    return CalibrationResult(
-        params=params_final, fitted=fitted, stderr=stderr, not_identifiable=[list(g) for g in groups], ambiguous=ambiguous,
-        held=held,
-        at_bound=at_bound, effects=list(added), nrms_start=nrms_start, nrms_before=nrms_before, nrms_after=nrms_after,
-        rms_after=nrms_after * force_range, steps=steps, correlation=correlation, braid_diameter=braid,
-        converged=current.converged, evaluations=evaluations, sources=[r.source for r in records],
-        points=int(force.size), notes=notes, stopped=stopped, records=records, curves=curves)
 
 
 #: Two fits whose RSS differ by less than this many times the noise variance s^2 fit equally well.
@@ -834,17 +924,6 @@ def _jacobian(model: _Model, x):
         step[i] += h
         J[:, i] = (model.residual(step) - base) / h
     return J
-
-
-def _stop_reason(best: dict) -> str:
-    parts = []
-    if not best["passes_bic"]:
-        parts.append(f"the best candidate ({best['effect']}) changes BIC by only {best['delta_bic']:+.1f} "
-                     f"(needs < {-BIC_THRESHOLD:g})")
-    if not best["passes_holdout"]:
-        parts.append(f"{'it' if parts else 'the best candidate (' + best['effect'] + ')'} does not lower the "
-                     f"held-out error by {HOLDOUT_GAIN:.0%}")
-    return "; ".join(parts) or "nothing more helps"
 
 
 # --- Pictures and the table --------------------------------------------------------------------------

@@ -26,9 +26,9 @@ from ..errors import MkctlError
 from ..physics.isometric import isometric_tension
 from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import Measurement
-from ..io.plotting import new_figure, save_png
 from ..physics.params import Params
-from ..io.diagnosis_report import fit_text, input_axis, plot_overlay, plot_residuals  # noqa: F401 (re-exported)
+from ..io.diagnosis_report import (fit_text, input_axis, plot_isometric, plot_overlay,  # noqa: F401 (re-exported)
+                                   plot_residuals)
 from ..physics import knee
 from ..physics.simulate import knee_states
 
@@ -114,52 +114,3 @@ def compare(measurement: Measurement, params: Params | None = None) -> Compariso
         raise MkctlError(f"{measurement.source}: the model cannot simulate this record: {error}") from None
     y, yhat = measurement.to_file_units(measurement.output), measurement.to_file_units(simulated)
     return Comparison(measurement, params, simulated, rmse(y, yhat), fit_percent(y, yhat))
-
-
-def plot_isometric(length, pressure, force, branch, curves: dict, path, title: str = "", L0: float | None = None,
-                   columns: int = 2) -> Path:
-    """Blocked-force data and models: tension against pressure, one panel per clamped length, both branches.
-
-    Parameters: length [m], pressure [Pa], force [N], branch (+1 up, -1 down) of the measured points;
-    curves {label: Params or (Params, force offset [N])}, each drawn over the measured pressure range at
-    every length, rising branch solid and falling branch dashed
-    (:func:`mkctl.physics.isometric.isometric_tension`); L0 [m] to label each panel's length as a share of
-    it. Measured points: up-pointing markers on the rising branch, down-pointing on the falling one.
-    """
-    length, pressure, force, branch = (np.asarray(a, dtype=float) for a in (length, pressure, force, branch))
-    lengths = np.unique(length)
-    columns = max(1, min(columns, lengths.size))
-    rows = -(-lengths.size // columns)
-    fig, axes = new_figure(rows, columns, figsize=(3.6 * columns + 0.6, 2.9 * rows + 0.5), squeeze=False,
-                           sharex=True)
-    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange"]
-    grid = np.linspace(pressure.min(), pressure.max(), 200)
-    for number, (ax, value) in enumerate(zip(axes.flat, lengths)):
-        here = length == value
-        for sign, marker, name in ((1, "^", "measured, pressure rising"), (-1, "v", "measured, pressure falling")):
-            pick = here & (branch == sign)
-            ax.plot(pressure[pick] / 1e3, force[pick], marker, ms=3.5, mfc="none", color="0.35" if sign > 0 else "0.6",
-                    lw=0, label=name if number == 0 else None)
-        for color, (label, model) in zip(colors, curves.items()):
-            params, offset = model if isinstance(model, tuple) else (model, 0.0)
-            try:
-                up = isometric_tension(value, grid, 1, params) + offset
-                down = isometric_tension(value, grid, -1, params) + offset
-            except MkctlError:  # this model cannot reach this length: no curve
-                continue
-            ax.plot(grid / 1e3, up, "-", color=color, lw=1.3, label=label if number == 0 else None)
-            if params.Fc:
-                ax.plot(grid / 1e3, down, "--", color=color, lw=1.1)
-        ax.axhline(0, color="k", lw=0.5)
-        share = f" ({value / L0:.0%} of L0)" if L0 else ""
-        ax.set_title(f"L = {value * 1e3:.1f} mm{share}", fontsize=9)
-        ax.grid(alpha=0.3)
-    for ax in axes[-1]:
-        ax.set_xlabel("pressure [kPa]")
-    for ax in axes[:, 0]:
-        ax.set_ylabel("tension [N]")
-    for ax in list(axes.flat)[lengths.size:]:
-        ax.set_visible(False)
-    fig.legend(loc="outside lower center", ncol=2, fontsize=8, frameon=False)
-    fig.suptitle(title or "blocked force: tension against pressure at each clamped length", fontsize=10)
-    return save_png(fig, path, dpi=150)

@@ -21,9 +21,12 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
 3. **Fit** each candidate's one parameter on simulation error over the training part
    (:func:`mkctl.analysis.diagnosis_rule.best_value`: log-space grid, bounded Brent, "off" as an
    option). From the second round on, each is refitted jointly with the effects already added.
-4. **Judge** with the rule of :mod:`mkctl.analysis.diagnosis_rule`: physical (not switched off, not on
-   a bound), BIC lower by more than 10, held-out RMSE lower by 2 %, and held-out RMSE better than every
-   other physical candidate's by 2 %. When the best does not beat a rival, the two are fitted together:
+4. **Judge** with the rule of :mod:`mkctl.analysis.diagnosis_rule` and its forward selection: physical
+   (not switched off, not on a bound), BIC lower by more than 10 (BIC counting the effective samples when
+   the output noise is correlated, :func:`noise_model`), held-out RMSE lower by 2 %, held-out RMSE better
+   than every other physical candidate's by 2 %, more gained than the noise alone gives it (the null test:
+   refitted on the current model's simulation plus the estimated noise) and a signature that does not go
+   against the force the model lacks. When the best does not beat a rival, the two are fitted together:
    if each is needed beside the other both are added, otherwise the diagnosis stops with the verdict
    ``"undecided"``, saying plainly which effects this record cannot tell apart and which experiment
    would (:data:`DISCRIMINATING_EXPERIMENTS`). After an acceptance, earlier effects that no longer earn
@@ -31,6 +34,9 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
 5. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
    the Jacobian of the residuals, ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS / (n - k)``, widened for
    correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
+6. **Verdict** (:func:`verdict_of`): "diagnosed" only when the final model leaves what the noise explains,
+   over the whole record and in each tenth of it (:func:`mkctl.analysis.diagnosis_rule.adequacy`: the
+   output noise and the measured inputs' noise passed through the model); else "incomplete".
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most
@@ -52,21 +58,17 @@ from scipy.optimize import least_squares
 from ..errors import MkctlError
 from ..io import diagnosis_report
 from ..io.measurements import Measurement
-from ..physics import actuator, isotonic, knee
+from ..physics import actuator, effects, isotonic, knee
 from ..physics.isometric import isometric_tension
-from ..physics.params import UNITS, Params
+from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
-from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide, pair_needed, to_drop
+from .discovery import discover
+from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
+                             forward_selection, judge, pair_needed, to_drop)
 
-#: Share of the record (at its end) held out from fitting.
-HOLDOUT_FRACTION = RULE.holdout_fraction
-#: An effect is added only if it lowers BIC by more than this.
-BIC_THRESHOLD = RULE.bic_threshold
-#: ... and lowers the held-out RMSE by at least this fraction.
-HOLDOUT_GAIN = RULE.holdout_gain
-#: ... and beats every other physical candidate's held-out RMSE by this fraction.
-HOLDOUT_MARGIN = RULE.holdout_margin
+# The rule's thresholds (the held-out share, the BIC and held-out gains, the margin) are the fields of
+# :class:`mkctl.analysis.diagnosis_rule.Rule`, passed down from :func:`diagnose`: no copies here.
 #: About how many samples the knee's fits are evaluated on ...
 FIT_POINTS = 200
 #: ... but never further apart than this [s]: the knee's transients last a few tenths of a second (its
@@ -106,61 +108,17 @@ class Candidate:
         return params.replace(**{self.parameter: value})
 
 
-#: The candidates, in the spec's order. Elasticity fits C1 with C2 kept at its (Table I) value: C2 is
-#: 150 times smaller and its share of the tension is not separable from C1's in these experiments.
-CANDIDATES = {
-    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)},
-                            "the rubber's tension (model 2 minus model 1) at the measured length",
-                            "model 2 instead of model 1: the rubber's Mooney-Rivlin tension"),
-    "viscous_damping": Candidate("viscous_damping", "c", {"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
-                                 "the damping force per N s/m at the measured velocity", "f += c Ldot"),
-    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0),
-                                                             "isometric": (1e-3, 100.0)},
-                                  "the friction force per N at the measured direction of motion",
-                                  "f += Fc tanh(Ldot / vs) (a play operator in the isotonic test)"),
-    "pressure_lag": Candidate("pressure_lag", "tau", {"knee": (1e-3, 2.0)},
-                              "the force a lag of 1 s takes away at the measured pressure-command rate",
-                              "tau dP/dt = P_cmd - P"),
-    # slack is a switch (0 or 1): its one-point search interval just compares on with off
-    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
-                       "the model's tension, where it is negative (a slack muscle carries nothing there)",
-                       "f = max(f, 0), applied last: a braided muscle cannot push"),
-}
+#: The candidates, in the registry's order (:mod:`mkctl.physics.effects`: every effect with a fitted parameter and
+#: the experiments it shows in). Elasticity fits C1 with C2 kept at its (Table I) value: C2 is 150 times smaller
+#: and its share of the tension is not separable from C1's in these experiments. Slack is a switch (0 or 1): its
+#: one-point search interval just compares on with off.
+CANDIDATES = LiveMapping(lambda: {
+    e.name: Candidate(e.name, e.fitted, dict(e.experiments), e.regressor, effects.why(e.name))
+    for e in effects.all_effects() if e.fitted is not None and e.experiments})
 
-#: The experiment that tells two candidates apart, for records that cannot.
-DISCRIMINATING_EXPERIMENTS = {
-    frozenset({"viscous_damping", "pressure_lag"}):
-        "a pressure step with the leg clamped (a lag delays the force even without motion, damping needs "
-        "motion), or a slow command ramp followed by a fast step (damping grows with speed, a lag delays "
-        "both by tau); with measured bladder pressures (pe_kPa, pf_kPa) the lag shows directly",
-    frozenset({"viscous_damping", "coulomb_friction"}):
-        "a pressure step instead of a ramp, or sweeps at two rates: friction leaves a rate-independent "
-        "hysteresis loop (and stops a step's ringing at a fixed amplitude), damping's loop shrinks to "
-        "nothing at low rates (and its ringing decays in proportion)",
-    frozenset({"coulomb_friction", "pressure_lag"}):
-        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only "
-        "delays the response by tau",
-    frozenset({"elasticity", "viscous_damping"}):
-        "an isotonic test held at constant pressures under several loads: elasticity changes where the "
-        "length settles, damping only how fast it gets there",
-    frozenset({"elasticity", "coulomb_friction"}):
-        "an isotonic sweep down to low pressure under several loads: elasticity bends the "
-        "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps apart",
-    frozenset({"elasticity", "pressure_lag"}):
-        "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
-    frozenset({"elasticity", "slack"}):
-        "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
-        "positive, elasticity bends the whole curve",
-    frozenset({"coulomb_friction", "slack"}):
-        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
-        "everywhere, slack only flattens them at zero",
-    frozenset({"viscous_damping", "slack"}):
-        "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
-        "needs motion",
-    frozenset({"pressure_lag", "slack"}):
-        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
-        "positive, a lag only delays each reading",
-}
+#: The experiment that tells two candidates apart, for records that cannot (each effect's definition).
+DISCRIMINATING_EXPERIMENTS = LiveMapping(lambda: {
+    frozenset({e.name, other}): text for e in effects.all_effects() for other, text in e.separation.items()})
 
 _LN10 = math.log(10.0)
 _FAILED = object()
@@ -200,8 +158,7 @@ def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RU
         return None
     measured = np.concatenate([m.inputs["pe"], m.inputs["pf"]])
     n = m.samples
-    split = m.time[0] + (1.0 - rule.holdout_fraction) * (m.time[-1] - m.time[0])
-    train_one = m.time <= split
+    train_one = m.time <= rule.split_time(m.time[0], m.time[-1])
     train = np.concatenate([train_one, train_one])
 
     def residual(tau):
@@ -312,6 +269,139 @@ def output_noise(signal) -> float:
     encoder on a slow motion repeats one count for many samples, so its second differences are mostly zero
     and alone would call it noise-free; a model that fits perfectly still misses by the rounding."""
     return max(input_noise(signal), quantization_step(signal) / math.sqrt(12.0))
+
+
+#: Window [samples] of the local cubic whose residual :func:`noise_model` reads the noise's colour from.
+NOISE_WINDOW = 31
+#: The AR(1) estimate needs a record this many windows long (else the noise is taken as white).
+NOISE_WINDOWS_NEEDED = 10
+#: A correlated noise is estimated again over this many of its correlation times 1 / (1 - phi) ...
+NOISE_WINDOW_PER_TIME = 8
+#: ... but over no more samples than this.
+MAX_NOISE_WINDOW = 201
+#: The largest lag-one correlation of the output noise that is resolved ...
+MAX_NOISE_CORRELATION = 0.99
+#: ... and a longer window's estimate above this is taken as the signal leaking into it, not noise.
+SIGNAL_LEAK_CORRELATION = 0.98
+#: Below this lag-one correlation the output noise is taken as white (the estimate's own scatter on white
+#: noise is a few hundredths; a signal's kinks leak a little into the local cubic's residual).
+WHITE_NOISE_CORRELATION = 0.3
+
+
+@dataclass(frozen=True)
+class NoiseModel:
+    """The measured output's noise as first-order autoregressive: standard deviation ``sigma`` [SI] and lag-one
+    correlation ``correlation`` (phi) between neighbouring samples (0: white)."""
+
+    sigma: float
+    correlation: float = 0.0
+    seed: int = 0  #: of the realisation the null test adds to a simulation
+
+    def on_grid(self, stride: int) -> float:
+        """The correlation between samples ``stride`` apart: phi ** stride."""
+        return float(self.correlation ** max(int(stride), 1)) if self.correlation > 0 else 0.0
+
+    def realisation(self, n: int) -> np.ndarray:
+        """n samples of the noise: ``e_k = phi e_(k-1) + sigma sqrt(1 - phi^2) z_k``, e_0 = sigma z_0."""
+        from scipy.signal import lfilter
+
+        z = np.random.default_rng(self.seed).standard_normal(n) * self.sigma
+        phi = self.correlation
+        if phi <= 0:
+            return z
+        z[1:] *= math.sqrt(1.0 - phi * phi)
+        return lfilter([1.0], [1.0, -phi], z)
+
+    def null_output(self, problem: "_Problem", fit: "_Fit", renoised: Measurement | None = None) -> np.ndarray:
+        """The output a record would hold if the fitted model were the truth: its simulation (driven by the
+        re-noised inputs when given, :func:`renoised_inputs`; else on the grid, interpolated between) plus its
+        offset plus a realisation of this noise [SI]."""
+        m = problem.measurement
+        simulated = None
+        if renoised is not None:
+            try:
+                simulated = simulate_output(renoised, fit.params)
+            except MkctlError:
+                simulated = None
+        if simulated is None:
+            simulated = np.interp(np.arange(m.samples), problem.grid, fit.simulated)
+        return simulated + fit.offset + self.realisation(m.samples)
+
+
+def _robust_variance(x) -> float:
+    """(1.4826 MAD)^2: the variance of the bulk of x, blind to the few samples a kink or a step spoils."""
+    x = np.asarray(x, dtype=float)
+    return float((1.4826 * np.median(np.abs(x - np.median(x)))) ** 2)
+
+
+def _residual_filter(window: int) -> np.ndarray:
+    """Impulse response of "signal minus its local cubic" (Savitzky-Golay, centre point) over ``window``."""
+    from scipy.signal import savgol_coeffs
+
+    h = -savgol_coeffs(window, 3)
+    h[window // 2] += 1.0
+    return h
+
+
+def _ar1_moments(h: np.ndarray, phi: float) -> tuple[float, float]:
+    """Variance (per sigma^2) and lag-one correlation of AR(1) noise of correlation phi passed through h."""
+    lags = np.arange(-(h.size - 1), h.size)
+    auto = np.correlate(h, h, mode="full")  # sum_i h_i h_(i+m), m = lags
+    cov = lambda m: float(np.sum(auto * phi ** np.abs(lags + m)))  # noqa: E731
+    return cov(0), cov(1) / cov(0)
+
+
+def noise_model(signal, window: int = NOISE_WINDOW) -> NoiseModel:
+    """The measured output's noise as AR(1): sigma and phi, robust to the signal and to coloured noise.
+
+    The signal is taken out by a local cubic (Savitzky-Golay over ``window`` samples); what is left is the
+    noise through a known filter h. Its robust variance v and robust lag-one correlation r (from the spreads
+    of the sum and difference of neighbours) are matched to those of AR(1) noise through h,
+    ``v = sigma^2 sum_ij h_i h_j phi^|i-j|`` (and the same for r): r fixes phi, then v sigma. Noise that stays
+    correlated over much of the window is estimated again over a window :data:`NOISE_WINDOW_PER_TIME`
+    correlation times long (at most :data:`MAX_NOISE_WINDOW`), else the cubic takes much of it for signal. For
+    white noise (phi below :data:`WHITE_NOISE_CORRELATION`), a record shorter than :data:`NOISE_WINDOWS_NEEDED`
+    windows, or a correlation at :data:`SIGNAL_LEAK_CORRELATION` or above (a signal too rough for the cubic, or
+    a drift slower than the record resolves) sigma is :func:`output_noise`, white. The lag-one
+    estimate alone reads AR(1) noise of phi = 0.9 as about a quarter of its size.
+    """
+    x = np.asarray(signal, dtype=float)
+    white = NoiseModel(output_noise(x))
+    estimate = _ar1_estimate(x, window)
+    if estimate is None or not WHITE_NOISE_CORRELATION <= estimate[1] < SIGNAL_LEAK_CORRELATION:
+        return white  # white, or a "noise" correlated beyond what the record resolves: the signal leaked in
+    longer = min(MAX_NOISE_WINDOW, x.size // 4)
+    longer = min(longer, int(NOISE_WINDOW_PER_TIME / (1.0 - estimate[1]))) | 1
+    if longer > window:  # kept unless the signal leaked in (phi driven to the largest it resolves)
+        refined = _ar1_estimate(x, longer)
+        if refined is not None and refined[1] < SIGNAL_LEAK_CORRELATION:
+            estimate = refined
+    sigma, phi = estimate
+    if phi < WHITE_NOISE_CORRELATION:
+        return white
+    return NoiseModel(max(sigma, white.sigma), phi)
+
+
+def _ar1_estimate(x: np.ndarray, window: int) -> tuple[float, float] | None:
+    """(sigma, phi) of :func:`noise_model` from the residual of a local cubic over ``window`` samples, or None
+    (too short a record, no spread)."""
+    from scipy.optimize import brentq
+    from scipy.signal import lfilter
+
+    if x.size < NOISE_WINDOWS_NEEDED * window:
+        return None
+    h = _residual_filter(window)
+    e = lfilter(h, [1.0], x)[h.size - 1:]
+    plus, minus = _robust_variance(e[1:] + e[:-1]), _robust_variance(e[1:] - e[:-1])
+    if not plus + minus > 0:
+        return None
+    r = (plus - minus) / (plus + minus)
+    low, high = _ar1_moments(h, 0.0)[1], _ar1_moments(h, MAX_NOISE_CORRELATION)[1]
+    if r <= low:
+        return 0.0, 0.0
+    phi = MAX_NOISE_CORRELATION if r >= high else brentq(lambda p: _ar1_moments(h, p)[1] - r, 0.0,
+                                                         MAX_NOISE_CORRELATION, xtol=1e-4)
+    return math.sqrt(_robust_variance(e) / _ar1_moments(h, phi)[0]), float(phi)
 
 
 #: A piece of a measured input between steps that stays within this many times its noise of a level (or a
@@ -459,8 +549,13 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
                             f"{sim_level * to_file:.4g} {unit}: {cause}")
     if problems:
         return problems
+    # A unit mistake scales the level with the motion. When the level was judged above (no offset fitted) and
+    # matched, a range of motion some factor off is the dynamics the baseline lacks (a chirp through an undamped
+    # resonance swings ten times wider than the damped record), not a unit: judge the range only where a fitted
+    # offset hides the level.
+    level_judged = not fit_offset
     spread, sim_spread = float(np.ptp(y)), float(np.ptp(sim))
-    if spread > 0 and sim_spread > 0:
+    if spread > 0 and sim_spread > 0 and not level_judged:
         ratio = spread / sim_spread
         for factor, text in _UNIT_MISTAKES.items():
             if factor in (math.pi / 180, 180 / math.pi) and output_quantity(m) != "beta":
@@ -507,6 +602,7 @@ class _Problem:
     train: np.ndarray  #: bool over grid: in the training part
     n_train: int  #: samples (of the record) the training simulations run over
     fit_offset: bool = False
+    noise_correlation: float = 0.0  #: the output noise's correlation between neighbouring grid samples
 
     @property
     def measured(self) -> np.ndarray:
@@ -538,7 +634,8 @@ class _Problem:
         r = self.measured - simulated
         offset = self.offset(r[self.train])
         r = r - offset
-        return Score.from_residuals(r[self.train], r[~self.train], k + self.extra_parameters), offset
+        return (Score.from_residuals(r[self.train], r[~self.train], k + self.extra_parameters, self.noise_correlation),
+                offset)
 
 
 def _knee_stride(time) -> int:
@@ -550,19 +647,21 @@ def _knee_stride(time) -> int:
     return max(1, min(n // FIT_POINTS, widest))
 
 
-def _problem(measurement: Measurement, fit_offset: bool) -> _Problem:
+def _problem(measurement: Measurement, fit_offset: bool, rule: Rule = RULE, noise: NoiseModel | None = None) -> _Problem:
+    """The fitting problem: the grid compared, the time split of the rule, the noise's correlation on the grid."""
     n = measurement.samples
     stride = 1 if measurement.experiment in ("isotonic", "isometric") else _knee_stride(measurement.time)
     grid = np.arange(0, n, stride)
     if grid[-1] != n - 1:
         grid = np.append(grid, n - 1)
     t = measurement.time
-    split = t[0] + (1.0 - HOLDOUT_FRACTION) * (t[-1] - t[0])
+    split = rule.split_time(t[0], t[-1])
     n_train = int(np.searchsorted(t, split, side="right"))
     train = grid < n_train
     if train.sum() < 5 or (~train).sum() < 3:
         raise MkctlError(f"{measurement.source}: too few samples to diagnose ({n}); need at least 20")
-    return _Problem(measurement, grid, train, n_train, fit_offset)
+    correlation = noise.on_grid(stride) if noise is not None else 0.0
+    return _Problem(measurement, grid, train, n_train, fit_offset, correlation)
 
 
 @dataclass
@@ -603,7 +702,7 @@ def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: flo
 
     value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off, xatol=FIT_XATOL)
     if progress:
-        progress(f"    {candidate.effect}: {candidate.parameter} = {value:.4g} {UNITS[candidate.parameter]} "
+        progress(f"    {candidate.effect}: {diagnosis_report.parameter_text(candidate.parameter, value)} "
                  f"({evaluations[0]} simulations)")
     return value, evaluations[0]
 
@@ -734,8 +833,10 @@ def _lagged(time, command, tau):
     return out
 
 
-#: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1).
-_REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0, "slack": 1.0}
+#: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1), from the
+#: effects' definitions.
+_REFERENCE = LiveMapping(lambda: {e.fitted: e.reference for e in effects.all_effects()
+                                  if e.fitted is not None and e.reference is not None})
 
 
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
@@ -758,7 +859,8 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
             ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
             args = (states["L"], states["P"], states["branch"])
             term = isometric_tension(*args, cand.apply(params, ref)) - isometric_tension(*args, params)
-            x = -states["branch"] if name == "coulomb_friction" else term
+            x = (-states["branch"] if name == "coulomb_friction"
+                 else isometric_tension(*args, params) if name == "slack" else term)  # slack: where it acts, < 0
             out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
         return out
     speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
@@ -777,7 +879,14 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
                         - actuator.tension(states["L"], states["P"], states["Ldot"], params))
             else:
                 term = _knee_force(states, with_effect) - _knee_force(states, params)
-            x = term if name in ("elasticity", "slack") else speed
+            if name == "coulomb_friction":  # friction acts through the direction of motion
+                x = np.tanh(speed / (params.vs * 1e3))
+            elif name == "slack" and not isotonic:  # the smaller tension: slack acts where it would be < 0
+                forces = knee.knee_force(knee.geometry_at_X(states["X"], params), states["V"], states["Pe"],
+                                         states["Pf"], params)
+                x = np.minimum(forces.fe, forces.ff)
+            else:
+                x = term if name in ("elasticity", "slack") else speed
         out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
     return out
 
@@ -828,12 +937,16 @@ class DiagnosisResult(Result):
     notes: list = field(default_factory=list)  #: what was done to the record before fitting, in words
     input_noise: dict = field(default_factory=dict)  #: input -> {"sigma", "unit", "smoothed"}
     output_noise: float | None = None  #: estimated noise of the measured output, file units
+    output_noise_correlation: float = 0.0  #: its lag-one correlation between samples (0: white)
+    adequacy: dict | None = None  #: the final model's residual against the noise (:func:`verdict_of`)
     saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
     pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
+    params_after: Params | None = field(default=None, repr=False)  #: the final model's parameters
     simulated_before: np.ndarray | None = field(default=None, repr=False)
     simulated_after: np.ndarray | None = field(default=None, repr=False)
     error_steps: list = field(default_factory=list, repr=False)  #: RMSE after each step, file units
@@ -865,8 +978,10 @@ class DiagnosisResult(Result):
             "uncertainty": dict(self.uncertainty), "units": self.units,
             "fit_percent_before": self.fit_percent_before, "fit_percent_after": self.fit_percent_after,
             "stopped": self.stopped, "notes": self.notes, "input_noise": self.input_noise,
-            "output_noise": self.output_noise, "saturation": self.saturation, "offset": self.offset,
+            "output_noise": self.output_noise, "output_noise_correlation": self.output_noise_correlation,
+            "adequacy": self.adequacy, "saturation": self.saturation, "offset": self.offset,
             "pressure_lag": self.pressure_lag,
+            "discovery": self.discovery,
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
@@ -927,6 +1042,28 @@ def prepare_inputs(measurement: Measurement) -> tuple[Measurement, dict, list]:
     return measurement, info, notes
 
 
+def renoised_inputs(raw: Measurement, prepared: Measurement, info: dict, seed: int = 1) -> Measurement | None:
+    """The prepared record driven by its smoothed measured inputs with a fresh realisation of their noise added
+    before the smoothing, or None when no input was smoothed.
+
+    The model driven by it departs from the model driven by the prepared inputs as much as the smoothed
+    measured inputs depart from the true ones (the smoothing is close to linear, so the fresh noise through it
+    is distributed like the real noise through it): that part of a residual is the inputs' noise passed
+    through the model, not a missing effect.
+    """
+    smoothed = [name for name, item in info.items()
+                if item.get("smoothed") and name in raw.inputs and name in prepared.inputs]
+    if not smoothed:
+        return None
+    rng = np.random.default_rng(seed)
+    inputs = dict(prepared.inputs)
+    for name in smoothed:
+        values = np.asarray(raw.inputs[name], dtype=float)
+        sigma = input_noise(values)
+        inputs[name] = smooth_input(values + sigma * rng.standard_normal(values.size), sigma)
+    return dataclasses.replace(prepared, inputs=inputs)
+
+
 def _blocked_problem(problem: _Problem, baseline: Params, full_before, out_sigma: float, notes: list, say) -> _Problem:
     """The problem with the knee's commands held over blocks when they change at many samples."""
     m = problem.measurement
@@ -953,7 +1090,7 @@ def _blocked_problem(problem: _Problem, baseline: Params, full_before, out_sigma
 
 
 def _fit_candidate(problem: _Problem, baseline: Params, current: _Fit, added: list, individual: dict, name: str,
-                   say):
+                   say, rule: Rule = RULE):
     """Fit one candidate against the current model; returns (fit or None, value, simulations, values)."""
     cand = CANDIDATES[name]
     value, evaluations = _fit_one(problem, current.params, cand, current.rss_train, say)
@@ -963,7 +1100,7 @@ def _fit_candidate(problem: _Problem, baseline: Params, current: _Fit, added: li
     if math.isnan(value):
         return None, value, evaluations, values
     fit = current if value == 0.0 else _evaluate(problem, cand.apply(current.params, value), values)
-    promising = fit is not None and fit is not current and fit.score.bic - current.score.bic < -BIC_THRESHOLD / 2
+    promising = fit is not None and fit is not current and rule.promising(fit.score.bic - current.score.bic)
     if added and promising:
         # effects interact (damping and a lag both calm the leg): refit jointly with the effects already
         # added, from this round's value and from the values each took alone in round 1
@@ -983,8 +1120,9 @@ def _fit_candidate(problem: _Problem, baseline: Params, current: _Fit, added: li
     return fit, value, evaluations + 1, values
 
 
-def _row(name: str, fit, value: float, evaluations: int, current: _Fit, problem: _Problem, sig, to_file: float):
-    """A candidate's line in the report, and its outcome for the rule."""
+def _row(name: str, fit, value: float, evaluations: int, current: _Fit, problem: _Problem, sig, to_file: float,
+         rule: Rule = RULE):
+    """A candidate's line in the report, and its outcome for the rule (its flags are the rule's own judgement)."""
     cand = CANDIDATES[name]
     bounds = cand.bounds[problem.measurement.experiment]
     row = {"effect": name, "params": {cand.parameter: value}, "simulations": evaluations,
@@ -995,21 +1133,25 @@ def _row(name: str, fit, value: float, evaluations: int, current: _Fit, problem:
     switched_off = fit is current
     score = fit.score if not switched_off else dataclasses.replace(current.score, k=current.score.k + 1)
     pinned = at_bound(value, bounds) and not cand.switch
+    outcome = Outcome(name, score, switched_off=switched_off, at_bound=pinned,
+                      signature=None if sig is None else sig["correlation"])
+    judgement = judge(current.score, outcome, rule)
     row.update({
         "params_with_added": dict(fit.values) if not switched_off else dict(current.values),
         "rmse": rmse(problem.measured, fit.simulated + fit.offset) * to_file,
         "rmse_train": score.rmse_train * to_file,
         "rmse_holdout": score.rmse_holdout * to_file,
         "bic": score.bic,
-        "delta_bic": score.bic - current.score.bic,
+        "delta_bic": judgement.delta_bic,
         "explained_fraction": 1.0 - score.rss_train / current.rss_train if current.rss_train > 0 else 0.0,
         "switched_off": switched_off,
         "at_bound": pinned,
-        "physical": not switched_off and not pinned,
-        "passes_bic": bool(score.bic - current.score.bic < -BIC_THRESHOLD),
-        "passes_holdout": bool(score.rmse_holdout < (1.0 - HOLDOUT_GAIN) * current.score.rmse_holdout),
+        "physical": judgement.physical,
+        "passes_bic": judgement.passes_bic,
+        "passes_holdout": judgement.passes_holdout,
+        "signature_agrees": judgement.signature_agrees,
     })
-    return row, Outcome(name, score, switched_off=switched_off, at_bound=pinned)
+    return row, outcome
 
 
 def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, say):
@@ -1065,10 +1207,61 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     """
     say = progress or (lambda text: None)
     m = measurement
-    to_file = 1.0 / m.output_factor
+    record = _prepare(m, rule, fit_offset, say)
+    if record.problems:
+        return _not_diagnosed(record, say)
+    problem = _problem(record.prepared, fit_offset, rule, record.noise)
+    problem = _blocked_problem(problem, record.start, record.full_before, record.noise.sigma, record.notes, say)
+    say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
+        f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
+    state, offset_before = _select(problem, record, rule, say)
+    final = _final_fit(problem, record, state, offset_before, say)
+    return _result(record, state, final, offset_before, rule, say)
+
+
+@dataclass
+class _Record:
+    """The record as prepared for the search: the inputs the model is driven by, the baseline's simulation,
+    the output noise, and what the report says about them."""
+
+    measurement: Measurement  #: as read
+    prepared: Measurement  #: inputs smoothed (and the lag's pressures replaced by the commands through it)
+    start: Params  #: the baseline, with a lag found on measured pressures
+    lag: dict | None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    exclude: set  #: candidates judged elsewhere (the lag, on measured pressures)
+    noise: NoiseModel  #: the measured output's noise [SI]
+    full_before: np.ndarray  #: the baseline over every sample [SI]
+    notes: list
+    common: dict  #: the fields every DiagnosisResult of this record shares
+    problems: list  #: why the output cannot be this model's (sanity checks)
+    fit_offset: bool = False
+    renoised: Measurement | None = None  #: the prepared record with re-noised inputs (:func:`renoised_inputs`)
+
+    def input_floor(self, params: Params, simulated) -> float:
+        """RMS [SI] of the measured inputs' noise passed through the model at params (0 when none was smoothed):
+        the model driven by re-noised inputs against ``simulated``, the model driven by the prepared ones."""
+        if self.renoised is None:
+            return 0.0
+        try:
+            return rmse(simulate_output(self.renoised, params), simulated)
+        except MkctlError:
+            return 0.0
+
+    @property
+    def to_file(self) -> float:
+        return 1.0 / self.measurement.output_factor
+
+    @property
+    def output(self) -> np.ndarray:
+        """The measured output in file units."""
+        return self.measurement.output * self.to_file
+
+
+def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
+    """Step 0 of the module docstring: the lag on measured pressures, the noisy inputs smoothed, the output
+    noise, the baseline simulated, the saturation and the sanity checks."""
     notes: list = []
     lag, motion, start, lag_judged = _motion_record(m, m.params, rule, notes, say)
-    exclude = {"pressure_lag"} if lag_judged else set()
     prepared, noise_info, input_notes = prepare_inputs(motion)
     if lag_judged:
         for name in ("pe", "pf"):
@@ -1078,7 +1271,8 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     if gaps:
         notes.append(gaps)
         say(gaps)
-    out_sigma = output_noise(m.output)
+    # a blocked-force record's points are not a time series: its noise is white by construction
+    noise = noise_model(m.output) if m.has_time and m.experiment != "isometric" else NoiseModel(output_noise(m.output))
     for note in input_notes:
         say(note)
     try:
@@ -1089,59 +1283,78 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     if saturation:
         notes.append(saturation["text"])
         say(saturation["text"])
-    y = m.output * to_file
+    to_file = 1.0 / m.output_factor
     common = dict(file=str(m.source), experiment=m.experiment, baseline=m.baseline,
                   baseline_effects=list(m.params.effects), output=m.output_column, output_unit=m.output_unit,
-                  samples=m.samples, input_noise=noise_info, output_noise=out_sigma * to_file,
-                  saturation=saturation, rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
+                  samples=m.samples, input_noise=noise_info, output_noise=noise.sigma * to_file,
+                  output_noise_correlation=noise.correlation, saturation=saturation,
+                  rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
     problems = sanity_problems(m, full_before, m.params, fit_offset)
-    if problems:
-        for text in problems:
-            say("not diagnosed: " + text)
-        before = rmse(y, full_before * to_file)
-        fit_before = fit_percent(y, full_before * to_file)
-        return DiagnosisResult(**common, verdict="not diagnosed", missing=[], params={}, uncertainty={},
-                               rmse_before=before, rmse_after=before, fit_percent_before=fit_before,
-                               fit_percent_after=fit_before, problems=problems, notes=notes,
-                               simulated_before=full_before, simulated_after=full_before,
-                               error_steps=[before])
+    return _Record(m, prepared, start, lag, {"pressure_lag"} if lag_judged else set(), noise, full_before, notes,
+                   common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info))
 
-    problem = _problem(prepared, fit_offset)
-    problem = _blocked_problem(problem, start, full_before, out_sigma, notes, say)
-    say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
-        f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
+
+def _not_diagnosed(record: _Record, say) -> DiagnosisResult:
+    """The result for a record whose output cannot be this model's (a unit or zero mistake)."""
+    for text in record.problems:
+        say("not diagnosed: " + text)
+    y, sim = record.output, record.full_before * record.to_file
+    before, fit_before = rmse(y, sim), fit_percent(y, sim)
+    return DiagnosisResult(**record.common, verdict="not diagnosed", missing=[], params={}, uncertainty={},
+                           rmse_before=before, rmse_after=before, fit_percent_before=fit_before,
+                           fit_percent_after=fit_before, problems=record.problems, notes=record.notes,
+                           simulated_before=record.full_before, simulated_after=record.full_before,
+                           error_steps=[before], params_after=record.measurement.params)
+
+
+def _select(problem: _Problem, record: _Record, rule: Rule, say):
+    """Steps 1-4: forward selection from the baseline, and the wider search when what it added leaves many
+    times the noise. Returns the search (added effects, steps, ties) and the baseline's fitted offset."""
+    m, start = record.measurement, record.start
     first = _evaluate(problem, m.params, {})
     if first is None:
         raise MkctlError(f"{m.source}: the model cannot simulate this record")
-    offset_before = first.offset
-    full_rmse_steps = [rmse(y, (full_before + offset_before) * to_file)]
     current = first if start is m.params else _evaluate(problem, start, {})
-    pending_all = [e for e in candidates_for(m, start) if e not in exclude]
-    state = _Search(problem, start, pending_all, rule, to_file, say)
+    pending_all = [e for e in candidates_for(m, start) if e not in record.exclude]
+    state = _Search(problem, start, pending_all, rule, record.to_file, say, record.noise)
+    state.renoised = record.renoised
     state.forward(current)
     if (state.added or state.undecided) and len(pending_all) >= 2:
-        inadequate = _inadequacy(problem, state.current, out_sigma)
+        inadequate = _inadequacy(problem, state.current, record.noise.sigma)
         if inadequate > WIDER_SEARCH_FACTOR:
             say(f"the model leaves {inadequate:.3g} times the output noise: trying the candidates in pairs and threes")
             if state.wider():
                 state.forward(state.current)
-    for params in state.step_params:
-        full_rmse_steps.append(rmse(y, (simulate_output(prepared, params[0]) + params[1]) * to_file))
-    for step, value in zip(state.steps, full_rmse_steps[1:]):
-        step["rmse"] = value
-    added = list(state.added)
+    return state, first.offset
 
-    # final joint fit on the whole record
+
+@dataclass
+class _Final:
+    """The final model: the added effects (with a lag judged on pressures first), their values and standard
+    errors from the joint fit on the whole record, its offset and its simulation over every sample [SI]."""
+
+    added: list
+    values: dict
+    uncertainty: dict
+    offset: float
+    simulated: np.ndarray
+    params: Params
+
+
+def _final_fit(problem: _Problem, record: _Record, state: "_Search", offset_before: float, say) -> _Final:
+    """Step 5: the added parameters fitted jointly on the whole record, with their standard errors (widened by
+    the spread a lag found on the pressures brings)."""
+    m, start, lag = record.measurement, record.start, record.lag
+    added = list(state.added)
     uncertainty: dict = {}
     final_params, final_values, offset = start, {}, offset_before
     if added:
         say("final fit of " + ", ".join(added) + " on the whole record")
         final_values, uncertainty, _, final_params = _joint_fit(problem, start, added, state.current.values,
                                                                 train_only=False)
-        offset = problem.offset(problem.measured - problem.simulate(final_params)) if fit_offset else 0.0
-    full_after = (simulate_output(prepared, final_params) + offset if (added or start is not m.params)
-                  else full_before + offset_before)
-    before = full_before + offset_before
+        offset = problem.offset(problem.measured - problem.simulate(final_params)) if problem.fit_offset else 0.0
+    simulated = (simulate_output(record.prepared, final_params) + offset if (added or start is not m.params)
+                 else record.full_before + offset_before)
     if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
         # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
         # (first order: refit at tau -+ its standard error, add the spread in quadrature)
@@ -1158,36 +1371,76 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         final_values = {"tau": lag["tau"], **final_values}
         if lag["uncertainty"] is not None:
             uncertainty = {"tau": lag["uncertainty"], **uncertainty}
-    rmse_after = rmse(y, full_after * to_file)
-    verdict = "undecided" if state.undecided else ("diagnosed" if added else "nothing missing")
-    left = rmse_after / (out_sigma * to_file) if out_sigma > 0 else 0.0
-    if verdict in ("diagnosed", "nothing missing") and left > INCOMPLETE_FACTOR:
-        # far from the data: neither what was added nor "nothing missing" can be trusted
-        noise = f"{left:.3g} times the estimated output noise ({out_sigma * to_file:.2g} {m.output_unit})"
-        notes.append(f"the model with {', '.join(added)} still leaves {noise}: something outside the candidates is "
-                     f"missing, or effects this record cannot separate; do not trust the values as physical" if added
-                     else f"no candidate passes the rule, yet the model leaves {noise}: something is missing that the "
-                     f"candidates do not supply, or this record cannot show which (see why the last round stopped); "
-                     f"if this is your own muscle, its static parameters (b, n, C1, C2) may not be the ones assumed "
-                     f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
-        verdict = "incomplete"
-        say(notes[-1])
+    return _Final(added, final_values, uncertainty, offset, simulated, final_params)
+
+
+def verdict_of(added: list, undecided: list, fit: Adequacy, noise_text: str) -> tuple[str, str | None]:
+    """The verdict, and the note that explains an ``"incomplete"`` one (else None): the one place where a
+    diagnosis is found incomplete (and, later, handed to the discovery of model-spec section 6b).
+
+    A tie is ``"undecided"``. Otherwise what was added (or the baseline) must leave only what the noise
+    explains (:func:`mkctl.analysis.diagnosis_rule.adequacy`, over the whole record and window by window):
+    then ``"diagnosed"`` (or ``"nothing missing"``), else ``"incomplete"``.
+    """
+    if undecided:
+        return "undecided", None
+    if fit.adequate:
+        return ("diagnosed" if added else "nothing missing"), None
+    left = f"{fit.text()} ({noise_text})"
+    if added:
+        return "incomplete", (f"with {', '.join(added)} {left}: something outside the candidates is missing, or "
+                              f"effects this record cannot separate; do not trust the values as physical")
+    return "incomplete", (f"no candidate passes the rule, yet {left}: something is missing that the candidates do "
+                          f"not supply, or this record cannot show which (see why the last round stopped); if this "
+                          f"is your own muscle, its static parameters (b, n, C1, C2) may not be the ones assumed "
+                          f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
+
+
+def _result(record: _Record, state: "_Search", final: _Final, offset_before: float, rule: Rule,
+            say) -> DiagnosisResult:
+    """The report: the error after each step over every sample, the adequacy of the final model, the verdict."""
+    m, to_file, y = record.measurement, record.to_file, record.output
+    steps_rmse = [rmse(y, (record.full_before + offset_before) * to_file)]
+    for params, offset in state.step_params:
+        steps_rmse.append(rmse(y, (simulate_output(record.prepared, params) + offset) * to_file))
+    for step, value in zip(state.steps, steps_rmse[1:]):
+        step["rmse"] = value
+    before = record.full_before + offset_before
+    floor = record.input_floor(final.params, final.simulated - final.offset)
+    sigma = math.hypot(record.noise.sigma, floor)
+    fit = adequacy(m.output - final.simulated, sigma, record.noise.correlation, rule)
+    noise_text = f"estimated output noise {record.noise.sigma * to_file:.2g} {m.output_unit}" + (
+        f", correlated {record.noise.correlation:.2f} between samples" if record.noise.correlation else "") + (
+        f", and {floor * to_file:.2g} {m.output_unit} of the measured inputs' noise through the model" if floor else "")
+    verdict, note = verdict_of(final.added, state.undecided, fit, noise_text)
+    notes = list(record.notes)
+    if note:
+        notes.append(note)
+        say(note)
+    # spec 6b: what the final model cannot explain is regressed on a library of physical terms
+    found = discover(record.prepared, final.params, progress=say) if verdict == "incomplete" else None
+    worst = dict(fit.worst)
+    if worst:
+        worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
-        **common, verdict=verdict, missing=added, params=final_values, uncertainty=uncertainty,
-        rmse_before=rmse(y, before * to_file), rmse_after=rmse_after,
-        fit_percent_before=fit_percent(y, before * to_file), fit_percent_after=fit_percent(y, full_after * to_file),
+        **record.common, discovery=found, verdict=verdict, missing=final.added, params=final.values,
+        uncertainty=final.uncertainty,
+        rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, final.simulated * to_file),
+        fit_percent_before=fit_percent(y, before * to_file),
+        fit_percent_after=fit_percent(y, final.simulated * to_file),
         steps=state.steps, stopped=state.stopped, undecided=state.undecided, notes=notes,
-        offset=offset * to_file if fit_offset else None,
-        simulated_before=before, simulated_after=full_after, error_steps=full_rmse_steps,
+        offset=final.offset * to_file if record.fit_offset else None,
+        adequacy={"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "worst_window": worst,
+                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text()},
+        simulated_before=before, simulated_after=final.simulated, error_steps=steps_rmse, params_after=final.params,
         signatures=sigs, signature_order=order)
 
 
 #: When what was added leaves more than this many times the output noise, the candidates are tried in pairs and
 #: threes.
 WIDER_SEARCH_FACTOR = 3.0
-#: ... and when the final model still leaves more than this, the verdict is "incomplete".
-INCOMPLETE_FACTOR = 10.0
+# Whether the final model is "incomplete" is decided by :func:`verdict_of` with the rule's adequacy test.
 
 
 def _inadequacy(problem: _Problem, fit: _Fit, out_sigma: float) -> float:
@@ -1198,9 +1451,13 @@ def _inadequacy(problem: _Problem, fit: _Fit, out_sigma: float) -> float:
 class _Search:
     """Forward selection with the rule, and the wider search in pairs and threes; collects the report's steps."""
 
-    def __init__(self, problem: _Problem, start: Params, pending: list, rule: Rule, to_file: float, say):
+    def __init__(self, problem: _Problem, start: Params, pending: list, rule: Rule, to_file: float, say,
+                 noise: "NoiseModel | None" = None):
         self.problem, self.start, self.pending_all, self.rule = problem, start, pending, rule
-        self.to_file, self.say = to_file, say
+        self.to_file, self.say, self.noise = to_file, say, noise
+        self.fits: dict = {}
+        self.context: dict = {}
+        self.renoised: Measurement | None = None  #: drives the null test's simulation (:func:`renoised_inputs`)
         self.added: list[str] = []
         self.individual: dict = {}
         self.steps: list[dict] = []
@@ -1211,61 +1468,105 @@ class _Search:
         self.current = None
 
     def forward(self, current: _Fit) -> None:
-        problem, say, rule, to_file = self.problem, self.say, self.rule, self.to_file
+        """Forward selection from ``current`` (:func:`mkctl.analysis.diagnosis_rule.forward_selection`): each
+        accepted round goes to ``steps``, the round that ended it to ``stopped`` (and a tie to ``undecided``)."""
         self.current = current
-        while True:
-            pending = [e for e in self.pending_all if e not in self.added]
-            if not pending:
-                self.stopped = {"reason": "no candidate effect left for this experiment", "candidates": [], "ties": []}
-                return
-            say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
-            try:
-                record = problem.measurement if not current.offset else dataclasses.replace(
-                    problem.measurement, output=problem.measurement.output - current.offset)
-                sigs = signatures(record, current.params, pending)
-            except MkctlError:  # the measured states lie outside the model's domain: no signatures
-                sigs = {}
-            if self.signatures_first is None:
-                self.signatures_first = (list(pending), sigs)
-            rows, outcomes, fits = [], [], {}
-            for name in pending:
-                fit, value, evaluations, _ = _fit_candidate(problem, self.start, current, self.added, self.individual,
-                                                            name, say)
-                row, outcome = _row(name, fit, value, evaluations, current, problem, sigs.get(name), to_file)
-                rows.append(row)
-                outcomes.append(outcome)
-                fits[name] = fit
-            rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
-            decision = decide(current.score, outcomes, rule)
-            context = {"bic_before": current.score.bic, "rmse_holdout_before": current.score.rmse_holdout * to_file,
-                       "candidates": rows, "ties": []}
-            together: list[str] = []
-            if decision.verdict == "undecided":
-                context["ties"] = [{"effects": [decision.effect, r], "experiment": experiment_to_separate(
-                    [decision.effect, r])} for r in decision.rivals]
-                pair = _try_pairs(problem, self.start, self.added, decision, fits, say)
-                if pair is None:
-                    effects = [decision.effect, *decision.rivals]
-                    text = (f"this record cannot tell {' from '.join(e.replace('_', ' ') for e in effects)}: "
-                            f"{decision.reason}")
-                    self.undecided.append({"effects": effects, "experiment": experiment_to_separate(effects),
-                                           "text": text})
-                    self.stopped = {"reason": text, **context}
-                    say(f"  undecided: {text}")
-                    return
-                rival, fit = pair
-                together = [rival]
-                fits[decision.effect] = fit
-            elif decision.verdict == "stop":
-                self.stopped = {"reason": decision.reason, **context}
-                say(f"  stop: {decision.reason}")
-                return
-            name = decision.effect
-            self.added.extend([name, *together])
-            current = self.current = fits[name]
-            dropped = self._drop(len(together) + 1)
-            current = self.current = self._refit(self.current)
-            self._record({"added": name, "added_with": together, "dropped": dropped, **context})
+        decision = forward_selection(current.score, self._remaining, self._fit_round, self._add, self.rule,
+                                     null_test=self._null_test if self.noise is not None else None,
+                                     break_tie=self._break_tie)
+        self._stop(decision)
+
+    def _remaining(self) -> list[str]:
+        return [e for e in self.pending_all if e not in self.added]
+
+    def _fit_round(self, pending: list[str]) -> list[Outcome]:
+        """Fit every pending candidate against the current model; keeps the report's rows and the fits."""
+        problem, current = self.problem, self.current
+        self.say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
+        sigs = self._signatures(pending)
+        rows, outcomes, fits = [], [], {}
+        for name in pending:
+            fit, value, evaluations, _ = _fit_candidate(problem, self.start, current, self.added, self.individual,
+                                                        name, self.say, self.rule)
+            row, outcome = _row(name, fit, value, evaluations, current, problem, sigs.get(name), self.to_file,
+                                self.rule)
+            rows.append(row)
+            outcomes.append(outcome)
+            fits[name] = fit
+        rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
+        self.fits = fits
+        self.context = {"bic_before": current.score.bic,
+                        "rmse_holdout_before": current.score.rmse_holdout * self.to_file, "candidates": rows,
+                        "ties": []}
+        return outcomes
+
+    def _signatures(self, pending: list[str]) -> dict:
+        """The round's signatures (the first round's are kept for the pictures); {} outside the model's domain."""
+        problem, current = self.problem, self.current
+        try:
+            record = problem.measurement if not current.offset else dataclasses.replace(
+                problem.measurement, output=problem.measurement.output - current.offset)
+            sigs = signatures(record, current.params, pending)
+        except MkctlError:  # the measured states lie outside the model's domain: no signatures
+            sigs = {}
+        if self.signatures_first is None:
+            self.signatures_first = (list(pending), sigs)
+        return sigs
+
+    def _null_test(self, outcome: Outcome) -> Outcome:
+        """The candidate refitted on the current model's own simulation plus the estimated output noise: the
+        dBIC it gains there is what noise alone gives it (criterion 5 of the rule)."""
+        name, current = outcome.effect, self.current
+        null_problem = dataclasses.replace(self.problem, measurement=dataclasses.replace(
+            self.problem.measurement, output=self.noise.null_output(self.problem, current, self.renoised)))
+        null_current = _evaluate(null_problem, current.params, current.values)
+        if null_current is None:
+            return outcome
+        fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {}, name, None, self.rule)
+        k_more = dataclasses.replace(null_current.score, k=null_current.score.k + 1)
+        null_score = fit.score if fit is not None and fit is not null_current else k_more
+        tested = dataclasses.replace(outcome, null_delta_bic=null_score.bic - null_current.score.bic)
+        judgement = judge(current.score, tested, self.rule)
+        row = next(r for r in self.context["candidates"] if r["effect"] == name)
+        row.update({"null_delta_bic": tested.null_delta_bic, "beats_noise": judgement.beats_noise})
+        self.say(f"  null test of {name}: dBIC {tested.null_delta_bic:+.1f} on the model's simulation plus noise")
+        return tested
+
+    def _break_tie(self, decision):
+        """A tie: the best and each rival fitted together; an ``add`` of both when each is needed."""
+        self.context["ties"] = [{"effects": [decision.effect, r], "experiment": experiment_to_separate(
+            [decision.effect, r])} for r in decision.rivals]
+        pair = _try_pairs(self.problem, self.start, self.added, decision, self.fits, self.say, self.rule)
+        if pair is None:
+            return decision
+        rival, fit = pair
+        self.fits[decision.effect] = fit
+        return dataclasses.replace(decision, verdict="add", together=(rival,))
+
+    def _add(self, decision) -> Score:
+        """Adopt the decision's effect(s), drop what no longer earns its place, refit, record the round."""
+        name, together = decision.effect, list(decision.together)
+        self.added.extend([name, *together])
+        self.current = self.fits[name]
+        dropped = self._drop(len(together) + 1)
+        self.current = self._refit(self.current)
+        self._record({"added": name, "added_with": together, "dropped": dropped, **self.context})
+        return self.current.score
+
+    def _stop(self, decision) -> None:
+        """Record why the selection ended: nothing left, nothing passing, or a tie the record cannot break."""
+        if not decision.judgements:
+            self.stopped = {"reason": decision.reason, "candidates": [], "ties": []}
+            return
+        if decision.verdict == "undecided":
+            effects = [decision.effect, *decision.rivals]
+            text = f"this record cannot tell {' from '.join(e.replace('_', ' ') for e in effects)}: {decision.reason}"
+            self.undecided.append({"effects": effects, "experiment": experiment_to_separate(effects), "text": text})
+            self.stopped = {"reason": text, **self.context}
+            self.say(f"  undecided: {text}")
+            return
+        self.stopped = {"reason": decision.reason, **self.context}
+        self.say(f"  stop: {decision.reason}")
 
     def _refit(self, fit: _Fit) -> _Fit:
         """The added effects refitted jointly (full tolerance), so that the next round starts from their
@@ -1301,7 +1602,7 @@ class _Search:
         added = [step["added"], *step.get("added_with", [])]
         self.say(f"  added {' and '.join(added)}" + (f", dropped {', '.join(step['dropped'])}" if step["dropped"]
                                                     else "") + ": "
-                 + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items()))
+                 + ", ".join(diagnosis_report.parameter_text(k, v) for k, v in current.values.items()))
 
     def wider(self) -> bool:
         """Fit every pair, then every three, of candidates jointly (from their round-1 values) and judge the best
@@ -1334,10 +1635,9 @@ class _Search:
         combo, fit = best
         # two combinations that explain the record equally well are a finding, not an answer: another that is
         # neither part of the best nor contains it must be beaten on the held-out part by the margin
-        margin = 1.0 - self.rule.holdout_margin
         rivals = [other for other, other_fit in tried
                   if not (set(other) <= set(combo) or set(combo) <= set(other))
-                  and not fit.score.rmse_holdout < margin * other_fit.score.rmse_holdout]
+                  and not self.rule.beats(fit.score.rmse_holdout, other_fit.score.rmse_holdout)]
         if rivals:
             say(f"  the best combination ({' + '.join(combo)}) does not beat "
                 f"{'; '.join(' + '.join(r) for r in rivals)} on the held-out part by {self.rule.holdout_margin:.0%}")
@@ -1364,7 +1664,7 @@ def _pinned(values: dict, effects, experiment: str) -> bool:
                for e in effects)
 
 
-def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits: dict, say):
+def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits: dict, say, rule: Rule = RULE):
     """Fit the best candidate together with each rival; (rival, fit) of the first pair that needs both."""
     best = decision.effect
     for rival in decision.rivals:
@@ -1381,6 +1681,6 @@ def _try_pairs(problem: _Problem, baseline: Params, added: list, decision, fits:
         pinned = _pinned(values, effects, problem.measurement.experiment)
         say(f"  {best} and {rival} together: dBIC {both.score.bic - fits[best].score.bic:+.1f} against {best} "
             f"alone" + (" (a parameter on its bound)" if pinned else ""))
-        if not pinned and pair_needed([fits[best].score, fits[rival].score], both.score):
+        if not pinned and pair_needed([fits[best].score, fits[rival].score], both.score, rule):
             return rival, both
     return None

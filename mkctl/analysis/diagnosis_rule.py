@@ -20,13 +20,22 @@ A candidate effect is **accepted** (:func:`decide`) only when all of these hold:
    explanation);
 2. it lowers BIC by more than :attr:`Rule.bic_threshold` (``dBIC < -10``);
 3. it lowers the held-out RMSE by at least :attr:`Rule.holdout_gain` (2 %);
-4. its held-out RMSE beats every other physical candidate's by :attr:`Rule.holdout_margin` (2 %).
+4. its held-out RMSE beats every other physical candidate's by :attr:`Rule.holdout_margin` (2 %);
+5. it gains more than noise alone gives it: its dBIC less what the same candidate gains when refitted on
+   the current model's simulation plus the estimated noise (:attr:`Candidate.null_delta_bic`, when that is
+   negative) still passes 2;
+6. its own force term does not go against the force the model lacks: the correlation of its signature is
+   at least :attr:`Rule.min_signature_correlation` (when there is one).
 
-Among the candidates that pass 1-3, the best BIC is the one judged by 4. When 4 fails, the record cannot
+Among the candidates that pass 1-3, 5 and 6, the best BIC is the one judged by 4. When 4 fails, the record cannot
 tell the best from its rivals: the verdict is ``"undecided"`` (the loop then tries them together, see
 :func:`pair_needed`, and otherwise reports the tie with the experiment that would separate them). After
 an acceptance, an earlier effect is dropped (:func:`to_drop`) when removing it costs less than the
-threshold in BIC.
+threshold in BIC. :func:`forward_selection` runs these rounds for the diagnosis and the calibration alike.
+
+When the selection is over, :func:`adequacy` says whether the final model leaves only what the noise explains
+(a chi-square test with the effective sample count, never stricter than :attr:`Rule.adequate_factor`), over
+the whole record and window by window.
 """
 from __future__ import annotations
 
@@ -45,23 +54,62 @@ class Rule:
     holdout_gain: float = 0.02  #: ... and the held-out RMSE by at least this fraction
     holdout_margin: float = 0.02  #: ... and beat every other physical candidate's held-out RMSE by this fraction
     holdout_fraction: float = 0.3  #: share of the record (at its end) held out from fitting
+    #: ... and its own force term must not anti-correlate with the force the model lacks (criterion 6)
+    min_signature_correlation: float = 0.0
+    #: "diagnosed" needs the final residual within this many times the output noise, everywhere ...
+    adequate_factor: float = 2.0
+    #: ... and not above the noise by a chi-square test at this significance (see :func:`adequacy`)
+    adequacy_level: float = 1e-3
 
     def as_dict(self) -> dict:
         return {"bic_threshold": self.bic_threshold, "holdout_gain": self.holdout_gain,
-                "holdout_margin": self.holdout_margin, "holdout_fraction": self.holdout_fraction}
+                "holdout_margin": self.holdout_margin, "holdout_fraction": self.holdout_fraction,
+                "min_signature_correlation": self.min_signature_correlation,
+                "adequate_factor": self.adequate_factor, "adequacy_level": self.adequacy_level}
+
+    def split_time(self, start: float, end: float) -> float:
+        """The time that ends the training part of a record from ``start`` to ``end`` [s]: the last
+        ``holdout_fraction`` is held out."""
+        return start + (1.0 - self.holdout_fraction) * (end - start)
+
+    def passes_bic(self, delta_bic: float) -> bool:
+        """Criterion 2: BIC falls by more than the threshold."""
+        return bool(delta_bic < -self.bic_threshold)
+
+    def passes_holdout(self, rmse_holdout: float, rmse_holdout_before: float) -> bool:
+        """Criterion 3: the held-out RMSE falls by at least the gain."""
+        return bool(rmse_holdout < (1.0 - self.holdout_gain) * rmse_holdout_before)
+
+    def beats(self, rmse_holdout: float, rival_rmse_holdout: float) -> bool:
+        """Criterion 4: a held-out RMSE better than a rival's by the margin."""
+        return bool(rmse_holdout < (1.0 - self.holdout_margin) * rival_rmse_holdout)
+
+    def promising(self, delta_bic: float) -> bool:
+        """Worth a joint refit with the effects already added: BIC falls by half the threshold."""
+        return bool(delta_bic < -self.bic_threshold / 2)
 
 
 #: The rule the diagnosis uses.
 RULE = Rule()
 
 
-def bic(rss: float, n: int, k: int) -> float:
-    """Bayesian information criterion ``n ln(RSS / n) + k ln n`` of a least-squares fit.
+def bic(rss: float, n: int, k: int, n_effective: float | None = None) -> float:
+    """Bayesian information criterion ``m ln(RSS / n) + k ln m`` of a least-squares fit, m = n_effective or n.
 
     Parameters: rss, the residual sum of squares (any unit, squared); n, the samples compared; k, the
-    parameters fitted. A zero RSS is taken as 1e-300 (a finite, very low value).
+    parameters fitted; n_effective, the effective count of independent samples when the noise is correlated
+    (:func:`effective_samples`; None: n, white noise). A zero RSS is taken as 1e-300 (a finite, very low value).
     """
-    return n * math.log(max(float(rss), 1e-300) / n) + k * math.log(n)
+    m = float(n if n_effective is None else min(max(n_effective, 1.0), n))
+    return m * math.log(max(float(rss), 1e-300) / n) + k * math.log(m)
+
+
+def effective_samples(n: int, correlation: float) -> float:
+    """The effective count of independent samples among n whose noise is AR(1) with lag-one ``correlation``
+    phi: ``n (1 - phi) / (1 + phi)`` (the variance of a mean of AR(1) noise is that many times sigma^2 / n
+    larger); n for phi <= 0."""
+    phi = min(float(correlation), 0.99)
+    return float(n) if phi <= 0 else n * (1.0 - phi) / (1.0 + phi)
 
 
 @dataclass(frozen=True)
@@ -72,16 +120,20 @@ class Score:
     n_train: int
     k: int
     rmse_holdout: float
+    n_effective: float | None = None  #: effective independent samples (correlated noise), None: n_train
 
     @classmethod
-    def from_residuals(cls, train, holdout, k: int) -> "Score":
-        """Score from the residuals (measured - simulated) on the training and held-out parts."""
+    def from_residuals(cls, train, holdout, k: int, noise_correlation: float = 0.0) -> "Score":
+        """Score from the residuals (measured - simulated) on the training and held-out parts; with the
+        noise's lag-one correlation between the samples compared, BIC counts the effective samples."""
         train, holdout = np.asarray(train, dtype=float), np.asarray(holdout, dtype=float)
-        return cls(float(train @ train), int(train.size), int(k), float(np.sqrt(np.mean(holdout * holdout))))
+        n_eff = effective_samples(train.size, noise_correlation) if noise_correlation > 0 else None
+        return cls(float(train @ train), int(train.size), int(k), float(np.sqrt(np.mean(holdout * holdout))),
+                   n_eff)
 
     @property
     def bic(self) -> float:
-        return bic(self.rss_train, self.n_train, self.k)
+        return bic(self.rss_train, self.n_train, self.k, self.n_effective)
 
     @property
     def rmse_train(self) -> float:
@@ -96,6 +148,11 @@ class Candidate:
     score: Score | None
     switched_off: bool = False  #: the fit preferred the effect off (value 0)
     at_bound: bool = False  #: the fitted value sits on a bound of its search range
+    #: dBIC the same candidate gains when refitted on the current model's simulation plus the estimated noise
+    #: (the null test); None: not tested
+    null_delta_bic: float | None = None
+    #: correlation of the candidate's own force term with the force the model lacks; None: not computed
+    signature: float | None = None
 
     @property
     def physical(self) -> bool:
@@ -111,20 +168,27 @@ class Judgement:
     passes_bic: bool
     passes_holdout: bool
     physical: bool
+    beats_noise: bool = True  #: criterion 5 (True when not tested)
+    signature_agrees: bool = True  #: criterion 6 (True when not computed)
 
     @property
     def eligible(self) -> bool:
-        return self.physical and self.passes_bic and self.passes_holdout
+        return (self.physical and self.passes_bic and self.passes_holdout and self.beats_noise
+                and self.signature_agrees)
 
 
 def judge(current: Score, candidate: Candidate, rule: Rule = RULE) -> Judgement:
-    """Criteria 1-3 for one candidate against the current model."""
+    """Criteria 1-3, 5 and 6 for one candidate against the current model (4 compares candidates: :func:`decide`)."""
     score = candidate.score
     if score is None:
         return Judgement(candidate.effect, None, False, False, False)
     delta = score.bic - current.bic
-    return Judgement(candidate.effect, delta, delta < -rule.bic_threshold,
-                     score.rmse_holdout < (1.0 - rule.holdout_gain) * current.rmse_holdout, candidate.physical)
+    null = candidate.null_delta_bic
+    beats_noise = null is None or rule.passes_bic(delta - min(null, 0.0))
+    agrees = candidate.signature is None or candidate.signature >= rule.min_signature_correlation
+    return Judgement(candidate.effect, delta, rule.passes_bic(delta),
+                     rule.passes_holdout(score.rmse_holdout, current.rmse_holdout), candidate.physical,
+                     beats_noise, agrees)
 
 
 @dataclass(frozen=True)
@@ -137,6 +201,7 @@ class Decision:
     rivals: tuple[str, ...] = ()
     reason: str = ""
     judgements: dict = field(default_factory=dict)
+    together: tuple[str, ...] = ()  #: rivals added with the effect (a tie both of whose sides are needed)
 
 
 def decide(current: Score, candidates: list[Candidate], rule: Rule = RULE) -> Decision:
@@ -147,9 +212,9 @@ def decide(current: Score, candidates: list[Candidate], rule: Rule = RULE) -> De
     if not eligible:
         return Decision("stop", reason=_stop_reason(candidates, judgements, rule), judgements=judgements)
     best = min(eligible, key=lambda c: c.score.bic)
-    limit = (1.0 - rule.holdout_margin)
-    rivals = tuple(c.effect for c in candidates if c is not best and c.physical
-                   and not best.score.rmse_holdout < limit * c.score.rmse_holdout)
+    rivals = tuple(c.effect for c in candidates if c is not best and c.physical and judgements[c.effect].beats_noise
+                   and judgements[c.effect].signature_agrees
+                   and not rule.beats(best.score.rmse_holdout, c.score.rmse_holdout))
     if rivals:
         names = ", ".join(rivals)
         return Decision("undecided", best.effect, rivals,
@@ -178,16 +243,57 @@ def _stop_reason(candidates: list[Candidate], judgements: dict, rule: Rule) -> s
     if not j.passes_holdout:
         parts.append(f"{'it' if parts else 'the best candidate (' + best.effect + ')'} does not lower the "
                      f"held-out RMSE by {rule.holdout_gain:.0%}")
+    if not j.beats_noise:
+        parts.append(f"{'it' if parts else 'the best candidate (' + best.effect + ')'} gains no more than it "
+                     f"gains on the model's own simulation plus the estimated noise (dBIC {j.delta_bic:+.1f} "
+                     f"against {best.null_delta_bic:+.1f} on noise alone)")
+    if not j.signature_agrees:
+        parts.append(f"{'its' if parts else 'the best candidate (' + best.effect + ')' + chr(39) + 's'} own force "
+                     f"term does not go with the force the model lacks (r = {best.signature:+.2f})")
     if not parts:  # the best BIC is fine but not physical/eligible elsewhere
         parts.append("no candidate passes every criterion")
     return "; ".join(parts)
 
 
+def forward_selection(current: Score, remaining: Callable[[], list[str]],
+                      fit_round: Callable[[list[str]], list[Candidate]],
+                      add: Callable[[Decision], Score], rule: Rule = RULE,
+                      null_test: Callable[[Candidate], Candidate] | None = None,
+                      break_tie: Callable[[Decision], Decision] | None = None) -> Decision:
+    r"""Forward stepwise selection with the rule, shared by the diagnosis and the calibration.
+
+    Each round fits every candidate not yet in the model (``remaining()``, asked each round: an effect
+    dropped again is a candidate again) against the current model (``fit_round(names)`` -> outcomes)
+    and :func:`decide`\ s. Before the winner is taken, ``null_test`` (if given) adds what the same
+    candidate gains on noise alone (:attr:`Candidate.null_delta_bic`) and the round is decided again, so
+    that criterion 5 can refuse it and the next best be judged in turn. A tie goes to ``break_tie`` (which
+    returns an ``"add"`` with :attr:`Decision.together`, or the tie). ``add(decision)`` adopts the effect(s)
+    and returns the new current score. Returns the decision that ended the selection (``"stop"`` or
+    ``"undecided"``; a ``"stop"`` without judgements when no candidate is left).
+    """
+    while True:
+        left = remaining()
+        if not left:
+            return Decision("stop", reason="no candidate effect left for this experiment")
+        outcomes = {c.effect: c for c in fit_round(left)}
+        decision = decide(current, list(outcomes.values()), rule)
+        tested: set = set()
+        while null_test is not None and decision.verdict != "stop" and decision.effect not in tested:
+            tested.add(decision.effect)
+            outcomes[decision.effect] = null_test(outcomes[decision.effect])
+            decision = decide(current, list(outcomes.values()), rule)
+        if decision.verdict == "undecided" and break_tie is not None:
+            decision = break_tie(decision)
+        if decision.verdict != "add":
+            return decision
+        current = add(decision)
+
+
 def pair_needed(singles: list[Score], both: Score, rule: Rule = RULE) -> bool:
     """Two tied candidates are both added when, fitted together, they pass BIC and the held-out gain
     against each of them alone (each is needed beside the other)."""
-    return all(both.bic - one.bic < -rule.bic_threshold
-               and both.rmse_holdout < (1.0 - rule.holdout_gain) * one.rmse_holdout for one in singles)
+    return all(rule.passes_bic(both.bic - one.bic) and rule.passes_holdout(both.rmse_holdout, one.rmse_holdout)
+               for one in singles)
 
 
 def to_drop(current: Score, without: dict, rule: Rule = RULE) -> str | None:
@@ -254,3 +360,66 @@ def best_value(cost: Callable[[float], float], bounds: tuple[float, float], cost
     if not best_cost < cost_off:  # the effect switched off does at least as well
         return 0.0, cost_off
     return 10.0 ** best_log, best_cost
+
+
+# --- Adequacy: does the final model leave only what the noise explains? -------------------------------
+
+#: The record is cut into this many windows of equal length for the step-by-step test of :func:`adequacy`.
+ADEQUACY_WINDOWS = 10
+
+
+def noise_limit(n_effective: float, rule: Rule = RULE, tests: int = 1) -> float:
+    """The largest ratio RMS(residual) / sigma that noise of standard deviation sigma explains over
+    ``n_effective`` independent samples: ``max(adequate_factor, sqrt(chi2_(1 - level / tests)(m) / m))``.
+
+    Under the noise alone, ``m RMS^2 / sigma^2`` follows a chi-square law with m degrees of freedom, so the
+    quantile bounds the ratio at the rule's significance (Bonferroni over ``tests`` windows). It matters for
+    few effective samples (coloured noise, short windows: m = 10 allows 1.7 at level 1e-3); for many, the
+    rule's ``adequate_factor`` (2) stands instead, because sigma is itself an estimate whose systematic error
+    (a signal's kinks, a smoothed input's residue) no chi-square knows of.
+    """
+    from scipy.stats import chi2
+
+    m = max(float(n_effective), 1.0)
+    return max(rule.adequate_factor, math.sqrt(float(chi2.ppf(1.0 - rule.adequacy_level / tests, m)) / m))
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """The final model's residual against the output noise, over the whole record and window by window."""
+
+    adequate: bool
+    ratio: float  #: RMS residual / sigma over the whole record
+    limit: float  #: what noise explains there (:func:`noise_limit`)
+    worst: dict  #: the window of largest ratio / limit: {"start", "stop" (sample indices), "ratio", "limit"}
+
+    def text(self) -> str:
+        where = self.worst
+        if self.ratio > self.limit:
+            return (f"the model leaves {self.ratio:.3g} times the output noise over the whole record, more than the "
+                    f"{self.limit:.3g} noise explains")
+        if where and where["ratio"] > where["limit"]:
+            return (f"the model leaves {where['ratio']:.3g} times the output noise in one part of the record (more "
+                    f"than the {where['limit']:.3g} noise explains there), {self.ratio:.3g} over the whole record")
+        return f"the model leaves {self.ratio:.3g} times the output noise (noise explains up to {self.limit:.3g})"
+
+
+def adequacy(residual, sigma: float, correlation: float = 0.0, rule: Rule = RULE,
+             windows: int = ADEQUACY_WINDOWS) -> Adequacy:
+    """Whether a residual (measured - model, every sample) is what the noise (sigma, AR(1) ``correlation``
+    between neighbouring samples) explains: over the whole record and in each of ``windows`` equal parts
+    (an error that sits in one part of a record, such as the steps before a quiet end, must not pass
+    because the rest is quiet). sigma <= 0 (unknown noise): adequate, ratio 0."""
+    r = np.asarray(residual, dtype=float)
+    if not sigma > 0 or r.size == 0:
+        return Adequacy(True, 0.0, math.inf, {})
+    ratio = float(np.sqrt(np.mean(r * r)) / sigma)
+    limit = noise_limit(effective_samples(r.size, correlation), rule)
+    worst, adequate = {}, ratio <= limit
+    for part in np.array_split(np.arange(r.size), min(windows, r.size)):
+        part_ratio = float(np.sqrt(np.mean(r[part] ** 2)) / sigma)
+        part_limit = noise_limit(effective_samples(part.size, correlation), rule, windows)
+        if not worst or part_ratio / part_limit > worst["ratio"] / worst["limit"]:
+            worst = {"start": int(part[0]), "stop": int(part[-1]), "ratio": part_ratio, "limit": part_limit}
+    adequate = adequate and worst["ratio"] <= worst["limit"]
+    return Adequacy(bool(adequate), ratio, limit, worst)

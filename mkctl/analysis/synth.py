@@ -42,10 +42,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, check_memory
 from ..physics.isotonic import simulate_isotonic
-from ..io.measurements import BASELINES, EXPERIMENTS, UNIT_FACTORS, round_to_file, write_measurement
-from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, Params
+from ..io.text import write_text_atomic
+from ..io.measurements import BASELINES, EXPERIMENTS, LARGEST, UNIT_FACTORS, round_to_file, write_measurement
+from ..physics import effects
+from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, LiveMapping, Params
 from ..physics.simulate import default_commands, simulate_knee
 
 #: Default samples per experiment.
@@ -54,9 +56,10 @@ DEFAULT_SAMPLES = {"knee": 3000, "isotonic": 2000}
 DEFAULT_RATE = 1000.0
 #: Default noise standard deviation of the measured output [mm].
 DEFAULT_NOISE_MM = 0.01
-#: Values an effect takes when it is hidden by name alone (SI); elasticity takes Table I's C1, C2.
-DEFAULT_EFFECT_VALUES = {"elasticity": {}, "viscous_damping": {"c": 45.0}, "coulomb_friction": {"Fc": 2.0},
-                         "pressure_lag": {"tau": 0.05}}
+#: Values an effect takes when it is hidden by name alone (SI; each parameter's typical value in the registry);
+#: elasticity takes Table I's C1, C2. Switches (slack) are hidden by value (slack=1).
+DEFAULT_EFFECT_VALUES = LiveMapping(lambda: {e.name: e.typical_values for e in effects.all_effects()
+                                             if not e.is_switch})
 #: Knee extensor command steps: (fraction of the record, factor on the holding pressure).
 KNEE_STEPS = ((0.05, 1.04), (0.275, 0.97), (0.50, 1.03), (0.725, 0.98))
 #: Isotonic sweeps: loads [N], pressure range [Pa], slow and fast cycle durations [s].
@@ -134,8 +137,43 @@ def isotonic_inputs(samples: int = DEFAULT_SAMPLES["isotonic"], loads=ISOTONIC_L
 
 
 def _check_samples(samples):
-    if int(samples) != samples or samples < 10:
-        raise ParameterError(f"a synthetic record needs at least 10 samples, got {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 10:
+        raise ParameterError(f"a synthetic record needs a whole number of at least 10 samples, got {samples!r}")
+    # the simulation keeps about 40 float arrays of the record's length (states, outputs, inputs, noise, text)
+    check_memory(f"a synthetic record of {samples} samples", samples, 40 * 8)
+
+
+#: Largest sample rate of a synthetic knee record [Hz] (a real rig logs at most a few kHz).
+LARGEST_RATE = 1e6
+#: Largest correlation time of the output noise [s].
+LARGEST_NOISE_TAU = 1e4
+
+
+def _check_options(experiment, seed, samples, rate, noise, noise_factor, output_kind, input_noise, noise_tau, offset,
+                   resolution, pressures):
+    """The domain of synthesize's arguments: one line naming the argument, its value and the allowed range."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
+        raise ParameterError(f"seed must be a whole number in [0, 2^63), got {seed!r}")
+    if samples is not None:
+        _check_samples(samples)
+    if not (np.isfinite(rate) and 0 < rate <= LARGEST_RATE):
+        raise ParameterError(f"sample rate = {rate!r} Hz is outside (0, {LARGEST_RATE:g}] Hz")
+    n = DEFAULT_SAMPLES.get(experiment, 0) if samples is None else samples
+    if experiment == "knee" and not n / rate <= LARGEST["time"]:
+        raise ParameterError(f"{n} samples at {rate:g} Hz last {n / rate:g} s, longer than a record may "
+                             f"({LARGEST['time']:g} s)")
+    largest = LARGEST[output_kind] / noise_factor  # in the output column's unit
+    for name, value in (("noise", noise), ("offset", abs(offset)), ("resolution", resolution)):
+        if not (np.isfinite(value) and 0 <= value <= largest):
+            raise ParameterError(f"{name} = {value!r} is outside [0, {largest:g}] (the output column's unit; beyond "
+                                 "it no real sensor reads)")
+    if not (np.isfinite(input_noise) and 0 <= input_noise <= LARGEST["pressure"] / 1e3):
+        raise ParameterError(f"input noise = {input_noise!r} kPa is outside [0, {LARGEST['pressure'] / 1e3:g}] kPa")
+    if input_noise and experiment == "knee" and not pressures:
+        raise ParameterError("input noise is the noise of the measured bladder pressures: a knee record has them "
+                             "only with pressures (--pressures)")
+    if not (np.isfinite(noise_tau) and 0 <= noise_tau <= LARGEST_NOISE_TAU):
+        raise ParameterError(f"noise correlation time = {noise_tau!r} s is outside [0, {LARGEST_NOISE_TAU:g}] s")
 
 
 def hidden_values(hidden) -> dict:
@@ -252,6 +290,16 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         The output sensor's resolution [output column's unit]: the measured output is rounded to multiples of
         it (a 12-bit joint encoder: ``output="beta_deg", resolution=360 / 2**12``); 0: none.
     """
+    if experiment in EXPERIMENTS:
+        spec = EXPERIMENTS[experiment]
+        kind, factor = spec.output.kind, UNIT_FACTORS[spec.output.kind][spec.output.unit]
+        if output:
+            name, _, unit = output.rpartition("_")
+            q = next((q for q in spec.outputs if q.name == name), spec.output)
+            kind, factor = q.kind, UNIT_FACTORS[q.kind].get(unit, factor)
+        default = DEFAULT_NOISE_N if experiment == "isometric" else DEFAULT_NOISE_MM
+        _check_options(experiment, seed, samples, rate, default if noise is None else noise, factor, kind,
+                       input_noise, noise_tau, offset, resolution, pressures)
     if experiment == "isometric":  # the blocked-force bench (noise in N)
         if resolution:
             raise ParameterError("resolution rounds a knee or isotonic output; the isometric bench has none")
@@ -259,6 +307,28 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
                                     seed=seed, samples=ISOMETRIC_SAMPLES if samples is None else samples,
                                     baseline=baseline, declare_offset=declare_offset)
     noise = DEFAULT_NOISE_MM if noise is None else noise
+    _check_options(experiment, baseline, noise, input_noise, noise_tau, resolution, offset, pressures)
+    spec = EXPERIMENTS[experiment]
+    output_column = output or f"{spec.output.name}_{spec.output.unit}"
+    out_quantity = _output_quantity(spec, output_column)
+    known, hidden, truth = _truth(known, hidden, baseline)
+    samples = DEFAULT_SAMPLES[experiment] if samples is None else samples
+    shape = shape or SHAPES[experiment][0]
+    rng = np.random.default_rng(seed)
+    time, inputs, clean, clean_inputs = _simulate_truth(experiment, truth, samples, rate, shape, out_quantity.name,
+                                                        pressures, input_noise, rng)
+    factor = UNIT_FACTORS[out_quantity.kind][out_quantity.unit]
+    measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
+    if resolution > 0:
+        measured = np.round(measured / (resolution * factor)) * (resolution * factor)
+    return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
+                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs,
+                           resolution)
+
+
+def _check_options(experiment: str, baseline: str, noise: float, input_noise: float, noise_tau: float,
+                   resolution: float, offset: float, pressures: bool) -> None:
+    """One-line errors for options :func:`synthesize` cannot use."""
     if experiment not in ("knee", "isotonic"):
         raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
@@ -269,22 +339,26 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
             raise ParameterError(f"{name} must be a finite number >= 0, got {value!r}")
     if not np.isfinite(offset):
         raise ParameterError(f"offset must be a finite number, got {offset!r}")
-    spec = EXPERIMENTS[experiment]
-    output_column = output or f"{spec.output.name}_{spec.output.unit}"
-    out_quantity = _output_quantity(spec, output_column)
     if pressures and experiment != "knee":
         raise ParameterError("measured pressures (pe, pf) belong to a knee record; the isotonic pressure is measured "
                              "anyway")
+
+
+def _truth(known: dict | None, hidden, baseline: str) -> tuple[dict, dict, Params]:
+    """(known, hidden, truth): the file's declared parameters, the hidden ones, and the Params that simulate."""
     known = dict(known or {})
     if "model" in known:
         raise ParameterError("choose the model with the baseline (model1 or model2), not 'model'")
     hidden = dict(hidden) if isinstance(hidden, dict) else hidden_values(hidden)
     if hidden.get("model") == 2 and baseline == "model2":
         raise ParameterError("elasticity is already in the model2 baseline: hide it with --baseline model1")
-    truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
-    samples = DEFAULT_SAMPLES[experiment] if samples is None else samples
-    shape = shape or SHAPES[experiment][0]
-    rng = np.random.default_rng(seed)
+    return known, hidden, Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
+
+
+def _simulate_truth(experiment: str, truth: Params, samples: int, rate: float, shape: str, quantity: str,
+                    pressures: bool, input_noise: float, rng):
+    """The inputs as the file will hold them (measured ones with sensor noise), the truth's clean output [SI] and
+    the clean inputs: (time, inputs, clean output, clean inputs)."""
     if experiment == "knee":
         time, pe, pf = knee_inputs(samples, rate, truth, shape)
         inputs = {"pe_cmd": pe, "pf_cmd": pf}
@@ -296,7 +370,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
     clean_inputs = dict(inputs)
     if experiment == "knee":
         run = simulate_knee(time, inputs["pe_cmd"], inputs["pf_cmd"], truth)
-        clean = run["beta"] if out_quantity.name == "beta" else run["X"]
+        clean = run["beta"] if quantity == "beta" else run["X"]
         if pressures:
             clean_inputs.update({"pe": run["Pe"], "pf": run["Pf"]})
             inputs.update({name: clean_inputs[name] + _sensor_noise(rng, input_noise * 1e3, time.size)
@@ -305,13 +379,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         clean = simulate_isotonic(time, inputs["pressure"], inputs["force"], truth)
         if input_noise > 0:
             inputs["pressure"] = inputs["pressure"] + _sensor_noise(rng, input_noise * 1e3, time.size)
-    factor = UNIT_FACTORS[out_quantity.kind][out_quantity.unit]
-    measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
-    if resolution > 0:
-        measured = np.round(measured / (resolution * factor)) * (resolution * factor)
-    return SyntheticRecord(experiment, baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
-                           output_column, shape, input_noise, noise_tau, offset, declare_offset, clean_inputs,
-                           resolution)
+    return time, inputs, clean, clean_inputs
 
 
 def _output_quantity(spec, column: str):
@@ -369,7 +437,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
     truth_path = None
     if truth_file:
         truth_path = truth_path_for(path)
-        truth_path.write_text(json.dumps({
+        write_text_atomic(truth_path, json.dumps({
             "file": path.name,
             "experiment": record.experiment,
             "baseline": record.baseline,
@@ -386,7 +454,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
             "resolution": record.resolution,
             "seed": record.seed,
             "samples": int(record.time.size),
-        }, indent=2) + "\n", encoding="utf-8")
+        }, indent=2, allow_nan=False) + "\n")
     return path, truth_path
 
 

@@ -1,3 +1,2 @@
 """The FMU layer: the pythonfmu slave base (:mod:`~mkctl.fmu.slave`) and the two slaves (:mod:`~mkctl.fmu.models`),
-both importing pythonfmu; the build (:mod:`~mkctl.fmu.build`, ``python -m mkctl.fmu.build``); the fmpy probe
-(:mod:`~mkctl.fmu.probe`, imports fmpy). Nothing here is imported by ``import mkctl``."""
+both importing pythonfmu; the build (:mod:`~mkctl.fmu.build`, ``python -m mkctl.fmu.build``). Nothing here is imported by ``import mkctl``."""

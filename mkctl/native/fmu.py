@@ -186,7 +186,7 @@ def parameter_rule(name: str) -> str:
     Read from Params itself (a value of 0 or -1 in an otherwise default set), so that the C wrapper checks what
     the library checks. ``n`` is "any" here: the wrapper checks it only when it is given (not left at its start).
     """
-    if name not in dataclasses.asdict(DEFAULT) or name in ("n", "model"):
+    if name not in DEFAULT.as_dict() or name in ("n", "model"):
         return "any"
     for value, rule, words in ((0.0, "positive", "must be positive"), (-1.0, "not_negative", "must not be negative")):
         try:
@@ -310,9 +310,10 @@ def _c_double(value: float) -> str:
 
 
 def _core_has_slack() -> bool:
-    """Whether the compiled core tells slack = 1 from slack = 0 (its variants name the structures it generates)."""
-    from .variants import Variant
-    return "slack" in Variant._fields
+    """Whether the compiled core tells slack = 1 from slack = 0: its variants follow every structural effect of
+    the registry, slack included."""
+    from .variants import structural_effects
+    return any(e.name == "slack" for e in structural_effects())
 
 
 def c_identifier(name: str) -> str:
@@ -382,7 +383,7 @@ def variables_source(interface: Interface) -> str:
                      f"{_c_string(v.unit or '')}, {start}}}, /* vr {v.vr} */")
     lines.append("};")
     names = interface.by_name()
-    order = [names[f].vr for f in dataclasses.asdict(DEFAULT)
+    order = [names[f].vr for f in DEFAULT.as_dict()
              if f in names and names[f].causality == "parameter" and names[f].type == "Real"]
     inputs = [v.vr for v in interface.variables if v.causality == "input"]
     pressures = [v.vr for v in interface.variables if v.causality == "input" and v.unit == "Pa"]
@@ -474,8 +475,8 @@ def core_source() -> str:
     import hashlib
 
     from . import build
-    from .variants import ALL_VARIANTS
-    digest = hashlib.sha256(build.input_key(ALL_VARIANTS).encode())
+    from .variants import all_variants
+    digest = hashlib.sha256(build.input_key(all_variants()).encode())
     digest.update(Path(__file__).read_bytes())
     path = build.cache_dir() / f"fmu-core-{digest.hexdigest()[:20]}.c"
     if path.is_file():
@@ -500,7 +501,7 @@ def generate_core_source() -> str:
     from ..physics.simulate import KneeSimulator
     from ..physics.stability import DEFAULT_ALPHA
     from . import codegen
-    from .variants import ALL_VARIANTS
+    from .variants import all_variants
 
     collected = []  # every check, in the order the CheckTable numbers them
     original = codegen.CheckTable.add
@@ -518,11 +519,11 @@ def generate_core_source() -> str:
     codegen.CheckTable.add = add
     codegen.emit_function = emit_function
     try:
-        source, entries = codegen.generate_source(ALL_VARIANTS)
+        source, entries = codegen.generate_source(all_variants())
         codegen.emit_function = original_emit
         table = codegen.CheckTable()
         table.entries = list(entries)
-        sp = codegen.SymbolicParams(ALL_VARIANTS[0])  # the geometry does not depend on the variant
+        sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
         bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
         alpha, X = sympy.Symbol("alpha", real=True), sympy.Symbol("X", real=True)
 
@@ -544,7 +545,7 @@ def generate_core_source() -> str:
             "{", "    return fmu_X_from_alpha_once(p, NULL, alpha, out, fault);", "}", "",
             "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
             "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
-            model_exchange_functions(emitted, table, ALL_VARIANTS)]
+            model_exchange_functions(emitted, table, all_variants())]
     finally:
         codegen.CheckTable.add = original
         codegen.emit_function = original_emit

@@ -251,7 +251,7 @@ def simulate(fmu: Path, stop: float, step: float = STEP, inputs=None, start_valu
 
     from fmpy.fmi1 import FMICallException
 
-    from ..fmu.probe import prefer_installed_pythonfmu, remove_extraction
+    from ..analysis.fmu_probe import prefer_installed_pythonfmu, remove_extraction
 
     log = FMULog()
     unzipdir = extract(str(fmu))  # ours to remove, with what a pythonfmu FMU adds to sys.path inside it

@@ -20,7 +20,7 @@ import numpy as np
 from .common import (FMULog, ScenarioError, UsageError, checked_params, finish, fmu_path,
                      main_guard, new_figure, parse_args, require)
 from mkctl.errors import MkctlError
-from mkctl.fmu.probe import free_instance, instantiate, remove_extraction
+from mkctl.analysis.fmu_probe import free_instance, instantiate, remove_extraction
 from mkctl.physics.isotonic import contraction as contraction_of, static_length
 
 DT = 0.05  # longest sample interval [s]
@@ -32,7 +32,7 @@ class ActuatorFMU:
     """The actuator FMU through fmpy's low-level API: step the pressure lag, then read f at any (L, Ldot).
 
     The FMU's log (discard, error, fatal) is kept, so that a refusal says why. The instance is made and freed by
-    mkctl.fmu.probe (freed without unloading the binary), and the extracted FMU is removed in close()."""
+    mkctl.analysis.fmu_probe (freed without unloading the binary), and the extracted FMU is removed in close()."""
 
     def __init__(self, path, start_values):
         from fmpy import extract, read_model_description
