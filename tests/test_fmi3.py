@@ -52,6 +52,29 @@ def fmus(tmp_path_factory) -> dict[str, dict[str, Path]]:
             "fmi3": {short[k]: v for k, v in build_fmi3(out).items()}}
 
 
+def test_an_effect_registered_then_unregistered_leaves_no_core_behind(monkeypatch, tmp_path):
+    """The FMUs' core source is cached in the process by the key of what it is generated from: after an effect is
+    registered (its core generated) and unregistered, the FMUs get the plain core again. (A cache without that
+    key gave every later FMU of the process the effect's parameter vector: Model Exchange then failed.) The
+    generator is stood in for by one that names the parameters it sees: the caching is what is tested."""
+    from mkctl.native import build, fmu
+    from mkctl.physics import effects, params
+    monkeypatch.setattr(fmu, "_CORE_SOURCES", {})
+    monkeypatch.setattr(build, "cache_dir", lambda: tmp_path)
+    monkeypatch.setattr(fmu, "generate_core_source", lambda: f"core of {list(params.PARAMETER_NAMES)}")
+    plain = fmu.core_source()
+    effects.register(effects.Effect(
+        "test_fmi3_stiffening", "f += k_fmi3 (L - L0)^2",
+        parameters=(effects.Parameter("k_fmi3", "Pa", off=0.0, lower=0.0, upper=1e7, typical=2e4),),
+        tension=lambda L, Ldot, P, p, xp: p.k_fmi3 * (L - p.L0) ** 2))
+    try:
+        with_effect = fmu.core_source()
+    finally:
+        effects.unregister("test_fmi3_stiffening")
+    assert "k_fmi3" in with_effect and "k_fmi3" not in plain
+    assert fmu.core_source() == plain
+
+
 # --- validation and interface --------------------------------------------------------------------------------------
 
 def _describe(path: Path) -> dict:

@@ -38,7 +38,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
-import functools
 import math
 import os
 import shutil
@@ -475,25 +474,35 @@ def _c_template(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\001", '\\001""') + '"'
 
 
-@functools.lru_cache(maxsize=1)
+#: core_source's texts in this process, by the key of what they are generated from (the effect registry included:
+#: an effect registered at run time, then unregistered, must not leave its core behind).
+_CORE_SOURCES: dict[str, str] = {}
+
+
 def core_source() -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
-    (:func:`mkctl.native.build.cache_dir`), keyed by everything it is generated from (the core's inputs and
-    this module): tracing the equations takes seconds, and every build of the FMUs needs the same text."""
+    (:func:`mkctl.native.build.cache_dir`) and in this process, keyed by everything it is generated from (the
+    core's inputs, the effect registry and this module): tracing the equations takes seconds, and every build of
+    the FMUs needs the same text."""
     import hashlib
 
     from . import build
     from .variants import all_variants
     digest = hashlib.sha256(build.input_key(all_variants()).encode())
     digest.update(Path(__file__).read_bytes())
-    path = build.cache_dir() / f"fmu-core-{digest.hexdigest()[:20]}.c"
+    key = digest.hexdigest()[:20]
+    if key in _CORE_SOURCES:
+        return _CORE_SOURCES[key]
+    path = build.cache_dir() / f"fmu-core-{key}.c"
     if path.is_file():
-        return path.read_text()
-    text = generate_core_source()
-    try:
-        build._write_atomic(path, text.encode())
-    except OSError:  # a read-only cache only costs time
-        pass
+        text = path.read_text()
+    else:
+        text = generate_core_source()
+        try:
+            build._write_atomic(path, text.encode())
+        except OSError:  # a read-only cache only costs time
+            pass
+    _CORE_SOURCES[key] = text
     return text
 
 
