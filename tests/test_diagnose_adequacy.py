@@ -113,3 +113,14 @@ def test_heavy_sensor_noise_on_a_clean_isotonic_record_adds_no_friction(tmp_path
     assert result.missing == [] and result.verdict == "nothing missing"
     assert result.rmse_after > 2.0 * result.output_noise  # what the output noise alone would call incomplete
     assert result.adequacy["input_noise_through_model"] > result.output_noise
+
+
+@pytest.mark.parametrize("hidden, missing", [({}, []), ({"Fc": 1.5}, ["coulomb_friction"])])
+def test_coloured_noise_on_a_signal_too_fast_to_resolve_it_is_read_from_the_models_residual(tmp_path, hidden,
+                                                                                          missing):
+    """Isotonic pressure held on levels a few samples long, AR(1) noise (0.2 s at 37.5 ms): the record's own
+    estimate cannot separate the noise from the steps (and reads 0.004 mm, white); the baseline's residual (nothing
+    hidden) or the final model's (friction found) is the noise alone, and reads 0.01 mm."""
+    result, _ = diagnose_synthetic(tmp_path, "isotonic", hidden, 0.01, seed=0, noise_tau=0.2, shape="steps")
+    assert result.missing == missing and result.verdict == ("diagnosed" if missing else "nothing missing")
+    assert result.adequacy["noise"] == pytest.approx(0.01, rel=0.2)

@@ -339,6 +339,8 @@ class NoiseModel:
     sigma: float
     correlation: float = 0.0
     seed: int = 0  #: of the realisation the null test adds to a simulation
+    #: the signal leaked into the estimate (a correlation at :data:`SIGNAL_LEAK_CORRELATION`): taken as white
+    unresolved: bool = False
 
     def on_grid(self, stride: int) -> float:
         """The correlation between samples ``stride`` apart: phi ** stride."""
@@ -411,8 +413,10 @@ def noise_model(signal, window: int = NOISE_WINDOW) -> NoiseModel:
     x = np.asarray(signal, dtype=float)
     white = NoiseModel(output_noise(x))
     estimate = _ar1_estimate(x, window)
-    if estimate is None or not WHITE_NOISE_CORRELATION <= estimate[1] < SIGNAL_LEAK_CORRELATION:
-        return white  # white, or a "noise" correlated beyond what the record resolves: the signal leaked in
+    if estimate is not None and estimate[1] >= SIGNAL_LEAK_CORRELATION:  # the signal leaked in
+        return dataclasses.replace(white, unresolved=True)
+    if estimate is None or estimate[1] < WHITE_NOISE_CORRELATION:
+        return white
     longer = min(MAX_NOISE_WINDOW, x.size // 4)
     longer = min(longer, int(NOISE_WINDOW_PER_TIME / (1.0 - estimate[1]))) | 1
     if longer > window:  # kept unless the signal leaked in (phi driven to the largest it resolves)
@@ -1297,14 +1301,13 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
     if gaps:
         notes.append(gaps)
         say(gaps)
-    # a blocked-force record's points are not a time series: its noise is white by construction
-    noise = noise_model(m.output) if m.has_time and m.experiment != "isometric" else NoiseModel(output_noise(m.output))
     for note in input_notes:
         say(note)
     try:
         full_before = simulate_output(prepared, m.params)
     except MkctlError as error:
         raise MkctlError(f"{m.source}: the model cannot simulate this record: {error}") from None
+    noise = _output_noise_model(m, full_before)
     saturation = saturation_note(prepared, m.params, full_before)
     if saturation:
         notes.append(saturation["text"])
@@ -1318,6 +1321,20 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
     problems = sanity_problems(m, full_before, m.params, fit_offset)
     return _Record(m, prepared, start, lag, {"pressure_lag"} if lag_judged else set(), noise, full_before, notes,
                    common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info))
+
+
+def _output_noise_model(m: Measurement, baseline) -> NoiseModel:
+    """The output noise (:func:`noise_model`) of a time series; white for a blocked-force record (points, not a
+    time series). Where the signal changes too fast for the local cubic (pressure held on levels a few samples
+    long), the estimate is made again on the baseline's residual, from which the model took that signal out."""
+    if not m.has_time or m.experiment == "isometric":
+        return NoiseModel(output_noise(m.output))
+    noise = noise_model(m.output)
+    if noise.unresolved:
+        again = noise_model(m.output - baseline)
+        if not again.unresolved and again.sigma > noise.sigma:
+            return again
+    return noise
 
 
 def _not_diagnosed(record: _Record, say) -> DiagnosisResult:
@@ -1422,6 +1439,16 @@ def verdict_of(added: list, undecided: list, fit: Adequacy, noise_text: str) -> 
                           f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
 
 
+def _final_noise(record: _Record, final: _Final) -> NoiseModel:
+    """The noise the final model should leave: the record's estimate, or, where the signal changed too fast to
+    resolve it (:attr:`NoiseModel.unresolved`), the estimate on the final model's residual when that is resolved
+    and larger (the model took the signal out; a residual that still changes with the signal stays unresolved)."""
+    if not record.noise.unresolved:
+        return record.noise
+    again = noise_model(record.measurement.output - final.simulated)
+    return again if not again.unresolved and again.sigma > record.noise.sigma else record.noise
+
+
 def _result(record: _Record, state: "_Search", final: _Final, offset_before: float, rule: Rule,
             say) -> DiagnosisResult:
     """The report: the error after each step over every sample, the adequacy of the final model, the verdict."""
@@ -1433,10 +1460,11 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         step["rmse"] = value
     before = record.full_before + offset_before
     floor = record.input_floor(final.params, final.simulated - final.offset)
-    sigma = math.hypot(record.noise.sigma, floor)
-    fit = adequacy(m.output - final.simulated, sigma, record.noise.correlation, rule)
-    noise_text = f"estimated output noise {record.noise.sigma * to_file:.2g} {m.output_unit}" + (
-        f", correlated {record.noise.correlation:.2f} between samples" if record.noise.correlation else "") + (
+    noise = _final_noise(record, final)
+    sigma = math.hypot(noise.sigma, floor)
+    fit = adequacy(m.output - final.simulated, sigma, noise.correlation, rule)
+    noise_text = f"estimated output noise {noise.sigma * to_file:.2g} {m.output_unit}" + (
+        f", correlated {noise.correlation:.2f} between samples" if noise.correlation else "") + (
         f", and {floor * to_file:.2g} {m.output_unit} of the measured inputs' noise through the model" if floor else "")
     verdict, note = verdict_of(final.added, state.undecided, fit, noise_text)
     notes = list(record.notes)
