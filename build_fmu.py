@@ -2,7 +2,9 @@
 
     python build_fmu.py [--out DIR] [--no-run] [--params MUSCLE.json]
 
-writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist`` next to this file).
+writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist`` next to this file),
+and with a C compiler their native twins: FMI 2.0 in ``DIR/native/``, FMI 3.0 in ``DIR/fmi3/`` (Linux binaries, and
+Windows ones when MinGW-w64 is installed; see docs/fmu.md).
 The work is done by :func:`mkctl.fmu.build.build` (also ``python -m mkctl.fmu.build`` from an installed mkctl);
 see its docstring and docs/fmu.md.
 """

@@ -11,7 +11,22 @@ call it. Modules, from the bottom up:
 """
 from .errors import DomainError, MeasurementFileError, MkctlError, ParameterError
 from .io.muscle import read_muscle, write_muscle
+from .physics import backend as _backend
 from .physics.params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, Params
+
+
+def _compiled_core(params):
+    """The compiled core (:mod:`mkctl.native`) for params' structure, or None: no compiler, switched off
+    (``MKCTL_NATIVE=0``), or mkctl.native absent (a pythonfmu FMU packs only the modules it imports)."""
+    try:
+        from .native import compiled
+    except ImportError:
+        return None
+    return compiled.core_for(params)
+
+
+# the physics layer is handed the compiled core; it never imports the layer above it
+_backend.install(_compiled_core)
 
 __version__ = "0.1.0"
 

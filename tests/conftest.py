@@ -7,6 +7,7 @@ instead of the packed one (DEVELOPERS.md, "Known pitfalls"). Tests therefore dri
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -42,3 +43,14 @@ def run_python(tmp_path_factory):
         return json.loads(done.stdout.strip().splitlines()[-1])
 
     return run
+
+
+def pytest_collection_modifyitems(config, items):
+    """Tests marked ``slow`` (end-to-end runs of a minute or more) run only with ``MKCTL_SLOW=1``, as in ``.ci/run``:
+    the README's test command stays quick on a user's machine, and CI still runs everything."""
+    if os.environ.get("MKCTL_SLOW", "").strip() not in ("", "0"):
+        return
+    skip = pytest.mark.skip(reason="slow: runs with MKCTL_SLOW=1 (as .ci/run does)")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)

@@ -17,7 +17,7 @@ def test_the_notebook_session_runs_and_finds_what_was_hidden(tmp_path, monkeypat
     monkeypatch.chdir(tmp_path)
     blocks = cells()
     assert len(blocks) >= 5
-    namespace = {"__name__": "__notebook__"}
+    namespace = {"__name__": "__main__"}  # as in Jupyter
     for block in blocks:
         exec(compile(block, "<docs/api.md cell>", "exec"), namespace)
     out = capsys.readouterr().out

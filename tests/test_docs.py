@@ -12,7 +12,8 @@ DOCS = [ROOT / "README.md", ROOT / "docs" / "api.md"]
 def python_blocks():
     for doc in DOCS:
         for i, block in enumerate(re.findall(r"```python\n(.*?)```", doc.read_text(), re.S)):
-            yield pytest.param(block, id=f"{doc.name}-{i}")
+            if '__name__ == "__main__"' not in block:  # a script's guard: run as a script (test_docs_blocks.py)
+                yield pytest.param(block, id=f"{doc.name}-{i}")
 
 
 @pytest.mark.parametrize("code", list(python_blocks()))
@@ -22,32 +23,40 @@ def test_example_runs(code, tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().out.strip(), "an example should print what it shows"
 
 
+#: Set (to anything but "" or "0") where the team's ``shared/`` folder must be there: ``.ci/run`` sets it, so that
+#: CI fails instead of skipping when the spec copy cannot be checked.
+REQUIRE_SHARED = "MKCTL_REQUIRE_SHARED"
+
+
 def test_the_spec_copy_in_docs_is_current():
     """docs/model-spec.md ends with the team's spec, ``shared/spec/model-spec.md`` beside this checkout (CI has it
-    there) or in the folder ``MKCTL_SHARED`` names. Without it the test fails, unless ``MKCTL_NO_SHARED`` says why
-    the spec is absent on purpose (e.g. ``MKCTL_NO_SHARED="a user's clone"``): then it skips with that reason,
-    which ``-ra`` prints in the summary."""
+    there) or in the folder ``MKCTL_SHARED`` names. A clone with nothing beside it (a user's) skips with the reason,
+    which ``-ra`` prints in the summary; with ``MKCTL_REQUIRE_SHARED=1`` (set by ``.ci/run``) a missing spec fails."""
     folder = Path(os.environ["MKCTL_SHARED"]) if os.environ.get("MKCTL_SHARED") else ROOT.parent / "shared"
     shared = folder / "spec" / "model-spec.md"
     if not shared.is_file():
-        why = os.environ.get("MKCTL_NO_SHARED", "").strip()
-        if why:
-            pytest.skip(f"SPEC COPY NOT CHECKED: {shared} is absent on purpose (MKCTL_NO_SHARED: {why})")
-        pytest.fail(f"{shared} not found, so docs/model-spec.md cannot be checked against the team's spec: put "
-                    "shared/ beside the checkout, point MKCTL_SHARED at it, or set MKCTL_NO_SHARED to the reason "
-                    "it is absent", pytrace=False)
+        if os.environ.get(REQUIRE_SHARED, "").strip() not in ("", "0"):
+            pytest.fail(f"{shared} not found, so docs/model-spec.md cannot be checked against the team's spec "
+                        f"({REQUIRE_SHARED} is set): put shared/ beside the checkout or point MKCTL_SHARED at it",
+                        pytrace=False)
+        pytest.skip(f"spec copy not checked: the team's spec {shared} is not beside this checkout (a clone of its "
+                    f"own; CI checks it with {REQUIRE_SHARED}=1)")
     copy = (ROOT / "docs" / "model-spec.md").read_text()
     assert copy.endswith(shared.read_text()), "docs/model-spec.md differs from shared/spec/model-spec.md: copy it again"
 
 
-def test_the_spec_check_fails_without_the_shared_folder(tmp_path, monkeypatch):
-    """The check above cannot pass silently: pointed at an empty folder it fails, with a reason it skips."""
+def test_the_spec_check_skips_in_a_clone_and_fails_where_required(tmp_path, monkeypatch):
+    """The check above cannot pass silently: pointed at an empty folder it skips, and fails where CI requires it."""
     monkeypatch.setenv("MKCTL_SHARED", str(tmp_path))
-    monkeypatch.delenv("MKCTL_NO_SHARED", raising=False)
+    monkeypatch.delenv(REQUIRE_SHARED, raising=False)
+    with pytest.raises(pytest.skip.Exception, match="not beside this checkout"):
+        test_the_spec_copy_in_docs_is_current()
+    monkeypatch.setenv(REQUIRE_SHARED, "1")
     with pytest.raises(pytest.fail.Exception, match="not found"):
         test_the_spec_copy_in_docs_is_current()
-    monkeypatch.setenv("MKCTL_NO_SHARED", "testing the skip")
-    with pytest.raises(pytest.skip.Exception, match="absent on purpose"):
+    (tmp_path / "spec").mkdir()
+    (tmp_path / "spec" / "model-spec.md").write_text("not the spec\n")
+    with pytest.raises(AssertionError, match="copy it again"):
         test_the_spec_copy_in_docs_is_current()
 
 

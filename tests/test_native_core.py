@@ -401,22 +401,25 @@ def test_the_build_is_cached_by_generated_source(tmp_path, monkeypatch):
 
 
 def _random_params(rng, variant) -> Params:
-    """A random parameter set of the given structure: every real parameter moved off its default."""
-    from mkctl.physics.params import DEFAULT, PARAMETER_NAMES
-    values = {}
-    for name in PARAMETER_NAMES:
-        default = getattr(DEFAULT, name)
-        if name in ("model", "slack", "n"):
-            continue
-        if name == "Fc":
-            values[name] = rng.uniform(0.5, 5.0) if variant.friction else 0.0
-        elif name == "tau":
-            values[name] = rng.uniform(0.005, 0.1) if variant.lag else 0.0
-        elif default == 0:  # an effect switched off by default (c, or one added later): on, at some value
-            values[name] = rng.uniform(0.1, 1.0) * (40.0 if name == "c" else 1.0)
-        else:
-            values[name] = default * rng.uniform(0.97, 1.03)
-    return Params(model=variant.model, slack=int(variant.slack), **values)
+    """A random parameter set of the given structure: every real table parameter moved off its default, the
+    variant's structural effects on at a random value (off values for the others), every other effect on or off
+    at random (their terms are always compiled in: off must give the same as Python's skipped term)."""
+    from mkctl.physics import effects
+    from mkctl.physics.params import BASE_NAMES, DEFAULT
+    values = {name: getattr(DEFAULT, name) * rng.uniform(0.97, 1.03) for name in BASE_NAMES if name != "n"}
+    for effect in effects.all_effects():
+        on = effect.name in variant.on if effect.structural else bool(rng.integers(2))
+        for q in effect.parameters:
+            if q.switch:
+                values[q.name] = (q.upper if q.off == q.lower else q.lower) if on and q is effect.switch_parameter \
+                    else q.off
+            elif not on and q is effect.switch_parameter:
+                values[q.name] = q.off
+            else:
+                typical = q.typical if q.typical is not None else (q.start or q.scale)
+                values[q.name] = typical * rng.uniform(0.5, 1.5)
+    values["c"] = values["c"] * 40.0 / 45.0 if values["c"] else 0.0
+    return Params(**values)
 
 
 def test_every_parameter_is_a_run_time_input_and_every_branch_a_variant():

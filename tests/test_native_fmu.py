@@ -1,7 +1,8 @@
 """The native FMUs (model-spec section 7b): built by mkctl.native.fmu, checked against the pythonfmu FMUs.
 
 - same interface: every variable's name, value reference, type, causality, variability, unit, description and
-  start value, the units, the default experiment, as read from both modelDescription.xml files;
+  start value, the units, the default experiment, as read from both modelDescription.xml files (Model Exchange's
+  local variables follow the slave's: tests/test_native_me.py);
 - same results: both FMUs driven by fmpy with the same inputs, each in a fresh process, agree to 1e-9 (relative
   to the output's range) on every output: a pressure step with c, tau and Fc, runs onto both end stops, the
   actuator under changing inputs;
@@ -69,8 +70,19 @@ def test_native_fmu_shows_the_pythonfmu_fmus_interface_and_validates(native_fmus
     from fmpy.validation import validate_fmu
     assert validate_fmu(str(native_fmus[model])) == []
     native, python = _describe(native_fmus[model]), _describe(built_fmus[model])
+    # the slave's variables come first, unchanged; Model Exchange adds local variables after them (see
+    # tests/test_native_me.py): its lag states and a der(...) of every state, and their units
+    slave_count = len(python["variables"])
+    added = native["variables"][slave_count:]
+    assert added and all(v[3] == "local" and v[7] is None for v in added)
+    assert native.pop("initial") == python.pop("initial") + [v[0] for v in added]
+    added_units = {v[6] for v in added} - {v[6] for v in python["variables"]}
+    assert set(native["units"]) == set(python["units"]) | added_units
+    native["units"] = {name: value for name, value in native["units"].items() if name not in added_units}
     # pythonfmu writes start values with 16 digits, the native FMU with all 17 (exact): compare them apart
-    for name, a, b in zip([v[0] for v in python["variables"]], native.pop("variables"), python.pop("variables")):
+    native_variables, python_variables = native.pop("variables")[:slave_count], python.pop("variables")
+    assert len(native_variables) == len(python_variables)
+    for name, a, b in zip([v[0] for v in python_variables], native_variables, python_variables):
         assert a[:-1] == b[:-1], name
         assert (a[-1] is None and b[-1] is None) or a[-1] == pytest.approx(b[-1], rel=1e-15, abs=0), name
     assert native == python

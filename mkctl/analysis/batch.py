@@ -25,13 +25,16 @@ Example
 """
 from __future__ import annotations
 
+import contextlib
 import csv
 import glob
 import json
 import logging
 import math
 import os
+import signal
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -39,6 +42,7 @@ from typing import Any, Callable, Iterable
 
 
 from ..errors import MkctlError
+from ..io.text import write_text_atomic
 from ..results import Result
 
 #: Seconds to wait for an existing scheduler before giving up (a typo should not hang the command).
@@ -95,8 +99,10 @@ def _call(function: Callable, item) -> tuple:
     return value, error, time.perf_counter() - start
 
 
-def _client(jobs: int | None, scheduler: str | None):
-    """A distributed.Client on a new LocalCluster of ``jobs`` processes, or on the scheduler at ``scheduler``."""
+def _client(jobs: int | None, scheduler: str | None, dashboard: str | None = None):
+    """A distributed.Client on a new LocalCluster of ``jobs`` processes (scheduler and workers on loopback; the
+    dashboard only if asked, at ``dashboard``: ``HOST:PORT``, or ``PORT`` on loopback), or on the scheduler at
+    ``scheduler``."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -118,14 +124,52 @@ def _client(jobs: int | None, scheduler: str | None):
     jobs = default_jobs() if jobs is None else jobs
     if int(jobs) != jobs or jobs < 1:
         raise BatchError(f"--jobs must be a whole number >= 1, got {jobs!r}")
-    cluster = LocalCluster(n_workers=int(jobs), threads_per_worker=1, processes=True, dashboard_address=":0",
-                           silence_logs=logging.ERROR)
+    with _workers_ignore_interrupts():
+        cluster = LocalCluster(n_workers=int(jobs), threads_per_worker=1, processes=True, host=LOOPBACK,
+                               dashboard_address=_dashboard_address(dashboard),
+                               silence_logs=logging.CRITICAL)
     return Client(cluster), cluster
+
+
+def _dashboard_address(dashboard: str | None) -> str | None:
+    """The dashboard's address for LocalCluster: None (no dashboard), ``PORT`` -> loopback:PORT, ``HOST:PORT``."""
+    if dashboard is None:
+        return None
+    text = str(dashboard).strip()
+    host, sep, port = text.rpartition(":")
+    if not sep:
+        host, port = LOOPBACK, text
+    if not port.isdigit() or int(port) > 65535:
+        raise BatchError(f"--dashboard {text}: expected PORT or HOST:PORT (0: any free port)")
+    return f"{host or LOOPBACK}:{int(port)}"
+
+
+#: Where the local cluster's scheduler, workers and dashboard listen: this machine only. Nothing of a batch is
+#: offered to the network unless the user starts a cluster of their own and passes its scheduler address.
+LOOPBACK = "127.0.0.1"
+
+
+@contextlib.contextmanager
+def _workers_ignore_interrupts():
+    """Worker processes started inside this block ignore SIGINT: they inherit the ignored signal through exec
+    (a blocked one would not do: the spawn unblocks it).
+
+    Ctrl-C in a terminal reaches the whole process group: only this process should answer it, with one line,
+    and close the cluster; workers that took it themselves would each print a traceback. The price: a Ctrl-C
+    pressed in the second or two while the workers start is ignored (press it again)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def run_batch(function: Callable, items: Iterable, jobs: int | None = None, scheduler: str | None = None,
               progress: bool = True, on_result: Callable[[Outcome], None] | None = None,
-              description: str = "items") -> list[Outcome]:
+              description: str = "items", dashboard: str | None = None) -> list[Outcome]:
     """``function(item)`` for every item, in parallel on Dask; the outcomes in the items' order.
 
     Parameters
@@ -141,6 +185,9 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     on_result : called in this process with each :class:`Outcome` as soon as it completes (in completion
         order): write results down here, so that nothing finished is lost if the batch stops later.
     description : what the items are, for the progress bar.
+    dashboard : serve Dask's dashboard of the local cluster at this address (``PORT`` on loopback, or
+        ``HOST:PORT``; its link is printed on stderr); default None: no dashboard. The scheduler and the
+        workers of the local cluster listen on loopback only.
 
     Returns a list of :class:`Outcome`, one per item, in the items' order. An item whose function raised
     has ``error`` set (one line) and does not stop the others; so has an item whose worker died more often
@@ -156,7 +203,9 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     from distributed import as_completed
     from tqdm import tqdm
 
-    client, cluster = _client(jobs, scheduler)
+    client, cluster = _client(jobs, scheduler, dashboard)
+    if cluster is not None and dashboard is not None:
+        print(f"Dask dashboard: {client.dashboard_link}", file=sys.stderr)
     bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     try:
@@ -238,6 +287,11 @@ def diagnose_file(path, base=None, fit_offset: bool = False) -> dict:
     start = time.perf_counter()
     measurement = read_measurement(path, base=DEFAULT if base is None else base)
     report = public(diagnose(measurement, fit_offset=fit_offset) if fit_offset else diagnose(measurement))
+    for name in ("rmse_before", "rmse_after"):
+        value = report.get(name)
+        if value is None or not math.isfinite(value):
+            raise BatchError(f"{path}: the diagnosis gave no finite {name.replace('_', ' ')} ({value}): counted as "
+                             "failed")
     report["seconds"] = time.perf_counter() - start
     return report
 
@@ -446,9 +500,33 @@ def _diagnose_item(item) -> dict:
     return diagnose_file(*item)
 
 
+def _input_key(file: str, base, fit_offset: bool) -> dict:
+    """What a record's report depends on besides mkctl: the file's content (SHA-256) and the options."""
+    import hashlib
+
+    try:
+        digest = hashlib.sha256(Path(file).read_bytes()).hexdigest()
+    except OSError:
+        digest = None
+    return {"sha256": digest, "fit_offset": bool(fit_offset),
+            "params": None if base is None else {k: v for k, v in base.as_dict().items()}}
+
+
+def _kept_report(path: Path, key: dict) -> dict | None:
+    """The report at ``path`` if a former run wrote it for the same input (:func:`_input_key`), else None."""
+    try:
+        report = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError):
+        return None
+    if not isinstance(report, dict) or report.get("input") != key or key["sha256"] is None:
+        return None
+    report.pop("input")
+    return report
+
+
 def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler: str | None = None,
                    progress: bool = True, on_record: Callable[[str, dict | None, str | None], None] | None = None,
-                   base=None, fit_offset: bool = False) -> BatchResult:
+                   base=None, fit_offset: bool = False, dashboard: str | None = None) -> BatchResult:
     """Diagnose many measurement files in parallel (:func:`run_batch` over :func:`diagnose_file`).
 
     Parameters
@@ -456,7 +534,7 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     files : paths, folders or glob patterns (:func:`expand_files`).
     out : folder for ``<stem>.diagnosis.json`` per record, :data:`SUMMARY_CSV` and :data:`SUMMARY_PNG`; each
         JSON is written as its record completes and the CSV rewritten after every record. None: write nothing.
-    jobs, scheduler, progress : as in :func:`run_batch`.
+    jobs, scheduler, progress, dashboard : as in :func:`run_batch`.
     on_record : called with (file, report or None, error or None) as each record completes.
     base : the :class:`mkctl.physics.params.Params` each file's metadata overrides (a muscle file's,
         ``--params``); default the paper's.
@@ -471,26 +549,38 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     written: dict = {}
     json_names = _json_names(paths)
 
-    def record(outcome: Outcome):
-        file = paths[outcome.index]
-        if outcome.ok:
-            reports[file] = outcome.value
+    keys = {file: _input_key(file, base, fit_offset) for file in paths}
+
+    def record(file: str, report: dict | None, error: str | None, write: bool = True):
+        if error is None:
+            reports[file] = report
         else:
-            errors[file] = outcome.error
+            errors[file] = error
         if out is not None:
-            if outcome.ok:
+            if error is None:
                 path = out / json_names[file]
-                path.parent.mkdir(parents=True, exist_ok=True)
-                path.write_text(json.dumps(outcome.value, indent=2, allow_nan=False) + "\n", encoding="utf-8")
+                if write:  # aside and renamed: a kill never leaves half a report for a re-run to trust
+                    write_text_atomic(path, json.dumps({**report, "input": keys[file]}, indent=2,
+                                                       allow_nan=False) + "\n")
                 written[file] = path
             parameters = BatchResult(paths, reports, errors, 0.0, "").parameters
             write_summary_csv(out / SUMMARY_CSV, summary_rows(paths, reports, errors, parameters), parameters)
         if on_record is not None:
-            on_record(file, outcome.value if outcome.ok else None, outcome.error)
+            on_record(file, report, error)
 
     start = time.perf_counter()
-    run_batch(_diagnose_item, [(path, base, fit_offset) for path in paths], jobs=jobs, scheduler=scheduler,
-              progress=progress, on_result=record, description="records")
+    # a re-run into the same folder keeps the reports of records already done (same file content, same options)
+    done = {file: _kept_report(out / json_names[file], keys[file]) for file in paths} if out is not None else {}
+    for file, report in done.items():
+        if report is not None:
+            record(file, report, None, write=False)
+    todo = [file for file in paths if done.get(file) is None]
+    if progress and len(todo) < len(paths):
+        print(f"{len(paths) - len(todo)} of {len(paths)} records already diagnosed in {out} (same file, same "
+              "options): kept", file=sys.stderr)
+    run_batch(_diagnose_item, [(path, base, fit_offset) for path in todo], jobs=jobs, scheduler=scheduler,
+              progress=progress, description="records", dashboard=dashboard,
+              on_result=lambda o: record(todo[o.index], o.value if o.ok else None, o.error))
     workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \
         f"{default_jobs() if jobs is None else jobs} local processes"
     result = BatchResult(paths, reports, errors, time.perf_counter() - start, workers, out, written)

@@ -65,9 +65,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import DomainError, MkctlError, ParameterError
-from ..physics import actuator
+from ..physics import actuator, effects
 from ..physics.isometric import isometric_tension
-from ..physics.params import UNITS, Params
+from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_selection, judge
 
@@ -75,14 +75,18 @@ from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_sel
 STATIC = ("b", "n", "C1", "C2")
 #: Parameters fitted only on request (``fit=``); by default they come from the files' metadata.
 OPTIONAL = ("L0", "D0", "t0", "offset")
-#: The effects calibrate can add, in the order they are tried, with the parameter each brings.
-CANDIDATES = {"slack": None, "coulomb_friction": "Fc"}
+#: The effects calibrate can add (those of the registry marked ``calibrate``), in the order they are tried
+#: (switches first), with the parameter each brings (None for a switch).
+CANDIDATES = LiveMapping(lambda: {
+    e.name: None if e.is_switch else e.fitted
+    for e in sorted((e for e in effects.all_effects() if e.calibrate), key=lambda e: not e.is_switch)})
 #: Every point whose index in its record is ``HOLDOUT_EVERY - 1`` modulo this is held out.
 HOLDOUT_EVERY = 4
 #: Estimates correlated beyond this cannot be told apart.
 IDENTIFIABLE_CORRELATION = 0.99
 #: Typical magnitudes: the fit works on value / scale.
-SCALES = {"b": 0.1, "n": 1.0, "C1": 1e5, "C2": 1e4, "L0": 0.1, "D0": 0.01, "t0": 1e-3, "Fc": 1.0, "offset": 1.0}
+SCALES = LiveMapping(lambda: {"b": 0.1, "n": 1.0, "C1": 1e5, "C2": 1e4, "L0": 0.1, "D0": 0.01, "t0": 1e-3,
+                               **{q.name: q.scale for q in effects.parameters()}, "offset": 1.0})
 #: The steepest braid angle at rest a real braid has [deg]: ``b = L0 / cos(angle)`` stays below L0 / cos of it.
 MAX_BRAID_ANGLE = 80.0
 B_OVER_L0 = 1.0 / math.cos(math.radians(MAX_BRAID_ANGLE))
@@ -259,8 +263,9 @@ def _bounds(name: str, records: list[ForceRecord], start: Params, fitting=()) ->
     if name == "L0":
         shortest = min(float(r.length.min()) for r in records)
         return 0.5 * shortest, 2.0 * longest
+    effect_ranges = {q.name: q.fit_range or (q.lower, q.upper) for q in effects.parameters()}
     return {"n": (0.05, 200.0), "C1": (0.0, 1e8), "C2": (0.0, 1e8), "D0": (1e-4, 1.0), "t0": (1e-6, 0.1),
-            "Fc": (0.0, 1e4), "offset": (-1e5, 1e5)}["offset" if is_offset(name) else name]
+            **effect_ranges, "offset": (-1e5, 1e5)}["offset" if is_offset(name) else name]
 
 
 class _Model:
@@ -297,10 +302,11 @@ class _Model:
             if r.experiment == "isometric":
                 parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
             else:
-                f = actuator.static_tension(r.length, r.pressure, params)
-                moving = actuator.slack_tension(f - r.sign * params.Fc, params.slack)
+                f = actuator.compose_tension(r.length, r.pressure, 0.0, params, quasi_static=True)
+                width = actuator.play_half_width(r.pressure, params)  # the effects' play band (Fc) [N]
+                moving = actuator.apply_limits(f - r.sign * width, params)
                 # at rest the load may lie anywhere in [f - Fc, f + Fc]: the model "predicts" the nearest edge
-                still = np.clip(r.force, f - params.Fc, f + params.Fc)
+                still = np.clip(r.force, f - width, f + width)
                 parts.append(np.where(r.sign != 0, moving, still))
         return np.concatenate(parts)
 

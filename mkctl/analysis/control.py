@@ -44,7 +44,7 @@ import numpy as np
 
 from . import fmu_probe as probe
 from ..physics import knee, stability
-from ..errors import DomainError, MkctlError
+from ..errors import DomainError, MkctlError, check_memory
 from .fmu_probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
 from ..results import Result
@@ -220,7 +220,7 @@ def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
 
 
 def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") -> ct.StateSpace:
-    """The linearization at op from the analytic partials of :func:`mkctl.physics.knee.knee_force_partials`.
+    """The linearization at op from the exact partials of :func:`mkctl.physics.knee.linearization`.
 
     Without a lag ``A = [[0, 1], [a2, a1]]`` (Eq. 18; a2 = dF/dX / m [1/s^2], a1 = dF/dV / m [1/s]) and
     ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]`` [m/(s^2 Pa)]; with a lag tau [s] the states Pe, Pf follow
@@ -231,15 +231,8 @@ def analytic_linearization(op: KneeOperatingPoint, name: str = "knee_linear") ->
     References: seed paper Eq. 17-20.
     """
     p = op.params
-    d = knee.knee_force_partials(knee.geometry_at_X(op.X, p), 0.0, op.Pe, op.Pf, p)
-    row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
-    gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
-    if p.tau > 0:
-        A = np.array([[0, 1, 0, 0], [*row, *gains], [0, 0, -1 / p.tau, 0], [0, 0, 0, -1 / p.tau]])
-        B = np.array([[0, 0], [0, 0], [1 / p.tau, 0], [0, 1 / p.tau]])
-    else:
-        A = np.array([[0.0, 1.0], row])
-        B = np.array([[0.0, 0.0], gains])
+    # every entry an exact derivative: sympy.diff of the traced effect terms (the lag block included)
+    A, B = knee.linearization(op.X, op.Pe, op.Pf, *op.inputs, p)
     return _named_ss(A, B, p, name)
 
 
@@ -449,10 +442,25 @@ def _response_info(time, y, final=None):
 
     ``final``: the known final value (else the last sample is taken as final).
     """
+    flat = {"RiseTime": math.nan, "Overshoot": math.nan, "SettlingTime": math.nan}
     if not np.any(y):
-        return {"RiseTime": math.nan, "Overshoot": math.nan, "SettlingTime": math.nan}
-    info = ct.step_info(y, time, final_output=final)
+        return flat
+    try:
+        info = ct.step_info(y, time, final_output=final)
+    except (IndexError, ValueError):  # python-control 0.10: a response that never rises to 10 % of its final value
+        return flat
     return {k: float(info[k]) for k in ("RiseTime", "Overshoot", "SettlingTime", "Peak", "SteadyStateValue")}
+
+
+def describe_response(info: dict) -> str:
+    """Rise time, overshoot and settling time of one step response (:func:`_response_info`) in words: a value
+    that does not exist is said so ("no settling time: it does not settle within the run"), never printed as nan."""
+    rise, overshoot, settling = (info.get(k, math.nan) for k in ("RiseTime", "Overshoot", "SettlingTime"))
+    parts = [f"rise {rise:.4g} s" if math.isfinite(rise) else "no rise time (it does not rise to 90 % within the run)",
+             f"overshoot {overshoot:.4g} %" if math.isfinite(overshoot) else "no overshoot figure",
+             f"settling {settling:.4g} s" if math.isfinite(settling) else
+             "no settling time (it does not settle within 2 % in the run: unstable, undamped or too slow)"]
+    return ", ".join(parts)
 
 
 @dataclass(repr=False, eq=False)
@@ -489,14 +497,19 @@ class StepResponses(Result):
         for name in self.MODELS:
             if name in self.info:
                 i = self.info[name]
-                lines.append(f"{name}: rise {i['RiseTime']:.4g} s, overshoot {i['Overshoot']:.4g} %, settling "
-                             f"{i['SettlingTime']:.4g} s, final X - X_op = {1e3 * self[name][-1]:+.4g} mm")
+                lines.append(f"{name}: {describe_response(i)}, final X - X_op = {1e3 * self[name][-1]:+.4g} mm")
         lines += [note for note in (self.end_stop and f"note: hit the {self.end_stop}", self.fmu_note) if note]
         return lines
 
     def table(self) -> dict[str, np.ndarray]:
         """Columns ``time`` [s] and one X - X_op [m] per model present."""
         return {"time": self.time, **{name: self[name] for name in self.MODELS if self[name] is not None}}
+
+
+#: Most samples of one step response (a million: 1000 s at 1 ms), and about what each takes in memory [bytes]
+#: (time, three responses, the nonlinear states and outputs, the plot).
+MAX_RESPONSE_SAMPLES = 1e6
+RESPONSE_BYTES_PER_SAMPLE = 30 * 8
 
 
 def step_responses(op: KneeOperatingPoint, dpe: float, duration: float = 2.0, t_step: float = STEP_TIME,
@@ -579,6 +592,12 @@ def _check_step(op: KneeOperatingPoint, dpe: float, duration: float, t_step: flo
     if not (math.isfinite(dt) and 0 < dt < duration):
         raise ControlAnalysisError(f"sampling dt = {dt!r} s must be positive and shorter than the duration "
                                    f"{duration:g} s")
+    check_memory(f"a step response of {duration:g} s sampled every {dt:g} s ({duration / dt:.3g} samples)",
+                 duration / dt, RESPONSE_BYTES_PER_SAMPLE)
+    if not duration / dt <= MAX_RESPONSE_SAMPLES:
+        raise ControlAnalysisError(f"a response of {duration:g} s sampled every {dt:g} s has {duration / dt:.3g} "
+                                   f"samples, more than {MAX_RESPONSE_SAMPLES:g}: choose a longer interval or a "
+                                   "shorter response")
 
 
 def _fmu_step(op: KneeOperatingPoint, dpe: float, fmu, time, t_step: float, duration: float, dt: float):
@@ -652,7 +671,13 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
     taus, open_loop, closed = lag_sweep(op, taus, gain, ti)
     fig, axes = new_figure(1, 3, figsize=(15, 4.8))
     colour = np.log10(np.repeat(taus[:, None], open_loop.shape[1], axis=1))
-    lim = 4 * float(np.abs(analytic_linearization(op.with_params(tau=0.0)).poles()).max())
+    # every pole of the range on the plot: the lag pole -1/tau reaches -1000 1/s at tau = 1 ms, the mechanical
+    # poles sit within tens of 1/s of the origin, so the real axis is linear near 0 and logarithmic beyond
+    mechanical = float(np.abs(analytic_linearization(op.with_params(tau=0.0)).poles()).max())
+    every = np.concatenate([open_loop[np.isfinite(open_loop)], closed[np.isfinite(closed)]])
+    left = 1.3 * max(float(-every.real.min()), mechanical)
+    right = max(0.3 * mechanical, 1.3 * float(every.real.max()), 1.0)
+    top = 1.2 * max(float(np.abs(every.imag).max()), mechanical)
     for ax, rows, title in ((axes[0], open_loop, "open loop: lag poles -1/tau move, mechanical poles stay"),
                             (axes[1], closed, f"closed loop, height P{'I' if ti else ''} gain K = {gain:.3g} Pa/m")):
         cols = colour if rows.shape == colour.shape else np.log10(np.repeat(taus[:, None], rows.shape[1], axis=1))
@@ -665,8 +690,10 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
         ax.plot(mech.real, mech.imag, "kx", ms=8, label=label)
         ax.legend(fontsize=8, loc="lower left")
         _pole_axes(ax, title)
-        ax.set_xlim(-lim, 0.3 * lim)
-        ax.set_ylim(-0.8 * lim, 0.8 * lim)
+        ax.set_xscale("symlog", linthresh=2 * mechanical, linscale=1.5)
+        ax.set_xlim(-left, right)
+        ax.set_ylim(-top, top)
+        ax.set_xlabel("real part [1/s] (linear within +-%.0f, logarithmic beyond)" % (2 * mechanical))
     fig.colorbar(sc, ax=axes[:2], label="log10(tau / s)")
     kc = np.array([critical_gain(height_loop(op.with_params(tau=float(t)), ti)) for t in taus])
     axes[2].loglog(taus, kc, "-", label="critical gain K_crit(tau)")
@@ -688,26 +715,28 @@ def plot_gain_locus(op: KneeOperatingPoint, gains, ti: float | None = None, tau:
 
     fig, ax = new_figure(figsize=(7, 5.4))
     summary = {}
+    shown = []
     for case, style, label in ((op.with_params(tau=0.0), "tab:blue", "no lag"),
                                (op.with_params(tau=tau), "tab:red", f"lag tau = {tau:g} s")):
         g, loci = height_root_locus(case, gains, ti)
         finite = np.abs(loci) < 1e6
-        ax.plot(loci[finite].real, loci[finite].imag, ".", ms=2, color=style, label=label)
-        ol = height_loop(case, ti).poles()
-        ax.plot(ol.real, ol.imag, "x", color=style, ms=8)
+        shown.append(loci[finite])
         kc = critical_gain(height_loop(case, ti))
         summary[label] = kc
+        ax.plot(loci[finite].real, loci[finite].imag, ".", ms=2, color=style,
+                label=f"{label}: loci" + ("" if math.isfinite(kc) else " (stable for every K)"))
+        ol = height_loop(case, ti).poles()
+        shown.append(ol)
+        ax.plot(ol.real, ol.imag, "x", color=style, ms=8, label=f"{label}: poles at K = 0")
         if math.isfinite(kc):
             at = closed_loop_poles(height_loop(case, ti), kc)
             ax.plot(at.real, at.imag, "o", mfc="none", color=style, ms=9,
-                    label=f"{label}: critical K = {kc:.4g} Pa/m")
-        else:
-            ax.plot([], [], " ", label=f"{label}: stable for every K")
-    box = np.abs(closed_loop_poles(height_loop(op.with_params(tau=tau), ti), gains[-1]))
-    lim = 1.3 * float(box.max())
-    ax.set_xlim(-lim, 0.4 * lim)
+                    label=f"{label}: at the critical K = {kc:.4g} Pa/m")
+    every = np.concatenate(shown)
+    lim = 1.15 * float(np.abs(every).max())
+    ax.set_xlim(-lim, max(0.4 * lim, 1.15 * float(every.real.max())))
     ax.set_ylim(-lim, lim)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, markerscale=1.5)
     _pole_axes(ax, f"Height P{'I' if ti else ''} control through pe_cmd, K = {gains[0]:.3g} .. {gains[-1]:.3g} Pa/m; "
                    f"c = {op.params.c:.4g} N s/m")
     return (save_png(fig, path) if path else fig), summary

@@ -58,11 +58,12 @@ from scipy.optimize import least_squares
 from ..errors import MkctlError
 from ..io import diagnosis_report
 from ..io.measurements import Measurement
-from ..physics import actuator, isotonic, knee
+from ..physics import actuator, effects, isotonic, knee
 from ..physics.isometric import isometric_tension
-from ..physics.params import UNITS, Params
+from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
+from .discovery import discover
 from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
                              forward_selection, judge, pair_needed, to_drop)
 
@@ -107,61 +108,17 @@ class Candidate:
         return params.replace(**{self.parameter: value})
 
 
-#: The candidates, in the spec's order. Elasticity fits C1 with C2 kept at its (Table I) value: C2 is
-#: 150 times smaller and its share of the tension is not separable from C1's in these experiments.
-CANDIDATES = {
-    "elasticity": Candidate("elasticity", "C1", {"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)},
-                            "the rubber's tension (model 2 minus model 1) at the measured length",
-                            "model 2 instead of model 1: the rubber's Mooney-Rivlin tension"),
-    "viscous_damping": Candidate("viscous_damping", "c", {"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
-                                 "the damping force per N s/m at the measured velocity", "f += c Ldot"),
-    "coulomb_friction": Candidate("coulomb_friction", "Fc", {"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0),
-                                                             "isometric": (1e-3, 100.0)},
-                                  "the friction force per N at the measured direction of motion",
-                                  "f += Fc tanh(Ldot / vs) (a play operator in the isotonic test)"),
-    "pressure_lag": Candidate("pressure_lag", "tau", {"knee": (1e-3, 2.0)},
-                              "the force a lag of 1 s takes away at the measured pressure-command rate",
-                              "tau dP/dt = P_cmd - P"),
-    # slack is a switch (0 or 1): its one-point search interval just compares on with off
-    "slack": Candidate("slack", "slack", {"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
-                       "the model's tension, where it is negative (a slack muscle carries nothing there)",
-                       "f = max(f, 0), applied last: a braided muscle cannot push"),
-}
+#: The candidates, in the registry's order (:mod:`mkctl.physics.effects`: every effect with a fitted parameter and
+#: the experiments it shows in). Elasticity fits C1 with C2 kept at its (Table I) value: C2 is 150 times smaller
+#: and its share of the tension is not separable from C1's in these experiments. Slack is a switch (0 or 1): its
+#: one-point search interval just compares on with off.
+CANDIDATES = LiveMapping(lambda: {
+    e.name: Candidate(e.name, e.fitted, dict(e.experiments), e.regressor, effects.why(e.name))
+    for e in effects.all_effects() if e.fitted is not None and e.experiments})
 
-#: The experiment that tells two candidates apart, for records that cannot.
-DISCRIMINATING_EXPERIMENTS = {
-    frozenset({"viscous_damping", "pressure_lag"}):
-        "a pressure step with the leg clamped (a lag delays the force even without motion, damping needs "
-        "motion), or a slow command ramp followed by a fast step (damping grows with speed, a lag delays "
-        "both by tau); with measured bladder pressures (pe_kPa, pf_kPa) the lag shows directly",
-    frozenset({"viscous_damping", "coulomb_friction"}):
-        "a pressure step instead of a ramp, or sweeps at two rates: friction leaves a rate-independent "
-        "hysteresis loop (and stops a step's ringing at a fixed amplitude), damping's loop shrinks to "
-        "nothing at low rates (and its ringing decays in proportion)",
-    frozenset({"coulomb_friction", "pressure_lag"}):
-        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only "
-        "delays the response by tau",
-    frozenset({"elasticity", "viscous_damping"}):
-        "an isotonic test held at constant pressures under several loads: elasticity changes where the "
-        "length settles, damping only how fast it gets there",
-    frozenset({"elasticity", "coulomb_friction"}):
-        "an isotonic sweep down to low pressure under several loads: elasticity bends the "
-        "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps apart",
-    frozenset({"elasticity", "pressure_lag"}):
-        "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
-    frozenset({"elasticity", "slack"}):
-        "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
-        "positive, elasticity bends the whole curve",
-    frozenset({"coulomb_friction", "slack"}):
-        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
-        "everywhere, slack only flattens them at zero",
-    frozenset({"viscous_damping", "slack"}):
-        "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
-        "needs motion",
-    frozenset({"pressure_lag", "slack"}):
-        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
-        "positive, a lag only delays each reading",
-}
+#: The experiment that tells two candidates apart, for records that cannot (each effect's definition).
+DISCRIMINATING_EXPERIMENTS = LiveMapping(lambda: {
+    frozenset({e.name, other}): text for e in effects.all_effects() for other, text in e.separation.items()})
 
 _LN10 = math.log(10.0)
 _FAILED = object()
@@ -596,8 +553,13 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
                             f"{sim_level * to_file:.4g} {unit}: {cause}")
     if problems:
         return problems
+    # A unit mistake scales the level with the motion. When the level was judged above (no offset fitted) and
+    # matched, a range of motion some factor off is the dynamics the baseline lacks (a chirp through an undamped
+    # resonance swings ten times wider than the damped record), not a unit: judge the range only where a fitted
+    # offset hides the level.
+    level_judged = not fit_offset
     spread, sim_spread = float(np.ptp(y)), float(np.ptp(sim))
-    if spread > 0 and sim_spread > 0:
+    if spread > 0 and sim_spread > 0 and not level_judged:
         ratio = spread / sim_spread
         for factor, text in _UNIT_MISTAKES.items():
             if factor in (math.pi / 180, 180 / math.pi) and output_quantity(m) != "beta":
@@ -744,7 +706,7 @@ def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: flo
 
     value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off, xatol=FIT_XATOL)
     if progress:
-        progress(f"    {candidate.effect}: {candidate.parameter} = {value:.4g} {UNITS[candidate.parameter]} "
+        progress(f"    {candidate.effect}: {diagnosis_report.parameter_text(candidate.parameter, value)} "
                  f"({evaluations[0]} simulations)")
     return value, evaluations[0]
 
@@ -875,8 +837,10 @@ def _lagged(time, command, tau):
     return out
 
 
-#: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1).
-_REFERENCE = {"c": 1.0, "Fc": 1.0, "tau": 1.0, "slack": 1.0}
+#: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1), from the
+#: effects' definitions.
+_REFERENCE = LiveMapping(lambda: {e.fitted: e.reference for e in effects.all_effects()
+                                  if e.fitted is not None and e.reference is not None})
 
 
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
@@ -899,7 +863,8 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
             ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
             args = (states["L"], states["P"], states["branch"])
             term = isometric_tension(*args, cand.apply(params, ref)) - isometric_tension(*args, params)
-            x = -states["branch"] if name == "coulomb_friction" else term
+            x = (-states["branch"] if name == "coulomb_friction"
+                 else isometric_tension(*args, params) if name == "slack" else term)  # slack: where it acts, < 0
             out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
         return out
     speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
@@ -918,7 +883,14 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
                         - actuator.tension(states["L"], states["P"], states["Ldot"], params))
             else:
                 term = _knee_force(states, with_effect) - _knee_force(states, params)
-            x = term if name in ("elasticity", "slack") else speed
+            if name == "coulomb_friction":  # friction acts through the direction of motion
+                x = np.tanh(speed / (params.vs * 1e3))
+            elif name == "slack" and not isotonic:  # the smaller tension: slack acts where it would be < 0
+                forces = knee.knee_force(knee.geometry_at_X(states["X"], params), states["V"], states["Pe"],
+                                         states["Pf"], params)
+                x = np.minimum(forces.fe, forces.ff)
+            else:
+                x = term if name in ("elasticity", "slack") else speed
         out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
     return out
 
@@ -974,6 +946,7 @@ class DiagnosisResult(Result):
     saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
     pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
@@ -1012,6 +985,7 @@ class DiagnosisResult(Result):
             "output_noise": self.output_noise, "output_noise_correlation": self.output_noise_correlation,
             "adequacy": self.adequacy, "saturation": self.saturation, "offset": self.offset,
             "pressure_lag": self.pressure_lag,
+            "discovery": self.discovery,
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
@@ -1471,12 +1445,15 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     if note:
         notes.append(note)
         say(note)
+    # spec 6b: what the final model cannot explain is regressed on a library of physical terms
+    found = discover(record.prepared, final.params, progress=say) if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
-        **record.common, verdict=verdict, missing=final.added, params=final.values, uncertainty=final.uncertainty,
+        **record.common, discovery=found, verdict=verdict, missing=final.added, params=final.values,
+        uncertainty=final.uncertainty,
         rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, final.simulated * to_file),
         fit_percent_before=fit_percent(y, before * to_file),
         fit_percent_after=fit_percent(y, final.simulated * to_file),
@@ -1653,7 +1630,7 @@ class _Search:
         added = [step["added"], *step.get("added_with", [])]
         self.say(f"  added {' and '.join(added)}" + (f", dropped {', '.join(step['dropped'])}" if step["dropped"]
                                                     else "") + ": "
-                 + ", ".join(f"{k} = {v:.4g} {UNITS[k]}" for k, v in current.values.items()))
+                 + ", ".join(diagnosis_report.parameter_text(k, v) for k, v in current.values.items()))
 
     def wider(self) -> bool:
         """Fit every pair, then every three, of candidates jointly (from their round-1 values) and judge the best

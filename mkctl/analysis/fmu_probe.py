@@ -89,6 +89,20 @@ def _model_description(path):
         raise FMUAnalysisError(f"{path} is not a valid FMU: {error}") from None
 
 
+def check_knee_fmu(path) -> Path:
+    """``path`` as a Path if it is a knee FMU (spec section 7: inputs pe_cmd, pf_cmd; outputs X, V, Pe, Pf;
+    parameter X0); else :class:`FMUAnalysisError` with one line naming the model it holds instead (an actuator FMU
+    given where the knee is needed)."""
+    path = check_fmu(path)
+    md = _model_description(path)
+    names = {v.name for v in md.modelVariables}
+    missing = [name for name in (*INPUTS, *STATE_OUTPUTS, "X0") if name not in names]
+    if missing:
+        raise FMUAnalysisError(f"{path} is not a knee FMU: it holds the model {md.modelName!r}, which lacks the "
+                               f"variable(s) {', '.join(missing)} of the knee (model-spec section 7)")
+    return path
+
+
 class KneeFMU:
     """One instance of a knee FMU driven step by step with fmpy's FMU2Slave (context manager).
 
@@ -340,7 +354,7 @@ def fmu_step_response(path, start_values: dict, inputs0, inputs1, t_step: float,
     """
     from fmpy import extract, simulate_fmu
 
-    path = Path(path)
+    path = check_knee_fmu(path)
     md = _model_description(path)
     known = {v.name for v in md.modelVariables if v.causality == "parameter"}
     values = {k: v for k, v in start_values.items() if k in known and v is not None}

@@ -39,13 +39,15 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import DomainError, MkctlError, ParameterError
+from ..io.text import write_text_atomic
+from ..errors import DomainError, MkctlError, ParameterError, check_memory
 from ..physics import knee, stability
 from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params
 from ..results import Result
@@ -98,8 +100,11 @@ def grid_values(name: str, spec) -> np.ndarray:
     _check_name(name)
     if isinstance(spec, tuple) and len(spec) == 3:
         start, stop, count = spec
-        if int(count) != count or count < 1:
+        if not (math.isfinite(count) and int(count) == count and count >= 1):
             raise SweepError(f"{name}: the number of grid values must be a whole number >= 1, got {count!r}")
+        if not (math.isfinite(float(start)) and math.isfinite(float(stop))):
+            raise SweepError(f"{name}: the grid's ends must be finite numbers, got {start!r} and {stop!r}")
+        _check_points_memory(count, 1)
         values = np.linspace(float(start), float(stop), int(count))
     else:
         values = np.atleast_1d(np.asarray(spec, dtype=float))
@@ -134,6 +139,7 @@ def grid_points(grid: dict) -> dict:
     """Every combination of the axes' values (the first axis varies slowest): {name: array of points}."""
     names = list(grid)
     axes = [grid_values(name, grid[name]) for name in names]
+    _check_points_memory(math.prod(a.size for a in axes), len(names))
     mesh = np.meshgrid(*axes, indexing="ij")
     return {name: m.ravel() for name, m in zip(names, mesh)}
 
@@ -142,6 +148,8 @@ def random_points(ranges: dict, count: int, seed: int = 0) -> dict:
     """``count`` points drawn uniformly in the ranges {name: (low, high)} (numpy ``default_rng(seed)``)."""
     if int(count) != count or count < 1:
         raise SweepError(f"--random needs a whole number of points >= 1, got {count!r}")
+    _check_points_memory(count, len(ranges))
+    _check_seed(seed)
     rng = np.random.default_rng(seed)
     points = {}
     for name, bounds in ranges.items():
@@ -154,6 +162,17 @@ def random_points(ranges: dict, count: int, seed: int = 0) -> dict:
             raise SweepError(f"{name}: the range {low:g}..{high:g} must be finite with low <= high")
         points[name] = rng.uniform(low, high, int(count))
     return points
+
+
+def _check_seed(seed) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
+        raise SweepError(f"seed must be a whole number in [0, 2^63), got {seed!r}")
+
+
+def _check_points_memory(count, axes: int) -> None:
+    """Refuse up front (with the figure) a sweep whose table would not fit in memory: each point keeps its
+    swept values and every quantity, a few times over (chunks, the joined table, the CSV's text)."""
+    check_memory(f"a sweep of {count:.4g} points", count, 4 * 8 * (axes + len(QUANTITIES) + 4))
 
 
 # --- One chunk of points ------------------------------------------------------------------------------
@@ -455,13 +474,15 @@ class SweepResult(Result):
         folder.mkdir(parents=True, exist_ok=True)
         table = self.to_dataframe()
         paths = [folder / f"{stem}.csv"]
-        table.to_csv(paths[0], index=False)
+        write_text_atomic(paths[0], table.to_csv(index=False))  # written aside and renamed: never half a table
         try:
             import pyarrow  # noqa: F401
         except ImportError:
             return paths
         paths.append(folder / f"{stem}.parquet")
-        table.to_parquet(paths[1], index=False)
+        temporary = folder / f".{stem}.parquet.tmp"
+        table.to_parquet(temporary, index=False)
+        os.replace(temporary, paths[1])
         return paths
 
     def plot_map(self, quantity: str = "damping_ratio", x: str | None = None, y: str | None = None, path=None):
@@ -489,7 +510,7 @@ class SweepResult(Result):
 
 def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict | None = None,
           fixed: dict | None = None, seed: int = 0, jobs: int | None = None, scheduler: str | None = None,
-          progress: bool = True, chunk: int | None = None) -> SweepResult:
+          progress: bool = True, chunk: int | None = None, dashboard: str | None = None) -> SweepResult:
     """The model over a grid or a random sample of parameters, postures and pressures.
 
     Parameters
@@ -503,11 +524,15 @@ def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict |
     jobs, scheduler, progress : as in :func:`mkctl.analysis.batch.run_batch` (``jobs=0``: in this process;
         by default a sweep that fits in one chunk runs in this process too).
     chunk : points per task (default: a few tasks per worker, 2000 to 20000 points each).
+    dashboard : Dask's dashboard of the local cluster, as in :func:`mkctl.analysis.batch.run_batch`.
 
     Returns a :class:`SweepResult`. Raises :class:`SweepError` for an unknown name, a bad range, or a range
     outside the model's domain (checked at the corners of the ranges before any work).
     """
     fixed = {k: float(v) for k, v in (fixed or {}).items()}
+    if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
+        raise SweepError(f"chunk must be a whole number of points >= 1, got {chunk!r}")
+    _check_seed(seed)
     if (grid is None) == (random is None):
         raise SweepError("give either a grid or a number of random points (with their ranges)")
     if grid is not None:
@@ -533,7 +558,7 @@ def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict |
 
     start = time.perf_counter()
     outcomes = run_batch(_evaluate_chunk, [(s, p, fixed) for s, p in chunks], jobs=jobs, scheduler=scheduler,
-                         progress=progress, description="chunks")
+                         progress=progress, description="chunks", dashboard=dashboard)
     failed = [o for o in outcomes if not o.ok]
     if failed:
         raise SweepError(f"a chunk of the sweep failed: {failed[0].error}")

@@ -42,10 +42,12 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from ..errors import ParameterError, check_memory
 from ..physics.isotonic import simulate_isotonic
-from ..io.measurements import BASELINES, EXPERIMENTS, UNIT_FACTORS, round_to_file, write_measurement
-from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, Params
+from ..io.text import write_text_atomic
+from ..io.measurements import BASELINES, EXPERIMENTS, LARGEST, UNIT_FACTORS, round_to_file, write_measurement
+from ..physics import effects
+from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, LiveMapping, Params
 from ..physics.simulate import default_commands, simulate_knee
 
 #: Default samples per experiment.
@@ -54,9 +56,10 @@ DEFAULT_SAMPLES = {"knee": 3000, "isotonic": 2000}
 DEFAULT_RATE = 1000.0
 #: Default noise standard deviation of the measured output [mm].
 DEFAULT_NOISE_MM = 0.01
-#: Values an effect takes when it is hidden by name alone (SI); elasticity takes Table I's C1, C2.
-DEFAULT_EFFECT_VALUES = {"elasticity": {}, "viscous_damping": {"c": 45.0}, "coulomb_friction": {"Fc": 2.0},
-                         "pressure_lag": {"tau": 0.05}}
+#: Values an effect takes when it is hidden by name alone (SI; each parameter's typical value in the registry);
+#: elasticity takes Table I's C1, C2. Switches (slack) are hidden by value (slack=1).
+DEFAULT_EFFECT_VALUES = LiveMapping(lambda: {e.name: e.typical_values for e in effects.all_effects()
+                                             if not e.is_switch})
 #: Knee extensor command steps: (fraction of the record, factor on the holding pressure).
 KNEE_STEPS = ((0.05, 1.04), (0.275, 0.97), (0.50, 1.03), (0.725, 0.98))
 #: Isotonic sweeps: loads [N], pressure range [Pa], slow and fast cycle durations [s].
@@ -134,8 +137,43 @@ def isotonic_inputs(samples: int = DEFAULT_SAMPLES["isotonic"], loads=ISOTONIC_L
 
 
 def _check_samples(samples):
-    if int(samples) != samples or samples < 10:
-        raise ParameterError(f"a synthetic record needs at least 10 samples, got {samples!r}")
+    if isinstance(samples, bool) or not isinstance(samples, (int, np.integer)) or samples < 10:
+        raise ParameterError(f"a synthetic record needs a whole number of at least 10 samples, got {samples!r}")
+    # the simulation keeps about 40 float arrays of the record's length (states, outputs, inputs, noise, text)
+    check_memory(f"a synthetic record of {samples} samples", samples, 40 * 8)
+
+
+#: Largest sample rate of a synthetic knee record [Hz] (a real rig logs at most a few kHz).
+LARGEST_RATE = 1e6
+#: Largest correlation time of the output noise [s].
+LARGEST_NOISE_TAU = 1e4
+
+
+def _check_options(experiment, seed, samples, rate, noise, noise_factor, output_kind, input_noise, noise_tau, offset,
+                   resolution, pressures):
+    """The domain of synthesize's arguments: one line naming the argument, its value and the allowed range."""
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
+        raise ParameterError(f"seed must be a whole number in [0, 2^63), got {seed!r}")
+    if samples is not None:
+        _check_samples(samples)
+    if not (np.isfinite(rate) and 0 < rate <= LARGEST_RATE):
+        raise ParameterError(f"sample rate = {rate!r} Hz is outside (0, {LARGEST_RATE:g}] Hz")
+    n = DEFAULT_SAMPLES.get(experiment, 0) if samples is None else samples
+    if experiment == "knee" and not n / rate <= LARGEST["time"]:
+        raise ParameterError(f"{n} samples at {rate:g} Hz last {n / rate:g} s, longer than a record may "
+                             f"({LARGEST['time']:g} s)")
+    largest = LARGEST[output_kind] / noise_factor  # in the output column's unit
+    for name, value in (("noise", noise), ("offset", abs(offset)), ("resolution", resolution)):
+        if not (np.isfinite(value) and 0 <= value <= largest):
+            raise ParameterError(f"{name} = {value!r} is outside [0, {largest:g}] (the output column's unit; beyond "
+                                 "it no real sensor reads)")
+    if not (np.isfinite(input_noise) and 0 <= input_noise <= LARGEST["pressure"] / 1e3):
+        raise ParameterError(f"input noise = {input_noise!r} kPa is outside [0, {LARGEST['pressure'] / 1e3:g}] kPa")
+    if input_noise and experiment == "knee" and not pressures:
+        raise ParameterError("input noise is the noise of the measured bladder pressures: a knee record has them "
+                             "only with pressures (--pressures)")
+    if not (np.isfinite(noise_tau) and 0 <= noise_tau <= LARGEST_NOISE_TAU):
+        raise ParameterError(f"noise correlation time = {noise_tau!r} s is outside [0, {LARGEST_NOISE_TAU:g}] s")
 
 
 def hidden_values(hidden) -> dict:
@@ -252,6 +290,16 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
         The output sensor's resolution [output column's unit]: the measured output is rounded to multiples of
         it (a 12-bit joint encoder: ``output="beta_deg", resolution=360 / 2**12``); 0: none.
     """
+    if experiment in EXPERIMENTS:
+        spec = EXPERIMENTS[experiment]
+        kind, factor = spec.output.kind, UNIT_FACTORS[spec.output.kind][spec.output.unit]
+        if output:
+            name, _, unit = output.rpartition("_")
+            q = next((q for q in spec.outputs if q.name == name), spec.output)
+            kind, factor = q.kind, UNIT_FACTORS[q.kind].get(unit, factor)
+        default = DEFAULT_NOISE_N if experiment == "isometric" else DEFAULT_NOISE_MM
+        _check_options(experiment, seed, samples, rate, default if noise is None else noise, factor, kind,
+                       input_noise, noise_tau, offset, resolution, pressures)
     if experiment == "isometric":  # the blocked-force bench (noise in N)
         if resolution:
             raise ParameterError("resolution rounds a knee or isotonic output; the isometric bench has none")
@@ -389,7 +437,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
     truth_path = None
     if truth_file:
         truth_path = truth_path_for(path)
-        truth_path.write_text(json.dumps({
+        write_text_atomic(truth_path, json.dumps({
             "file": path.name,
             "experiment": record.experiment,
             "baseline": record.baseline,
@@ -406,7 +454,7 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
             "resolution": record.resolution,
             "seed": record.seed,
             "samples": int(record.time.size),
-        }, indent=2) + "\n", encoding="utf-8")
+        }, indent=2, allow_nan=False) + "\n")
     return path, truth_path
 
 

@@ -9,14 +9,18 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .options import OneLineParser, run_reporting_errors
 from . import batch, calibrate, control, measure, paper, run
+from .options import OneLineParser, run_reporting_errors
 
-#: Subcommand modules, in the order ``mkctl --help`` lists them.
+#: Subcommand modules, in the order ``mkctl --help`` lists them. Each is light to import: what a command needs
+#: (scipy, matplotlib, python-control, fmpy, Dask) is imported when the command runs, and its options (whose
+#: defaults may come from those modules) are added only when that command is asked for.
 COMMANDS = [run, paper, control, measure, batch, calibrate]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``mkctl`` parser: every subcommand with all its options, or (given ``command``) that subcommand's module
+    in full and the others by name and one-line help only, which is all ``mkctl --help`` and a usage error need."""
     parser = OneLineParser(
         prog="mkctl",
         description="McKibben muscles and the knee they drive: the paper's figures, FMUs, control analysis "
@@ -24,17 +28,33 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=OneLineParser)
     for module in COMMANDS:
-        module.register(sub)
+        if command is None or command in module.COMMANDS:
+            module.register(sub)
+        else:
+            for name, text in module.COMMANDS.items():
+                sub.add_parser(name, help=text)
     return parser
 
 
+def requested_command(argv: list[str]) -> str:
+    """The subcommand named on a command line (its first word that is not an option), or "" when there is none.
+    ``mkctl`` itself takes no option with a value, so the first such word is the subcommand."""
+    return next((word for word in argv if not word.startswith("-")), "")
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
+    argv = sys.argv[1:] if argv is None else list(argv)
+    try:
+        parser = build_parser(requested_command(argv))
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:  # Ctrl-C while the subcommands load: one line, as during a run
+        print("mkctl: interrupted", file=sys.stderr)
+        return 130
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
     return run_reporting_errors(f"mkctl {args.command}", args.func, args)
+
 
 if __name__ == "__main__":
     sys.exit(main())

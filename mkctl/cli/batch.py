@@ -25,6 +25,9 @@ def add_engine_options(parser) -> None:
     parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
                         help="run on the Dask cluster of this scheduler instead, e.g. tcp://10.0.0.5:8786 "
                              "(workers need mkctl installed and the files under the same paths)")
+    parser.add_argument("--dashboard", metavar="[HOST:]PORT", default=None,
+                        help="serve Dask's dashboard of the local cluster here (PORT alone: on 127.0.0.1; 0: any free "
+                             "port); default: no dashboard. The local scheduler and workers listen on 127.0.0.1 only")
 
 
 def _check_jobs(args) -> None:
@@ -32,12 +35,19 @@ def _check_jobs(args) -> None:
         raise UsageError(f"--jobs must be 0 or more, got {args.jobs}")
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "sweep": "the model over a grid or a random sample of parameters: stability, poles, step metrics",
+}
+
+
 def register(subparsers) -> None:
     """Add ``sweep`` to the `mkctl` parser."""
     from ..analysis.sweep import QUANTITIES
 
     p = subparsers.add_parser(
-        "sweep", help="the model over a grid or a random sample of parameters: stability, poles, step metrics",
+        "sweep", help=COMMANDS["sweep"],
         description="For every point (parameters of model-spec sections 2-4 in SI, the posture alpha_deg [deg] "
                     "and the flexor pressure pf_kPa [kPa]) compute the extensor pressure that holds the posture, "
                     "a1 and a2 of Eq. 18 and the Routh-Hurwitz verdict, the poles, the damping ratio, and the "
@@ -98,7 +108,7 @@ def run_sweep(args) -> int:
         grid = dict(parse_axis(item) for item in args.grid)
         ranges = None
     result = sweep(grid, random=args.random, ranges=ranges, fixed=fixed, seed=args.seed, jobs=args.jobs,
-                   scheduler=args.scheduler, progress=not args.quiet, chunk=args.chunk)
+                   scheduler=args.scheduler, progress=not args.quiet, chunk=args.chunk, dashboard=args.dashboard)
     print(repr(result))
     paths = result.save(folder)
     names = list(result.axes)
@@ -135,7 +145,8 @@ def run_diagnose_batch(args) -> int:
             tqdm.write(f"{Path(file).name}: {what}", file=sys.stderr)
 
     result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
-                            on_record=said, base=base_params(args), fit_offset=getattr(args, "fit_offset", False))
+                            on_record=said, base=base_params(args), fit_offset=getattr(args, "fit_offset", False),
+                            dashboard=getattr(args, "dashboard", None))
     print(repr(result))
     print(f"reports: {folder}/<record>.diagnosis.json; table: {folder / SUMMARY_CSV}; figure: {folder / SUMMARY_PNG}")
     refused = [f for f, r in result.reports.items() if r.get("verdict") == "not diagnosed"]

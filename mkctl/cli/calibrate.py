@@ -12,13 +12,20 @@ import sys
 from .options import UsageError, add_params_option, base_params, output_file, output_folder, split_items
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "calibrate": "fit your own muscle's b, n, C1, C2 (and the effects its data show) from blocked-force "
+                 "and isotonic files; write MUSCLE.json",
+}
+
+
 def register(subparsers) -> None:
     """Add ``calibrate`` to the `mkctl` parser."""
     from ..analysis.calibrate import CANDIDATES, MAX_EVALUATIONS, OPTIONAL
 
     p = subparsers.add_parser(
-        "calibrate", help="fit your own muscle's b, n, C1, C2 (and the effects its data show) from blocked-force "
-                          "and isotonic files; write MUSCLE.json",
+        "calibrate", help=COMMANDS["calibrate"],
         description="Fit the static parameters a user cannot measure (b, n, C1, C2; more with --fit) from one or "
                     "more isometric and/or isotonic files of the same muscle, from several starting points within "
                     "physical bounds; then add the effects the data support (slack, coulomb_friction: forward "

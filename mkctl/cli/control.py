@@ -38,6 +38,14 @@ CLI_DEFAULT_FMU = Path("dist") / "McKibbenKnee.fmu"
 #: Above this gauge pressure [Pa] a note says the result is far outside what a McKibben muscle takes: many
 #: times its rating (the defaults already need about three times it, so the note is kept for the extreme).
 PLAUSIBLE_PRESSURE = 10 * RATED_PRESSURE
+#: Largest gauge pressure an option takes [kPa]: 100 MPa, as a measurement file (mkctl.io.measurements.LARGEST).
+LARGEST_KPA = 1e5
+#: Largest damping ratio --zeta takes (critical damping is 1).
+LARGEST_ZETA = 100.0
+#: Largest height gain --gain takes [Pa/m]: a 1 mm error would command 1000 MPa.
+LARGEST_GAIN = 1e12
+#: Longest step response --duration takes [s].
+LONGEST_RESPONSE = 1000.0
 
 
 def _add_common(parser, needs_damping: bool) -> None:
@@ -66,9 +74,18 @@ def _add_fmu(parser) -> None:
     parser.add_argument("--no-fmu", action="store_true", help="leave the FMU out")
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "linearize": "operating point, linear model, poles and the damping for zeta",
+    "rootlocus": "root loci against c, tau or the height-control gain",
+    "step": "pressure-step responses: linear, nonlinear and FMU",
+}
+
+
 def register(subparsers) -> None:
     """Add ``linearize``, ``rootlocus`` and ``step`` to the ``mkctl`` parser."""
-    p = subparsers.add_parser("linearize", help="operating point, linear model, poles and the damping for zeta",
+    p = subparsers.add_parser("linearize", help=COMMANDS["linearize"],
                               description="Find the rest state at a posture, linearize there (analytic, "
                                           "python-control's linearize, and the FMU), print A, B, the poles, "
                                           "Eq. 19 and the damping c for a damping ratio; save a pole map.")
@@ -76,7 +93,7 @@ def register(subparsers) -> None:
     _add_fmu(p)
     p.set_defaults(func=run_linearize)
 
-    p = subparsers.add_parser("rootlocus", help="root loci against c, tau or the height-control gain",
+    p = subparsers.add_parser("rootlocus", help=COMMANDS["rootlocus"],
                               description="Root locus against the damping c (exact velocity feedback), a sweep "
                                           "of the lag tau (open and closed loop), or the gain of a height "
                                           "controller through pe_cmd with and without the lag.")
@@ -88,7 +105,7 @@ def register(subparsers) -> None:
     p.add_argument("--ti", type=float, metavar="S", help="integral time: PI instead of P height control")
     p.set_defaults(func=run_rootlocus)
 
-    p = subparsers.add_parser("step", help="pressure-step responses: linear, nonlinear and FMU",
+    p = subparsers.add_parser("step", help=COMMANDS["step"],
                               description="Responses of the hip height to a step of pe_cmd, small and large, "
                                           "from the linear model, the nonlinear model and the FMU, with rise "
                                           "time, overshoot and settling time.")
@@ -112,6 +129,10 @@ def _setup(args, needs_damping: bool):
     if not math.isfinite(args.pf) or args.pf < 0:
         raise UsageError(f"--pf {args.pf:g}: the flexor pressure is a gauge pressure and must be >= 0 kPa "
                          "(a muscle below atmospheric pressure does not pull)")
+    if not args.pf <= LARGEST_KPA:
+        raise UsageError(f"--pf {args.pf:g}: outside [0, {LARGEST_KPA:g}] kPa (a hundred times what a muscle takes)")
+    if not (math.isfinite(args.zeta) and 0 <= args.zeta <= LARGEST_ZETA):
+        raise UsageError(f"--zeta {args.zeta:g}: the damping ratio must lie in [0, {LARGEST_ZETA:g}]")
     overrides = parse_assignments(args.set)
     params = base_params(args).replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
     alpha = math.radians(args.alpha) if args.alpha is not None else (None if args.X is not None else DEFAULT_ALPHA)
@@ -139,9 +160,9 @@ def _fmu_path(args):
             print(f"note: FMU {CLI_DEFAULT_FMU} not found (python build_fmu.py builds it); FMU part skipped")
             return None
         return default
-    from ..analysis.fmu_probe import check_fmu
+    from ..analysis.fmu_probe import check_knee_fmu
 
-    return check_fmu(args.fmu)
+    return check_knee_fmu(args.fmu)
 
 
 def _fmt_poles(eig) -> str:
@@ -223,8 +244,11 @@ def run_rootlocus(args) -> int:
         gain = args.gain
         if gain is None:
             gain = mc.critical_gain(mc.height_loop(op.with_params(tau=tau_ref), args.ti))
-        if not (gain > 0 and math.isfinite(gain)):
-            raise UsageError(f"--gain {gain:g}: the height gain must be a positive number of Pa/m")
+        if gain == 0 and args.gain is None:
+            raise UsageError(f"the height loop at tau = {tau_ref:g} s is unstable at every gain (c = "
+                             f"{op.params.c:g} N s/m: no damping): give --c > 0 or --gain")
+        if not (0 < gain <= LARGEST_GAIN):
+            raise UsageError(f"--gain {gain:g}: the height gain must be a positive number of Pa/m, at most {LARGEST_GAIN:g}")
         taus = np.geomspace(1e-3, 1.0, 200)
         path = mc.plot_lag_sweep(op, taus, gain, args.ti, out / "rootlocus_tau.png")
         print(f"height gain K = {gain:.4g} Pa/m")
@@ -235,11 +259,12 @@ def run_rootlocus(args) -> int:
     else:
         tau = op.params.tau or control_defaults.DEFAULT_TAU
         kc_lag = mc.critical_gain(mc.height_loop(op.with_params(tau=tau), args.ti))
-        top = 3 * kc_lag if math.isfinite(kc_lag) else 1e8
+        top = 3 * kc_lag if math.isfinite(kc_lag) and kc_lag > 0 else 1e8  # 0: unstable at every gain
         gains = np.concatenate([[0.0], np.geomspace(top * 1e-4, top, 800)])
         path, summary = mc.plot_gain_locus(op, gains, args.ti, tau, out / "rootlocus_gain.png")
         for label, kc in summary.items():
-            text = f"{kc:.6g} Pa/m" if math.isfinite(kc) else "none (stable for every gain)"
+            text = f"{kc:.6g} Pa/m" if math.isfinite(kc) and kc > 0 else \
+                "none (stable for every gain)" if not math.isfinite(kc) else "0 (unstable at every gain: no damping)"
             print(f"critical gain, {label}: {text}")
     print(f"wrote {path}")
     return 0
@@ -247,15 +272,16 @@ def run_rootlocus(args) -> int:
 
 def run_step(args) -> int:
     t_step = control_defaults.STEP_TIME
-    if not (math.isfinite(args.duration) and args.duration > t_step):
+    if not (math.isfinite(args.duration) and t_step < args.duration <= LONGEST_RESPONSE):
         raise UsageError(f"--duration {args.duration:g}: the response must last longer than the step time "
-                         f"{t_step:g} s")
+                         f"{t_step:g} s and at most {LONGEST_RESPONSE:g} s")
     if not (math.isfinite(args.dt) and 0 < args.dt < args.duration - t_step):
         raise UsageError(f"--dt {args.dt:g}: the output interval must be positive and shorter than the response "
                          f"after the step ({args.duration - t_step:g} s)")
     for option, kpa in (("--small", args.small), ("--large", args.large)):
-        if not (math.isfinite(kpa) and kpa != 0):
-            raise UsageError(f"{option} {kpa:g}: the pressure step must be a non-zero number of kPa")
+        if not (math.isfinite(kpa) and kpa != 0 and abs(kpa) <= LARGEST_KPA):
+            raise UsageError(f"{option} {kpa:g}: the pressure step must be a non-zero number of kPa, at most "
+                             f"{LARGEST_KPA:g} either way")
     op = _setup(args, needs_damping=True)
     for option, kpa in (("--small", args.small), ("--large", args.large)):
         if op.Pe + kpa * 1e3 < 0:
@@ -270,8 +296,7 @@ def run_step(args) -> int:
             print(f"  note: the nonlinear response hit the {result['end_stop']}: from there on it shows the stop, "
                   "not the muscles, and the linear model does not apply")
         for name, info in result["info"].items():
-            print(f"  {name:9s}: rise {info['RiseTime']:.4g} s, overshoot {info['Overshoot']:.4g} %, settling "
-                  f"{info['SettlingTime']:.4g} s, final X - X_op = {1e3 * result[name][-1]:+.4g} mm")
+            print(f"  {name:9s}: {mc.describe_response(info)}, final X - X_op = {1e3 * result[name][-1]:+.4g} mm")
         ref = np.abs(result["nonlinear"]).max()
         others = [n for n in ("linear", "fmu") if result[n] is not None]
         print("  max difference from the nonlinear model, relative to its peak: " + ", ".join(

@@ -21,8 +21,17 @@ import sys
 from pathlib import Path
 
 from .batch import add_engine_options, run_diagnose_batch
-from .options import (add_params_option, base_params, muscle_values, output_file, output_folder,
+from .options import (UsageError, add_params_option, base_params, muscle_values, output_file, output_folder,
                       parse_assignments, split_items)
+
+
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "synth": "write a synthetic measurement file with hidden effects (the virtual test bench)",
+    "compare": "compare the baseline with a measurement file: RMSE, fit, overlay and residual PNGs",
+    "diagnose": "find the effects a measurement shows that the baseline lacks, fit them, report",
+}
 
 
 def register(subparsers) -> None:
@@ -30,7 +39,7 @@ def register(subparsers) -> None:
     from ..analysis.synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE, SHAPES
 
     p = subparsers.add_parser(
-        "synth", help="write a synthetic measurement file with hidden effects (the virtual test bench)",
+        "synth", help=COMMANDS["synth"],
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
@@ -79,7 +88,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_synth)
 
     p = subparsers.add_parser(
-        "compare", help="compare the baseline with a measurement file: RMSE, fit, overlay and residual PNGs",
+        "compare", help=COMMANDS["compare"],
         description="Simulate the file's baseline on its inputs; print RMSE and fit = 100 (1 - |y - yhat| / "
                     "|y - mean(y)|) and save <stem>_compare_overlay.png and <stem>_compare_residual.png.")
     p.add_argument("file", metavar="FILE.csv")
@@ -88,7 +97,7 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_compare)
 
     p = subparsers.add_parser(
-        "diagnose", help="find the effects a measurement shows that the baseline lacks, fit them, report",
+        "diagnose", help=COMMANDS["diagnose"],
         description="Rank the candidate effects (model-spec section 4) the baseline lacks, add the best while BIC "
                     "and the held-out error support it, fit their parameters on simulation error, and report "
                     "(JSON as model-spec section 6, plus PNGs: the error step by step, before/after overlay, "
@@ -104,6 +113,9 @@ def register(subparsers) -> None:
                    help="fit a constant sensor offset of the measured output (a sensor zeroed at rest, an encoder "
                         "mounted off by a few degrees); without it, an output the model cannot reach is not "
                         "diagnosed (exit status 3)")
+    p.add_argument("--suggest", metavar="FILE.py", default=None,
+                   help="when the verdict is incomplete, write the terms the discovery found as an effect file "
+                        "(model-spec section 4c) to add with --effects FILE.py")
     add_params_option(p)
     add_engine_options(p)
     p.set_defaults(func=run_diagnose)
@@ -177,11 +189,16 @@ def run_compare(args) -> int:
 
 def run_diagnose(args) -> int:
     from ..analysis.diagnose import diagnose, public, save_pictures, summary
+    from ..io.text import write_text_atomic
     from ..io.measurements import read_measurement
 
-    if len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0]):  # a batch
+    batch = len(args.file) > 1 or Path(args.file[0]).is_dir() or glob.has_magic(args.file[0])
+    if batch and getattr(args, "suggest", None):
+        raise UsageError("--suggest takes one record, not a batch")
+    if batch:
         return run_diagnose_batch(args)
     args.file = args.file[0]
+    suggest = output_file(args.suggest, "--suggest") if getattr(args, "suggest", None) else None
 
     # every output path is checked before the fit, which takes seconds to minutes
     json_path = output_file(args.json, "--json") if args.json else None
@@ -196,16 +213,36 @@ def run_diagnose(args) -> int:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
     result = diagnose(measurement, progress, fit_offset=args.fit_offset)
+    if suggest:
+        _write_suggestion(result, suggest, args.file)
     save_pictures(measurement, result, folder, Path(args.file).stem)
     for line in summary(result):
         print(line)
     if json_path:
         path = json_path
-        path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(public(result), indent=2, allow_nan=False, default=float) + "\n", encoding="utf-8")
+        write_text_atomic(path, json.dumps(public(result), indent=2, allow_nan=False, default=float) + "\n")
         print(f"report: {path}")
     print("pictures: " + ", ".join(result.pictures.values()))
     if result.verdict == "not diagnosed":
         print(f"mkctl diagnose: {args.file}: not diagnosed: " + "; ".join(result.problems), file=sys.stderr)
         return 3
     return 0
+
+
+def _write_suggestion(result, path: Path, source: str) -> None:
+    """--suggest: the discovery's terms as an effect file (spec 4c); the report's ``effect_file`` names it."""
+    from ..analysis.discovery import registered_effects
+    from ..analysis.effect_files import write_suggestion
+
+    found = result.discovery
+    if not found or not found["terms"]:
+        why = (f"the verdict is {result.verdict}, not incomplete" if not found
+               else "the discovery proposed nothing")
+        print(f"--suggest: nothing written: {why}", file=sys.stderr)
+        return
+    written = write_suggestion(path, found, source=source, registered=registered_effects())
+    if written is None:
+        print("--suggest: nothing written: the terms found are registered effects' or change the pressure "
+              "(see the discovery lines)", file=sys.stderr)
+        return
+    found["effect_file"] = str(written)

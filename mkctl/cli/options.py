@@ -101,6 +101,8 @@ def output_file(path, option: str) -> Path:
     problem = folder_problem(path.parent)
     if problem:
         raise UsageError(f"{option} {path}: {problem}")
+    if path.exists() and not path.is_file():
+        raise UsageError(f"{option} {path}: is not a regular file (a device, a pipe or a socket): give a file name")
     if path.exists() and not os.access(path, os.W_OK):
         raise UsageError(f"{option} {path}: the file exists and cannot be overwritten")
     return path

@@ -14,10 +14,17 @@ from ..physics.params import PARAMETER_NAMES
 from .options import add_params_option, base_params, output_folder, parse_assignments
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "paper": "reproduce the paper's Fig. 5 and Fig. 7 and check its stability claims",
+}
+
+
 def register(subparsers) -> None:
     """Add the ``paper`` subcommand to the ``mkctl`` parser."""
     parser = subparsers.add_parser(
-        "paper", help="reproduce the paper's Fig. 5 and Fig. 7 and check its stability claims",
+        "paper", help=COMMANDS["paper"],
         description="Reproduce the paper's Fig. 5 (contraction against pressure, model 1 against model 2) and "
                     "Fig. 7 (the h = 0 sheet and the equilibrium set), and write a table of the claims of "
                     "Section VI with the model's numbers (claims.md, claims.json).")

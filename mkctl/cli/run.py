@@ -36,10 +36,17 @@ class RunError(MkctlError):
     """A step of the main job failed; the message names the step and what it printed."""
 
 
+#: The subcommands this module adds, with the one line ``mkctl --help`` shows for each (the command line
+#: lists them without importing what they need).
+COMMANDS = {
+    "run": "the whole job: FMUs, a scenario, the paper, control analysis, a diagnosis; one index page",
+}
+
+
 def register(subparsers) -> None:
     """Add ``run`` to the ``mkctl`` parser."""
     p = subparsers.add_parser(
-        "run", help="the whole job: FMUs, a scenario, the paper, control analysis, a diagnosis; one index page",
+        "run", help=COMMANDS["run"],
         description="Build and check the FMUs, drive the knee FMU through fmpy, reproduce the paper's figures "
                     "and claims, run the control analysis, make a measurement with a hidden effect and "
                     "diagnose it, and write everything into one folder with an index page (index.md, "
@@ -111,9 +118,13 @@ CAPTIONS = {
                              "with fmpy; load it in any FMI host."),
     "fmu/McKibbenActuator.fmu": ("McKibbenActuator.fmu", "One muscle as an FMU (inputs p_cmd, L, Ldot; outputs f, P), "
                                  "for composing robots in other tools."),
-    "native": (None, "The same FMU compiled from the generated C (spec section 7b): no Python needed in the host; per "
-               "1 ms step 8 times faster through fmpy's simulate_fmu (fmpy's own cost is then the floor) and 27 times "
-               "in a lean host loop (docs/fmu.md); use it unless you need to edit the model in Python."),
+    "native/McKibbenKnee.fmu": ("native/McKibbenKnee.fmu", "The same knee compiled from the generated C (spec "
+                                "section 7b): no Python needed in the host; per 1 ms step 8 times faster through "
+                                "fmpy's simulate_fmu (fmpy's own cost is then the floor) and 27 times in a lean host "
+                                "loop (docs/fmu.md); use it unless you need to edit the model in Python."),
+    "native/McKibbenActuator.fmu": ("native/McKibbenActuator.fmu", "The same muscle compiled from the generated C "
+                                    "(spec section 7b): no Python needed in the host, the same inputs and outputs as "
+                                    "McKibbenActuator.fmu."),
     "scenario/pressure_step.png": ("Pressure step through the FMU", "Hip height and knee angle after a 5 % step of the "
                                    "extensor command, simulated by the knee FMU under fmpy: a damped oscillation about "
                                    "the new equilibrium."),
@@ -196,9 +207,9 @@ def _build_fmus(job: _Job, out: Path) -> Path:
     job.function(s, fmu_dir, f"build the FMUs into {fmu_dir} (mkctl.fmu.build)", build)
     _show(s, out, "fmu/McKibbenKnee.fmu", built["knee"])
     _show(s, out, "fmu/McKibbenActuator.fmu", built["actuator"])
-    for which, title in (("native_knee", "native/McKibbenKnee.fmu"), ("native_actuator", "native/McKibbenActuator.fmu")):
+    for which in ("native_knee", "native_actuator"):
         if which in built:
-            _show(s, out, "native", built[which], title)
+            _show(s, out, f"native/{built[which].name}", built[which])
     return built["knee"]
 
 
@@ -266,12 +277,14 @@ def _diagnosis_sentence(name: str) -> str:
         "_compare_overlay.png": "mkctl compare: the measured hip height against the baseline model's simulation "
                                 "of the same pressure commands.",
         "_compare_residual.png": "mkctl compare: what the baseline misses, sample by sample.",
-        "_error_steps.png": "The error falling step by step as the diagnosis adds each missing effect.",
+        "_error_steps.png": "The error falling step by step as the diagnosis adds each missing effect; the last "
+                            "bar is the final fit on the whole record.",
         "_overlay.png": "The measurement against the model before and after the diagnosis.",
         "_residuals.png": "The residual before (the baseline) and after (with the effects found): only noise "
                           "is left.",
         "_signatures.png": "The force the baseline lacks against what each candidate effect acts through "
-                           "(velocity, direction, pressure rate): the evidence behind the choice.",
+                           "(velocity, direction of motion, the pressure a lag holds back, the smaller muscle "
+                           "tension): the evidence behind the choice.",
     }
     for ending, sentence in sentences.items():
         if name.endswith(ending) and not (ending == "_overlay.png" and name.endswith("_compare_overlay.png")):

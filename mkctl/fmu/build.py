@@ -297,14 +297,18 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
 
 
 def _build_native(out: Path, params: Params) -> dict[str, Path]:
-    """The native FMUs into out/native, or none (with a note) on a machine without a C compiler."""
+    """The native FMUs into out/native and their FMI 3.0 twins into out/fmi3, or none (with a note) on a machine
+    without a C compiler."""
     from ..native.build import find_compiler
     from ..native.fmu import build_native
     if find_compiler() is None:
         print("build_fmu: note: no C compiler found (CC, cc, gcc, clang): the native FMUs are not built",
               file=sys.stderr)
         return {}
-    return {f"native/{name}": path for name, path in build_native(out, params).items()}
+    from ..native.fmi3 import build_fmi3
+    built = {f"native/{name}": path for name, path in build_native(out, params).items()}
+    built.update({f"fmi3/{name}": path for name, path in build_fmi3(out, params).items()})  # FMI 3.0 twins
+    return built
 
 
 def main(argv=None, default_out: Path = Path("dist")) -> int:

@@ -20,15 +20,35 @@ from __future__ import annotations
 from pythonfmu import DefaultExperiment
 
 from ..errors import MkctlError
-from ..physics.params import EFFECTS_TABLE, TABLE_I, TABLE_II, UNITS
+from ..physics import effects
+from ..physics.params import EFFECTS_TABLE, TABLE_I, TABLE_II, UNITS, LiveSequence, LiveMapping
 from ..physics.simulate import ActuatorSimulator, KNEE_OUTPUTS, KneeSimulator, default_commands, default_hip_height
 from .slave import N_DESCRIPTION, McKibbenSlave
 
 # --- the knee ---------------------------------------------------------------------------------------------------
-#: Real parameters in the order of model-spec section 7 (the Integer ones, X0 and P_rated follow them).
-KNEE_PARAMETERS = ("b", "n", "L0", "D0", "C1", "C2", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "Lec", "Lfc",
-                   "r", "g", "c", "Fc", "vs", "tau")
-_KNEE_DESCRIPTIONS = {
+#: The actuator's Real parameters of Table I, n second (model-spec section 7).
+_MUSCLE = ("b", "n", "L0", "D0", "C1", "C2", "t0")
+
+
+def _effect_reals() -> list[str]:
+    """The Real parameters of every registered effect, in the registry's order (switches are Integers)."""
+    return [q.name for q in effects.parameters() if not q.switch]
+
+
+class _FromRegistry:
+    """A class attribute that follows the effect registry (a parameter registered at run time included)."""
+
+    def __init__(self, compute):
+        self.compute = compute
+
+    def __get__(self, instance, owner):
+        return self.compute()
+
+
+#: Real parameters in the order of model-spec section 7 (the Integer ones, X0 and P_rated follow them): Table I,
+#: Table II, then every registered effect's.
+KNEE_PARAMETERS = LiveSequence(lambda: [*_MUSCLE, *TABLE_II, *_effect_reals()])
+_KNEE_DESCRIPTIONS = LiveMapping(lambda: {
     **{name: q.description for name, q in {**TABLE_I, **TABLE_II, **EFFECTS_TABLE}.items()},
     "n": N_DESCRIPTION,
     "X0": "initial hip height, the leg at rest; left at its start value it is alpha = 60 deg of the geometry",
@@ -41,13 +61,13 @@ _KNEE_DESCRIPTIONS = {
     "a1": "Eq. 18 coefficient a1 = (dF/dV)/m at the present state (end stops excluded)",
     "a2": "Eq. 18 coefficient a2 = (dF/dX)/m at the present state (end stops excluded)",
     "stable": "Routh-Hurwitz verdict at the present state: a1 < 0 and a2 < 0; no unit",
-}
+})
 
 #: Unit of every Real variable, as written into modelDescription.xml by mkctl.fmu.build.
-KNEE_UNITS = {
+KNEE_UNITS = LiveMapping(lambda: {
     **{name: UNITS[name] for name in KNEE_PARAMETERS}, "X0": "m", "P_rated": "Pa", "pe_cmd": "Pa", "pf_cmd": "Pa",
     **{name: unit for name, unit in KNEE_OUTPUTS.items() if name != "stable"},
-}
+})
 
 
 class McKibbenKnee(McKibbenSlave):
@@ -56,7 +76,7 @@ class McKibbenKnee(McKibbenSlave):
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=2.0, step_size=1e-3)
 
     inputs = ("pe_cmd", "pf_cmd")
-    parameters = KNEE_PARAMETERS
+    parameters = _FromRegistry(lambda: tuple(KNEE_PARAMETERS))
     extra_parameters = ("X0", "P_rated")
     outputs = tuple(KNEE_OUTPUTS)
     boolean_outputs = frozenset({"stable"})
@@ -83,24 +103,26 @@ class McKibbenKnee(McKibbenSlave):
 
 
 # --- one actuator -----------------------------------------------------------------------------------------------
-#: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them).
-ACTUATOR_PARAMETERS = ("b", "n", "L0", "D0", "C1", "C2", "t0", "c", "Fc", "vs", "tau")
+#: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them): Table I, then every
+#: registered effect's.
+ACTUATOR_PARAMETERS = LiveSequence(lambda: [*_MUSCLE, *_effect_reals()])
 ACTUATOR_INPUTS = {"p_cmd": ("Pa", "commanded gauge pressure"),
           "L": ("m", "actuator length, 0 < L < b"),
           "Ldot": ("m/s", "lengthening rate (positive when the actuator lengthens)")}
 ACTUATOR_OUTPUTS = {"f": ("N", "tension (positive pulls): model 1 or 2 plus damping and friction"),
            "P": ("Pa", "gauge pressure in the bladder (the lag state, or p_cmd without a lag)")}
-_ACTUATOR_DESCRIPTIONS = {
+_ACTUATOR_DESCRIPTIONS = LiveMapping(lambda: {
     **{name: q.description for name, q in {**TABLE_I, **EFFECTS_TABLE}.items()},
     "n": N_DESCRIPTION,
     **{name: text for name, (_, text) in {**ACTUATOR_INPUTS, **ACTUATOR_OUTPUTS}.items()},
-}
+})
 #: Start values of the inputs: 300 kPa at L = 0.18 m, a row of model-spec section 2's reference table.
 ACTUATOR_INPUT_START = {"p_cmd": 300e3, "L": 0.18, "Ldot": 0.0}
 
 #: Unit of every Real variable, as written into modelDescription.xml by mkctl.fmu.build.
-ACTUATOR_UNITS = {**{name: UNITS[name] for name in ACTUATOR_PARAMETERS}, "P_rated": "Pa",
-                  **{name: unit for name, (unit, _) in {**ACTUATOR_INPUTS, **ACTUATOR_OUTPUTS}.items()}}
+ACTUATOR_UNITS = LiveMapping(lambda: {**{name: UNITS[name] for name in ACTUATOR_PARAMETERS}, "P_rated": "Pa",
+                                        **{name: unit for name, (unit, _) in {**ACTUATOR_INPUTS,
+                                                                              **ACTUATOR_OUTPUTS}.items()}})
 
 
 class McKibbenActuator(McKibbenSlave):
@@ -109,7 +131,7 @@ class McKibbenActuator(McKibbenSlave):
     default_experiment = DefaultExperiment(start_time=0.0, stop_time=1.0, step_size=1e-2)
 
     inputs = tuple(ACTUATOR_INPUTS)
-    parameters = ACTUATOR_PARAMETERS
+    parameters = _FromRegistry(lambda: tuple(ACTUATOR_PARAMETERS))
     outputs = tuple(ACTUATOR_OUTPUTS)
     pressure_outputs = {"P": "muscle"}
     descriptions = _ACTUATOR_DESCRIPTIONS

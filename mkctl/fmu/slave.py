@@ -27,7 +27,11 @@ and:
   is read, so no NaN reaches a result file;
 - an input or a state outside the model's domain during a step is reported and answered with fmi2Discard, the
   state left as it was at the start of that step; outputs read while the inputs are invalid keep their last
-  valid values (those of the last successful step), never NaN.
+  valid values (those of the last successful step), never NaN. An input that is not a finite number, a
+  negative (gauge) pressure input (:func:`negative_pressure_message`) and a step whose outputs would not be
+  finite numbers (:func:`non_finite_output_message`: an absurd parameter such as ``c = 1e300`` with a fast
+  input) are refused this way; pythonfmu then answers fmi2GetBooleanStatus(fmi2Terminated) with true, so a host
+  such as fmpy's ``simulate_fmu`` ends the run there instead of retrying the step.
 
 pythonfmu finds the slave class as the one with the longest chain of bases down to ``Fmi2Slave`` among the names
 of the FMU's script (``mkctl/fmu/scripts``), which imports only the concrete class.
@@ -61,6 +65,20 @@ SLACK_DESCRIPTION = "1 = a muscle cannot push: the tension is max(f, 0) (model-s
 P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
                        "excursion); the model itself has no limit")
 _INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
+
+
+def negative_pressure_message(name: str, value: str) -> str:
+    """Why a pressure input below 0 is refused: pressures are gauge pressures (model-spec section 1), and the model
+    has no vacuum regime; the CLI refuses them the same way. ``value`` is the number as written (repr). The native
+    FMUs' C carries the same text (mkctl.native.fmu)."""
+    return (f"input {name} = {value} Pa is below 0: pressures are gauge pressures, and a McKibben muscle below "
+            "atmospheric pressure does not pull (the model has no vacuum)")
+
+
+def non_finite_output_message(name: str, value: str, unit: str) -> str:
+    """Why an output that is not a finite number is refused (``value`` as written, repr). The native FMUs' C carries
+    the same text (mkctl.native.fmu)."""
+    return f"output {name} = {value} {unit} is not a finite number"
 
 #: One entry per run of an FMU script (see :func:`keep_namespace`).
 _KEPT: list = []
@@ -195,15 +213,26 @@ class McKibbenSlave(Fmi2Slave):
                 self._start()  # doStep without exitInitializationMode
             if self._sim is None:
                 return self._refuse(f"doStep at t = {current_time:g} s refused: {self._error}")
+            pressures = self._pressure_inputs()
             for name in self.inputs:
                 value = getattr(self, name)
                 if not math.isfinite(value):
                     return self._refuse(f"doStep at t = {current_time:g} s: input {name} = {value!r} "
                                         f"{self.units[name]} is not a finite number")
+                if name in pressures and value < 0:
+                    return self._refuse(f"doStep at t = {current_time:g} s: "
+                                        f"{negative_pressure_message(name, repr(value))}")
             if step_size < 0:
                 return self._refuse(f"doStep at t = {current_time:g} s: negative step size {step_size!r} s")
+            snapshot = self._sim.get_state()
             self._advance(step_size)
+            try:
+                outputs = self._computed_outputs()  # the step must end with finite outputs
+            except MkctlError:
+                self._sim.set_state(snapshot)
+                raise
             self._version += 1
+            self._cache, self._cache_key, self._last_valid = outputs, (self._version, *self._input_values()), outputs
             self._check_rating(current_time + step_size)
             return True
         except MkctlError as error:
@@ -241,7 +270,14 @@ class McKibbenSlave(Fmi2Slave):
         try:
             if not (math.isfinite(self.P_rated) and self.P_rated > 0):
                 raise MkctlError(f"parameter P_rated must be a positive number, got {self.P_rated!r}")
-            self._sim = self._new_simulator(self._params())
+            params = self._params()
+            self._stage = "invalid start inputs"
+            for name in self._pressure_inputs():
+                if getattr(self, name) < 0:
+                    raise MkctlError(negative_pressure_message(name, repr(getattr(self, name))))
+            self._sim = self._new_simulator(params)
+            self._stage = "invalid start"
+            self._computed_outputs()  # finite numbers
         except MkctlError as error:
             self._error = f"{self._stage}: {error}"
         except Exception as error:
@@ -286,6 +322,19 @@ class McKibbenSlave(Fmi2Slave):
     def _input_values(self) -> tuple:
         return tuple(getattr(self, name) for name in self.inputs)
 
+    def _pressure_inputs(self) -> tuple[str, ...]:
+        """The inputs that are (gauge) pressures: refused below 0."""
+        return tuple(name for name in self.inputs if self.units[name] == "Pa")
+
+    def _computed_outputs(self) -> dict:
+        """The simulator's outputs at the present state and inputs; raises :class:`MkctlError` if one of them is
+        not a finite number (the simulator raises its own for a state or input outside the model's domain)."""
+        outputs = self._sim.outputs(*self._input_values())
+        for name, value in outputs.items():
+            if name not in self.boolean_outputs and not math.isfinite(value):
+                raise MkctlError(non_finite_output_message(name, repr(float(value)), self.units[name]))
+        return outputs
+
     def _outputs(self) -> dict:
         key = (self._version, *self._input_values())
         if key != self._cache_key:
@@ -294,7 +343,7 @@ class McKibbenSlave(Fmi2Slave):
             try:
                 if self._sim is None:
                     raise MkctlError(self._error)
-                self._cache = self._sim.outputs(*self._input_values())
+                self._cache = self._computed_outputs()
                 self._last_valid = self._cache
             except Exception as error:  # reported, and the next doStep is refused: never a silent NaN
                 self._report(f"{self.undefined_outputs}: {error}; the outputs keep their last valid values",

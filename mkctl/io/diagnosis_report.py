@@ -12,17 +12,38 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MkctlError
+from ..physics import effects
+from ..physics.actuator import lagged_pressure
 from ..physics.isometric import isometric_tension
-from ..physics.params import INTEGER_PARAMETERS, UNITS
-from .plotting import new_figure, save_png
+from ..physics.params import INTEGER_PARAMETERS, UNITS, LiveMapping
+from .plotting import new_figure, plain_log_ticks, save_png
 
-#: How the signature pictures label their x axis.
-SIGNATURE_AXIS = {"viscous_damping": "velocity [mm/s]", "coulomb_friction": "velocity [mm/s]",
-                  "pressure_lag": "extensor pressure rate (smoothed) [kPa/s]",
-                  "elasticity": "rubber tension of the model's C1, C2 [N]",
-                  "slack": "tension the slack muscle would not carry [N]",
-                  ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling "
-                                                     "pressure"}
+#: How the signature pictures label their x axis: each effect's own regressor (the registry's
+#: ``signature_axis``; see :func:`mkctl.analysis.diagnose.signatures`; the lag's is drawn here from its fitted
+#: tau, :func:`_lag_regressor`), with the experiments whose regressor differs.
+SIGNATURE_AXIS = LiveMapping(lambda: {
+    **{e.name: e.signature_axis or e.regressor for e in effects.all_effects()},
+    ("isotonic", "coulomb_friction"): "direction of motion tanh(Ldot / vs): -1 shortening, +1 lengthening",
+    ("isometric", "slack"): "the model's tension [N] (slack acts below 0)",
+    ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling pressure"})
+
+#: Effects whose signature slope is not a value of their parameter (see :func:`summary`).
+NO_SLOPE_HINT = ("pressure_lag", "slack")
+
+#: At most this many measured samples are marked on an overlay (evenly spaced): more would hide the curves.
+OVERLAY_MARKERS = 300
+
+#: What each measured output is, for the y axis of the overlays (by the quantity of the output column).
+OUTPUT_QUANTITY = {"x": "hip height X", "beta": "knee angle beta", "length": "muscle length L", "force": "tension f"}
+
+
+def parameter_text(name: str, value: float) -> str:
+    """``"c = 45.02 N s/m"``; a switch (``slack``, ``model``) as ``"slack = 1 (on)"`` / ``"slack = 0 (off)"``."""
+    if name in INTEGER_PARAMETERS:
+        if name == "slack":
+            return f"slack = {int(round(value))} ({'on' if value > 0 else 'off'})"
+        return f"{name} = {int(round(value))}"
+    return f"{name} = {value:.4g} {UNITS[name]}"
 
 
 def rmse(measured, simulated) -> float:
@@ -45,21 +66,60 @@ def input_axis(measurement):
     return measurement.inputs["pe_cmd"] / 1e3, "extensor command pe_cmd [kPa]"
 
 
+def output_label(measurement) -> str:
+    """The y label of a record's output: its quantity's name and the file's unit, e.g. ``hip height X [mm]``."""
+    quantity = measurement.output_quantity or measurement.output_column.rsplit("_", 1)[0]
+    return f"{OUTPUT_QUANTITY.get(quantity, quantity)} [{measurement.output_unit}]"
+
+
+def input_panels(measurement) -> list:
+    """The record's inputs to draw under an overlay: ``[(y label, [(values, curve label), ...]), ...]``, pressures
+    in kPa, loads in N, lengths in mm. A knee record gets a panel for each muscle, its command and, when the file
+    has it, its measured pressure."""
+    inputs = measurement.inputs
+    if measurement.experiment == "isotonic":
+        return [("pressure [kPa]", [(inputs["pressure"] / 1e3, "pressure")]),
+                ("load [N]", [(inputs["force"], "hanging load")])]
+    if measurement.experiment == "isometric":
+        return [("pressure [kPa]", [(inputs["pressure"] / 1e3, "pressure")]),
+                ("clamped length [mm]", [(inputs["length"] * 1e3, "length")])]
+    panels = []
+    for short, muscle in (("pe", "extensor"), ("pf", "flexor")):
+        curves = [(inputs[f"{short}_cmd"] / 1e3, f"command {short}_cmd")]
+        if short in inputs:
+            curves.append((inputs[short] / 1e3, f"measured {short}"))
+        panels.append((f"{muscle} {short} [kPa]", curves))
+    return panels
+
+
 def plot_overlay(measurement, curves: dict, path, title: str = "") -> Path:
-    """Measured output and simulated curves (label -> SI array) over time, with the main input below."""
-    fig, (top, bottom) = new_figure(2, 1, figsize=(9, 6), sharex=True, height_ratios=(3, 1))
-    unit = measurement.output_unit
-    top.plot(measurement.time, measurement.to_file_units(measurement.output), ".", ms=2, color="0.5",
-             label=f"measured ({Path(measurement.source).name})")
+    """Measured output and simulated curves (label -> SI array) over time, with the inputs in panels below.
+
+    The measured samples are drawn over the curves as open circles (at most :data:`OVERLAY_MARKERS` of them, evenly
+    spaced), so that a curve running through them stays visible and so do they."""
+    panels = input_panels(measurement)
+    fig, axes = new_figure(1 + len(panels), 1, figsize=(9, 5.2 + 1.3 * len(panels)), sharex=True,
+                           height_ratios=(3.2,) + (1,) * len(panels), squeeze=False)
+    top = axes[0, 0]
+    colours = iter(["tab:blue", "tab:orange", "tab:green", "tab:purple"])
     for label, values in curves.items():
-        top.plot(measurement.time, measurement.to_file_units(values), lw=1.2, label=label)
-    top.set_ylabel(f"{measurement.output_column} [{unit}]")
-    top.legend(loc="best", fontsize=8)
+        top.plot(measurement.time, measurement.to_file_units(values), lw=1.4, color=next(colours), label=label,
+                 zorder=2)
+    every = max(1, -(-measurement.samples // OVERLAY_MARKERS))
+    shown = f"every {every}th of {measurement.samples} samples" if every > 1 else f"{measurement.samples} samples"
+    top.plot(measurement.time[::every], measurement.to_file_units(measurement.output)[::every], "o", ms=3.2,
+             mfc="none", mew=0.7, color="k", alpha=0.6, zorder=3,
+             label=f"measured ({Path(measurement.source).name}, {shown})")
+    top.set_ylabel(output_label(measurement))
+    top.legend(loc="best", fontsize=8, markerscale=3)
     top.set_title(title or f"{measurement.experiment}: model vs measurement")
-    values, label = input_axis(measurement)
-    bottom.plot(measurement.time, values, color="k", lw=1)
-    bottom.set_ylabel(label, fontsize=8)
-    bottom.set_xlabel("time [s]")
+    for ax, (label, lines) in zip(axes[1:, 0], panels):
+        for (values, name), colour in zip(lines, ("k", "tab:red")):
+            ax.plot(measurement.time, values, color=colour, lw=1, label=name)
+        ax.set_ylabel(label, fontsize=8)
+        if len(lines) > 1:
+            ax.legend(loc="best", fontsize=7)
+    axes[-1, 0].set_xlabel("time [s]")
     return save_png(fig, path)
 
 
@@ -128,15 +188,58 @@ def plot_isometric(length, pressure, force, branch, curves: dict, path, title: s
     return save_png(fig, path, dpi=150)
 
 
-def _binned(x, y, bins: int = 12):
-    """Mean of y in bins of equal counts of x (for the signature pictures)."""
-    order = np.argsort(x)
-    groups = np.array_split(order, bins)
+def _binned(x, y, bins: int = 12, by_value: bool = False):
+    """Mean of y in bins of x (for the signature pictures): of equal counts, or (``by_value``) of equal width,
+    which suits a regressor that piles up at a few values (friction's direction at -1 and +1)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if by_value:
+        edges = np.linspace(x.min(), x.max(), bins + 1)
+        which = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, bins - 1)
+        groups = [np.flatnonzero(which == k) for k in range(bins)]
+    else:
+        groups = np.array_split(np.argsort(x), bins)
     return ([float(np.mean(x[g])) for g in groups if g.size], [float(np.mean(y[g])) for g in groups if g.size])
+
+
+#: The lag the signature picture shows the pressure deficit of when the first round fitted none [s].
+LAG_PICTURE_TAU = 0.05
+
+
+def _lag_regressor(measurement, result):
+    """The lag's own regressor for its signature panel: how far the extensor's pressure stays behind its command
+    through a lag, ``pe_cmd - pe`` [kPa], at the first round's fitted tau (or :data:`LAG_PICTURE_TAU` when that fit
+    found none); None for a record without a pressure command. Returns (values, axis label)."""
+    if "pe_cmd" not in measurement.inputs:
+        return None
+    first = (result.steps[0] if result.steps else result.stopped) or {}
+    taus = [row["params"].get("tau") for row in first.get("candidates", []) if row.get("effect") == "pressure_lag"]
+    fitted = bool(taus and taus[0])
+    tau = float(taus[0]) if fitted else LAG_PICTURE_TAU
+    time, command = measurement.time, measurement.inputs["pe_cmd"]
+    lagged = np.empty(time.size)
+    lagged[0] = command[0]
+    for k in range(1, time.size):  # the command held from each sample to the next, as the simulation holds it
+        lagged[k] = lagged_pressure(lagged[k - 1], command[k - 1], tau, time[k] - time[k - 1])
+    which = "the fitted" if fitted else "a trial (none fitted):"
+    return (command - lagged) / 1e3, f"extensor pressure behind its command, lag at {which} tau = {tau:.3g} s [kPa]"
 
 
 def _step_label(step: dict) -> str:
     return "+ " + " & ".join([step["added"], *step.get("added_with", [])])
+
+
+def error_bars(result) -> tuple[list, list, list]:
+    """The bars of ``*_error_steps.png``: labels, RMSE (file units) and colours. The baseline, the RMSE after each
+    round's step (as the report's "-> added" lines print it), and last the final fit on the whole record (the
+    report's "after: RMSE"), when anything was added."""
+    labels = ["baseline"] + [_step_label(s) for s in result.steps]
+    values = list(result.error_steps)
+    colours = ["0.6"] + ["tab:blue"] * (len(values) - 1)
+    if result.steps or result.missing:
+        labels.append("final fit\n(whole record)")
+        values.append(result.rmse_after)
+        colours.append("tab:green")
+    return labels, values, colours
 
 
 def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
@@ -150,15 +253,15 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     unit = measurement.output_unit
     paths = {}
 
-    labels = ["baseline"] + [_step_label(s) for s in result.steps]
+    labels, values, colours = error_bars(result)
     fig, ax = new_figure(figsize=(max(4.5, 1.6 * len(labels) + 2), 3.8))
-    values = result.error_steps
-    bars = ax.bar(range(len(values)), values, color=["0.6"] + ["tab:blue"] * (len(values) - 1))
+    bars = ax.bar(range(len(values)), values, color=colours)
     ax.plot(range(len(values)), values, "k.-", lw=0.8)
     for bar, value in zip(bars, values):
-        ax.annotate(f"{value:.3g}", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom", fontsize=8)
+        ax.annotate(f"{value:.4g}", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom", fontsize=8)
     ax.set_xticks(range(len(values)), labels, fontsize=8)
     ax.set_yscale("log")
+    plain_log_ticks(ax.yaxis)
     ax.set_ylabel(f"RMSE [{unit}] (log)")
     ax.set_title("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
@@ -183,17 +286,32 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     sigs = result.signatures
     names = [name for name in result.signature_order if name in sigs]
     if names:
-        fig, axes = new_figure(1, len(names), figsize=(3.6 * len(names), 3.4), squeeze=False)
+        fig, axes = new_figure(1, len(names), figsize=(3.7 * len(names), 3.6), squeeze=False)
         for ax, name in zip(axes[0], names):
             sig = sigs[name]
-            ax.plot(sig["x"], sig["missing"], ".", ms=2, color="0.6", alpha=0.4)
-            ax.plot(*_binned(sig["x"], sig["missing"]), "o-", color="tab:red", ms=4)
+            x, label = sig["x"], SIGNATURE_AXIS.get((measurement.experiment, name), SIGNATURE_AXIS[name])
+            lag = _lag_regressor(measurement, result) if name == "pressure_lag" else None
+            if lag is not None and np.size(lag[0]) == np.size(sig["missing"]):
+                x, label = lag
+            two_sided = name == "coulomb_friction"
+            ax.plot(x, sig["missing"], "o", ms=2, mew=0, color="0.45", alpha=0.35)
+            ax.plot(*_binned(x, sig["missing"], by_value=two_sided), "o-", color="tab:red", ms=4,
+                    label="mean in bins of x")
             ax.axhline(0, color="k", lw=0.5)
-            ax.set_xlabel(SIGNATURE_AXIS.get((measurement.experiment, name), SIGNATURE_AXIS[name]), fontsize=7)
+            if name == "slack":  # where the model's tension turns negative, a slack muscle carries nothing
+                ax.axvspan(min(np.min(x), -0.15 * np.ptp(x), -1.0) * 1.05, 0.0, color="tab:orange", alpha=0.15, lw=0,
+                           label="slack region (tension < 0)")
+                ax.axvline(0, color="tab:orange", lw=1)
+                if np.min(x) >= 0:
+                    ax.text(0.98, 0.04, f"no sample goes slack\n(least tension {np.min(x):.3g} N)",
+                            transform=ax.transAxes, ha="right", va="bottom", fontsize=7)
+            ax.set_xlabel(label, fontsize=7)
             ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)
+            ax.legend(fontsize=6, loc="upper right")
         axes[0, 0].set_ylabel("force the baseline lacks [N]")
-        fig.suptitle("signatures: the force the baseline lacks (equation error at the smoothed measured states)",
-                     fontsize=9)
+        fig.suptitle("signatures: the force the baseline lacks (at the smoothed measured states) against what "
+                     "each effect acts through" if len(names) > 2 else
+                     "signatures: the force the baseline lacks\nagainst what each effect acts through", fontsize=9)
         paths["signatures"] = save_png(fig, folder / f"{stem}_signatures.png")
     result.pictures = {k: str(v) for k, v in paths.items()}
     return result.pictures
@@ -226,9 +344,13 @@ def summary(result) -> list[str]:
                 continue
             (name, value), = row["params"].items()
             sig = row.get("signature") or {}
-            estimate = sig.get("estimate")
+            # the slope's value is a hint only where the effect's force is linear in its parameter: the lag's
+            # first-order term (tau times the smoothed command rate) is not, for step commands (it disagreed with
+            # the fitted tau by tenfold); a switch has no value to suggest
+            estimate = sig.get("estimate") if row["effect"] not in NO_SLOPE_HINT else None
             flag = " (on its bound: rejected)" if row.get("at_bound") else ""
-            lines.append(f"  {row['effect']:<17} {name} = {value:<10.4g} dBIC {row['delta_bic']:+9.1f}  "
+            shown = f"{int(value)} ({'on' if value else 'off'})" if name in INTEGER_PARAMETERS else f"{value:.4g}"
+            lines.append(f"  {row['effect']:<17} {name} = {shown:<10} dBIC {row['delta_bic']:+9.1f}  "
                          f"RMSE {row['rmse']:.4g}  held-out {row['rmse_holdout']:.4g} {unit}  "
                          f"signature r = {sig.get('correlation', 0.0):+.2f}"
                          + (f" (slope says {name} ~ {estimate:.3g})" if estimate is not None else "") + flag)
@@ -263,5 +385,26 @@ def summary(result) -> list[str]:
         lines.append(f"sensor offset (fitted): {result.offset:.4g} {unit}")
     lines.append(f"after: RMSE {result.rmse_after:.4g} {unit} (whole record), {fit_text(result.fit_percent_after)}"
                  + (f"; output noise about {result.output_noise:.2g} {unit}" if result.output_noise else ""))
+    lines += discovery_lines(getattr(result, "discovery", None))
     lines.append(f"verdict: {result.verdict}")
+    return lines
+
+
+def discovery_lines(found: dict | None) -> list[str]:
+    """The discovery of an incomplete diagnosis (spec 6b, :mod:`mkctl.analysis.discovery`) as lines; [] without."""
+    if not found:
+        return []
+    if not found["terms"]:
+        return [f"discovery: nothing proposed: {found.get('reason') or 'no term explains the missing force'}"]
+    lines = [f"discovery: the force the baseline lacks (RMS {found['missing_force_rms']:.3g} N) follows "
+             f"{' + '.join(t['term'] for t in found['terms'])}: {found['explained']:.0%} of it explained "
+             f"({found['explained_holdout']:.0%} on held-out blocks)"]
+    for t in found["terms"]:
+        match = (f"the form of the effect {t['matches']}" if t["matches"] else "registered nowhere: a new effect")
+        lines.append(f"  {t['term']:<26} coefficient {t['coefficient']:.4g} +- {t['stderr']:.2g} {t['unit']} "
+                     f"per actuator ({match})")
+        if t.get("alternatives"):
+            lines.append(f"    the record hardly tells it from: {', '.join(t['alternatives'])}")
+    if found.get("effect_file"):
+        lines.append(f"  suggested effect file: {found['effect_file']} (add it with --effects {found['effect_file']})")
     return lines

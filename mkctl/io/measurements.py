@@ -46,7 +46,7 @@ import numpy as np
 
 from ..errors import MeasurementFileError, ParameterError
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
-from .text import read_user_text
+from .text import read_user_text, write_text_atomic
 
 
 class Quantity(NamedTuple):
@@ -110,6 +110,11 @@ UNIT_FACTORS = {
     "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "in": 0.0254},
     "angle": {"rad": 1.0, "deg": math.pi / 180.0},
 }
+
+#: The largest magnitude a value of each kind may have (SI: s, Pa, N, m, rad), offsets included: far beyond any real
+#: rig (a record of four months, 100 MPa, 1 MN, 100 m), so that a value past it is a typo or a broken file, and
+#: every value within it keeps the model's arithmetic finite.
+LARGEST = {"time": 1e7, "pressure": 1e8, "force": 1e6, "length": 100.0, "angle": 100.0}
 
 #: Baselines a file may name, and the model number (params.model) each one means.
 BASELINES = {"model1": 1, "model2": 2}
@@ -362,13 +367,22 @@ def _offsets(items: dict, experiment: Experiment, columns: dict, fail) -> dict[s
                               f"(use {', '.join(UNIT_FACTORS[kinds[quantity]])})")
         if quantity not in columns:
             fail(line_number, f"offset {key!r} for a column the file does not have")
+        if not abs(value * factor) <= LARGEST[kinds[quantity]]:
+            fail(line_number, f"offset {key!r} = {value:g} {unit} is outside the range of a real sensor "
+                              f"(at most {_in_unit(LARGEST[kinds[quantity]], factor)} {unit} either way)")
         offsets[quantity] = value * factor
     return offsets
+
+
+def _in_unit(si: float, factor: float) -> str:
+    """An SI magnitude shown in a file's unit (``factor``: the unit in SI)."""
+    return f"{si / factor:g}"
 
 
 def _read_rows(lines, header_index: int, header, columns: dict, experiment: Experiment, fail):
     """Numbers by quantity (SI, before offsets), the branch cells (isometric) and each row's line number."""
     names = [q for q in columns if q != "branch"]
+    kinds = {q.name: q.kind for q in experiment.quantities}
     rows: list[list[float]] = []
     branches: list[int] = []
     row_lines: list[int] = []
@@ -393,6 +407,11 @@ def _read_rows(lines, header_index: int, header, columns: dict, experiment: Expe
                 fail(index + 1, f"column {header[position]!r} is not a number: {cell!r}")
             if not math.isfinite(number):
                 fail(index + 1, f"column {header[position]!r} is not a finite number: {cell!r}")
+            largest = LARGEST[kinds[quantity]]
+            if not abs(number * factor) <= largest:
+                fail(index + 1, f"column {header[position]!r} = {cell} is outside the range of a real "
+                                f"{kinds[quantity]} sensor (at most {_in_unit(largest, factor)} "
+                                f"{header[position].rpartition('_')[2]} either way)")
             values.append(number * factor)
         if "branch" in columns:
             cell = cells[columns["branch"][0]].lower()
@@ -568,7 +587,4 @@ def write_measurement(path, experiment: str, time, inputs: dict, output, metadat
     if hasattr(path, "write"):
         path.write("\n".join(lines) + "\n")
         return path
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
-    return path
+    return write_text_atomic(path, "\n".join(lines) + "\n")

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..errors import MkctlError, ParameterError
 from ..physics.params import DEFAULT, INTEGER_PARAMETERS, PARAMETER_NAMES, Params
-from .text import read_user_text
+from .text import read_user_text, write_text_atomic
 
 
 class MuscleFileError(MkctlError, ValueError):
@@ -38,6 +38,10 @@ def read_muscle_file(path) -> dict:
         data = json.loads(text)
     except json.JSONDecodeError as error:
         raise MuscleFileError(f"{path}: not a JSON muscle file (line {error.lineno}: {error.msg})") from None
+    except RecursionError:
+        raise MuscleFileError(f"{path}: not a muscle file (JSON nested too deeply)") from None
+    except ValueError as error:  # a number too long to read (Python's limit on integer digits)
+        raise MuscleFileError(f"{path}: not a muscle file ({error})") from None
     if not isinstance(data, dict) or not isinstance(data.get("params"), dict):
         raise MuscleFileError(f'{path}: a muscle file is a JSON object with a "params" object (model-spec 5b)')
     data["params"] = dict(data["params"])
@@ -50,12 +54,20 @@ def params_from_values(values: dict, source: str = "muscle file", base: Params =
     for name, value in values.items():
         if name not in PARAMETER_NAMES:
             raise MuscleFileError(f"{source}: unknown parameter {name!r} (known: {', '.join(PARAMETER_NAMES)})")
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not _finite(value):
             raise MuscleFileError(f"{source}: parameter {name} must be a finite number, got {value!r}")
     try:
         return base.replace(**values)
     except ParameterError as error:
         raise MuscleFileError(f"{source}: {error}") from None
+
+
+def _finite(value) -> bool:
+    """Whether a JSON number is a finite float (an integer of 400 digits is not: it has no float)."""
+    try:
+        return math.isfinite(float(value))
+    except OverflowError:
+        return False
 
 
 def read_muscle(path, base: Params = DEFAULT) -> Params:
@@ -68,7 +80,4 @@ def write_muscle(path, params: Params, **report) -> Path:
     ``nrms_before``, ``nrms_after``, ``stderr``, ``not_identifiable``, ``steps``, ...). Returns the path."""
     values = {name: (int(v) if name in INTEGER_PARAMETERS else float(v)) for name, v in params.as_dict().items()}
     data = {"params": values, "effects": list(params.effects), **report}
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(data, indent=2, allow_nan=False) + "\n", encoding="utf-8")
-    return path
+    return write_text_atomic(path, json.dumps(data, indent=2, allow_nan=False) + "\n")

@@ -18,3 +18,23 @@ def read_user_text(path, error_class, what: str) -> str:
         raise error_class(f"{path}: not a text file (it is not UTF-8)") from None
     except OSError as error:
         raise error_class(f"{path}: cannot be read ({error.strerror or error})") from None
+
+
+def write_text_atomic(path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` through a temporary file beside it, renamed over ``path`` when complete:
+    a reader (or a re-run after a kill) sees the old file or the new one, never half of one. Returns the path."""
+    import os
+    import tempfile
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(handle, "w", encoding="utf-8", newline="") as out:
+            out.write(text)
+        os.replace(temporary, path)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
+    return path

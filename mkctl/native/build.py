@@ -8,6 +8,11 @@ its ``native/`` subfolder:
   are traced once, not in every process;
 - ``core-<source>.so``: the shared library, keyed by a hash of the generated source it is compiled from.
 
+Each has a record beside it (``<name>.json``): its SHA-256 and what it was made from (the inputs' key; the
+source's SHA-256, the compiler and its version, the flags). A cached file is used only when the record matches
+both the file and what would be made now; anything else (a file edited or swapped in the cache, a record
+missing, another compiler) is made again, so the cache never loads code it did not build.
+
 Files are written to a temporary name and renamed, so processes building at the same time do not clash.
 The compiler is ``$CC`` if set (none if that does not exist), else the first of ``cc``, ``gcc``, ``clang``
 on the PATH. ``MKCTL_NATIVE=0`` switches the compiled core off altogether.
@@ -15,6 +20,7 @@ on the PATH. ``MKCTL_NATIVE=0`` switches the compiled core off altogether.
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import shlex
 import shutil
@@ -85,7 +91,35 @@ def input_key(variants) -> str:
     except metadata.PackageNotFoundError:
         raise BuildUnavailable("sympy is not installed (it generates the C)") from None
     digest.update(",".join(v.name for v in variants).encode())
+    digest.update(registry_fingerprint().encode())
     return digest.hexdigest()[:20]
+
+
+def _function_fingerprint(function) -> str:
+    """What a term computes, as far as Python shows it: its byte code, constants and names (nested code too)."""
+    if function is None:
+        return "-"
+    code = getattr(function, "__code__", None)
+    if code is None:
+        return repr(function)
+
+    def of(code):
+        consts = [of(c) if hasattr(c, "co_code") else repr(c) for c in code.co_consts]
+        return f"{code.co_code.hex()}|{consts}|{code.co_names}"
+    return of(code)
+
+
+def registry_fingerprint() -> str:
+    """The registered effects as the generated C depends on them: every effect's parameters and structure, and the
+    code of the terms of effects not built in (a built-in's code is in the physics modules hashed above)."""
+    from ..physics import effects
+    parts = []
+    for e in effects.all_effects():
+        parts.append(repr((e.name, e.parameters, e.switched_by, e.structural, e.quasi_static, e.builtin)))
+        if not e.builtin:
+            parts += [_function_fingerprint(f) for f in (e.tension, e.pressure_rate, e.pressure_step, e.final,
+                                                          e.play, e.viscous)]
+    return "\n".join(parts)
 
 
 def _write_atomic(path: Path, data: bytes) -> None:
@@ -96,16 +130,63 @@ def _write_atomic(path: Path, data: bytes) -> None:
     os.replace(temporary, path)
 
 
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def _record_path(path: Path) -> Path:
+    """The record kept next to a cached file: ``<name>.json``, what the file was made from and its hash."""
+    return path.with_name(path.name + ".json")
+
+
+def _read_record(path: Path) -> dict | None:
+    try:
+        record = json.loads(_record_path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record if isinstance(record, dict) else None
+
+
+def _write_record(path: Path, record: dict) -> None:
+    _write_atomic(_record_path(path), json.dumps(record, indent=1, sort_keys=True).encode())
+
+
+def _verified(path: Path, expected: dict) -> bool:
+    """Whether the cached ``path`` is what its record says (its SHA-256) and the record is ``expected`` (the
+    inputs it was made from: source hash, compiler, flags). A file edited, truncated or swapped in the cache, or
+    made by another compiler, fails, and is made again."""
+    record = _read_record(path)
+    if record is None or any(record.get(k) != v for k, v in expected.items()):
+        return False
+    try:
+        return record.get("sha256") == _digest(path.read_bytes())
+    except OSError:
+        return False
+
+
+def compiler_identity(compiler: list[str]) -> str:
+    """The compiler's command and the first line of its ``--version`` (cached libraries record it)."""
+    try:
+        done = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=30)
+        version = (done.stdout.strip().splitlines() or [""])[0]
+    except (OSError, subprocess.SubprocessError):
+        version = "unknown"
+    return f"{' '.join(compiler)} ({version})"
+
+
 def generated_source(variants) -> Path:
-    """The generated C source for the variants, from the cache or generated now."""
-    path = cache_dir() / f"gen-{input_key(variants)}.c"
-    if not path.exists():
+    """The generated C source for the variants, from the cache (verified against its record) or generated now."""
+    key = input_key(variants)
+    path = cache_dir() / f"gen-{key}.c"
+    if not (path.exists() and _verified(path, {"inputs": key})):
         try:
             from . import codegen
         except ImportError as error:
             raise BuildUnavailable(f"cannot generate the C: {error}") from None
         source, _ = codegen.generate_source(variants)
-        _write_atomic(path, source.encode())
+        data = source.encode()
+        _write_atomic(path, data)
+        _write_record(path, {"inputs": key, "sha256": _digest(data)})
     return path
 
 
@@ -119,7 +200,8 @@ def build_library(variants) -> Path:
     source_path = generated_source(variants)
     source = source_path.read_bytes()
     library = cache_dir() / f"core-{hashlib.sha256(source).hexdigest()[:20]}{_library_suffix()}"
-    if library.exists():
+    expected = {"source_sha256": _digest(source), "compiler": compiler_identity(compiler), "cflags": list(CFLAGS)}
+    if library.exists() and _verified(library, expected):
         return library
     handle, temporary = tempfile.mkstemp(dir=library.parent, prefix=library.name + ".", suffix=".tmp")
     os.close(handle)
@@ -129,7 +211,9 @@ def build_library(variants) -> Path:
         if done.returncode != 0:
             raise BuildUnavailable(f"the C compiler failed ({' '.join(command)}): "
                                    + (done.stderr.strip().splitlines() or ["no message"])[0])
+        built = Path(temporary).read_bytes()
         os.replace(temporary, library)
+        _write_record(library, {**expected, "sha256": _digest(built)})
     except OSError as error:
         raise BuildUnavailable(f"the C compiler could not run: {error}") from None
     finally:

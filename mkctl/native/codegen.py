@@ -24,10 +24,12 @@ domain checks (every function)          the checks those functions make (``check
 The integrator itself (:file:`core_template.c`) is the algorithm of :func:`mkctl.physics.integrate.integrate`
 written in C; it holds no equation of the model.
 
-Branches on the parameter structure (``model`` 1 or 2, friction ``Fc > 0``, pressure lag ``tau > 0``, ``slack``) are
-resolved by generating one *variant* per structure: the tracing parameters hold the structural values as
-numbers (``Fc`` and ``tau`` as positive symbols when on, 0 when off), so the library's own ``if`` statements
-pick the branch. The end stops are one-sided: they trace to sympy ``Piecewise``/``Max`` (C ``?:``, ``fmax``)
+Nothing here names an effect either: the effects come from the registry (:mod:`mkctl.physics.effects`), and
+their terms are traced like every other equation. Branches on the parameter structure (the registry's
+*structural* effects: ``model`` 1 or 2, a pressure lag ``tau > 0``, ``slack``) are resolved by generating one
+*variant* per structure (:mod:`mkctl.native.variants`): the tracing parameters hold a structural effect's switch
+as its off value, or as a positive symbol (a whole-number switch: its "on" value) when on, so the library's own
+``if`` statements pick the branch; the other effects' terms are always compiled in. The end stops are one-sided: they trace to sympy ``Piecewise``/``Max`` (C ``?:``, ``fmax``)
 with the stop positions as run-time inputs (+-inf for none). A C dispatcher (``mk_variant``) picks the
 variant from the run-time parameter vector; a source may hold any set of variants.
 """
@@ -42,28 +44,19 @@ from sympy.printing.c import C99CodePrinter
 from ..physics import actuator, integrate, isotonic, knee, simulate
 from ..physics.params import PARAMETER_NAMES, rubber_volume
 from . import TEMPLATE
-from .variants import ALL_VARIANTS, Variant
+from .variants import Variant, all_variants
 
 #: Knee outputs in the order of :data:`mkctl.physics.simulate.KNEE_OUTPUTS` ("stable" last, as 1/0).
 KNEE_OUTPUT_NAMES = tuple(simulate.KNEE_OUTPUTS)
 MAX_STATES = 4
 
 
-class SymbolicParams:
-    """A stand-in for :class:`mkctl.physics.params.Params` whose values are sympy symbols named after the
-    parameters, except the structural ones of the variant (model a number; Fc, tau positive symbols or 0)."""
-
-    def __init__(self, variant: Variant):
-        for name in PARAMETER_NAMES:
-            setattr(self, name, sympy.Symbol(name, real=True))
-        self.model = variant.model
-        self.Fc = sympy.Symbol("Fc", positive=True) if variant.friction else 0.0
-        self.tau = sympy.Symbol("tau", positive=True) if variant.lag else 0.0
-        self.slack = int(variant.slack)
-
-    @property
-    def V_r(self):
-        return rubber_volume(self.t0, self.D0, self.L0)
+def SymbolicParams(variant: Variant) -> actuator.SymbolicParams:
+    """The tracing parameters of a variant: every value a sympy symbol named after its parameter, the structural
+    effects switched on or off as the variant says (their switch parameter a positive symbol, a whole-number
+    switch or the off value), every non-structural effect on (its term is compiled in; it vanishes at its off
+    value at run time)."""
+    return actuator.SymbolicParams(on=variant.traced_effects())
 
 
 def _real(name: str) -> sympy.Symbol:
@@ -252,8 +245,10 @@ KINDS = {
 
 
 def _static_tension_and_slope(L, P, params):
-    """What the damped isotonic test's Newton steps need: (actuator.static_tension, actuator.static_tension_dL)."""
-    return actuator.static_tension(L, P, params), actuator.static_tension_dL(L, P, params)
+    """What the damped isotonic test needs: (actuator.static_tension, actuator.static_tension_dL, the play band's
+    half-width actuator.play_half_width, the damping actuator.viscous_coefficient)."""
+    return (actuator.static_tension(L, P, params), actuator.static_tension_dL(L, P, params),
+            actuator.play_half_width(P, params), actuator.viscous_coefficient(params))
 
 
 def variant_functions(variant: Variant, checks: CheckTable) -> str:
@@ -287,7 +282,7 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
     parts.append(emit("actuator_tension", {**parameters, "L": "L", "P": "P", "Ldot": "Ldot"}, constant,
                       trace(actuator.tension, L_, P_, Ldot_, sp)))
     parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"}, constant,
-                      trace(actuator.lagged_pressure, P_, P_cmd_, sp.tau, dt_)))
+                      trace(actuator.pressure_after, P_, P_cmd_, dt_, sp)))
     parts.append(emit("actuator_static", {**parameters, "L": "L", "P": "P"}, constant,
                       trace(_static_tension_and_slope, L_, P_, sp)))
     return "\n".join(parts)
@@ -295,7 +290,7 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
 
 def common_functions(checks: CheckTable) -> str:
     """The C of the functions that do not depend on the variant: the commands' checks, the stop positions."""
-    sp = SymbolicParams(Variant(2, False, False, False))
+    sp = SymbolicParams(Variant(("elasticity",)))
     parameters = _parameter_bindings()
     pe_cmd, pf_cmd = _real("pe_cmd"), _real("pf_cmd")
 
@@ -335,7 +330,10 @@ def _dispatch(variants: tuple[Variant, ...]) -> str:
               "static int mk_variant_nstate(int variant)", "{",
               "    return variant < 0 ? 2 : mk_variant_nstates[variant];", "}", "",
               "/* number of knee states for parameter vector p: 4 with a pressure lag, else 2 */",
-              "int mk_knee_nstate(const double *p)", "{", "    return mk_variant_nstate(mk_variant(p));", "}", ""]
+              "int mk_knee_nstate(const double *p)", "{", "    return mk_variant_nstate(mk_variant(p));", "}", "",
+              "/* 1 when the actuator pressure is a state for parameter vector p (an effect with pressure dynamics) */",
+              "int mk_pressure_is_state(const double *p)", "{", "    return mk_variant_nstate(mk_variant(p)) == 4;",
+              "}", ""]
 
     for kind, (arguments, call) in KINDS.items():
         forms = [("_constants", "static void", "const double *p, const double *stops, double *k", "p, stops, k",
@@ -398,9 +396,9 @@ def _parameter_macros() -> str:
     return "\n".join(lines)
 
 
-def generate_source(variants=ALL_VARIANTS) -> tuple[str, list[str]]:
+def generate_source(variants=None) -> tuple[str, list[str]]:
     """The C source of the core for the given variants, and its table of domain checks (in words)."""
-    variants = tuple(variants)
+    variants = all_variants() if variants is None else tuple(variants)
     checks = CheckTable()
     generated = [common_functions(checks)] + [variant_functions(v, checks) for v in variants]
     table = ["/* domain checks, by the number a fault reports: */",

@@ -13,7 +13,7 @@
 #define MK_FAULT_DOMAIN 1     /* a domain check failed: fault->check names it (mkctl.native.codegen.CHECKS) */
 #define MK_FAULT_COLLAPSE 2   /* the integrator's step size collapsed */
 #define MK_FAULT_STEPS 3      /* the integrator needed more than MK_MAX_STEPS steps */
-#define MK_FAULT_VARIANT 4    /* this parameter structure (model, Fc > 0, tau > 0, ...) is not compiled in */
+#define MK_FAULT_VARIANT 4    /* this parameter structure (model, tau > 0, ...) is not compiled in */
 
 typedef struct {
     int code;       /* MK_FAULT_* */
@@ -339,7 +339,7 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
 static int mk_isotonic_g(int variant, const double *p, const double *ks, double x, double pressure, double load,
                          double gain, double previous, double *value, double *slope, mk_fault *fault)
 {
-    double out[2];
+    double out[4];
     int rc = mk_actuator_static_variant(variant, p, NULL, ks, x, pressure, out, fault);
     if (rc)
         return rc;
@@ -414,8 +414,9 @@ static int mk_isotonic_length(int variant, const double *p, const double *ks, do
 }
 
 /* The damped isotonic test (isotonic._damped_isotonic): backward Euler on c Ldot = F - f_static(L, P)
- * - Fc sign(Ldot), friction in its play limit, from L_start; L: n lengths [m]. On a fault fault->sample is
- * the sample being computed. */
+ * - Fc sign(Ldot), friction in its play limit, from L_start; L: n lengths [m]. c (the effects' viscous
+ * coefficient) and Fc (their play half-width) come from the generated actuator_static, out[3] and out[2]. On a
+ * fault fault->sample is the sample being computed. */
 int mk_isotonic_damped(const double *p, long n, const double *time, const double *pressure, const double *load,
                        double L_start, int saturate, double *L, mk_fault *fault)
 {
@@ -427,7 +428,7 @@ int mk_isotonic_damped(const double *p, long n, const double *time, const double
     mk_actuator_static_constants_variant(variant, p, NULL, ks);
     for (k = 0; k < n; k++) {
         const double dt = k == 0 ? 0.0 : time[k] - time[k - 1];
-        double out[2], excess;
+        double out[4], excess;
         int rc;
         if (fault)
             fault->sample = k;
@@ -439,11 +440,11 @@ int mk_isotonic_damped(const double *p, long n, const double *time, const double
         if (rc)
             return rc;
         excess = load[k] - out[0];
-        if (fabs(excess) <= p[MK_P_Fc]) {  /* friction holds */
+        if (fabs(excess) <= out[2]) {  /* friction holds */
             L[k] = previous;
         } else {
-            const double held = load[k] - (excess > 0 ? 1.0 : -1.0) * p[MK_P_Fc];
-            rc = mk_isotonic_length(variant, p, ks, previous, pressure[k], held, p[MK_P_c] / dt, saturate, L + k,
+            const double held = load[k] - (excess > 0 ? 1.0 : -1.0) * out[2];
+            rc = mk_isotonic_length(variant, p, ks, previous, pressure[k], held, out[3] / dt, saturate, L + k,
                                     fault);
             if (rc)
                 return rc;

@@ -1,4 +1,5 @@
-"""Native FMUs (model-spec section 7b): the knee and the actuator as FMI 2.0 co-simulation FMUs in compiled C.
+"""Native FMUs (model-spec sections 7b, 7c): the knee and the actuator as FMI 2.0 FMUs in compiled C, with both
+interfaces, Co-Simulation and Model Exchange, in one binary and one modelDescription.xml.
 
     python -m mkctl.native.fmu [--out DIR]      # writes DIR/native/McKibbenKnee.fmu, DIR/native/McKibbenActuator.fmu
 
@@ -21,6 +22,16 @@ The parameter checks of the C wrapper are those of :class:`mkctl.physics.params.
 (:func:`parameter_rule`, :func:`integer_rule`), the two rules between parameters are written in the wrapper with
 Params' own messages; tests compare both on every parameter. Domain errors during a run carry the library's
 messages too: each traced domain check of the core gets its Python message as a template (:func:`core_source`).
+
+Model Exchange (:data:`ME_STATES`): the continuous states are the knee's X, V and its two pressure-lag states
+(``Pe_lag``, ``Pf_lag``: local variables, inert with derivative 0 when tau = 0, since FMI 2.0 fixes the number of
+states), or the actuator's ``P_lag``; each has a ``der(...)`` variable. The derivatives are the core's generated
+right-hand side (``mk_knee_rhs``) and, for the actuator, the time derivative at dt = 0 of the core's exact lag
+(``actuator_lagged_pressure``), differentiated symbolically. The event indicators are found in those generated
+expressions themselves (:func:`switching_functions`): every Piecewise condition, Max/Min, Abs, sign or Heaviside
+argument that depends on the state or an input (end-stop contact, the stop's damper letting go, slack, a lag's
+direction), one generated C function per variant, so that no effect is named in hand-written C. Parameters that
+Model Exchange cannot represent (a dead time, :data:`ME_REFUSED_PARAMETERS`) are refused at initialization.
 """
 from __future__ import annotations
 
@@ -50,6 +61,45 @@ C_DIR = HERE / "fmu_c"
 MODEL_NAMES = ("McKibbenKnee", "McKibbenActuator")
 #: The model's part of the wrapper, by model name.
 MODEL_SOURCES = {"McKibbenKnee": "knee_fmu.c", "McKibbenActuator": "actuator_fmu.c"}
+#: The model's Model Exchange part (derivatives and event indicators from the generated core), by model name.
+ME_SOURCES = {"McKibbenKnee": "knee_me.c", "McKibbenActuator": "actuator_me.c"}
+#: The wrapper's C, shared by every model (the FMI 2.0 functions; the run's checks and Model Exchange logic).
+WRAPPER_SOURCES = ("fmi2_wrapper.c", "mk_run.c")
+
+
+@dataclasses.dataclass(frozen=True)
+class MEState:
+    """One continuous state of the Model Exchange interface (model-spec section 7c)."""
+
+    name: str  #: the variable holding it: an output of the slave, or a local variable added for Model Exchange
+    unit: str  #: FMI unit of the state
+    derivative_unit: str  #: FMI unit of its derivative
+    nominal: float  #: its magnitude (fmi2GetNominalsOfContinuousStates; a host scales its tolerance by it)
+    description: str | None = None  #: for a local added here; None: the slave's own output
+
+
+#: The continuous states, in the order of the core's state vector y (knee.state_names with a lag: X, V, Pe, Pf).
+ME_STATES = {
+    "McKibbenKnee": (
+        MEState("X", "m", "m/s", 1.0),
+        MEState("V", "m/s", "m/s2", 1.0),
+        MEState("Pe_lag", "Pa", "Pa/s", 1e6, "extensor pressure-lag state (Model Exchange): equal to Pe when tau > 0; "
+                "inert (derivative 0) when tau = 0, where Pe is pe_cmd"),
+        MEState("Pf_lag", "Pa", "Pa/s", 1e6, "flexor pressure-lag state (Model Exchange): equal to Pf when tau > 0; "
+                "inert (derivative 0) when tau = 0, where Pf is pf_cmd"),
+    ),
+    "McKibbenActuator": (
+        MEState("P_lag", "Pa", "Pa/s", 1e6, "pressure-lag state (Model Exchange): equal to P when tau > 0; inert "
+                "(derivative 0) when tau = 0, where P is p_cmd"),
+    ),
+}
+
+#: Parameters Model Exchange cannot represent, with the reason, refused at initialization when not 0 (model-spec
+#: section 7c): a dead time needs the history of the commands, which the host's integrator does not keep.
+ME_REFUSED_PARAMETERS = {
+    "delay": "a dead time needs the history of the commands, which Model Exchange does not keep; use the "
+             "Co-Simulation interface, or delay = 0",
+}
 
 _LOG_CATEGORIES = {
     "logStatusWarning": "Log messages with fmi2Warning status.",
@@ -136,7 +186,7 @@ def parameter_rule(name: str) -> str:
     Read from Params itself (a value of 0 or -1 in an otherwise default set), so that the C wrapper checks what
     the library checks. ``n`` is "any" here: the wrapper checks it only when it is given (not left at its start).
     """
-    if name not in dataclasses.asdict(DEFAULT) or name in ("n", "model"):
+    if name not in DEFAULT.as_dict() or name in ("n", "model"):
         return "any"
     for value, rule, words in ((0.0, "positive", "must be positive"), (-1.0, "not_negative", "must not be negative")):
         try:
@@ -173,26 +223,51 @@ def integer_rule(name: str) -> tuple[int, int, str]:
 
 # --- generated files -------------------------------------------------------------------------------------------
 
-def model_description(interface: Interface, guid: str, source_files: list[str]) -> bytes:
-    """modelDescription.xml of the native FMU (FMI 2.0 co-simulation, source files listed)."""
+def me_variables(interface: Interface) -> tuple[Variable, ...]:
+    """The variables Model Exchange adds to the slave's: the lag states that are not outputs and a ``der(...)``
+    variable for every state (all local, continuous, calculated), value references after the slave's."""
+    names = interface.by_name()
+    vr = max(v.vr for v in interface.variables) + 1
+    added = []
+    for state in ME_STATES[interface.model_name]:
+        if state.description is None:
+            if state.name not in names or names[state.name].type != "Real":
+                raise NativeBuildError(f"Model Exchange state {state.name} is not a Real variable of the slave")
+        else:
+            added.append(Variable(state.name, vr, "Real", "local", "continuous", state.description, state.unit,
+                                  None))
+            vr += 1
+    for state in ME_STATES[interface.model_name]:
+        added.append(Variable(f"der({state.name})", vr, "Real", "local", "continuous",
+                              f"time derivative of {state.name} (Model Exchange)", state.derivative_unit, None))
+        vr += 1
+    return tuple(added)
+
+
+def model_description(interface: Interface, guid: str, source_files: list[str], event_indicators: int = 0) -> bytes:
+    """modelDescription.xml of the native FMU: FMI 2.0 Model Exchange and Co-Simulation in one, source files
+    listed; the slave's variables, then those Model Exchange adds (:func:`me_variables`)."""
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
+    variables_all = interface.variables + me_variables(interface)
+    index = {v.name: k for k, v in enumerate(variables_all, start=1)}
     root = ET.Element("fmiModelDescription", {
         "fmiVersion": "2.0", "modelName": interface.model_name, "guid": guid,
         "description": interface.description, "author": interface.author,
         "generationTool": "mkctl.native.fmu (C generated from mkctl's equations)",
         "generationDateAndTime": now, "variableNamingConvention": "structured",
-        "numberOfEventIndicators": "0"})
+        "numberOfEventIndicators": str(event_indicators)})
+    common = {"modelIdentifier": interface.model_name, "needsExecutionTool": "false"}
+    shared = {"canBeInstantiatedOnlyOncePerProcess": "false", "canNotUseMemoryManagementFunctions": "true",
+              "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true", "providesDirectionalDerivative": "false"}
+    me = ET.SubElement(root, "ModelExchange", {**common, "completedIntegratorStepNotNeeded": "false", **shared})
     cosim = ET.SubElement(root, "CoSimulation", {
-        "modelIdentifier": interface.model_name, "needsExecutionTool": "false",
-        "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false",
-        "canBeInstantiatedOnlyOncePerProcess": "false", "canNotUseMemoryManagementFunctions": "true",
-        "canGetAndSetFMUstate": "true", "canSerializeFMUstate": "true",
-        "providesDirectionalDerivative": "false"})
-    sources = ET.SubElement(cosim, "SourceFiles")
-    for name in source_files:
-        ET.SubElement(sources, "File", name=name)
+        **common, "canHandleVariableCommunicationStepSize": "true", "canInterpolateInputs": "false", **shared})
+    for element in (me, cosim):
+        sources = ET.SubElement(element, "SourceFiles")
+        for name in source_files:
+            ET.SubElement(sources, "File", name=name)
     try:
-        root.append(unit_definitions(v.unit for v in interface.variables if v.unit is not None))
+        root.append(unit_definitions(v.unit for v in variables_all if v.unit is not None))
     except ValueError as error:
         raise NativeBuildError(str(error)) from None
     categories = ET.SubElement(root, "LogCategories")
@@ -200,7 +275,8 @@ def model_description(interface: Interface, guid: str, source_files: list[str]) 
         ET.SubElement(categories, "Category", name=name, description=text)
     ET.SubElement(root, "DefaultExperiment", interface.default_experiment)
     variables = ET.SubElement(root, "ModelVariables")
-    for v in interface.variables:
+    states = {f"der({state.name})": state for state in ME_STATES[interface.model_name]}
+    for v in variables_all:
         node = ET.SubElement(variables, "ScalarVariable", {
             "name": v.name, "valueReference": str(v.vr), "description": v.description, "causality": v.causality,
             "variability": v.variability})
@@ -209,13 +285,17 @@ def model_description(interface: Interface, guid: str, source_files: list[str]) 
             attributes["start"] = repr(v.start)
         if v.unit is not None:
             attributes["unit"] = v.unit
+        if v.name in states:
+            attributes["derivative"] = str(index[states[v.name].name])
         ET.SubElement(node, v.type, attributes)
     structure = ET.SubElement(root, "ModelStructure")
-    indices = [str(k) for k, v in enumerate(interface.variables, start=1) if v.causality == "output"]
-    for section in ("Outputs", "InitialUnknowns"):
+    outputs = [str(index[v.name]) for v in variables_all if v.causality == "output"]
+    derivatives = [str(index[name]) for name in states]
+    initial = sorted({*outputs, *derivatives, *(str(index[s.name]) for s in states.values())}, key=int)
+    for section, indices in (("Outputs", outputs), ("Derivatives", derivatives), ("InitialUnknowns", initial)):
         node = ET.SubElement(structure, section)
-        for index in indices:
-            ET.SubElement(node, "Unknown", index=index)
+        for position in indices:
+            ET.SubElement(node, "Unknown", index=position)
     return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
 
 
@@ -230,48 +310,88 @@ def _c_double(value: float) -> str:
 
 
 def _core_has_slack() -> bool:
-    """Whether the compiled core tells slack = 1 from slack = 0 (its variants name the structures it generates)."""
-    from .variants import Variant
-    return "slack" in Variant._fields
+    """Whether the compiled core tells slack = 1 from slack = 0: its variants follow every structural effect of
+    the registry, slack included."""
+    from .variants import structural_effects
+    return any(e.name == "slack" for e in structural_effects())
+
+
+def c_identifier(name: str) -> str:
+    """The C name of a variable in ``VR_<name>``: ``der(X)`` becomes ``der_X``."""
+    text = name.replace("(", "_").replace(")", "")
+    if not text.isidentifier():
+        raise NativeBuildError(f"variable name {name!r} has no C identifier")
+    return text
+
+
+def core_event_indicators(model_name: str) -> int:
+    """The number of event indicators of a model's Model Exchange interface: the most switching functions of any
+    variant in the generated core (:func:`generate_core_source`; a variant with fewer pads with constants)."""
+    import re
+    key = {"McKibbenKnee": "KNEE", "McKibbenActuator": "ACTUATOR"}[model_name]
+    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(), re.MULTILINE)
+    if found is None:
+        raise NativeBuildError(f"the generated core has no event-indicator count for {model_name}")
+    return int(found.group(1))
+
+
+def _message_format(message, *fields: str) -> str:
+    """A C printf format (one %s per field, in order) of a message function of the slaves."""
+    markers = [chr(1 + k) for k in range(len(fields))]
+    text = message(*markers).replace("%", "%%")
+    positions = [text.index(m) for m in markers]
+    if positions != sorted(positions):
+        raise NativeBuildError(f"message fields {fields} are not in order in {text!r}")
+    for marker in markers:
+        text = text.replace(marker, "%s")
+    return text
 
 
 def variables_header(interface: Interface, guid: str) -> str:
-    """model_variables.h: names, value references, GUID."""
+    """model_variables.h: names, value references, GUID, Model Exchange's sizes."""
+    variables = interface.variables + me_variables(interface)
+    nz = core_event_indicators(interface.model_name)
     lines = ["/* Generated by mkctl.native.fmu from the pythonfmu slave's interface: do not edit. */",
              "#ifndef MODEL_VARIABLES_H", "#define MODEL_VARIABLES_H", "",
              f"#define MK_MODEL_NAME {_c_string(interface.model_name)}",
              f"#define MK_GUID {_c_string(guid)}",
              f"#define MK_UNDEFINED_OUTPUTS {_c_string(interface.undefined_outputs)}",
-             f"#define NV {len(interface.variables)}",
+             f"#define NV {len(variables)}",
              f"#define MK_NPARAM {len(PARAMETER_NAMES)} /* the core's parameter vector */",
-             f"#define MK_CORE_HAS_SLACK {int(_core_has_slack())} /* the core generates slack = 1 variants */", ""]
-    for v in interface.variables:
-        if not v.name.isidentifier():
-            raise NativeBuildError(f"variable name {v.name!r} is not a C identifier")
-        lines.append(f"#define VR_{v.name} {v.vr}")
+             f"#define MK_CORE_HAS_SLACK {int(_core_has_slack())} /* the core generates slack = 1 variants */",
+             f"#define MK_ME_NX {len(ME_STATES[interface.model_name])} /* Model Exchange: continuous states */",
+             f"#define MK_ME_NZ {nz} /* Model Exchange: event indicators */", ""]
+    for v in variables:
+        lines.append(f"#define VR_{c_identifier(v.name)} {v.vr}")
     lines += ["", "#endif", ""]
     return "\n".join(lines)
 
 
 def variables_source(interface: Interface) -> str:
-    """model_variables.c: the table of variables (start values exact to the last bit), check order, inputs."""
+    """model_variables.c: the table of variables (start values exact to the last bit), check order, inputs, the
+    Model Exchange states, and the slaves' messages for a negative pressure and a non-finite output."""
+    from ..fmu.slave import negative_pressure_message, non_finite_output_message
     types = {"Real": "MK_REAL", "Integer": "MK_INTEGER", "Boolean": "MK_BOOLEAN"}
-    causalities = {"input": "MK_INPUT", "parameter": "MK_PARAMETER", "output": "MK_OUTPUT"}
+    causalities = {"input": "MK_INPUT", "parameter": "MK_PARAMETER", "output": "MK_OUTPUT", "local": "MK_LOCAL"}
     rules = {"any": "MK_ANY", "positive": "MK_POSITIVE", "not_negative": "MK_NOT_NEGATIVE"}
     lines = ["/* Generated by mkctl.native.fmu from the pythonfmu slave's interface: do not edit. */",
-             '#include "mk_fmu.h"', "", "const mk_variable mk_variables[NV] = {"]
-    for v in sorted(interface.variables, key=lambda v: v.vr):
+             '#include "mk_fmu.h"', '#include "mk_run.h"', "", "const mk_variable mk_variables[NV] = {"]
+    for v in sorted(interface.variables + me_variables(interface), key=lambda v: v.vr):
         rule = parameter_rule(v.name) if v.causality == "parameter" and v.type == "Real" else "any"
         start = _c_double(v.start) if v.start is not None else "0.0"
         lines.append(f"    {{{_c_string(v.name)}, {types[v.type]}, {causalities[v.causality]}, {rules[rule]}, "
                      f"{_c_string(v.unit or '')}, {start}}}, /* vr {v.vr} */")
     lines.append("};")
     names = interface.by_name()
-    order = [names[f].vr for f in dataclasses.asdict(DEFAULT)
+    order = [names[f].vr for f in DEFAULT.as_dict()
              if f in names and names[f].causality == "parameter" and names[f].type == "Real"]
     inputs = [v.vr for v in interface.variables if v.causality == "input"]
+    pressures = [v.vr for v in interface.variables if v.causality == "input" and v.unit == "Pa"]
     integer_rules = [(v.vr, *integer_rule(v.name)) for v in interface.variables
                      if v.causality == "parameter" and v.type == "Integer"]
+    states = ME_STATES[interface.model_name]
+    refused = [(names[name].vr, reason) for name, reason in ME_REFUSED_PARAMETERS.items()
+               if name in names and names[name].causality == "parameter"]
     lines += [f"const int mk_params_order[] = {{{', '.join(map(str, order))}}};",
               f"const int mk_n_params_order = {len(order)};",
               f"const int mk_inputs[] = {{{', '.join(map(str, inputs))}}};",
@@ -284,6 +404,24 @@ def variables_source(interface: Interface) -> str:
                 if "P_rated" in names],
               "    {-1, \"\"}", "};",
               f"const int mk_n_pressure_outputs = {len(interface.pressure_outputs) if 'P_rated' in names else 0};",
+              "",
+              "/* the inputs that are gauge pressures (refused below 0), and the slaves' messages */",
+              f"const int mk_pressure_inputs[] = {{{', '.join(map(str, pressures + [-1]))}}};",
+              f"const int mk_n_pressure_inputs = {len(pressures)};",
+              "const char MK_NEGATIVE_PRESSURE_FORMAT[] = "
+              f"{_c_string(_message_format(negative_pressure_message, 'name', 'value'))};",
+              "const char MK_NON_FINITE_OUTPUT_FORMAT[] = "
+              f"{_c_string(_message_format(non_finite_output_message, 'name', 'value', 'unit'))};",
+              "",
+              "/* Model Exchange: the continuous states (the core's state vector y, in order), their derivatives and",
+              " * nominal values; the parameters Model Exchange refuses when not 0, with the reason */",
+              "const int mk_me_state_vr[MK_ME_NX] = {" + ", ".join(f"VR_{c_identifier(x.name)}" for x in states) + "};",
+              "const int mk_me_derivative_vr[MK_ME_NX] = {"
+              + ", ".join(f"VR_{c_identifier(f'der({x.name})')}" for x in states) + "};",
+              "const double mk_me_nominal[MK_ME_NX] = {" + ", ".join(_c_double(x.nominal) for x in states) + "};",
+              "const mk_me_refusal mk_me_refused[] = {",
+              *[f"    {{{vr}, {_c_string(reason)}}}," for vr, reason in refused],
+              "    {-1, \"\"}", "};", f"const int mk_n_me_refused = {len(refused)};",
               "",
               "void mk_param_vector(const mk_data *d, double n, double *p)", "{"]
     for index, name in enumerate(PARAMETER_NAMES):
@@ -337,8 +475,8 @@ def core_source() -> str:
     import hashlib
 
     from . import build
-    from .variants import ALL_VARIANTS
-    digest = hashlib.sha256(build.input_key(ALL_VARIANTS).encode())
+    from .variants import all_variants
+    digest = hashlib.sha256(build.input_key(all_variants()).encode())
     digest.update(Path(__file__).read_bytes())
     path = build.cache_dir() / f"fmu-core-{digest.hexdigest()[:20]}.c"
     if path.is_file():
@@ -363,21 +501,29 @@ def generate_core_source() -> str:
     from ..physics.simulate import KneeSimulator
     from ..physics.stability import DEFAULT_ALPHA
     from . import codegen
-    from .variants import ALL_VARIANTS
+    from .variants import all_variants
 
     collected = []  # every check, in the order the CheckTable numbers them
     original = codegen.CheckTable.add
+    emitted = {}  # the core's generated functions: name -> emit_function's arguments (Model Exchange reads them)
+    original_emit = codegen.emit_function
 
     def add(self, check):
         collected.append(check)
         return original(self, check)
 
+    def emit_function(name, arguments, call, bindings_, constant, traced, *rest, **kwargs):
+        emitted[name] = (arguments, call, bindings_, constant, traced)
+        return original_emit(name, arguments, call, bindings_, constant, traced, *rest, **kwargs)
+
     codegen.CheckTable.add = add
+    codegen.emit_function = emit_function
     try:
-        source, entries = codegen.generate_source(ALL_VARIANTS)
+        source, entries = codegen.generate_source(all_variants())
+        codegen.emit_function = original_emit
         table = codegen.CheckTable()
         table.entries = list(entries)
-        sp = codegen.SymbolicParams(ALL_VARIANTS[0])  # the geometry does not depend on the variant
+        sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
         bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
         alpha, X = sympy.Symbol("alpha", real=True), sympy.Symbol("X", real=True)
 
@@ -398,9 +544,11 @@ def generate_core_source() -> str:
             "int mk_fmu_X_from_alpha(const double *p, double alpha, double *out, mk_fault *fault)",
             "{", "    return fmu_X_from_alpha_once(p, NULL, alpha, out, fault);", "}", "",
             "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
-            "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", ""]
+            "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
+            model_exchange_functions(emitted, table, all_variants())]
     finally:
         codegen.CheckTable.add = original
+        codegen.emit_function = original_emit
     if len(collected) != len(table.entries):
         raise NativeBuildError("the core's domain checks could not be collected in order")
     sim = KneeSimulator(Params(tau=1.0))
@@ -415,6 +563,139 @@ def generate_core_source() -> str:
              "const double MK_FMU_KNEE_ATOL[4] = {" + ", ".join(_c_double(a) for a in sim.atol) + "};",
              f"const double MK_FMU_KNEE_H0 = {_c_double(sim.step_hint)};", ""]
     return source + "\n".join(lines)
+
+
+def switching_functions(expressions, fixed: set[str]) -> list:
+    """The functions whose sign change switches a right-hand side (the event indicators of model-spec section 7c),
+    read off the traced expressions themselves: the condition of every Piecewise branch (``X < X_low`` gives
+    ``X - X_low``), the difference of the arguments of every Max or Min (``Max(f, 0)``, slack, gives ``f``), and
+    the argument of every Abs, sign and Heaviside. Those built from ``fixed`` symbols only (parameters, the stop
+    positions: constant during a run) never change sign and are left out; each is kept once, up to its sign."""
+    import sympy
+
+    found = []
+
+    def add(expression):
+        expression = sympy.sympify(expression)
+        if {symbol.name for symbol in expression.free_symbols} <= fixed:
+            return
+        if not any(expression == other or expression == -other for other in found):
+            found.append(expression)
+
+    def visit(expression):
+        if isinstance(expression, sympy.Piecewise):
+            for _, condition in expression.args:
+                visit(condition)
+        elif isinstance(expression, (sympy.Max, sympy.Min)):
+            arguments = sorted(expression.args, key=lambda a: a.is_Number)  # numbers last: Max(0, f) gives f
+            for i, a in enumerate(arguments):
+                for b in arguments[i + 1:]:
+                    add(a - b)
+        elif isinstance(expression, (sympy.Abs, sympy.sign, sympy.Heaviside)):
+            add(expression.args[0])
+        elif isinstance(expression, sympy.core.relational.Relational):
+            add(expression.lhs - expression.rhs)
+        for argument in expression.args:
+            visit(argument)
+
+    for expression in expressions:
+        visit(expression)
+    return found
+
+
+#: What Model Exchange expects of the core's generated functions it builds on (codegen.KINDS): their arguments.
+_ME_KNEE_RHS_ARGUMENTS = "const double *y, double pe_cmd, double pf_cmd, double *out, mk_fault *fault"
+_ME_LAG_ARGUMENTS = "double P, double P_cmd, double dt, double *out, mk_fault *fault"
+
+
+def model_exchange_functions(emitted: dict, table, variants) -> str:
+    """C for Model Exchange, generated from the core's own traced functions (``emitted``: name -> the arguments
+    codegen's emit_function got), for every variant, with a dispatcher on the variant of p:
+
+    - ``mk_fmu_knee_event_indicators(p, stops, y, pe_cmd, pf_cmd, out, fault)``: the switching functions
+      (:func:`switching_functions`) of the knee's right-hand side ``knee_rhs_<variant>``, ``MK_FMU_KNEE_NZ`` values
+      (a variant with fewer pads with 1.0, which never changes sign);
+    - ``mk_fmu_actuator_pressure_rate(p, P, P_cmd, out, fault)``: dP/dt of the actuator, the derivative at dt = 0
+      of the core's exact lag ``actuator_lagged_pressure_<variant>`` (sympy.diff; 0 without a lag);
+    - ``mk_fmu_actuator_event_indicators(p, P, P_cmd, out, fault)``: the switching functions of that rate.
+    """
+    import re
+
+    import sympy
+
+    from . import codegen
+
+    parts = []
+    names = [v.name for v in variants]
+
+    def dispatcher(signature, cases, count, fill):
+        lines = [f"int {signature}", "{", "    int i;", f"    for (i = 0; i < {count}; i++) out[i] = {fill};",
+                 "    (void)i;", "    switch (mk_variant(p)) {"]
+        lines += [f"    case {k}: return {call};" for k, call in cases]
+        lines += ["    }", "    return mk_fault_code(fault, MK_FAULT_VARIANT);", "}", ""]
+        return lines
+
+    def generated(kind, variant):
+        name = f"{kind}_{variant}"
+        if name not in emitted:
+            raise NativeBuildError(f"the generated core has no {name}: Model Exchange builds on it")
+        return emitted[name]
+
+    # the knee: the switching functions of the right-hand side
+    knee_cases, knee_counts = [], []
+    for k, variant in enumerate(names):
+        arguments, call, bindings, constant, traced = generated("knee_rhs", variant)
+        if arguments != _ME_KNEE_RHS_ARGUMENTS:
+            raise NativeBuildError(f"knee_rhs takes ({arguments}); Model Exchange expects ({_ME_KNEE_RHS_ARGUMENTS})")
+        switches = switching_functions(traced.outputs, set(constant))
+        knee_counts.append(len(switches))
+        if switches:
+            name = f"fmu_knee_switches_{variant}"
+            parts.append(codegen.emit_function(name, arguments, call, bindings, constant,
+                                               codegen.Traced(switches, []), "out", table))
+            knee_cases.append((k, f"{name}_once(p, stops, {call})"))
+        else:
+            knee_cases.append((k, "0"))
+    knee_nz = max(knee_counts)
+    parts += [f"#define MK_FMU_KNEE_NZ {knee_nz}",
+              "/* the knee's event indicators: where its right-hand side switches (knee.knee_derivatives) */",
+              *dispatcher("mk_fmu_knee_event_indicators(const double *p, const double *stops, const double *y, "
+                          "double pe_cmd, double pf_cmd, double *out, mk_fault *fault)", knee_cases, knee_nz, "1.0")]
+
+    # the actuator: dP/dt from the exact lag, and its switching functions
+    rate_cases, switch_cases, actuator_counts = [], [], []
+    for k, variant in enumerate(names):
+        arguments, call, bindings, constant, traced = generated("actuator_lagged_pressure", variant)
+        if arguments != _ME_LAG_ARGUMENTS:
+            raise NativeBuildError(f"actuator_lagged_pressure takes ({arguments}); Model Exchange expects "
+                                   f"({_ME_LAG_ARGUMENTS})")
+        dt = sympy.Symbol("dt", real=True)
+        rate = sympy.diff(traced.outputs[0], dt).subs(dt, 0)
+        call_at_0 = re.sub(r"\bdt\b", "0.0", call)
+        name = f"fmu_actuator_rate_{variant}"
+        parts.append(codegen.emit_function(name, arguments, call, bindings, constant, codegen.Traced([rate], []),
+                                           "out", table))
+        rate_cases.append((k, f"{name}_once(p, NULL, {call_at_0})"))
+        switches = switching_functions([rate], set(constant))
+        actuator_counts.append(len(switches))
+        if switches:
+            name = f"fmu_actuator_switches_{variant}"
+            parts.append(codegen.emit_function(name, arguments, call, bindings, constant,
+                                               codegen.Traced(switches, []), "out", table))
+            switch_cases.append((k, f"{name}_once(p, NULL, {call_at_0})"))
+        else:
+            switch_cases.append((k, "0"))
+    actuator_nz = max(actuator_counts)
+    parts += ["/* the actuator's dP/dt [Pa/s]: d/d(dt) of actuator.lagged_pressure at dt = 0 */",
+              *dispatcher("mk_fmu_actuator_pressure_rate(const double *p, double P, double P_cmd, double *out, "
+                          "mk_fault *fault)", rate_cases, 1, "0.0"),
+              f"#define MK_FMU_ACTUATOR_NZ {actuator_nz}",
+              "/* the actuator's event indicators: where its dP/dt switches */",
+              *dispatcher("mk_fmu_actuator_event_indicators(const double *p, double P, double P_cmd, double *out, "
+                          "mk_fault *fault)", switch_cases, actuator_nz, "1.0"),
+              "const int mk_fmu_knee_nz = MK_FMU_KNEE_NZ;", "const int mk_fmu_actuator_nz = MK_FMU_ACTUATOR_NZ;",
+              ""]
+    return "\n".join(parts)
 
 
 def core_compiler_flags() -> tuple[str, ...]:
@@ -433,11 +714,13 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
         shutil.copy2(headers / name, dest / name)
     shutil.copy2(C_DIR / "mk_fmu.h", dest / "mk_fmu.h")
     shutil.copy2(C_DIR / "mk_core_api.h", dest / "mk_core_api.h")  # the FMUs' view of the core
-    units = ["fmi2_wrapper.c", MODEL_SOURCES[interface.model_name], "mk_core_api.c", "model_variables.c"]
-    for name in units[:3]:
+    shutil.copy2(C_DIR / "mk_run.h", dest / "mk_run.h")  # the run's checks and Model Exchange, for every wrapper
+    own = [*WRAPPER_SOURCES, MODEL_SOURCES[interface.model_name], ME_SOURCES[interface.model_name], "mk_core_api.c"]
+    for name in own:
         shutil.copy2(C_DIR / name, dest / name)
     if model_source is not None:
-        shutil.copy2(model_source, dest / units[1])
+        shutil.copy2(model_source, dest / MODEL_SOURCES[interface.model_name])
+    units = [*own, "model_variables.c"]
     (dest / "model_variables.h").write_text(variables_header(interface, guid))
     (dest / "model_variables.c").write_text(variables_source(interface))
     (dest / "mkctl_core.c").write_text(core_source())
@@ -473,18 +756,20 @@ def _core_object(sources: Path, compiler: list[str]) -> Path:
     return target
 
 
-def compile_binary(sources: Path, units: list[str], target: Path) -> None:
+def compile_binary(sources: Path, units: list[str], target: Path, compiler: list[str] | None = None,
+                   link_flags: tuple[str, ...] = ()) -> None:
     """Compile the units into a shared library (only the fmi2* functions exported), with the compiler the core
-    uses (:func:`mkctl.native.build.find_compiler`: $CC, else cc, gcc or clang)."""
+    uses (:func:`mkctl.native.build.find_compiler`: $CC, else cc, gcc or clang), or another one (a cross compiler,
+    :mod:`mkctl.native.cross`) with its own link_flags."""
     from .build import find_compiler
-    found = find_compiler()
+    found = find_compiler() if compiler is None else compiler
     if found is None:
         raise NativeBuildError("no C compiler found (CC, cc, gcc, clang): the native FMUs need one to build")
     target.parent.mkdir(parents=True, exist_ok=True)
     objects = [str(_core_object(sources, found))] if "mkctl_core.c" in units else []
     own = [str(sources / u) for u in units if u != "mkctl_core.c"]
-    _run_compiler([*found, *_compiler_flags(), "-shared", "-I", str(sources), "-o", str(target), *own, *objects,
-                   "-lm"], target.name)
+    _run_compiler([*found, *_compiler_flags(), "-shared", *link_flags, "-I", str(sources), "-o", str(target), *own,
+                   *objects, "-lm"], target.name)
 
 
 def _validate(fmu: Path) -> None:
@@ -501,8 +786,11 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
         stage = Path(temp) / "fmu"
         units = write_sources(interface, guid, stage / "sources", model_source)
-        (stage / "modelDescription.xml").write_bytes(model_description(interface, guid, units))
+        (stage / "modelDescription.xml").write_bytes(
+            model_description(interface, guid, units, core_event_indicators(model_name)))
         compile_binary(stage / "sources", units, stage / "binaries" / "linux64" / f"{model_name}.so")
+        from .cross import add_windows_binary  # win64 too, when MinGW-w64 is installed (model-spec 7c)
+        add_windows_binary(stage / "sources", units, stage / "binaries" / "win64" / f"{model_name}.dll")
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as fmu:
             for path in sorted(stage.rglob("*")):

@@ -1,45 +1,77 @@
-"""The structure of a parameter set: which branches of the equations apply (one generated C variant each)."""
+"""The structure of a parameter set: which structural effects are on (one generated C variant each).
+
+Read from the effect registry (:mod:`mkctl.physics.effects`): an effect marked ``structural`` changes the
+equations when it is switched on (elasticity: model 2; a pressure lag: two more states; slack: a ``max``), so each
+combination of them is one variant, picked at run time by the C dispatcher from the parameter vector. Effects that
+are not structural (damping, friction: their terms vanish exactly at the off value) are always compiled in.
+"""
 from __future__ import annotations
 
+import itertools
 from typing import NamedTuple
 
-from ..physics import knee
+from ..physics import effects
 from ..physics.params import Params
 
 
-class _Structure:
-    """Just enough of a Params for :func:`mkctl.physics.knee.state_names`."""
-
-    def __init__(self, lag: bool):
-        self.tau = 1.0 if lag else 0.0
+def structural_effects() -> tuple:
+    """The registered effects that need a variant of their own, in the registry's order."""
+    return tuple(e for e in effects.all_effects() if e.structural)
 
 
 class Variant(NamedTuple):
-    """What the equations' ``if`` statements depend on."""
+    """The structural effects switched on (names, in the registry's order)."""
 
-    model: int  #: 1: pressure only, 2: with rubber elasticity
-    friction: bool  #: Fc != 0 (actuator.velocity_tension)
-    lag: bool  #: tau > 0 (the knee then has the pressures as states)
-    slack: bool  #: slack != 0 (actuator.slack_tension: f = max(f, 0))
+    on: tuple[str, ...]
 
     @classmethod
     def of(cls, params: Params) -> "Variant":
-        return cls(int(params.model), params.Fc != 0, params.tau > 0, params.slack != 0)
+        return cls(tuple(e.name for e in structural_effects() if e.is_on(params)))
 
     @property
     def name(self) -> str:
-        return f"m{self.model}f{int(self.friction)}l{int(self.lag)}s{int(self.slack)}"
+        """A C identifier: one bit per structural effect of the registry."""
+        return "v" + "".join("1" if e.name in self.on else "0" for e in structural_effects())
+
+    @property
+    def model(self) -> int:
+        """1: pressure only, 2: with rubber elasticity."""
+        return 2 if "elasticity" in self.on else 1
+
+    @property
+    def lag(self) -> bool:
+        """Whether an effect with pressure dynamics is on (the knee then has the pressures as states)."""
+        return any(effects.get(name).pressure_rate is not None for name in self.on)
+
+    @property
+    def slack(self) -> bool:
+        return "slack" in self.on
 
     @property
     def nstate(self) -> int:
-        return len(knee.state_names(_Structure(self.lag)))
+        return 4 if self.lag else 2
+
+    def traced_effects(self) -> set[str]:
+        """The effects the variant's C computes: its structural ones and every non-structural one."""
+        return set(self.on) | {e.name for e in effects.all_effects() if not e.structural}
 
     def c_condition(self) -> str:
         """The C test of a parameter vector p for this variant (the mirror of :meth:`of`)."""
-        return (f"(p[MK_P_model] == {self.model}) && ((p[MK_P_Fc] != 0) == {int(self.friction)}) && "
-                f"((p[MK_P_tau] > 0) == {int(self.lag)}) && ((p[MK_P_slack] != 0) == {int(self.slack)})")
+        tests = []
+        for e in structural_effects():
+            q = e.switch_parameter
+            tests.append(f"((p[MK_P_{q.name}] != {float(q.off)!r}) == {int(e.name in self.on)})")
+        return " && ".join(tests) or "1"
 
 
-#: Every structure a Params can have.
-ALL_VARIANTS = tuple(Variant(m, f, lag, s) for m in (1, 2) for f in (False, True) for lag in (False, True)
-                     for s in (False, True))
+def all_variants() -> tuple[Variant, ...]:
+    """Every structure a Params can have with the effects registered now."""
+    names = [e.name for e in structural_effects()]
+    return tuple(Variant(tuple(n for n, on in zip(names, bits) if on))
+                 for bits in itertools.product((False, True), repeat=len(names)))
+
+
+def __getattr__(name):
+    if name == "ALL_VARIANTS":  # follows the registry
+        return all_variants()
+    raise AttributeError(name)

@@ -21,8 +21,9 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from . import effects as _effects
 from ..errors import DomainError
-from .params import DEFAULT, Params
+from .params import DEFAULT, PARAMETER_NAMES, Params, rubber_volume
 
 
 def is_symbolic(x) -> bool:
@@ -79,6 +80,68 @@ def math_for(x):
     if type(x) is float:
         return _ScalarMath
     return _symbolic_math() if is_symbolic(x) else np
+
+
+def math_for_all(*values):
+    """The one namespace for several values: sympy if any is symbolic, numpy if any is an array, else floats."""
+    if all(type(x) is float for x in values):
+        return _ScalarMath
+    if any(is_symbolic(x) for x in values):
+        return _symbolic_math()
+    return np
+
+
+class SymbolicParams:
+    """A stand-in for :class:`~mkctl.physics.params.Params` whose values are sympy symbols named after the
+    parameters: what the equations are traced on (generated C, exact derivatives).
+
+    ``on``: the names of the effects to trace as switched on (default: every effect). An effect traced off has
+    its switch parameter at its off value; one traced on has it as a symbol (positive when its off value is the
+    lower bound 0), except a whole-number switch (model, slack), which holds its "on" value. ``fixed``: further
+    names held at the given numbers.
+    """
+
+    def __init__(self, on=None, fixed: dict | None = None):
+        import sympy
+        for name in PARAMETER_NAMES:
+            self.__dict__[name] = sympy.Symbol(name, real=True)
+        for effect in _effects.all_effects():
+            q = effect.switch_parameter
+            if on is not None and effect.name not in on:
+                self.__dict__[q.name] = q.off
+            elif q.switch:
+                self.__dict__[q.name] = q.upper if q.off == q.lower else q.lower
+            elif q.off == 0 and q.lower == 0:
+                self.__dict__[q.name] = sympy.Symbol(q.name, positive=True)
+        self.__dict__.update(fixed or {})
+
+    @classmethod
+    def like(cls, params) -> "SymbolicParams":
+        """Symbols for every value, with the effects switched on that are on in params."""
+        return cls(on={e.name for e in active_effects(params)})
+
+    @property
+    def V_r(self):
+        return rubber_volume(self.t0, self.D0, self.L0)
+
+
+def active_effects(params) -> tuple:
+    """The registered effects params switch on, in the registry's order (remembered on params)."""
+    own = getattr(params, "__dict__", None)
+    generation = _effects.generation()
+    if own is not None:
+        cached = own.get("_active_effects")
+        if cached is not None and cached[0] == generation:
+            return cached[1]
+    active = tuple(e for e in _effects.all_effects() if e.is_on(params))
+    if own is not None:
+        own["_active_effects"] = (generation, active)
+    return active
+
+
+def has_pressure_states(params) -> bool:
+    """Whether params switch on an effect with pressure dynamics: the actuator pressures are then states."""
+    return any(e.pressure_rate is not None for e in active_effects(params))
 
 
 #: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead of
@@ -253,27 +316,210 @@ def tension_model2(L, P, params: Params = DEFAULT):
     return P * pressure_gain(L, params.b, params.n) + params.V_r * strain_energy_gradient(L, params)
 
 
-def static_tension(L, P, params: Params = DEFAULT):
-    """The quasi-static tension of the model selected by ``params.model`` (1: Eq. 7, 2: Eq. 13) [N]."""
-    L, P = as_values(L), as_values(P)
+def tension_before_limits(L, P, Ldot, params: Params = DEFAULT, quasi_static: bool = False):
+    """The pressure term of Eq. 7 plus the tension term of every effect params switch on [N], before the final
+    limits (slack). ``quasi_static``: every term at Ldot = 0 (the static share: elasticity's whole term, nothing
+    of damping's or friction's). No domain checks: see :func:`compose_tension`.
+
+    ``f = P (3 L^2 - b^2) / (4 pi n^2) + sum_effects term(L, Ldot, P, p, xp)``.
+    """
+    if quasi_static:
+        Ldot = 0.0
+    xp = math_for_all(L, P, Ldot)
+    f = P * pressure_gain(L, params.b, params.n)
+    for effect in active_effects(params):
+        if effect.tension is not None and not (quasi_static and effect.quasi_static in ("play", "viscous")):
+            f = f + effect.tension(L, Ldot, P, params, xp)
+    return f
+
+
+def apply_limits(f, params: Params = DEFAULT):
+    """The final limits of the effects params switch on (slack: ``max(f, 0)``), in the registry's order [N]."""
+    for effect in active_effects(params):
+        if effect.final is not None:
+            f = effect.final(f, params, math_for(f))
+    return f
+
+
+def compose_tension(L, P, Ldot=0.0, params: Params = DEFAULT, quasi_static: bool = False):
+    """THE actuator tension [N], composed from the effects of the registry: the one place the knee, the isotonic
+    and the isometric tests and the calibration get it from.
+
+    ``f = limits(P (3L^2 - b^2)/(4 pi n^2) + sum_effects term(L, Ldot, P))`` (model-spec sections 2, 4).
+    quasi_static: the static share only (Ldot = 0; play and viscous shares are the caller's, see
+    :func:`play_half_width`, :func:`viscous_coefficient`), without the final limits.
+    Parameters: L [m] in 0 < L < b, P gauge pressure [Pa], Ldot [m/s] (finite).
+    """
+    L, P, Ldot = as_values(L), as_values(P), as_values(Ldot)
     check_length(L, params.b)
     check_pressure(P)
-    return P * pressure_gain(L, params.b, params.n) + elastic_tension(L, params)
+    if is_symbolic(Ldot):
+        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE, "lengthening rate Ldot [m/s]")
+    elif not (type(Ldot) is float and math.isfinite(Ldot)) and not np.isfinite(Ldot).all():
+        raise DomainError(_LDOT_MESSAGE)
+    f = tension_before_limits(L, P, Ldot, params, quasi_static)
+    return f if quasi_static else apply_limits(f, params)
+
+
+def static_tension(L, P, params: Params = DEFAULT):
+    """The quasi-static tension [N]: Eq. 7 plus the effects whose limit is static (model 2's rubber), no limits."""
+    return compose_tension(L, P, 0.0, params, quasi_static=True)
+
+
+def play_half_width(P, params: Params = DEFAULT):
+    """Half-width of the quasi-static play band [N] at gauge pressure P [Pa]: the sum of the "play" limits params
+    switch on (Coulomb friction: Fc), 0.0 without."""
+    P = as_values(P)
+    xp = math_for(P)
+    width = 0.0
+    for effect in active_effects(params):
+        if effect.quasi_static == "play":
+            width = width + effect.play(P, params, xp)
+    return width
+
+
+def viscous_coefficient(params: Params = DEFAULT) -> float:
+    """The quasi-static damping coefficient [N s/m]: the sum of the "viscous" limits params switch on (c)."""
+    return sum((e.viscous(params) for e in active_effects(params) if e.quasi_static == "viscous"), 0.0)
+
+
+# --- exact derivatives: sympy.diff of the traced terms ------------------------------------------------------------
+
+_DERIVATIVES: dict = {}
+
+
+def _symbol_arguments(expressions, leading):
+    """The names of the parameter symbols the expressions use (every free symbol but the leading inputs)."""
+    return sorted({s.name for e in expressions for s in e.free_symbols if s not in set(leading)})
+
+
+def _derivative_function(kind: str, params, build):
+    """A lambdified function of (inputs..., parameter values...) for the structure of params, made once per
+    structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns (function, parameter names)."""
+    key = (kind, _effects.generation(), tuple(e.name for e in active_effects(params)))
+    entry = _DERIVATIVES.get(key)
+    if entry is None:
+        import sympy
+        sp = SymbolicParams.like(params)
+        with tracing_domain_checks():
+            inputs, expressions = build(sp)
+        expressions = [sympy.sympify(e) for e in expressions]
+        names = _symbol_arguments(expressions, inputs)
+        symbols = {s.name: s for e in expressions for s in e.free_symbols if s not in set(inputs)}
+        function = sympy.lambdify([*inputs, *(symbols[n] for n in names)], expressions, modules="numpy")
+        entry = _DERIVATIVES[key] = (function, tuple(names))
+    return entry
+
+
+def _heaviside_as_step(expr):
+    """Replace sympy's Heaviside(x) (the derivative of Max(x, 0)) by 1 for x > 0, else 0 (Python's branch)."""
+    import sympy
+    return expr.replace(sympy.Heaviside, lambda x, *rest: sympy.Piecewise((1.0, x > 0), (0.0, True)))
+
+
+def _tension_expressions(sp):
+    import sympy
+    L, Ldot, P, f = (sympy.Dummy(n, real=True) for n in ("L", "Ldot", "P", "f"))
+    g = tension_before_limits(L, P, Ldot, sp)
+    limit = apply_limits(f, sp)
+    return (L, Ldot, P, f), [g, sympy.diff(g, L), sympy.diff(g, Ldot), sympy.diff(g, P),
+                             _heaviside_as_step(sympy.diff(limit, f))]
+
+
+def tension_partials(L, P, Ldot, params: Params = DEFAULT):
+    """Exact partial derivatives of the tension before the limits, and the limits' slope, from ``sympy.diff`` of
+    the traced terms (:func:`tension_before_limits`, :func:`apply_limits`).
+
+    Returns (g, dg/dL [N/m], dg/dLdot [N s/m], dg/dP [N/Pa], factor [-]) with g the tension before the limits and
+    factor = d limits / d g at g (slack: 0 where the muscle carries nothing). Works on floats, arrays and symbols.
+    """
+    if any(is_symbolic(x) for x in (L, P, Ldot)):
+        import sympy
+        sp_inputs, expressions = _tension_expressions(params)
+        l, ld, pp, f = sp_inputs
+        g = tension_before_limits(L, P, Ldot, params)
+        values = {l: L, ld: Ldot, pp: P}
+        return (g, *(sympy.sympify(e).subs(values, simultaneous=True) for e in expressions[1:4]),
+                sympy.sympify(expressions[4]).subs(f, g))
+    function, names = _derivative_function("tension", params, _tension_expressions)
+    arguments = [getattr(params, n) for n in names]
+    g = tension_before_limits(L, P, Ldot, params)
+    _, dL, dLdot, dP, _ = function(L, Ldot, P, 0.0, *arguments)
+    factor = function(L, Ldot, P, g, *arguments)[4]
+    return g, dL, dLdot, dP, factor
+
+
+def pressure_derivative(P, P_cmd, params: Params = DEFAULT):
+    """dP/dt of one actuator [Pa/s]: the sum of the pressure-rate terms of the effects params switch on
+    (pressure lag: ``(P_cmd - P) / tau``); 0 without any."""
+    P, P_cmd = as_values(P), as_values(P_cmd)
+    xp = math_for_all(P, P_cmd)
+    rate = 0.0
+    for effect in active_effects(params):
+        if effect.pressure_rate is not None:
+            rate = rate + effect.pressure_rate(P, P_cmd, params, xp)
+    return rate
+
+
+def _pressure_expressions(sp):
+    import sympy
+    P, P_cmd = sympy.Dummy("P", real=True), sympy.Dummy("P_cmd", real=True)
+    rate = sympy.sympify(pressure_derivative(P, P_cmd, sp))
+    return (P, P_cmd), [rate, sympy.diff(rate, P), sympy.diff(rate, P_cmd)]
+
+
+def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
+    """(d(dP/dt)/dP [1/s], d(dP/dt)/dP_cmd [1/s]) of :func:`pressure_derivative`, from ``sympy.diff``: the
+    linearization's pressure block (lag: -1/tau and 1/tau)."""
+    if is_symbolic(P) or is_symbolic(P_cmd):
+        import sympy
+        (p, pc), expressions = _pressure_expressions(params)
+        return tuple(sympy.sympify(e).subs({p: P, pc: P_cmd}, simultaneous=True) for e in expressions[1:])
+    function, names = _derivative_function("pressure", params, _pressure_expressions)
+    _, dP, dPcmd = function(P, P_cmd, *[getattr(params, n) for n in names])
+    return float(dP), float(dPcmd)
+
+
+def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
+    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: the effect's exact solution
+    when one pressure effect is on and has one (the lag: ``P_cmd + (P - P_cmd) exp(-dt/tau)``), else the
+    pressure dynamics integrated; the command itself when no effect has pressure dynamics."""
+    P, P_cmd = as_values(P), as_values(P_cmd)
+    dynamic = [e for e in active_effects(params) if e.pressure_rate is not None]
+    if not dynamic:
+        return P_cmd + 0.0 * P
+    if len(dynamic) == 1 and dynamic[0].pressure_step is not None:
+        return dynamic[0].pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
+    from .integrate import integrate
+    if not dt > 0:
+        return P
+    state, _, _ = integrate(lambda y: np.array([float(pressure_derivative(float(y[0]), P_cmd, params))]),
+                            np.array([float(P)]), float(dt), float(dt), np.array([1e-3]), 1e-10)
+    return float(state[0])
 
 
 def static_tension_dL(L, P, params: Params = DEFAULT):
-    """Analytic d/dL of :func:`static_tension` [N/m]."""
+    """Exact d/dL of :func:`static_tension` [N/m] (sympy.diff of the traced terms)."""
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
     check_pressure(P)
-    slope = P * pressure_gain_slope(L, params.b, params.n)
-    if params.model == 2:
-        slope = slope + params.V_r * strain_energy_curvature(L, params)
-    return slope
+    if is_symbolic(L) or is_symbolic(P):
+        import sympy
+        x = sympy.Symbol("L_", real=True)
+        return sympy.diff(tension_before_limits(x, P, 0.0, params, quasi_static=True), x).subs(x, L)
+    function, names = _derivative_function("static", params, _static_expressions)
+    return function(L, P, *[getattr(params, n) for n in names])[1]
+
+
+def _static_expressions(sp):
+    import sympy
+    L, P = sympy.Dummy("L", real=True), sympy.Dummy("P", real=True)
+    f = tension_before_limits(L, P, 0.0, sp, quasi_static=True)
+    return (L, P), [f, sympy.diff(f, L)]
 
 
 def static_tension_dP(L, params: Params = DEFAULT):
-    """Analytic d/dP of :func:`static_tension` [m^2]: the elastic term does not depend on P."""
+    """Analytic d/dP of the paper's static tension [m^2]: the elastic term does not depend on P."""
     L = as_values(L)
     check_length(L, params.b)
     return pressure_gain(L, params.b, params.n)
@@ -333,17 +579,12 @@ def slack_factor(f, slack: int):
 
 
 def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
-    """Total tension [N]: the static model (1 or 2) plus damping and friction, then slack, as params say.
+    """Total tension [N]: :func:`compose_tension` (Eq. 7 plus every effect params switch on, then slack).
 
     ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``, and with slack = 1
     ``f = max(f, 0)`` (model-spec section 4). Parameters: L [m], P gauge pressure [Pa], Ldot [m/s].
     """
-    Ldot = as_values(Ldot)
-    if is_symbolic(Ldot):
-        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE, "lengthening rate Ldot [m/s]")
-    elif not np.isfinite(Ldot).all():
-        raise DomainError(_LDOT_MESSAGE)
-    return slack_tension(static_tension(L, P, params) + velocity_tension(Ldot, params), params.slack)
+    return compose_tension(L, P, Ldot, params)
 
 
 def pressure_rate(P, P_cmd, tau: float):

@@ -55,9 +55,10 @@ def hysteresis_tension(f, branch, Fc: float):
 def isometric_tension(L, P, branch=UP, params: Params = DEFAULT):
     """Tension [N] of a muscle clamped at length L under gauge pressure P, on a pressure branch.
 
-    ``f = slack(f_static(L, P) - branch Fc)`` with ``f_static`` model 1 (Eq. 7) or model 2 (Eq. 13) as
-    ``params.model`` says, Fc the Coulomb friction [N] (``params.Fc``) and ``slack(f) = max(f, 0)`` when
-    ``params.slack`` is 1 (model-spec section 4).
+    ``f = slack(f_static(L, P) - branch Fc)`` with ``f_static`` the static share of
+    :func:`mkctl.physics.actuator.compose_tension` (model 1, Eq. 7, or model 2, Eq. 13, as ``params.model``
+    says), Fc the half-width of the effects' play band (:func:`mkctl.physics.actuator.play_half_width`: the
+    Coulomb friction ``params.Fc``) and the final limits (``slack(f) = max(f, 0)`` when ``params.slack`` is 1).
 
     Parameters
     ----------
@@ -75,8 +76,9 @@ def isometric_tension(L, P, branch=UP, params: Params = DEFAULT):
     The measured tension [N] (positive when it pulls); arrays broadcast.
     """
     f = actuator.static_tension(L, P, params)
-    if params.Fc:
-        f = hysteresis_tension(f, branch, params.Fc)
+    width = actuator.play_half_width(P, params)
+    if type(width) is not float or width:
+        f = f - check_branch(branch) * width  # the play band's edge the pressure pushes the tension to
     else:
         check_branch(branch)
-    return actuator.slack_tension(f, params.slack)
+    return actuator.apply_limits(f, params)

@@ -21,7 +21,7 @@ simulated that way goes on; :func:`saturation` says at which samples the model c
 from __future__ import annotations
 
 import numpy as np
-from . import actuator
+from . import actuator, backend
 from ..errors import DomainError
 from .params import DEFAULT, Params
 
@@ -114,23 +114,24 @@ def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: f
     F = np.asarray(load, dtype=float)
     if L_start is None:
         L_start = float(static_length(P[0], F[0], params, saturate))
-    if params.c > 0:
+    if actuator.viscous_coefficient(params) > 0:
         return _damped_isotonic(time, P, F, params, L_start, saturate)
-    if params.Fc > 0:
+    width = actuator.play_half_width(P, params)  # the effects' play band (Fc) [N]
+    if np.any(width):
         # lengthening stops where f_static = F - Fc, shortening where f_static = F + Fc
-        return play_operator(L_start, static_length(P, F - params.Fc, params, saturate),
-                             static_length(P, F + params.Fc, params, saturate))
+        return play_operator(L_start, static_length(P, F - width, params, saturate),
+                             static_length(P, F + width, params, saturate))
     return static_length(P, F, params, saturate)
 
 
 def _damped_isotonic(time, P, F, params: Params, L_start: float, saturate: bool = True):
-    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit).
+    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit; c the
+    effects' viscous coefficient, Fc their play half-width).
 
-    Runs in the compiled core (:mod:`mkctl.native`, the same algorithm in C) when it is available; the loop
-    below is the fallback, and it also runs again after a fault of the compiled run, to raise its own error."""
-    from .simulate import native_core  # the knee's simulation knows how to find the compiled core
-
-    core = native_core(params) if time.size else None
+    Runs in the compiled core (:mod:`mkctl.native`, the same algorithm in C) when one is installed
+    (:mod:`mkctl.physics.backend`); the loop below is the fallback, and it also runs again after a fault of the
+    compiled run, to raise its own error."""
+    core = backend.compiled_core(params) if time.size else None
     if core is not None:
         L = core.isotonic_damped(params, time, P, F, L_start, saturate)
         if L is not None:
@@ -144,11 +145,13 @@ def _damped_isotonic(time, P, F, params: Params, L_start: float, saturate: bool 
             continue
         pressure = float(P[k])
         excess = float(F[k]) - float(actuator.static_tension(previous, pressure, params))
-        if abs(excess) <= params.Fc:  # friction holds
+        width = float(actuator.play_half_width(pressure, params))
+        if abs(excess) <= width:  # friction holds
             L[k] = previous
         else:
-            load = float(F[k]) - np.sign(excess) * params.Fc
-            L[k] = _backward_euler_length(previous, pressure, load, params.c / dt[k], params, saturate)
+            load = float(F[k]) - np.sign(excess) * width
+            L[k] = _backward_euler_length(previous, pressure, load, actuator.viscous_coefficient(params) / dt[k],
+                                          params, saturate)
         previous = L[k]
     return L
 

@@ -209,14 +209,15 @@ def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeFo
     """Ground force ``F = G_e f_e - G_f f_f`` (Eq. 14) with the tensions of the model and effects in params.
 
     The actuators move at ``Le_dot = dLe/dX V = -G_e V`` and ``Lf_dot = dLf/dX V = G_f V`` (virtual
-    work), which is where the damping and friction of spec section 4 enter. Parameters: geo from
-    :func:`knee_geometry`, V hip velocity [m/s], Pe, Pf actuator gauge pressures [Pa].
+    work), which is where the velocity terms of the effects enter. The tensions are
+    :func:`mkctl.physics.actuator.compose_tension`. Parameters: geo from :func:`knee_geometry`, V hip velocity
+    [m/s], Pe, Pf actuator gauge pressures [Pa].
     """
     p = params
     Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
     Le_dot, Lf_dot = -geo.G_e * V, geo.G_f * V  # virtual work: dLe/dX = -G_e, dLf/dX = G_f
-    fe = actuator.slack_tension(actuator.static_tension(geo.Le, Pe, p) + actuator.velocity_tension(Le_dot, p), p.slack)
-    ff = actuator.slack_tension(actuator.static_tension(geo.Lf, Pf, p) + actuator.velocity_tension(Lf_dot, p), p.slack)
+    fe = actuator.compose_tension(geo.Le, Pe, Le_dot, p)
+    ff = actuator.compose_tension(geo.Lf, Pf, Lf_dot, p)
     return KneeForce(geo.G_e * fe - geo.G_f * ff, fe, ff, Le_dot, Lf_dot)
 
 
@@ -233,11 +234,12 @@ class KneeForcePartials(NamedTuple):
 
 
 def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeForcePartials:
-    """Analytic partial derivatives of :func:`knee_force` at hip velocity V [m/s], pressures Pe, Pf [Pa].
+    """Exact partial derivatives of :func:`knee_force` at hip velocity V [m/s], pressures Pe, Pf [Pa].
 
-    Uses ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V), the derivatives of
-    the static models (:func:`mkctl.physics.actuator.static_tension_dL`, ``_dP``) and of the velocity terms.
-    With slack, a muscle that carries nothing (f <= 0) contributes nothing to any derivative.
+    The tensions' partials (dL, dLdot, dP, and the final limits' slope) are ``sympy.diff`` of the traced effect
+    terms (:func:`mkctl.physics.actuator.tension_partials`); the chain rule through the geometry uses
+    ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V) and the analytic geometry
+    derivatives of :func:`knee_geometry`. With slack, a muscle that carries nothing (f <= 0) contributes nothing.
     """
     p = params
     force = knee_force(geo, V, Pe, Pf, p)
@@ -245,15 +247,15 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) 
     dX = geo.dX_dbeta
     Ge_x, Gf_x = geo.dGe_dbeta / dX, geo.dGf_dbeta / dX  # dG/dX
     Le_x, Lf_x = geo.dLe_dbeta / dX, geo.dLf_dbeta / dX  # dL/dX
-    taut_e, taut_f = actuator.slack_factor(force.fe, p.slack), actuator.slack_factor(force.ff, p.slack)
-    dfe_dLdot = taut_e * actuator.velocity_tension_dLdot(force.Le_dot, p)
-    dff_dLdot = taut_f * actuator.velocity_tension_dLdot(force.Lf_dot, p)
-    dfe_dX = taut_e * actuator.static_tension_dL(geo.Le, Pe, p) * Le_x + dfe_dLdot * (-Ge_x * V)
-    dff_dX = taut_f * actuator.static_tension_dL(geo.Lf, Pf, p) * Lf_x + dff_dLdot * (Gf_x * V)
+    _, e_L, e_Ldot, e_P, taut_e = actuator.tension_partials(geo.Le, Pe, force.Le_dot, p)
+    _, f_L, f_Ldot, f_P, taut_f = actuator.tension_partials(geo.Lf, Pf, force.Lf_dot, p)
+    dfe_dLdot, dff_dLdot = taut_e * e_Ldot, taut_f * f_Ldot
+    dfe_dX = taut_e * e_L * Le_x + dfe_dLdot * (-Ge_x * V)
+    dff_dX = taut_f * f_L * Lf_x + dff_dLdot * (Gf_x * V)
     dF_dX = Ge_x * force.fe + geo.G_e * dfe_dX - Gf_x * force.ff - geo.G_f * dff_dX
     dF_dV = geo.G_e * dfe_dLdot * Le_x - geo.G_f * dff_dLdot * Lf_x
-    dF_dPe = geo.G_e * taut_e * actuator.static_tension_dP(geo.Le, p)
-    dF_dPf = -geo.G_f * taut_f * actuator.static_tension_dP(geo.Lf, p)
+    dF_dPe = geo.G_e * taut_e * e_P
+    dF_dPf = -geo.G_f * taut_f * f_P
     return KneeForcePartials(force.F, dF_dX, dF_dV, dF_dPe, dF_dPf, force.fe, force.ff)
 
 
@@ -290,8 +292,8 @@ def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | 
 # --- State equations (Eq. 17) -------------------------------------------------------------------
 
 def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
-    """Names of the knee's states: X, V, and Pe, Pf when the pressure lag is on (tau > 0)."""
-    return ("X", "V", "Pe", "Pf") if params.tau > 0 else ("X", "V")
+    """Names of the knee's states: X, V, and Pe, Pf when an effect with pressure dynamics is on (a lag)."""
+    return ("X", "V", "Pe", "Pf") if actuator.has_pressure_states(params) else ("X", "V")
 
 
 def _scalar(x):
@@ -300,20 +302,42 @@ def _scalar(x):
 
 
 def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tuple[float, float] | None = None):
-    """Right-hand side of Eq. 17 with the effects of spec section 4 [SI units per second].
+    """Right-hand side of Eq. 17 with the effects of the registry [SI units per second].
 
-    ``state`` is (X, V) or, with a pressure lag (tau > 0), (X, V, Pe, Pf); pe_cmd, pf_cmd are the
+    ``state`` is (X, V) or, with pressure dynamics (a lag), (X, V, Pe, Pf); pe_cmd, pf_cmd are the
     commanded pressures [Pa]. ``stops``: (X_low, X_high) of the end stops, or None for none at all.
     Returns the time derivative of the state as a numpy array (a list of expressions for symbols).
     """
     p = params
+    lag = actuator.has_pressure_states(p)
     X, V = _scalar(state[0]), _scalar(state[1])
-    Pe, Pf = (_scalar(state[2]), _scalar(state[3])) if p.tau > 0 else (_scalar(pe_cmd), _scalar(pf_cmd))
+    Pe, Pf = (_scalar(state[2]), _scalar(state[3])) if lag else (_scalar(pe_cmd), _scalar(pf_cmd))
     force = knee_force(geometry_at_X(X, p, derivatives=False), V, Pe, Pf, p).F
     if stops is not None:
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
     rates = [V, dV]
-    if p.tau > 0:
-        rates += [actuator.pressure_rate(Pe, pe_cmd, p.tau), actuator.pressure_rate(Pf, pf_cmd, p.tau)]
+    if lag:
+        rates += [actuator.pressure_derivative(Pe, pe_cmd, p), actuator.pressure_derivative(Pf, pf_cmd, p)]
     return rates if actuator.is_symbolic(dV) else np.array(rates, dtype=float)
+
+
+def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
+    """(A, B) of Eq. 17 linearized at rest (V = 0) at hip height X [m], pressures Pe, Pf [Pa] and commands
+    pe_cmd, pf_cmd [Pa], end stops excluded: every entry an exact derivative (the knee-force partials and the
+    pressure block, ``sympy.diff`` of the traced terms). States as :func:`state_names`, inputs (pe_cmd, pf_cmd).
+
+    Without pressure dynamics ``A = [[0, 1], [a2, a1]]``, ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]``; with them
+    the pressure columns move into A and the pressure rows hold d(dP/dt)/dP (lag: -1/tau) and d(dP/dt)/dP_cmd.
+    """
+    p = params
+    d = knee_force_partials(geometry_at_X(X, p), 0.0, Pe, Pf, p)
+    row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
+    gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
+    if not actuator.has_pressure_states(p):
+        return np.array([[0.0, 1.0], row]), np.array([[0.0, 0.0], gains])
+    ee, ec = actuator.pressure_derivative_partials(Pe, pe_cmd, p)
+    fe, fc = actuator.pressure_derivative_partials(Pf, pf_cmd, p)
+    A = np.array([[0.0, 1.0, 0.0, 0.0], [*row, *gains], [0.0, 0.0, ee, 0.0], [0.0, 0.0, 0.0, fe]])
+    B = np.array([[0.0, 0.0], [0.0, 0.0], [ec, 0.0], [0.0, fc]])
+    return A, B

@@ -19,11 +19,12 @@ Example
 """
 from __future__ import annotations
 
-import dataclasses
 import math
+from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 from typing import NamedTuple
 
+from . import effects
 from ..errors import ParameterError
 
 
@@ -60,36 +61,104 @@ TABLE_II = MappingProxyType({
     "g": Quantity(9.81, "m/s^2", "gravitational acceleration"),
 })
 
-#: Effects beyond the paper (spec section 4). A zero value switches the effect off.
-EFFECTS_TABLE = MappingProxyType({
-    "c": Quantity(0.0, "N s/m", "viscous damping of each actuator: f += c Ldot"),
-    "Fc": Quantity(0.0, "N", "Coulomb friction of each actuator: f += Fc tanh(Ldot / vs)"),
-    "vs": Quantity(1e-3, "m/s", "velocity scale of the smoothed Coulomb friction (not fitted)"),
-    "tau": Quantity(0.0, "s", "pressure lag time constant: tau dP/dt = P_cmd - P"),
-    "slack": Quantity(0, "1", "1: a braided muscle cannot push, f = max(f, 0) (a switch, not fitted)"),
-})
-
 #: Typical rated gauge pressure of a real McKibben muscle [Pa]; the model itself has no limit (spec section 3
 #: note). Used only to tell users when the model asks for more than a real muscle takes.
 RATED_PRESSURE = 600e3
 
+#: The parameters of the paper's tables (and the derived n), in Params' order; the effects' follow them.
+BASE_NAMES = (*TABLE_I, "n", *TABLE_II)
+#: Table parameters that must be positive, and those that must not be negative (the effects' own bounds are in
+#: their definitions, :mod:`mkctl.physics.effects`).
+_POSITIVE = ("b", "L0", "D0", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "r", "g")
+_NOT_NEGATIVE = ("C1", "C2", "Lec", "Lfc")
+
+
+class LiveSequence(Sequence):
+    """A tuple-like view that follows the effect registry (names registered at run time included)."""
+
+    def __init__(self, compute):
+        self._compute = compute
+        self._cache = (None, ())
+
+    def _items(self) -> tuple:
+        key = effects.generation()
+        if self._cache[0] != key:
+            self._cache = (key, tuple(self._compute()))
+        return self._cache[1]
+
+    def __getitem__(self, index):
+        return self._items()[index]
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def __contains__(self, item) -> bool:
+        return item in self._items()
+
+    def __iter__(self):
+        return iter(self._items())
+
+    def __eq__(self, other) -> bool:
+        return tuple(self) == tuple(other) if isinstance(other, (tuple, list, LiveSequence)) else NotImplemented
+
+    def __hash__(self):
+        return hash(tuple(self))
+
+    def __repr__(self) -> str:
+        return repr(self._items())
+
+    def __add__(self, other):
+        return tuple(self) + tuple(other)
+
+    def __radd__(self, other):
+        return tuple(other) + tuple(self)
+
+
+class LiveMapping(Mapping):
+    """A read-only mapping that follows the effect registry."""
+
+    def __init__(self, compute):
+        self._compute = compute
+        self._cache = (None, {})
+
+    def _items(self) -> dict:
+        key = effects.generation()
+        if self._cache[0] != key:
+            self._cache = (key, dict(self._compute()))
+        return self._cache[1]
+
+    def __getitem__(self, key):
+        return self._items()[key]
+
+    def __iter__(self):
+        return iter(self._items())
+
+    def __len__(self) -> int:
+        return len(self._items())
+
+    def __repr__(self) -> str:
+        return repr(self._items())
+
+
+#: Effects beyond the paper (spec section 4): every effect parameter with its off value (the default; model's
+#: default is 2), unit and meaning, read from the registry (:mod:`mkctl.physics.effects`).
+EFFECTS_TABLE = LiveMapping(lambda: {q.name: Quantity(q.start if q.switch else float(q.start), q.unit,
+                                                       q.description)
+                                      for q in effects.parameters() if q.name != "model"})
+
 #: Names of the effects of spec section 4, and the parameters each one brings.
-EFFECT_PARAMETERS = MappingProxyType({
-    "elasticity": ("C1", "C2"),
-    "viscous_damping": ("c",),
-    "coulomb_friction": ("Fc",),
-    "pressure_lag": ("tau",),
-    "slack": ("slack",),
-})
+EFFECT_PARAMETERS = LiveMapping(lambda: effects.effect_parameters())
 
 #: Units of every parameter name (derived ones included), for files, FMUs and plots.
-UNITS = MappingProxyType({
-    **{k: q.unit for k, q in {**TABLE_I, **TABLE_II, **EFFECTS_TABLE}.items()},
-    "n": "1", "model": "1",
-})
+UNITS = LiveMapping(lambda: {**{k: q.unit for k, q in {**TABLE_I, **TABLE_II}.items()}, "n": "1",
+                              **{q.name: q.unit for q in effects.parameters()}})
 
 #: Parameters that are whole numbers (switches), not real values.
-INTEGER_PARAMETERS = ("model", "slack")
+INTEGER_PARAMETERS = LiveSequence(lambda: [q.name for q in effects.parameters() if q.switch])
+
+#: Every parameter name accepted by :meth:`Params.replace`, a measurement file and the FMUs: the tables', then
+#: each registered effect's, in the registry's order.
+PARAMETER_NAMES = LiveSequence(lambda: [*BASE_NAMES, *(q.name for q in effects.parameters())])
 
 
 def derived_turns(b: float, L0: float, D0: float) -> float:
@@ -108,72 +177,95 @@ def rubber_volume(t0: float, D0: float, L0: float) -> float:
     return math.pi * t0 * (D0 - t0) * L0
 
 
-@dataclasses.dataclass(frozen=True)
 class Params:
-    """Every parameter of the actuator, the knee and the effects, in SI units.
+    """Every parameter of the actuator, the knee and the effects, in SI units; immutable and hashable.
 
-    Defaults are Table I, Table II and "effects off" (c = Fc = tau = 0, slack = 0), with model 2 (elasticity
-    on). ``model`` (1 or 2) and ``slack`` (0 or 1) are whole numbers; everything else is a float.
-    ``n`` is derived from b, L0 and D0 unless given. Invalid values raise :class:`ParameterError`.
+    Defaults are Table I, Table II and "effects off" (every effect parameter at its off value, model 2:
+    elasticity on). Switches (``model`` 1 or 2, ``slack`` 0 or 1) are whole numbers; everything else is a float.
+    ``n`` is derived from b, L0 and D0 unless given. The effect parameters are those of the registry
+    (:mod:`mkctl.physics.effects`), effects registered at run time included: a set made before an effect was
+    registered reads its parameters at their off values. Invalid values raise :class:`ParameterError`.
     """
 
-    # Table I: actuator
-    b: float = TABLE_I["b"].value
-    L0: float = TABLE_I["L0"].value
-    D0: float = TABLE_I["D0"].value
-    C1: float = TABLE_I["C1"].value
-    C2: float = TABLE_I["C2"].value
-    t0: float = TABLE_I["t0"].value
-    n: float | None = None
-    # Table II: knee
-    m: float = TABLE_II["m"].value
-    L1: float = TABLE_II["L1"].value
-    L2: float = TABLE_II["L2"].value
-    L5: float = TABLE_II["L5"].value
-    L6: float = TABLE_II["L6"].value
-    Lo: float = TABLE_II["Lo"].value
-    Lu: float = TABLE_II["Lu"].value
-    Lec: float = TABLE_II["Lec"].value
-    Lfc: float = TABLE_II["Lfc"].value
-    r: float = TABLE_II["r"].value
-    g: float = TABLE_II["g"].value
-    # Section 4: effects (0 = off); model 2 = elasticity on, model 1 = pressure only
-    model: int = 2
-    c: float = EFFECTS_TABLE["c"].value
-    Fc: float = EFFECTS_TABLE["Fc"].value
-    vs: float = EFFECTS_TABLE["vs"].value
-    tau: float = EFFECTS_TABLE["tau"].value
-    slack: int = EFFECTS_TABLE["slack"].value
+    def __init__(self, **values):
+        unknown = [k for k in values if k not in PARAMETER_NAMES]
+        if unknown:
+            raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(PARAMETER_NAMES)})")
+        own = self.__dict__
+        for name in BASE_NAMES:
+            own[name] = values.get(name, None if name == "n" else _BASE_DEFAULTS[name])
+        for q in effects.parameters():
+            own[q.name] = values.get(q.name, q.start)
+        self._validate(own)
 
-    def __post_init__(self):
-        for field in dataclasses.fields(self):
-            value = getattr(self, field.name)
+    @staticmethod
+    def _validate(own: dict) -> None:
+        switches = set(INTEGER_PARAMETERS)
+        for name in PARAMETER_NAMES:
+            value = own[name]
             if value is None:
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise ParameterError(f"parameter {field.name} must be a finite number, got {value!r}")
-            if field.name in INTEGER_PARAMETERS and value != int(value):
-                raise ParameterError(f"parameter {field.name} must be a whole number, got {value!r}")
-            object.__setattr__(self, field.name, int(value) if field.name in INTEGER_PARAMETERS else float(value))
-        positive = ("b", "L0", "D0", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "r", "g", "vs")
-        for name in positive:
-            if getattr(self, name) <= 0:
-                raise ParameterError(f"parameter {name} must be positive, got {getattr(self, name)!r}")
-        for name in ("C1", "C2", "c", "Fc", "tau", "Lec", "Lfc"):
-            if getattr(self, name) < 0:
-                raise ParameterError(f"parameter {name} must not be negative, got {getattr(self, name)!r}")
-        if self.model not in (1, 2):
-            raise ParameterError(f"parameter model must be 1 or 2, got {self.model!r}")
-        if self.slack not in (0, 1):
-            raise ParameterError(f"parameter slack must be 0 (off) or 1 (on), got {self.slack!r}")
-        if self.L0 >= self.b:
-            raise ParameterError(f"rest length L0 = {self.L0} m must be shorter than the braid b = {self.b} m")
-        if self.t0 >= self.D0 / 2:
-            raise ParameterError(f"wall thickness t0 = {self.t0} m must be less than the radius D0/2")
-        if self.n is None:
-            object.__setattr__(self, "n", derived_turns(self.b, self.L0, self.D0))
-        elif self.n <= 0:
-            raise ParameterError(f"parameter n must be positive, got {self.n!r}")
+                raise ParameterError(f"parameter {name} must be a finite number, got {value!r}")
+            if name in switches and value != int(value):
+                raise ParameterError(f"parameter {name} must be a whole number, got {value!r}")
+            own[name] = int(value) if name in switches else float(value)
+        for name in _POSITIVE:
+            if own[name] <= 0:
+                raise ParameterError(f"parameter {name} must be positive, got {own[name]!r}")
+        for name in _NOT_NEGATIVE:
+            if own[name] < 0:
+                raise ParameterError(f"parameter {name} must not be negative, got {own[name]!r}")
+        for q in effects.parameters():
+            q.check(own[q.name])
+        if own["L0"] >= own["b"]:
+            raise ParameterError(f"rest length L0 = {own['L0']} m must be shorter than the braid b = {own['b']} m")
+        if own["t0"] >= own["D0"] / 2:
+            raise ParameterError(f"wall thickness t0 = {own['t0']} m must be less than the radius D0/2")
+        if own["n"] is None:
+            own["n"] = derived_turns(own["b"], own["L0"], own["D0"])
+        elif own["n"] <= 0:
+            raise ParameterError(f"parameter n must be positive, got {own['n']!r}")
+        check_domain(own)
+
+    def __getattr__(self, name: str):
+        # only names not set in __init__ land here: an effect registered after this set was made is off
+        if not name.startswith("_"):
+            for q in effects.parameters():
+                if q.name == name:
+                    return q.start
+        raise AttributeError(f"'Params' object has no attribute {name!r}")
+
+    def __setattr__(self, name, value):
+        raise AttributeError(f"Params are immutable: use replace({name}=...) for a copy with another value")
+
+    def __delattr__(self, name):
+        raise AttributeError("Params are immutable")
+
+    def _key(self) -> tuple:
+        """Every value in PARAMETER_NAMES' order (remembered until the registry changes)."""
+        cached = self.__dict__.get("_cached_key")
+        if cached is None or cached[0] != effects.generation():
+            cached = (effects.generation(), tuple(getattr(self, name) for name in PARAMETER_NAMES))
+            self.__dict__["_cached_key"] = cached
+        return cached[1]
+
+    def __eq__(self, other) -> bool:
+        if not isinstance(other, Params):
+            return NotImplemented
+        return self._key() == other._key()
+
+    def __hash__(self) -> int:
+        return hash(self._key())
+
+    def __repr__(self) -> str:
+        return "Params(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in PARAMETER_NAMES) + ")"
+
+    def __getstate__(self) -> dict:
+        return self.as_dict()  # values only: caches are rebuilt
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
 
     @property
     def V_r(self) -> float:
@@ -182,15 +274,8 @@ class Params:
 
     @property
     def effects(self) -> tuple[str, ...]:
-        """The effects of spec section 4 that are switched on, in the spec's order."""
-        on = {
-            "elasticity": self.model == 2,
-            "viscous_damping": self.c > 0,
-            "coulomb_friction": self.Fc > 0,
-            "pressure_lag": self.tau > 0,
-            "slack": self.slack == 1,
-        }
-        return tuple(name for name, active in on.items() if active)
+        """The effects of spec section 4 that are switched on, in the registry's order."""
+        return tuple(e.name for e in effects.all_effects() if e.is_on(self))
 
     def replace(self, **overrides) -> "Params":
         """A copy with some values changed; unknown names raise :class:`ParameterError`.
@@ -200,7 +285,7 @@ class Params:
         unknown = sorted(set(overrides) - set(PARAMETER_NAMES))
         if unknown:
             raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(PARAMETER_NAMES)})")
-        values = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        values = self.as_dict()
         # a geometry that does not change (a file repeating a muscle file's L0) keeps that muscle's fitted n
         if "n" not in overrides and any(overrides[k] != values[k] for k in {"b", "L0", "D0"} & set(overrides)):
             values["n"] = None
@@ -209,11 +294,46 @@ class Params:
 
     def as_dict(self) -> dict[str, float]:
         """All values by name (n included), e.g. for a JSON report or an FMU's start values."""
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        return {name: getattr(self, name) for name in PARAMETER_NAMES}
 
 
-#: Every parameter name accepted by :meth:`Params.replace`, a measurement file and the FMUs.
-PARAMETER_NAMES = tuple(f.name for f in dataclasses.fields(Params))
+# --- The model's domain: the values a real muscle and knee can take ---------------------------------
+
+#: The range [low, high] of each parameter (SI) that the model accepts: every real muscle and knee lies well
+#: inside it (lengths from a micrometre to 100 m, masses from a gram to 10 t, ...), and every value inside it
+#: keeps the equations' intermediate numbers far from overflow and underflow. The effects' parameters are checked
+#: by their own bounds in the registry (:class:`mkctl.physics.effects.Parameter`). A value outside gives a
+#: one-line ParameterError.
+DOMAIN = MappingProxyType({
+    **{name: (1e-6, 100.0) for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
+    "Lec": (0.0, 100.0), "Lfc": (0.0, 100.0),
+    "n": (1e-4, 1e4),
+    "C1": (0.0, 1e9), "C2": (0.0, 1e9),
+    "m": (1e-3, 1e4),
+    "g": (1e-3, 100.0),
+})
+
+
+def check_domain(values) -> None:
+    """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``values`` (names
+    to values) lies in :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than the extensor's thigh
+    anchor distance ``L1``, so that ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3) is defined
+    for every kneecap angle alpha in (0, pi/2)."""
+    for name, (low, high) in DOMAIN.items():
+        value = values.get(name)
+        if value is not None and not low <= value <= high:
+            unit = "" if UNITS.get(name, "1") == "1" else " " + UNITS[name]
+            raise ParameterError(f"parameter {name} = {value:.6g}{unit} is outside the model's domain "
+                                 f"[{low:g}, {high:g}]{unit}")
+    if values["r"] >= values["L1"]:
+        raise ParameterError(f"parameter r = {values['r']:.6g} m must be shorter than L1 = {values['L1']:.6g} m: the "
+                             "kneecap lever cannot reach past the extensor's thigh anchor (no knee geometry)")
+
+
+_BASE_DEFAULTS = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}
+
+for _effect in effects.BUILTIN:
+    effects.register(_effect, _builtin=True)
 
 #: The parameter set of the paper: Table I, Table II, model 2, no further effects.
 DEFAULT = Params()

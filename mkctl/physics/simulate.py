@@ -20,7 +20,7 @@ import functools
 
 import numpy as np
 
-from . import actuator, knee, stability
+from . import actuator, backend, effects, knee, stability
 from .integrate import integrate
 from .params import DEFAULT, Params
 from .results import SimulationResult
@@ -70,7 +70,8 @@ class KneeSimulator:
         X0 = default_hip_height(params) if X0 is None else float(X0)
         knee.beta_from_X(X0, params)  # raises a clear DomainError for an impossible X0
         self.time = 0.0
-        self.state = np.array([X0, 0.0, pe0, pf0] if params.tau > 0 else [X0, 0.0], dtype=float)
+        self.lag = actuator.has_pressure_states(params)
+        self.state = np.array([X0, 0.0, pe0, pf0] if self.lag else [X0, 0.0], dtype=float)
         # absolute tolerances: 1 nm, 1 nm/s, 1 mPa: far below what any output is read to
         self.atol = np.array([1e-9, 1e-9, 1e-3, 1e-3][: self.state.size])
         self.step_hint = 1e-3
@@ -89,7 +90,7 @@ class KneeSimulator:
 
     def pressures(self, pe_cmd: float, pf_cmd: float) -> tuple[float, float]:
         """The actuator pressures now: the lag states, or the commands when there is no lag."""
-        if self.params.tau > 0:
+        if self.lag:
             return float(self.state[2]), float(self.state[3])
         return float(pe_cmd), float(pf_cmd)
 
@@ -144,16 +145,36 @@ class KneeSimulator:
 def state_outputs(state, pe_cmd: float, pf_cmd: float, params: Params = DEFAULT) -> dict[str, float]:
     """Every output of model-spec section 7 at a knee state (X, V and with a lag Pe, Pf) with the commands
     pe_cmd, pf_cmd [Pa] (the pressures when there is no lag); a1, a2 without the end stops."""
-    Pe, Pf = (float(state[2]), float(state[3])) if params.tau > 0 else (float(pe_cmd), float(pf_cmd))
+    lag = actuator.has_pressure_states(params)
+    Pe, Pf = (float(state[2]), float(state[3])) if lag else (float(pe_cmd), float(pf_cmd))
     values = {name: float(value) for name, value in
               knee_outputs(float(state[0]), float(state[1]), Pe, Pf, params).items()}
     values["stable"] = bool(values["a1"] < 0 and values["a2"] < 0)
     return values
 
 
-#: Parameters a state at rest does not feel: damping c V and friction Fc tanh(V / vs) vanish at V = 0, and
-#: the lagged pressure equals its command. The rest posture of a record does not depend on them.
-REST_INDEPENDENT = ("c", "Fc", "vs", "tau")
+def rest_independent() -> tuple[str, ...]:
+    """Parameters a state at rest does not feel: those of effects whose tension term vanishes at Ldot = 0
+    (damping c V, friction Fc tanh(V / vs)) or that only have pressure dynamics (the lagged pressure equals its
+    command at rest), and no final limit. The rest posture of a record does not depend on them."""
+    key = effects.generation()
+    if _rest_independent[0] != key:
+        import sympy
+        L, P = sympy.symbols("L P", real=True)
+        names = []
+        for effect in effects.all_effects():
+            if effect.final is not None:
+                continue
+            sp = actuator.SymbolicParams()
+            with actuator.tracing_domain_checks():
+                term = 0 if effect.tension is None else effect.tension(L, 0.0, P, sp, actuator.math_for(L))
+            if sympy.sympify(term) == 0:
+                names += effect.parameter_names
+        _rest_independent[:] = [key, tuple(names)]
+    return _rest_independent[1]
+
+
+_rest_independent = [None, ()]
 
 
 @functools.lru_cache(maxsize=256)
@@ -168,23 +189,14 @@ def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
     """The hip height X [m] a record starts at when X0 is None: at rest in the stable equilibrium of the first
     commands (:func:`mkctl.physics.stability.equilibrium_hip_height`). Remembered per (commands, parameters
     that matter at rest): fits run thousands of records from the same posture with other damping or lag."""
-    key = (float(pe0), float(pf0), *(v for k, v in vars(params).items() if k not in REST_INDEPENDENT))
+    skip = rest_independent()
+    key = (float(pe0), float(pf0), *(v for k, v in params.as_dict().items() if k not in skip))
     X0 = _rest_heights.get(key)
     if X0 is None:
         if len(_rest_heights) > 4096:
             _rest_heights.clear()
         X0 = _rest_heights[key] = float(stability.equilibrium_hip_height(pe0, pf0, params))
     return X0
-
-
-def native_core(params: Params):
-    """The compiled core (:mod:`mkctl.native`) for params' structure, or None: no compiler, switched off
-    (``MKCTL_NATIVE=0``), or mkctl.native absent (a pythonfmu FMU packs only the modules it imports)."""
-    try:
-        from ..native import compiled
-    except ImportError:
-        return None
-    return compiled.core_for(params)
 
 
 def held_command_runs(pe_cmd, pf_cmd) -> list[tuple[int, int]]:
@@ -212,7 +224,7 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
     states = np.empty((n, sim.state.size))
     outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
     resume = 0
-    core = native_core(params) if n > 0 else None
+    core = backend.compiled_core(params) if n > 0 else None
     if core is not None:
         resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, outputs)
     if resume == 0 and n > 0:
@@ -294,7 +306,7 @@ class ActuatorSimulator:
     def step(self, dt: float, p_cmd: float) -> float:
         """Advance the pressure by dt [s] towards p_cmd [Pa]; returns the new pressure [Pa]."""
         actuator.check_pressure(p_cmd)
-        self.pressure = float(actuator.lagged_pressure(self.pressure, p_cmd, self.params.tau, dt))
+        self.pressure = float(actuator.pressure_after(self.pressure, p_cmd, dt, self.params))
         self.time += dt
         return self.pressure
 
@@ -302,5 +314,5 @@ class ActuatorSimulator:
         """The actuator FMU's outputs now: pressure "P" [Pa] (the lag state, or p_cmd without a lag) and
         tension "f" [N] at length L [m] and lengthening rate Ldot [m/s]."""
         actuator.check_pressure(p_cmd)
-        P = self.pressure if self.params.tau > 0 else float(p_cmd)
+        P = self.pressure if actuator.has_pressure_states(self.params) else float(p_cmd)
         return {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}

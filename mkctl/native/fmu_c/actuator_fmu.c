@@ -1,7 +1,7 @@
 /* The actuator's part of the native McKibbenActuator FMU: the run of mkctl.physics.simulate.ActuatorSimulator.
  *
- * The pressure lag is the only state, solved exactly over each step with the command held (the core's
- * mk_actuator_lagged_pressure); the tension (mk_actuator_tension) follows from the inputs L, Ldot and the
+ * The pressure (with an effect that has pressure dynamics, a lag) is the only state, advanced over each step with
+ * the command held (the core's mk_actuator_lagged_pressure, generated from actuator.pressure_after); the tension (mk_actuator_tension) follows from the inputs L, Ldot and the
  * present pressure (the command itself without a lag). n left at its start value while b, L0 or D0 change
  * follows them. Start inputs outside the model's domain are refused at initialization; a step that ends outside
  * it (0 < L < b) is refused and the state kept.
@@ -54,7 +54,7 @@ int mk_model_outputs(mk_data *d, char *msg, size_t size)
     double p[MK_NPARAM], P, f;
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     params_of(d, p);
-    P = d->v[VR_tau] > 0 ? d->s.y[0] : d->v[VR_p_cmd];
+    P = mk_pressure_is_state(p) ? d->s.y[0] : d->v[VR_p_cmd];
     if (mk_actuator_tension(p, d->v[VR_L], P, d->v[VR_Ldot], &f, &fault) != 0) {
         mk_fault_message(&fault, msg, size);
         return 1;

@@ -1,15 +1,23 @@
-/* FMI 2.0 co-simulation interface of mkctl's native FMUs: the part both FMUs share.
+/* FMI 2.0 interface of mkctl's native FMUs, Co-Simulation and Model Exchange: the part both FMUs share.
  *
  * The model's part (knee_fmu.c, actuator_fmu.c) builds a run from the parameters, steps it and computes the
- * outputs, with the compiled core generated from mkctl's equations (mkctl/native). This file does the rest the
- * way mkctl's pythonfmu slaves (mkctl/fmu/slave.py) do, so that both FMUs answer alike:
+ * outputs, with the compiled core generated from mkctl's equations (mkctl/native); its Model Exchange part
+ * (knee_me.c, actuator_me.c) gives the derivatives and event indicators. The checks of a run and the Model
+ * Exchange logic every wrapper shares are in mk_run.c. This file does the rest the way mkctl's pythonfmu slaves
+ * (mkctl/fmu/slave.py) do, so that both FMUs answer alike:
  *
  * - parameters are checked at exitInitializationMode with the rules of mkctl.physics.params.Params; a bad one is
  *   logged ("invalid parameters: parameter m must be positive, got -1.0") and answered with fmi2Error, and every
  *   later doStep with fmi2Error and the message again;
- * - doStep refuses an input that is not a finite number, or a step that would leave the model's domain, with a
- *   logged message and fmi2Discard, the state left as it was at the start of the step: the host can set a valid
- *   input and step again;
+ * - doStep refuses an input that is not a finite number, a negative pressure input, a step that would leave the
+ *   model's domain, or one whose outputs would not be finite numbers, with a logged message and fmi2Discard, the
+ *   state left as it was at the start of the step; fmi2GetBooleanStatus(fmi2Terminated) then answers true, so a
+ *   host such as fmpy's simulate_fmu ends the run there (model-spec section 7c) instead of retrying the same step
+ *   for ever; a host driving the FMU call by call can still set a valid input and step again;
+ * - Model Exchange: fmi2GetDerivatives and fmi2GetEventIndicators answer fmi2Error with a logged message when the
+ *   inputs or the state are outside the model's domain, and fmi2CompletedIntegratorStep and fmi2NewDiscreteStates
+ *   then ask the host to terminate; a parameter Model Exchange cannot represent (a dead time) is refused at
+ *   fmi2ExitInitializationMode;
  * - outputs are computed when read, from the state and the present inputs (direct feedthrough);
  * - messages with status fmi2Discard or worse always reach the host's logger; others only with logging on.
  *
@@ -24,6 +32,7 @@
 
 #include "fmi2Functions.h"
 #include "mk_fmu.h"
+#include "mk_run.h"
 
 #define MK_MAGIC 0x6d6b63746c463032ULL /* "mkctlF02": the start of a serialized state */
 
@@ -33,6 +42,8 @@ typedef struct {
     char *name;
     int logging_on;
     int categories; /* bit mask of the enabled log categories */
+    int me;         /* instantiated for Model Exchange (else Co-Simulation) */
+    char me_logged[MK_MESSAGE]; /* the last Model Exchange failure logged (each is logged once, not per call) */
 } mk_instance;
 
 static const char *CATEGORIES[] = {"logStatusWarning", "logStatusDiscard", "logStatusError", "logStatusFatal",
@@ -221,7 +232,15 @@ static int start_run(mk_instance *inst)
     if (check_parameters(d, msg, sizeof msg) != 0) {
         snprintf(d->error, sizeof d->error, "invalid parameters: %s", msg);
         d->failed = 1;
+    } else if (inst->me && mk_me_check_start(d, d->error, sizeof d->error) != 0) {
+        d->failed = 1;
+    } else if (mk_check_start_inputs(d, msg, sizeof msg) != 0) {
+        snprintf(d->error, sizeof d->error, "invalid start inputs: %s", msg);
+        d->failed = 1;
     } else if (mk_model_start(d, d->error, sizeof d->error) != 0) {
+        d->failed = 1;
+    } else if (mk_compute_outputs(d, msg, sizeof msg) != 0) {
+        snprintf(d->error, sizeof d->error, "invalid start: %s", msg);
         d->failed = 1;
     }
     memset(d->over_rating, 0, sizeof d->over_rating);
@@ -265,13 +284,13 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     strcpy(inst->name, instanceName);
     inst->logging_on = loggingOn ? 1 : 0;
     inst->categories = (1 << N_CATEGORIES) - 1;
-    if (fmuType != fmi2CoSimulation) {
-        mk_log(inst, fmi2Error, "%s is a co-simulation FMU only (fmi2Instantiate with fmuType %d)", MK_MODEL_NAME,
-               (int)fmuType);
+    if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
+        mk_log(inst, fmi2Error, "%s: fmi2Instantiate with an unknown fmuType %d", MK_MODEL_NAME, (int)fmuType);
         free(inst->name);
         free(inst);
         return NULL;
     }
+    inst->me = fmuType == fmi2ModelExchange;
     if (fmuGUID == NULL || strcmp(fmuGUID, MK_GUID) != 0) {
         mk_log(inst, fmi2Error, "wrong GUID %s: this binary is %s", fmuGUID ? fmuGUID : "(null)", MK_GUID);
         free(inst->name);
@@ -345,7 +364,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component c)
     time = inst->d.s.time;
     start_run(inst); /* logs any problem */
     inst->d.s.time = time;
-    inst->d.phase = MK_STEPPING;
+    inst->d.phase = inst->me ? MK_EVENT_MODE : MK_STEPPING;
     return inst->d.failed ? fmi2Error : fmi2OK;
 }
 
@@ -390,7 +409,7 @@ static fmi2Status update_outputs(mk_instance *inst)
     if (d->failed) {
         snprintf(msg, sizeof msg, "%s", d->error);
         d->outputs_failed = 1;
-    } else if (mk_model_outputs(d, msg, sizeof msg) != 0) {
+    } else if (mk_compute_outputs(d, msg, sizeof msg) != 0) {
         d->outputs_failed = 1;
     }
     if (d->outputs_failed) { /* always shown: never a silent NaN */
@@ -407,6 +426,19 @@ static fmi2Status update_outputs(mk_instance *inst)
     return d->outputs_failed ? fmi2Warning : fmi2OK;
 }
 
+/* Model Exchange's local variables (lag states, derivatives) up to date; fmi2Warning (logged) if they cannot be. */
+static fmi2Status update_locals(mk_instance *inst)
+{
+    char msg[MK_MESSAGE];
+    if (!inst->d.started) update_outputs(inst); /* builds the run */
+    if (inst->d.failed) return fmi2Warning;
+    if (mk_me_update_locals(&inst->d, msg, sizeof msg) != 0) {
+        mk_log(inst, fmi2Error, "the derivatives are undefined: %s", msg);
+        return fmi2Warning;
+    }
+    return fmi2OK;
+}
+
 static fmi2Status get_values(mk_instance *inst, const fmi2ValueReference vr[], size_t nvr, int type,
                              const char *what, double *out)
 {
@@ -416,6 +448,9 @@ static fmi2Status get_values(mk_instance *inst, const fmi2ValueReference vr[], s
         if (check_vr(inst, vr[k], type, what) != fmi2OK) return fmi2Error;
         if (mk_variables[vr[k]].causality == MK_OUTPUT) {
             s = update_outputs(inst);
+            if (s > status) status = s;
+        } else if (mk_variables[vr[k]].causality == MK_LOCAL) {
+            s = update_locals(inst);
             if (s > status) status = s;
         }
         out[k] = inst->d.v[vr[k]];
@@ -429,6 +464,9 @@ static fmi2Status set_value(mk_instance *inst, fmi2ValueReference vr, int type, 
     if (check_vr(inst, vr, type, what) != fmi2OK) return fmi2Error;
     if (mk_variables[vr].causality == MK_OUTPUT)
         return refuse(inst, fmi2Error, "%s: %s is an output and cannot be set", what, mk_variables[vr].name);
+    if (mk_variables[vr].causality == MK_LOCAL)
+        return refuse(inst, fmi2Error, "%s: %s is a local variable of Model Exchange and cannot be set (states: "
+                      "fmi2SetContinuousStates)", what, mk_variables[vr].name);
     if (mk_variables[vr].causality == MK_PARAMETER) {
         if (d->phase != MK_INSTANTIATED && d->phase != MK_INITIALIZATION)
             return refuse(inst, fmi2Error, "%s: %s is a fixed parameter: set it before fmi2ExitInitializationMode "
@@ -528,33 +566,43 @@ fmi2Status fmi2DoStep(fmi2Component c, fmi2Real currentCommunicationPoint, fmi2R
                       fmi2Boolean noSetFMUStatePriorToCurrentPoint)
 {
     mk_data *d;
+    mk_state saved;
+    double saved_v[NV];
     char msg[MK_MESSAGE], a[40];
-    int k;
     INSTANCE(c);
     (void)noSetFMUStatePriorToCurrentPoint;
     d = &inst->d;
+    if (inst->me)
+        return refuse(inst, fmi2Error, "doStep at t = %g s refused: this instance is Model Exchange",
+                      currentCommunicationPoint);
     if (d->phase != MK_STEPPING)
         return refuse(inst, fmi2Error, "doStep at t = %g s refused: call fmi2ExitInitializationMode first "
                       "(or the instance was terminated)", currentCommunicationPoint);
     if (!d->started) start_run(inst); /* parameters set again after fmi2SetFMUstate */
     if (d->failed)
         return refuse(inst, fmi2Error, "doStep at t = %g s refused: %s", currentCommunicationPoint, d->error);
-    for (k = 0; k < mk_n_inputs; k++) {
-        double value = d->v[mk_inputs[k]];
-        if (!isfinite(value))
-            return refuse(inst, fmi2Discard, "doStep at t = %g s: input %s = %s %s is not a finite number",
-                          currentCommunicationPoint, mk_variables[mk_inputs[k]].name, mk_repr(value, a, sizeof a),
-                          mk_variables[mk_inputs[k]].unit);
-    }
+    d->refused = 1; /* until the step is done: fmi2Terminated answers true after any refusal below */
+    if (mk_check_inputs(d, msg, sizeof msg) != 0)
+        return refuse(inst, fmi2Discard, "doStep at t = %g s: %s", currentCommunicationPoint, msg);
     if (!(communicationStepSize >= 0))
         return refuse(inst, fmi2Discard, "doStep at t = %g s: negative step size %s s", currentCommunicationPoint,
                       mk_repr(communicationStepSize, a, sizeof a));
     if (communicationStepSize > 0) {
-        if (mk_model_step(d, communicationStepSize, msg, sizeof msg) != 0)
+        saved = d->s;
+        memcpy(saved_v, d->v, sizeof saved_v); /* a model part may write outputs while it steps */
+        /* the step must succeed and end with finite outputs; if not, the state and values stay as they were */
+        if (mk_model_step(d, communicationStepSize, msg, sizeof msg) != 0 ||
+            mk_compute_outputs(d, msg, sizeof msg) != 0) {
+            d->s = saved;
+            memcpy(d->v, saved_v, sizeof saved_v);
             return refuse(inst, fmi2Discard, "doStep from t = %g s over %g s: %s", currentCommunicationPoint,
                           communicationStepSize, msg);
-        d->outputs_fresh = 0;
+        }
+        d->outputs_fresh = 1; /* computed just now, for the new state and the present inputs */
+        d->outputs_failed = 0;
+        d->outputs_valid = 1;
     }
+    d->refused = 0;
     check_rating(inst, currentCommunicationPoint + communicationStepSize);
     return fmi2OK;
 }
@@ -595,8 +643,8 @@ fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind s, fmi2Int
 fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind s, fmi2Boolean *value)
 {
     INSTANCE(c);
-    if (s == fmi2Terminated) {
-        *value = fmi2False;
+    if (s == fmi2Terminated) { /* true after a refused doStep: the host must not retry that step for ever */
+        *value = inst->d.refused ? fmi2True : fmi2False;
         return fmi2OK;
     }
     return refuse(inst, fmi2Discard, "fmi2GetBooleanStatus: status kind %d is not provided", (int)s);
@@ -714,5 +762,180 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte serializedSta
     if (copy == NULL) return refuse(inst, fmi2Error, "fmi2DeSerializeFMUstate: out of memory");
     memcpy(copy, serializedState + sizeof magic, sizeof *copy);
     *state = copy;
+    return fmi2OK;
+}
+
+/* --- Model Exchange (model-spec section 7c) ------------------------------------------------------------------- */
+
+#define ME_INSTANCE(c, what)                                                                                  \
+    mk_instance *inst = (mk_instance *)(c);                                                                   \
+    if (inst == NULL) return fmi2Error;                                                                       \
+    if (!inst->me) return refuse(inst, fmi2Error, "%s: this instance is Co-Simulation", what)
+
+/* Log a Model Exchange failure once (a host's integrator may call a function many times at the same point). */
+static void log_me_failure(mk_instance *inst, fmi2Status status, const char *what, const char *msg)
+{
+    char key[MK_MESSAGE];
+    snprintf(key, sizeof key, "%s: %s", what, msg); /* the same failure at another time is not logged again */
+    if (strcmp(key, inst->me_logged) == 0) return;
+    snprintf(inst->me_logged, sizeof inst->me_logged, "%s", key);
+    mk_log(inst, status, "%s at t = %g s: %s", what, inst->d.s.time, msg);
+}
+
+/* The run as the present values build it (Model Exchange functions may be called in initialization mode). */
+static int me_ready(mk_instance *inst)
+{
+    if (!inst->d.started) {
+        double time = inst->d.s.time;
+        start_run(inst);
+        inst->d.s.time = time;
+    }
+    return !inst->d.failed;
+}
+
+/* Whether the run must end here (inputs or state outside the model's domain), with the reason logged. */
+static int me_must_terminate(mk_instance *inst, const char *what)
+{
+    double dx[MK_ME_NX];
+    char msg[MK_MESSAGE];
+    if (!me_ready(inst)) {
+        log_me_failure(inst, fmi2Error, what, inst->d.error);
+        return 1;
+    }
+    if (mk_me_derivatives(&inst->d, dx, msg, sizeof msg) != 0) {
+        char text[MK_MESSAGE + 64];
+        snprintf(text, sizeof text, "%s; the simulation must end here", msg);
+        log_me_failure(inst, fmi2Discard, what, text);
+        return 1;
+    }
+    return 0;
+}
+
+fmi2Status fmi2EnterEventMode(fmi2Component c)
+{
+    ME_INSTANCE(c, "fmi2EnterEventMode");
+    if (inst->d.phase != MK_EVENT_MODE && inst->d.phase != MK_CONTINUOUS_TIME_MODE)
+        return refuse(inst, fmi2Error, "fmi2EnterEventMode is allowed only after fmi2ExitInitializationMode");
+    inst->d.phase = MK_EVENT_MODE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info)
+{
+    ME_INSTANCE(c, "fmi2NewDiscreteStates");
+    if (info == NULL) return refuse(inst, fmi2Error, "fmi2NewDiscreteStates: no fmi2EventInfo given");
+    /* no discrete states: the right-hand side switches by itself; an event only restarts the host's integrator */
+    info->newDiscreteStatesNeeded = fmi2False;
+    info->nominalsOfContinuousStatesChanged = fmi2False;
+    info->valuesOfContinuousStatesChanged = fmi2False;
+    info->nextEventTimeDefined = fmi2False;
+    info->nextEventTime = 0.0;
+    info->terminateSimulation = me_must_terminate(inst, "fmi2NewDiscreteStates") ? fmi2True : fmi2False;
+    if (!info->terminateSimulation) check_rating(inst, inst->d.s.time);
+    return inst->d.failed ? fmi2Error : fmi2OK;
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c)
+{
+    ME_INSTANCE(c, "fmi2EnterContinuousTimeMode");
+    if (inst->d.phase != MK_EVENT_MODE)
+        return refuse(inst, fmi2Error, "fmi2EnterContinuousTimeMode is allowed only in event mode");
+    inst->d.phase = MK_CONTINUOUS_TIME_MODE;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation)
+{
+    int terminate;
+    ME_INSTANCE(c, "fmi2CompletedIntegratorStep");
+    (void)noSetFMUStatePriorToCurrentPoint;
+    terminate = me_must_terminate(inst, "fmi2CompletedIntegratorStep");
+    if (enterEventMode != NULL) *enterEventMode = fmi2False;
+    if (terminateSimulation != NULL) *terminateSimulation = terminate ? fmi2True : fmi2False;
+    if (!terminate) check_rating(inst, inst->d.s.time);
+    return inst->d.failed ? fmi2Error : fmi2OK;
+}
+
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real time)
+{
+    ME_INSTANCE(c, "fmi2SetTime");
+    inst->d.s.time = time;
+    inst->d.outputs_fresh = 0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t nx)
+{
+    ME_INSTANCE(c, "fmi2SetContinuousStates");
+    if (nx != MK_ME_NX || (nx > 0 && x == NULL))
+        return refuse(inst, fmi2Error, "fmi2SetContinuousStates: %s has %d continuous states, not %lu", MK_MODEL_NAME,
+                      MK_ME_NX, (unsigned long)nx);
+    if (!me_ready(inst))
+        return refuse(inst, fmi2Error, "fmi2SetContinuousStates refused: %s", inst->d.error);
+    mk_me_set_states(&inst->d, x);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real derivatives[], size_t nx)
+{
+    char msg[MK_MESSAGE];
+    size_t i;
+    ME_INSTANCE(c, "fmi2GetDerivatives");
+    if (nx != MK_ME_NX || (nx > 0 && derivatives == NULL))
+        return refuse(inst, fmi2Error, "fmi2GetDerivatives: %s has %d continuous states, not %lu", MK_MODEL_NAME,
+                      MK_ME_NX, (unsigned long)nx);
+    if (!me_ready(inst)) {
+        log_me_failure(inst, fmi2Error, "fmi2GetDerivatives", inst->d.error);
+        return fmi2Error;
+    }
+    if (mk_me_derivatives(&inst->d, derivatives, msg, sizeof msg) != 0) {
+        for (i = 0; i < nx; i++) derivatives[i] = NAN; /* never a number that looks valid */
+        log_me_failure(inst, fmi2Error, "fmi2GetDerivatives", msg);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real eventIndicators[], size_t ni)
+{
+    char msg[MK_MESSAGE];
+    size_t i;
+    ME_INSTANCE(c, "fmi2GetEventIndicators");
+    if (ni != MK_ME_NZ || (ni > 0 && eventIndicators == NULL))
+        return refuse(inst, fmi2Error, "fmi2GetEventIndicators: %s has %d event indicators, not %lu", MK_MODEL_NAME,
+                      MK_ME_NZ, (unsigned long)ni);
+    if (ni == 0) return fmi2OK;
+    if (!me_ready(inst)) {
+        log_me_failure(inst, fmi2Error, "fmi2GetEventIndicators", inst->d.error);
+        return fmi2Error;
+    }
+    if (mk_me_event_indicators(&inst->d, eventIndicators, msg, sizeof msg) != 0) {
+        for (i = 0; i < ni; i++) eventIndicators[i] = NAN;
+        log_me_failure(inst, fmi2Error, "fmi2GetEventIndicators", msg);
+        return fmi2Error;
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx)
+{
+    ME_INSTANCE(c, "fmi2GetContinuousStates");
+    if (nx != MK_ME_NX || (nx > 0 && x == NULL))
+        return refuse(inst, fmi2Error, "fmi2GetContinuousStates: %s has %d continuous states, not %lu", MK_MODEL_NAME,
+                      MK_ME_NX, (unsigned long)nx);
+    if (!me_ready(inst))
+        return refuse(inst, fmi2Error, "fmi2GetContinuousStates refused: %s", inst->d.error);
+    mk_me_get_states(&inst->d, x);
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x_nominal[], size_t nx)
+{
+    ME_INSTANCE(c, "fmi2GetNominalsOfContinuousStates");
+    if (nx != MK_ME_NX || (nx > 0 && x_nominal == NULL))
+        return refuse(inst, fmi2Error, "fmi2GetNominalsOfContinuousStates: %s has %d continuous states, not %lu",
+                      MK_MODEL_NAME, MK_ME_NX, (unsigned long)nx);
+    mk_me_get_nominals(x_nominal);
     return fmi2OK;
 }

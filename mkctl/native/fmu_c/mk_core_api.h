@@ -25,6 +25,7 @@ int mk_knee_step(const double *p, const double *stops, double *y, double dt, dou
                  double *k_pf, mk_fault *fault);
 int mk_knee_outputs(const double *p, const double *y, double pe_cmd, double pf_cmd, double *out, mk_fault *fault);
 int mk_knee_nstate(const double *p);
+int mk_pressure_is_state(const double *p); /* 1 when an effect with pressure dynamics is on (a lag) */
 int mk_stop_positions(const double *p, double *out, mk_fault *fault);
 int mk_actuator_tension(const double *p, double L, double P, double Ldot, double *f, mk_fault *fault);
 int mk_actuator_lagged_pressure(const double *p, double P, double P_cmd, double dt, double *out, mk_fault *fault);

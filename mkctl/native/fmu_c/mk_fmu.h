@@ -1,5 +1,5 @@
-/* The FMI 2.0 co-simulation wrapper of mkctl's native FMUs: what the generic part (fmi2_wrapper.c) and a model's
- * part (knee_fmu.c or actuator_fmu.c) share. Written by mkctl/native/fmu.py's build, see docs/fmu.md.
+/* The FMI 2.0 wrapper of mkctl's native FMUs: what the generic part (fmi2_wrapper.c, mk_run.c) and a model's
+ * part (knee_fmu.c and knee_me.c, or actuator_fmu.c and actuator_me.c) share. Written by mkctl/native/fmu.py's build, see docs/fmu.md.
  *
  * Every variable lives in one array of doubles indexed by its value reference (Integer and Boolean values as
  * whole numbers); model_variables.h (generated from the pythonfmu slave's interface) gives the value references
@@ -11,7 +11,7 @@
 #include <stddef.h>
 
 enum mk_type { MK_REAL, MK_INTEGER, MK_BOOLEAN };
-enum mk_causality { MK_INPUT, MK_PARAMETER, MK_OUTPUT };
+enum mk_causality { MK_INPUT, MK_PARAMETER, MK_OUTPUT, MK_LOCAL /* Model Exchange's states, derivatives */ };
 /* checks of a Real parameter, the rules of mkctl.physics.params.Params */
 enum mk_rule { MK_ANY, MK_POSITIVE, MK_NOT_NEGATIVE };
 
@@ -73,10 +73,12 @@ typedef struct {
     int outputs_failed;
     int outputs_valid;       /* v[] holds outputs of a good computation since the start (kept when one fails) */
     int over_rating[4];      /* per pressure output: above P_rated now (warned once per excursion) */
+    int refused;             /* the last doStep was refused: fmi2Terminated answers true, so the host ends there */
     char error[MK_MESSAGE];
 } mk_data;
 
-enum mk_phase { MK_INSTANTIATED, MK_INITIALIZATION, MK_STEPPING, MK_TERMINATED };
+enum mk_phase { MK_INSTANTIATED, MK_INITIALIZATION, MK_STEPPING, MK_TERMINATED,
+                MK_EVENT_MODE, MK_CONTINUOUS_TIME_MODE /* Model Exchange */ };
 
 /* The model's part. Each returns 0 on success, or nonzero with a one-line message in msg. */
 /* Build the run from the parameters and inputs in d->v (parameter checks done): derived values, start state. */

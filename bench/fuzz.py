@@ -1,0 +1,412 @@
+"""Fuzz mkctl as a careless user and a hostile file would: bad measurement files, muscle files and options.
+
+Each case is one ``mkctl`` command run in this process through :func:`mkctl.cli.main` (stdout and stderr
+captured, warnings recorded, a time limit per case) on a file or an option made bad in one way: a metadata line
+added or changed, a cell, a row, the header or the bytes of a measurement file; a value, a key or the structure of
+a muscle file; one option of synth, step, rootlocus, linearize or sweep. The contract (issue 20) is:
+
+- a refusal is one line on stderr and a non-zero exit, with no warning printed before it;
+- an accepted run exits 0 and writes and prints only finite numbers;
+- never a traceback, never a hang.
+
+Each case gets one outcome of :data:`OUTCOMES`; the first two are the contract kept, the others break it.
+Usage::
+
+    python bench/fuzz.py                     # 2000 cases, seed 0, counts per outcome
+    python bench/fuzz.py --cases 300 --seed 4 --show 5
+
+The suite's tests/test_fuzz.py runs the same generator on a small fixed budget.
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import json
+import math
+import random
+import re
+import signal
+import sys
+import tempfile
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+#: Outcomes: the contract kept (refused, accepted) or broken (the rest).
+OUTCOMES = ("refused", "accepted", "traceback", "hang", "warnings", "not one line", "non-finite written",
+            "non-finite printed")
+#: Seconds a case may take before it counts as a hang.
+CASE_TIMEOUT_S = 120
+
+#: Values a careless user or a broken file puts where a number belongs.
+HOSTILE_NUMBERS = ("0", "-0", "-1", "1", "0.5", "-0.5", "1e308", "-1e308", "1e-308", "1e-320", "1e-12", "1e6",
+                   "1e12", "99999999999", "nan", "NaN", "inf", "-inf", "Infinity", "1e400", "9" * 400, "abc", "",
+                   " ", "1,5", "0x10", "1_000", "1e", "--1", "+5", "١٢", "1" * 5000)
+
+#: Numbers the model may accept (so that not every case is refused at once).
+PLAUSIBLE = ("0.01", "0.1", "0.5", "2", "10", "45", "100", "300")
+
+FLOAT_WORD = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
+
+
+@dataclass
+class Case:
+    """One command to run: its kind (``measurement``, ``muscle``, ``option``), a label and the arguments."""
+
+    kind: str
+    label: str
+    argv: list
+    files: dict = field(default_factory=dict)  #: {name: text or bytes} written into the case's folder first
+
+
+@dataclass
+class Result:
+    case: Case
+    outcome: str
+    status: object
+    stdout: str
+    stderr: str
+    detail: str = ""
+    seconds: float = 0.0
+
+
+class _Timeout(BaseException):
+    """Raised by the alarm inside a case that runs too long (BaseException: no ``except Exception`` eats it)."""
+
+
+# --- running one case -------------------------------------------------------------------------------
+
+def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Result:
+    """Run ``case`` in ``folder`` (its files written there first; paths in argv are relative to it) and judge it."""
+    import os
+    from mkctl.cli import main
+
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, content in case.files.items():
+        path = folder / name
+        (path.write_bytes if isinstance(content, bytes) else lambda t: path.write_text(t, encoding="utf-8"))(content)
+    before = {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
+    out, err = io.StringIO(), io.StringIO()
+    status, error = None, None
+
+    def alarm(*_):
+        raise _Timeout()
+
+    previous = signal.signal(signal.SIGALRM, alarm)
+    signal.setitimer(signal.ITIMER_REAL, timeout)
+    cwd = os.getcwd()
+    start = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            os.chdir(folder)
+            with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                status = main([str(a) for a in case.argv])
+        except SystemExit as stop:  # argparse
+            status = stop.code if isinstance(stop.code, int) else 2
+        except _Timeout:
+            status = "hang"
+        except BaseException as exc:  # noqa: BLE001 - a traceback is what the fuzzer looks for
+            import traceback
+
+            status, error = "traceback", "".join(traceback.format_exception_only(type(exc), exc)).strip()
+            error += " | " + " <- ".join(f"{Path(f.filename).name}:{f.lineno}"
+                                         for f in traceback.extract_tb(exc.__traceback__)[-4:])
+        finally:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, previous)
+            os.chdir(cwd)
+    seconds = time.perf_counter() - start
+    stdout, stderr = out.getvalue(), err.getvalue()
+    result = Result(case, "", status, stdout, stderr, seconds=seconds)
+    if status == "hang":
+        result.outcome, result.detail = "hang", f"over {timeout:g} s"
+    elif status == "traceback":
+        result.outcome, result.detail = "traceback", error
+    elif caught:
+        result.outcome = "warnings"
+        result.detail = "; ".join(sorted({f"{w.category.__name__}: {w.message}" for w in caught}))[:300]
+    elif status != 0:
+        lines = [line for line in stderr.splitlines() if line.strip()]
+        ok = len(lines) == 1 and stderr.endswith("\n")
+        result.outcome = "refused" if ok else "not one line"
+        if not ok:
+            result.detail = f"{len(lines)} lines, {len(stderr)} characters: {stderr[:200]!r}"
+    else:
+        written = _nonfinite_files(folder, before)
+        printed = FLOAT_WORD.search(stdout)
+        if written:
+            result.outcome, result.detail = "non-finite written", written
+        elif printed:
+            where = stdout[max(0, printed.start() - 80):printed.end() + 20]
+            result.outcome, result.detail = "non-finite printed", where
+        else:
+            result.outcome = "accepted"
+    return result
+
+
+#: Written tables whose non-finite cells are documented in words (mkctl.analysis.sweep: settling time inf =
+#: never settles); the fuzzer does not count them.
+DOCUMENTED_NONFINITE = ("sweep.csv",)
+
+
+def _nonfinite_files(folder: Path, before: dict) -> str:
+    """'file: the first non-finite token' for a text file written or changed by the case, or ''."""
+    for path in sorted(folder.rglob("*")):
+        if not path.is_file() or path.suffix not in (".csv", ".json", ".txt", ".md") or path.name in DOCUMENTED_NONFINITE:
+            continue
+        if before.get(path) == path.stat().st_mtime_ns:
+            continue
+        text = path.read_text(encoding="utf-8", errors="replace")
+        if path.suffix == ".csv":  # the header and metadata hold names (x_offset_mm, ...), not numbers
+            text = "\n".join(line for line in text.splitlines() if line[:1].isdigit() or line[:1] in "-+.")
+        found = FLOAT_WORD.search(text)
+        if found:
+            return f"{path.name}: {text[max(0, found.start() - 40):found.end() + 10]!r}"
+    return ""
+
+
+# --- the cases ---------------------------------------------------------------------------------------
+
+def base_files(folder: Path) -> dict:
+    """Small valid files to mutate: a knee, an isotonic and an isometric record, and a muscle file (text)."""
+    from mkctl.analysis.synth import synthesize, write_synthetic
+    from mkctl.io.muscle import write_muscle
+    from mkctl.physics.params import DEFAULT
+
+    folder.mkdir(parents=True, exist_ok=True)
+    files = {}
+    for name, args in (("knee.csv", ("knee", {"c": 45.0}, dict(samples=200, rate=100.0))),
+                       ("isotonic.csv", ("isotonic", {"Fc": 1.0}, dict(samples=200))),
+                       ("isometric.csv", ("isometric", ["slack"], dict(samples=80)))):
+        experiment, hidden, options = args
+        path, _ = write_synthetic(folder / name, synthesize(experiment, hidden, seed=1, **options), truth_file=False)
+        files[name] = path.read_text(encoding="utf-8")
+    files["muscle.json"] = write_muscle(folder / "muscle.json", DEFAULT).read_text(encoding="utf-8")
+    return files
+
+
+def _number(rng: random.Random) -> str:
+    if rng.random() < 0.25:
+        return rng.choice(PLAUSIBLE)
+    if rng.random() < 0.15:  # anything between tiny and huge, either sign
+        return f"{rng.choice((-1, 1)) * 10 ** rng.uniform(-30, 30):.6g}"
+    return rng.choice(HOSTILE_NUMBERS)
+
+
+def measurement_case(rng: random.Random, files: dict) -> Case:
+    """A measurement file made bad in one way, through compare (mostly) or diagnose."""
+    from mkctl.physics.params import PARAMETER_NAMES
+
+    name = rng.choice(("knee.csv", "isotonic.csv", "isometric.csv"))
+    lines = files[name].splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    rows = list(range(header + 1, len(lines)))
+    what = rng.randrange(12)
+    if what <= 2:  # a metadata line: a parameter, an offset or a key of its own, with a hostile value
+        quantity = {"knee.csv": "x", "isotonic.csv": "length", "isometric.csv": "force"}[name]
+        key = rng.choice((*PARAMETER_NAMES, f"{quantity}_offset_{'N' if quantity == 'force' else 'mm'}",
+                          "experiment", "baseline", "model", "", "x y", "m" * 300))
+        lines.insert(header, f"# {key} = {_number(rng)}")
+        label = f"metadata {key[:20]} = {lines[header][-20:]}"
+    elif what <= 5:  # one cell
+        row = rng.choice(rows)
+        cells = lines[row].split(",")
+        column = rng.randrange(len(cells))
+        cells[column] = _number(rng)
+        lines[row] = ",".join(cells)
+        label = f"cell {row + 1}:{column + 1} = {cells[column][:20]}"
+    elif what == 6:  # rows: dropped, repeated, reversed, or only one left
+        choice = rng.randrange(4)
+        body = lines[header + 1:]
+        body = [body[0]] if choice == 0 else body[::-1] if choice == 1 else body + body[-3:] if choice == 2 \
+            else body[:: rng.randint(2, 50)]
+        lines = lines[:header + 1] + body
+        label = f"rows changed ({choice})"
+    elif what == 7:  # the header
+        cells = lines[header].split(",")
+        cells[rng.randrange(len(cells))] = rng.choice(("x", "", "time_h", "x_km", "x_mm", "beta_deg", "pe_kPa",
+                                                       "branch", "force_lbf", "length_in", "é" * 40))
+        lines[header] = ",".join(cells)
+        label = f"header {lines[header][:40]}"
+    elif what == 8:  # the bytes
+        data = "\n".join(lines).encode()
+        cut = rng.randrange(len(data))
+        data = data[:cut] if rng.random() < 0.5 else data[:cut] + bytes(rng.randrange(256) for _ in range(20)) + data[cut:]
+        return _measurement_command(rng, name, data, f"bytes changed at {cut}")
+    elif what == 9:  # separators and line ends
+        text = "\n".join(lines)
+        text = rng.choice((text.replace(",", ";"), text.replace("\n", "\r\n"), text.replace("\n", "\r"),
+                           "\ufeff" + text, text.replace(".", ","), text + "\n" * 5 + "1,2,3,4"))
+        return _measurement_command(rng, name, text, "separators changed")
+    elif what == 10:  # a long value
+        lines.insert(header, f"# m = {'1' * rng.choice((100, 10_000, 1_000_000))}")
+        label = "a long metadata value"
+    else:  # a scaled column: a unit mistake
+        column = rng.randrange(len(lines[header].split(",")))
+        factor = rng.choice((1e-3, 0.1, 10.0, 25.4, 1e3, -1.0, 0.0))
+        for row in rows:
+            cells = lines[row].split(",")
+            try:
+                cells[column] = repr(float(cells[column]) * factor)
+            except ValueError:
+                pass
+            lines[row] = ",".join(cells)
+        label = f"column {column + 1} times {factor:g}"
+    return _measurement_command(rng, name, "\n".join(lines) + "\n", label)
+
+
+def _measurement_command(rng, name, content, label) -> Case:
+    command = "diagnose" if rng.random() < 0.15 else "compare"
+    argv = [command, name, "--out", "out"] + (["--quiet"] if command == "diagnose" else [])
+    return Case("measurement", f"{command} {name}: {label}", argv, {name: content})
+
+
+def muscle_case(rng: random.Random, files: dict) -> Case:
+    """A muscle file made bad in one way, through linearize, synth or compare."""
+    from mkctl.physics.params import PARAMETER_NAMES
+
+    data = json.loads(files["muscle.json"])
+    what = rng.randrange(8)
+    if what <= 3:  # a parameter's value: a number as JSON text, or another JSON type
+        name = rng.choice(PARAMETER_NAMES)
+        value = rng.choice(("1e308", "-1", "0", "1e-320", "9" * 400, "null", '"2"', "[1]", "{}", "true",
+                            *PLAUSIBLE, "1e400", "-1e308"))
+        data["params"][name] = "@@"
+        text = json.dumps(data).replace('"@@"', value)
+        label = f"{name} = {value[:20]}"
+    elif what == 4:  # a key of its own, or params missing
+        choice = rng.randrange(3)
+        if choice == 0:
+            data["params"]["spring"] = 1.0
+        elif choice == 1:
+            data.pop("params")
+        else:
+            data["params"] = [1, 2]
+        text, label = json.dumps(data), f"structure ({choice})"
+    elif what == 5:  # nesting
+        depth = rng.choice((100, 10_000, 100_000))
+        text, label = '{"params": ' + "[" * depth + "]" * depth + "}", f"nested {depth} deep"
+    elif what == 6:  # cut short or not JSON
+        full = json.dumps(data)
+        text = rng.choice((full[:rng.randrange(len(full))], "", "not json", "\x00\x01", "[]", "1e308"))
+        label = "broken JSON"
+    else:  # a geometry that does not exist together
+        data["params"].update(rng.choice(({"L0": 0.3}, {"t0": 0.01}, {"r": 0.6}, {"b": 0.2}, {"n": 1e-5},
+                                          {"D0": 1e-7}, {"m": 1e-9}, {"L1": 0.01})))
+        text, label = json.dumps(data), f"geometry {list(data['params'].items())[-1]}"
+    command = rng.choice(("linearize", "synth", "compare"))
+    argv = {"linearize": ["linearize", "--no-fmu", "--params", "m.json", "--out", "out"],
+            "synth": ["synth", "knee", "out/s.csv", "--params", "m.json", "--samples", "100", "--rate", "100"],
+            "compare": ["compare", "knee.csv", "--params", "m.json", "--out", "out"]}[command]
+    return Case("muscle", f"{command} muscle: {label}", argv, {"m.json": text, "knee.csv": files["knee.csv"]})
+
+
+#: The options fuzzed per command, with the arguments that make a quick valid run around them.
+OPTIONS = {
+    "synth": (["synth", "knee", "out/s.csv", "--samples", "150", "--rate", "100"],
+              ["--seed", "--samples", "--rate", "--noise", "--input-noise", "--noise-tau", "--offset", "--resolution",
+               "--hidden c=", "--hidden tau=", "--hidden Fc=", "--param m=", "--param r=", "--param L0="]),
+    "synth_isotonic": (["synth", "isotonic", "out/i.csv", "--samples", "150"],
+                       ["--seed", "--samples", "--noise", "--input-noise", "--offset", "--hidden Fc=", "--param C1="]),
+    "step": (["step", "--no-fmu", "--out", "out", "--duration", "0.5"],
+             ["--tau", "--c", "--duration", "--dt", "--small", "--large", "--alpha", "--X", "--pf", "--zeta",
+              "--set m=", "--set L1=", "--set vs="]),
+    "rootlocus": (["rootlocus", "--out", "out"],
+                  ["--c", "--zeta", "--tau", "--alpha", "--pf", "--vary tau --gain", "--vary tau --c", "--vary c --c",
+                   "--ti", "--set m="]),
+    "linearize": (["linearize", "--no-fmu", "--out", "out"],
+                  ["--alpha", "--X", "--pf", "--c", "--tau", "--zeta", "--set r=", "--set Lo=", "--set g="]),
+    "sweep": (["sweep", "--out", "out", "--jobs", "0", "--quiet"],
+              ["--grid c=0:", "--grid m=1:", "--random", "--seed", "--chunk", "--set tau="]),
+}
+
+
+def option_case(rng: random.Random, files: dict) -> Case:
+    """One option of a command given a hostile value (the others valid and quick)."""
+    command = rng.choice(sorted(OPTIONS))
+    base, options = OPTIONS[command]
+    option = rng.choice(options)
+    value = _number(rng)
+    argv = list(base)
+    words = option.split()
+    if option.endswith("="):  # NAME=VALUE
+        argv += [*words[:-1], words[-1] + value]
+    elif option.endswith(":"):  # a grid axis START:STOP:COUNT with one part hostile
+        argv += [*words[:-1], words[-1] + f"{value}:{rng.choice(('3', value))}"]
+    else:
+        argv += [*words, value]
+    if command == "sweep" and not any(a.startswith("--grid") for a in argv) and "--random" not in argv:
+        argv += ["--grid", "c=0:50:3"]
+    if command == "sweep" and "--random" in argv:
+        argv += ["--range", "c=0:50"]
+    return Case("option", f"{command} {option}{value[:20]}", argv)
+
+
+GENERATORS = {"measurement": measurement_case, "muscle": muscle_case, "option": option_case}
+
+
+def cases(count: int, seed: int, files: dict, weights=(0.45, 0.15, 0.40)) -> list[Case]:
+    """``count`` cases from a generator seeded with ``seed`` (the same seed gives the same cases)."""
+    rng = random.Random(seed)
+    kinds = rng.choices(list(GENERATORS), weights=weights, k=count)
+    return [GENERATORS[kind](rng, files) for kind in kinds]
+
+
+def run(count: int, seed: int, folder: Path, timeout: float = CASE_TIMEOUT_S, progress=None) -> list[Result]:
+    """Make the base files in ``folder``, then run ``count`` cases, each in a folder of its own."""
+    files = base_files(folder / "base")
+    results = []
+    for i, case in enumerate(cases(count, seed, files)):
+        results.append(run_case(case, folder / f"case{i:05d}", timeout))
+        if progress:
+            progress(i, results[-1])
+    return results
+
+
+def counts(results: list[Result]) -> dict:
+    """{outcome: count} over :data:`OUTCOMES` (every outcome listed), and per kind of case."""
+    table = {kind: {o: 0 for o in OUTCOMES} for kind in (*GENERATORS, "all")}
+    for r in results:
+        table[r.case.kind][r.outcome] += 1
+        table["all"][r.outcome] += 1
+    return table
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", type=int, default=2000)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--timeout", type=float, default=CASE_TIMEOUT_S, help="seconds per case (default %(default)g)")
+    parser.add_argument("--show", type=int, default=3, help="examples shown per broken outcome")
+    parser.add_argument("--keep", metavar="DIR", default=None, help="keep the cases' folders here")
+    args = parser.parse_args(argv)
+    start = time.perf_counter()
+
+    def progress(i, result):
+        if (i + 1) % 100 == 0:
+            print(f"{i + 1} cases, {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+
+    with tempfile.TemporaryDirectory(prefix="mkctl-fuzz-") as temporary:
+        folder = Path(args.keep) if args.keep else Path(temporary)
+        results = run(args.cases, args.seed, folder, args.timeout, progress)
+    seconds = time.perf_counter() - start
+    table = counts(results)
+    print(f"{len(results)} cases (seed {args.seed}) in {seconds:.0f} s, {seconds / max(len(results), 1):.2f} s each")
+    print(f"{'outcome':20s}" + "".join(f"{k:>13s}" for k in table))
+    for outcome in OUTCOMES:
+        print(f"{outcome:20s}" + "".join(f"{table[k][outcome]:13d}" for k in table))
+    slowest = max(results, key=lambda r: r.seconds)
+    print(f"slowest case: {slowest.seconds:.1f} s ({slowest.case.label})")
+    broken = [r for r in results if r.outcome not in ("refused", "accepted")]
+    for outcome in OUTCOMES[2:]:
+        shown = [r for r in broken if r.outcome == outcome][:args.show]
+        for r in shown:
+            print(f"  {outcome}: {r.case.label}: mkctl {' '.join(map(str, r.case.argv))[:150]}\n      {r.detail[:400]}")
+    return 1 if broken else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,520 @@
+"""Discovery: when no registered effect explains a record, which term does the missing force follow?
+
+Model-spec section 6b. The force the model lacks (Eq. 17's equation error ``m (Xddot + g) - F - F_stop`` for
+the knee, smoothed alike on both sides by :func:`knee_equation_error`; ``F_load - f(L, P, Ldot)`` for the
+isotonic test and the measured minus the model's tension for the isometric one, as
+:func:`mkctl.analysis.diagnose.missing_force` gives them) is regressed on a library of physically
+meaningful terms, each a term added to every actuator's tension, ``t(L, Ldot, P)``, with one coefficient:
+
+==========================  ===========  ============================================================
+term                        unit         what it stands for
+==========================  ===========  ============================================================
+``Ldot``                    N s/m        viscous damping (the registered ``viscous_damping``)
+``Ldot * |Ldot|``           N s^2/m^2    quadratic (turbulent, air) drag
+``Ldot * P``                N s/(m Pa)   damping that grows with pressure
+``sign(Ldot)``              N            Coulomb friction (``coulomb_friction``), smoothed sign
+``P * sign(Ldot)``          N/Pa         friction growing with pressure (``pressure_friction``)
+``-df/dP * dP/dt``          s            a pressure lag to first order (``pressure_lag``), knee commands only
+``f(P(t - d)) - f(P(t))``   1            the pressure d late (``dead_time``), d = 10, 20, 40 ms, knee commands only
+``f(P lagged) - f(P)``      1            the pressure through a lag (``pressure_lag``), tau = 10, 30, 100 ms, knee
+                                         commands only (the pressure rate above is its first order)
+``1``, ``L - L0``,          N, N/m,      a tension offset and a spring: length powers
+``(L - L0)^2``              N/m^2
+``P``                       N/Pa         a pressure gain the model lacks (b, n not the rig's)
+``threshold(P0)``           Pa           the threshold pressure of spec 4b (``pressure_threshold``) at
+                                         P0 = 50, 150, 400 kPa; its coefficient estimates P0
+``rubber per C1``           Pa           the Mooney-Rivlin term per unit C1 (``elasticity``)
+``-min(f, 0)``              1            the tension a slack muscle would not carry (``slack``)
+==========================  ===========  ============================================================
+
+For the knee a tension term enters the hip force as ``G_e t(Le, -G_e V, Pe) - G_f t(Lf, G_f V, Pf)``
+(virtual work, Eq. 14-16), so every coefficient is the per-actuator parameter an effect file would carry.
+
+Selection (:func:`select_terms`) is forward stepwise on standardized terms, judged on a held-out half:
+the samples are cut into :data:`BLOCKS` contiguous blocks, the even ones fit and the odd ones check. Each step
+takes the term that fits the fitting blocks best; terms within :data:`RIVAL_FACTOR` of its residual are rivals
+the fit cannot rank, the checking blocks choose among them, and the others are reported as ``alternatives``.
+A term is added only if (1) it lowers an information criterion computed with the *effective* sample count (the
+missing force is smoothed and correlated: ``n_eff = n / (1 + 2 sum rho_k)``) by more than
+:data:`BIC_THRESHOLD`, and (2) the held-out blocks, predicted with the fitted coefficients, gain at least
+:data:`MIN_HELDOUT_GAIN` of their missing force explained. The selection ends with nothing proposed unless the
+held-out fraction explained reaches :data:`MIN_EXPLAINED` and holds at least :data:`HOLD_RATIO` of the fitted
+one, so noise proposes nothing. Coefficients are then fitted on every sample, with standard errors widened by
+the same correlation time.
+
+The result is the dict of spec 6b: ``{"explained", "terms": [{"term", "coefficient", "unit", "matches",
+...}], "effect_file"}`` (:func:`discover`); :func:`mkctl.analysis.effect_files.write_suggestion` writes the
+terms as an effect file (spec 4c).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ..errors import MkctlError
+from ..io.measurements import Measurement
+from ..physics import actuator, knee
+from ..physics.params import Params
+
+#: Contiguous blocks the samples are cut into; even blocks fit, odd blocks check.
+BLOCKS = 10
+#: A term must lower n_eff ln(RSS) + k ln(n_eff) by more than this (effective sample count n_eff).
+BIC_THRESHOLD = 10.0
+#: ... and raise the held-out fraction of the missing force explained by at least this much.
+MIN_HELDOUT_GAIN = 0.03
+#: Nothing is proposed unless the held-out blocks have at least this fraction explained ...
+MIN_EXPLAINED = 0.3
+#: ... and at least this share of the fraction explained on the fitted blocks.
+HOLD_RATIO = 0.5
+#: At most this many terms are proposed.
+MAX_TERMS = 3
+#: Terms that leave at most this many times the least residual sum of squares on the fitting blocks are rivals:
+#: the checking blocks choose among them and the others are reported as alternatives.
+RIVAL_FACTOR = 1.25
+#: Delays of the delayed-pressure terms [s] (dead times of real regulators: 20-40 ms).
+DELAYS = (0.01, 0.02, 0.04)
+#: Time constants of the lagged-pressure terms [s] (regulators: 43-131 ms; mkctl's bench: 50 ms).
+LAGS = (0.01, 0.03, 0.1)
+#: Threshold pressures of the threshold terms [Pa].
+THRESHOLDS = (50e3, 150e3, 400e3)
+#: The smoothed sign of the velocity: tanh(Ldot / v) with v the larger of the model's vs and this share of
+#: the velocity's RMS (a sign of differentiated, noisy data flips at rest).
+SIGN_SCALE = 0.01
+
+# Which registered effect's form each library term is. This table should come from the effect registry's
+# signatures (mkctl.physics.effects, being written beside this): until it is merged it is kept here, in one place.
+# Built-ins today: viscous_damping, coulomb_friction, pressure_lag, elasticity, slack; spec 4b adds
+# pressure_friction, dead_time, pressure_threshold (asymmetric_lag has no term of its own here).
+TERM_MATCHES = {
+    "Ldot": "viscous_damping",
+    "sign(Ldot)": "coulomb_friction",
+    "P * sign(Ldot)": "pressure_friction",
+    "-df/dP * dP/dt": "pressure_lag",
+    "rubber per C1": "elasticity",
+    "-min(f, 0)": "slack",
+    **{f"f(P(t - {d * 1e3:g} ms)) - f(P(t))": "dead_time" for d in DELAYS},
+    **{f"f(P lagged {tau * 1e3:g} ms) - f(P)": "pressure_lag" for tau in LAGS},
+    **{f"threshold(P0 = {P0 / 1e3:g} kPa)": "pressure_threshold" for P0 in THRESHOLDS},
+}
+
+
+#: How each tension term is written in an effect file (spec 4c, :mod:`mkctl.analysis.effect_files`): the effect's
+#: name, its parameter's name and the term as Python with ``p.{k}`` for the parameter. Terms that change the
+#: pressure (lag, dead time, pressure rate) or are a built-in's own form (rubber, slack) are not written.
+WRITABLE = {
+    "Ldot": ("linear_drag", "c_lin", "p.{k} * Ldot"),
+    "Ldot * |Ldot|": ("quadratic_drag", "c_quad", "p.{k} * Ldot * xp.abs(Ldot)"),
+    "Ldot * P": ("pressure_damping", "c_press", "p.{k} * Ldot * P"),
+    "sign(Ldot)": ("direction_friction", "F_dir", "p.{k} * xp.tanh(Ldot / p.vs)"),
+    "P * sign(Ldot)": ("friction_with_pressure", "Fc_press", "p.{k} * P * xp.tanh(Ldot / p.vs)"),
+    "1": ("tension_offset", "f_offset", "p.{k} + 0.0 * L"),
+    "L - L0": ("length_spring", "k_len", "p.{k} * (L - p.L0)"),
+    "(L - L0)^2": ("length_spring_quadratic", "k_len2", "p.{k} * (L - p.L0) ** 2"),
+    "P": ("pressure_gain", "k_press", "p.{k} * P"),
+    # the threshold of spec 4b with P0 the coefficient: P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
+    **{f"threshold(P0 = {P0 / 1e3:g} kPa)": (
+        "threshold_pressure", "P0_found",
+        "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k} * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
+       for P0 in THRESHOLDS},
+}
+
+
+@dataclass(frozen=True)
+class Term:
+    """One library term: its label, the unit of its coefficient, and how to evaluate it per actuator.
+
+    ``tension(a)`` returns the term's tension [N per unit coefficient] from an actuator's states ``a`` (a dict:
+    L, Ldot, P [SI], sign (smoothed), rate (dP/dt), gain (df/dP), static (model tension), delayed
+    {d: P(t - d)}, lagged {tau: P through a further lag tau}); ``commands_only``: offered only where the knee
+    is driven by its commands (with measured pressures a lag or dead time before them is not in the force).
+    """
+
+    label: str
+    unit: str
+    tension: Callable[[dict], np.ndarray]
+    commands_only: bool = False
+    effect: str | None = None  #: the effect whose own term this is (a user effect's), else see TERM_MATCHES
+
+    @property
+    def matches(self) -> str | None:
+        return self.effect or TERM_MATCHES.get(self.label)
+
+
+def effect_term(effect) -> Term:
+    """The library term of a user effect (:class:`mkctl.analysis.effect_files.UserEffect`, one parameter): its
+    tension per unit of the parameter, at its typical value (exact for a term linear in the parameter)."""
+    if effect.term is None or len(effect.parameters) != 1:
+        raise MkctlError(f"effect {effect.name}: discovery takes effects with a tension term and one parameter")
+    (q,) = effect.parameters
+    if q.typical == q.off:
+        raise MkctlError(f"effect {effect.name}: its typical value equals its off value; no term to regress on")
+    scale = q.typical - q.off
+    return Term(f"{effect.name} term", q.unit,
+                lambda a: effect.tension(a["L"], a["Ldot"], a["P"], {q.name: q.typical}) / scale, effect=effect.name)
+
+
+def _threshold_term(P0: float, params: Params):
+    gain = lambda a: actuator.static_tension_dP(a["L"], params)  # noqa: E731  (3 L^2 - b^2) / (4 pi n^2)
+    # per unit P0: P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
+    return lambda a: -gain(a) * np.where(a["P"] > 0, 1.0 - np.exp(-np.maximum(a["P"], 0.0) / P0), 0.0)
+
+
+def library(params: Params, delays=DELAYS, effects=()) -> list[Term]:
+    """The terms the missing force is regressed on (module docstring), per unit coefficient; the terms of the
+    user ``effects`` (:func:`effect_term`) come first, so that a term equal to one of theirs is named by it."""
+    base = params.replace(slack=0)
+    terms = [
+        *[effect_term(e) for e in effects],
+        Term("Ldot", "N s/m", lambda a: a["Ldot"]),
+        Term("Ldot * |Ldot|", "N s^2/m^2", lambda a: a["Ldot"] * np.abs(a["Ldot"])),
+        Term("Ldot * P", "N s/(m Pa)", lambda a: a["Ldot"] * a["P"]),
+        Term("sign(Ldot)", "N", lambda a: a["sign"]),
+        Term("P * sign(Ldot)", "N/Pa", lambda a: a["P"] * a["sign"]),
+        Term("-df/dP * dP/dt", "s", lambda a: -a["gain"] * a["rate"], commands_only=True),
+        *[Term(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1", (lambda d: lambda a: a["gain"] * (a["delayed"][d] - a["P"]))(d),
+               commands_only=True) for d in delays],
+        *[Term(f"f(P lagged {tau * 1e3:g} ms) - f(P)", "1",
+               (lambda tau: lambda a: a["gain"] * (a["lagged"][tau] - a["P"]))(tau), commands_only=True)
+          for tau in LAGS],
+        Term("1", "N", lambda a: np.ones_like(a["L"])),
+        Term("L - L0", "N/m", lambda a: a["L"] - params.L0),
+        Term("(L - L0)^2", "N/m^2", lambda a: (a["L"] - params.L0) ** 2),
+        Term("P", "N/Pa", lambda a: a["P"]),
+        *[Term(f"threshold(P0 = {P0 / 1e3:g} kPa)", "Pa", _threshold_term(P0, params)) for P0 in THRESHOLDS],
+        Term("rubber per C1", "Pa", lambda a: actuator.elastic_tension(a["L"], base.replace(model=2, C1=1.0, C2=0.0))),
+        Term("-min(f, 0)", "1", lambda a: -np.minimum(a["static"], 0.0)),
+    ]
+    return terms
+
+
+# --- The states each term is evaluated at ------------------------------------------------------------------
+
+def _smoothed_sign(Ldot, params: Params):
+    scale = max(params.vs, SIGN_SCALE * float(np.sqrt(np.mean(np.square(Ldot)))))
+    return np.tanh(Ldot / scale)
+
+
+def _actuator_states(L, Ldot, P, params: Params, rate=None, delayed=None, lagged=None) -> dict:
+    gain = actuator.static_tension_dP(L, params)
+    return {"L": L, "Ldot": Ldot, "P": P, "sign": _smoothed_sign(Ldot, params), "gain": gain,
+            "rate": np.zeros_like(L) if rate is None else rate, "delayed": delayed or {}, "lagged": lagged or {},
+            "static": actuator.static_tension(L, P, params.replace(slack=0))}
+
+
+def _delayed(time, values, delay: float):
+    """A signal held from each sample to the next, ``delay`` late (the first value held before)."""
+    seen = np.clip(np.searchsorted(time, time - delay + 1e-12, side="right") - 1, 0, time.size - 1)
+    return np.asarray(values, dtype=float)[seen]
+
+
+def _lag(time, values, tau: float):
+    """A signal held from each sample to the next, through the lag tau dP/dt = P_in - P, P(0) = P_in(0)."""
+    out = np.empty(time.size)
+    out[0] = values[0]
+    for k in range(1, time.size):
+        out[k] = actuator.lagged_pressure(out[k - 1], values[k - 1], tau, time[k] - time[k - 1])
+    return out
+
+
+def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
+    """The pressures the model's actuators see at the samples: the measured ones, or the commands (through the
+    lag, if any).
+
+    Commands without a lag are held from each sample to the next, so a step happens at a sample instant; a
+    sample of the smoothed force stands for the half-interval on either side of it, so with ``held_average``
+    the held commands are averaged over that (the mean of a sample's command and the previous one's): taken as
+    they are, every step came half a sample early, which the pressure rate term explained as a lag.
+    """
+    if "pe" in m.inputs and "pf" in m.inputs:
+        return np.asarray(m.inputs["pe"], dtype=float), np.asarray(m.inputs["pf"], dtype=float)
+    pe, pf = (np.asarray(m.inputs[name], dtype=float) for name in ("pe_cmd", "pf_cmd"))
+    if params.tau > 0:
+        return _lag(m.time, pe, params.tau), _lag(m.time, pf, params.tau)
+    if not held_average:
+        return pe, pf
+    return tuple(np.r_[p[0], 0.5 * (p[1:] + p[:-1])] for p in (pe, pf))
+
+
+def acceleration_kernels(window: int, dt: float, order: int = 3):
+    """(k2, g): the Savitzky-Golay kernel that estimates the acceleration from positions, and the smoothing
+    kernel g it applies to the acceleration itself (``k2 * X = g * Xddot``, g = the double running sum of k2
+    times dt^2, which sums to 1).
+
+    The equation error ``m (Xddot + g) - F`` must smooth both sides alike: the acceleration estimated by k2
+    and the force smoothed by a plain (deriv 0) filter differ wherever the force jumps (a pressure step),
+    and the difference looked like a dead time of about 7 ms on every record with a step.
+    """
+    from scipy.signal import savgol_coeffs
+
+    k2 = savgol_coeffs(window, order, deriv=2, delta=dt)
+    g = np.cumsum(np.cumsum(k2)) * dt * dt
+    return k2, g[:window - 2]  # the last two entries are zero: the kernel is centred on window - 2 samples
+
+
+def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delays=DELAYS):
+    """Eq. 17's equation error of the knee and each term's share of it, smoothed alike (see
+    :func:`acceleration_kernels`): ``m (k2 * X + g) - g * (F + F_stop)``, with F at the measured X, the smoothed
+    V and the model's pressures as they are (commands held, or measured). Returns (error [N], {label: column}, edge)."""
+    from scipy.signal import savgol_filter
+
+    from .diagnose import KNEE_SMOOTHING_S
+
+    n = m.samples
+    dt = float(np.mean(np.diff(m.time)))
+    window = max(5, int(round(KNEE_SMOOTHING_S / dt)))
+    window += 1 - window % 2
+    if window + 2 > n:
+        raise MkctlError(f"the record is too short ({n} samples) for the equation error's {window}-sample window")
+    k2, g = acceleration_kernels(window, dt)
+    measured = knee.hip_height(m.output, params) if m.output_quantity == "beta" else np.asarray(m.output, float)
+    # the force at the measured X itself (smoothing X first bends it by up to 0.1 N where the leg rings; the
+    # sensor's noise moves it by the leg's stiffness times the noise, far less), at the smoothed velocity
+    X = measured
+    V = savgol_filter(measured, window, 3, deriv=1, delta=dt)
+    A = np.convolve(measured, k2, mode="same")
+    Pe, Pf = _knee_pressures(m, params)
+    geo = knee.geometry_at_X(X, params, derivatives=False)
+    force = knee.knee_force(geo, V, Pe, Pf, params).F + knee.end_stop_force(X, V, params)
+
+    def smooth(values):
+        return np.convolve(values, g, mode="same")
+
+    error = params.m * (A + params.g) - smooth(force)
+    commands = not ("pe" in m.inputs and "pf" in m.inputs)
+    late, slow = {}, {}
+    if commands and any(t.commands_only for t in terms):
+        for d in delays:  # the commands d late, through the model's lag if it has one
+            shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": _delayed(m.time, m.inputs["pe_cmd"], d),
+                                                     "pf_cmd": _delayed(m.time, m.inputs["pf_cmd"], d)})
+            late[d] = _knee_pressures(shifted, params)
+        held = _knee_pressures(m, params, held_average=False)
+        for tau in LAGS:  # the model's pressures through a further lag tau
+            slow[tau] = tuple(_lag(m.time, p, tau) for p in held)
+    rates = (np.gradient(Pe, m.time), np.gradient(Pf, m.time))
+    extensor = _actuator_states(geo.Le, -geo.G_e * V, Pe, params, rates[0], {d: v[0] for d, v in late.items()},
+                                {tau: v[0] for tau, v in slow.items()})
+    flexor = _actuator_states(geo.Lf, geo.G_f * V, Pf, params, rates[1], {d: v[1] for d, v in late.items()},
+                              {tau: v[1] for tau, v in slow.items()})
+    columns = {t.label: smooth(geo.G_e * t.tension(extensor) - geo.G_f * t.tension(flexor))
+               for t in terms if commands or not t.commands_only}
+    edge = window // 2 + int(round(max(delays) / dt)) + 1
+    return error, columns, edge
+
+
+def regressors(measurement: Measurement, params: Params, terms: list[Term] | None = None):
+    """The missing force [N] and each term's contribution to it per unit coefficient.
+
+    Knee: :func:`knee_equation_error`; isotonic and isometric:
+    :func:`mkctl.analysis.diagnose.missing_force`. Returns (missing force, {label: column}, samples used (a
+    boolean mask: the smoothing's edges left out)).
+    """
+    from .diagnose import ISOTONIC_SMOOTHING_SAMPLES, missing_force
+
+    m = measurement
+    terms = library(params) if terms is None else terms
+    if m.experiment == "knee":
+        missing, columns, edge = knee_equation_error(m, params, terms)
+    else:
+        missing, states = missing_force(m, params)
+        usable = [t for t in terms if not t.commands_only]
+        n = missing.size
+        if m.experiment == "isometric":  # nothing moves: the direction is the branch's (friction resists the change)
+            a = _actuator_states(states["L"], np.zeros(n), states["P"], params)
+            a["sign"] = -np.asarray(states["branch"], dtype=float)
+            return missing, {t.label: t.tension(a) for t in usable}, np.ones(n, bool)
+        a = _actuator_states(states["L"], states["Ldot"], states["P"], params)
+        columns = {t.label: t.tension(a) for t in usable}
+        edge = ISOTONIC_SMOOTHING_SAMPLES // 2
+    n = missing.size
+    used = np.ones(n, bool)
+    edge = min(edge, n // 4)
+    used[:edge] = False
+    used[n - edge:] = False
+    return missing, columns, used
+
+
+# --- Sparse selection ------------------------------------------------------------------------------------
+
+def effective_samples(residual) -> float:
+    """n / (1 + 2 sum rho_k): the sample count of white noise that carries as much information as a
+    correlated residual (rho_k its autocorrelation, summed until it first falls below 0.05)."""
+    r = np.asarray(residual, dtype=float)
+    r = r - r.mean()
+    n = r.size
+    denominator = float(r @ r)
+    if n < 4 or denominator == 0:
+        return float(n)
+    spectrum = np.fft.rfft(r, 2 * n)
+    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:n] / denominator
+    below = np.flatnonzero(acf[1:] < 0.05)
+    stop = int(below[0]) + 1 if below.size else n
+    integrated = 1.0 + 2.0 * float(np.sum(acf[1:stop]))
+    return float(max(min(n / max(integrated, 1.0), n), 2.0))
+
+
+def _explained(y, prediction) -> float:
+    total = float(y @ y)
+    return 1.0 - float((y - prediction) @ (y - prediction)) / total if total > 0 else 0.0
+
+
+def select_terms(y, columns: dict, train, say=None) -> dict:
+    """Forward stepwise selection on standardized columns with the held-out check (module docstring).
+
+    y: the missing force; columns: {label: array}; train: boolean mask of the fitting samples (the rest
+    check). Returns {"selected": [labels], "explained_train", "explained_holdout", "steps": [...],
+    "reason"}.
+    """
+    say = say or (lambda text: None)
+    test = ~train
+    labels, scaled = [], []
+    for label, column in columns.items():
+        scale = float(np.sqrt(np.mean(column[train] ** 2)))
+        if scale > 0 and np.all(np.isfinite(column)):
+            labels.append(label)
+            scaled.append(column / scale)
+    if not labels:
+        return {"selected": [], "explained_train": 0.0, "explained_holdout": 0.0, "steps": [],
+                "reason": "no term of the library varies over this record"}
+    A = np.column_stack(scaled)
+    selected: list[int] = []
+    rss = float(y[train] @ y[train])
+    n_eff = effective_samples(y[train])
+    held, fitted = 0.0, 0.0
+    steps = []
+    reason = None
+    while len(selected) < MAX_TERMS:
+        tried = {}
+        for j in range(len(labels)):
+            if j in selected:
+                continue
+            cols = [*selected, j]
+            coef, *_ = np.linalg.lstsq(A[train][:, cols], y[train], rcond=None)
+            r = y[train] - A[train][:, cols] @ coef
+            tried[j] = (float(r @ r), coef, r, _explained(y[test], A[test][:, cols] @ coef))
+        if not tried:
+            break
+        # terms that fit (nearly) as well are rivals the fitting blocks cannot rank: the checking blocks pick
+        # among them, and the others are reported as alternatives
+        least = min(v[0] for v in tried.values())
+        rivals = [j for j, v in tried.items() if v[0] <= RIVAL_FACTOR * least]
+        j = max(rivals, key=lambda i: (tried[i][3], -i))
+        new_rss, coef, r, new_held = tried[j]
+        alternatives = [labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
+        cols = [*selected, j]
+        n_eff = effective_samples(r)
+        delta = n_eff * math.log(max(new_rss, 1e-300) / max(rss, 1e-300)) + math.log(max(n_eff, 2.0))
+        new_fitted = 1.0 - new_rss / float(y[train] @ y[train])
+        step = {"term": labels[j], "delta_bic": delta, "explained_train": new_fitted,
+                "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives}
+        steps.append(step)
+        say(f"  discovery: {labels[j]}: explains {new_fitted:.1%} fitted, {new_held:.1%} held out, "
+            f"dBIC {delta:+.1f} (n_eff {n_eff:.0f})")
+        if not delta < -BIC_THRESHOLD:
+            reason = (f"the next term ({labels[j]}) changes the information criterion by only {delta:+.1f} "
+                      f"(needs < -{BIC_THRESHOLD:g} at {n_eff:.0f} effective samples)")
+            break
+        if not new_held - held >= MIN_HELDOUT_GAIN:
+            reason = (f"the next term ({labels[j]}) does not raise the held-out fraction explained by "
+                      f"{MIN_HELDOUT_GAIN:.0%} ({held:.1%} -> {new_held:.1%})")
+            break
+        selected.append(j)
+        rss, held, fitted = new_rss, new_held, new_fitted
+    if selected and not (held >= MIN_EXPLAINED and held >= HOLD_RATIO * fitted):
+        reason = (f"the terms found ({', '.join(labels[j] for j in selected)}) explain {fitted:.1%} of the missing "
+                  f"force where fitted but {held:.1%} held out (needs {MIN_EXPLAINED:.0%} and "
+                  f"{HOLD_RATIO:.0%} of the fitted share): not proposed")
+        selected = []
+    if not selected and reason is None:
+        reason = "no term of the library explains the missing force"
+    alternatives = {step["term"]: step["alternatives"] for step in steps[:len(selected)]}
+    return {"selected": [labels[j] for j in selected], "alternatives": alternatives,
+            "explained_train": fitted if selected else 0.0,
+            "explained_holdout": held if selected else 0.0, "steps": steps, "reason": None if selected else reason}
+
+
+def _blocks(used) -> np.ndarray:
+    """The fitting mask: the used samples in :data:`BLOCKS` contiguous blocks, even blocks fit."""
+    index = np.flatnonzero(used)
+    train = np.zeros(used.size, bool)
+    for b, part in enumerate(np.array_split(index, BLOCKS)):
+        if b % 2 == 0:
+            train[part] = True
+    return train
+
+
+def discover(measurement: Measurement, params: Params | None = None, progress=None, effects=()) -> dict:
+    """Regress the force ``params`` lacks on the library and propose the term(s) that explain it (spec 6b).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        The record, with the inputs the model is driven by (smoothed measured inputs are fine).
+    params : Params, optional
+        The model whose missing force is explained (default: the record's baseline, ``measurement.params``):
+        registered effects it lacks then show as their own terms (``matches`` names them).
+    progress : callable, optional
+        Receives one line per selection step.
+    effects : sequence of UserEffect, optional
+        User effects (:func:`mkctl.analysis.effect_files.load_effect_file`) whose terms join the library.
+
+    Returns
+    -------
+    dict
+        ``explained`` (fraction of the missing force's sum of squares the terms explain, every usable sample),
+        ``explained_holdout`` (on the checking blocks, from the fitting blocks' coefficients), ``terms``
+        (``term``, ``coefficient`` (SI, per actuator), ``stderr``, ``unit``, ``matches``: the registered effect
+        whose form it is, or None, ``alternatives``: terms that fit the fitting blocks nearly as well, which the
+        record hardly tells from it), ``effect_file`` (None here; set by the writer), ``missing_force_rms`` [N],
+        ``samples``, ``effective_samples``, ``steps`` (the selection's), ``reason`` (why nothing is proposed).
+    """
+    m = measurement
+    params = m.params if params is None else params
+    empty = {"explained": 0.0, "explained_holdout": 0.0, "terms": [], "effect_file": None, "missing_force_rms": None,
+             "samples": 0, "effective_samples": None, "steps": []}
+    try:
+        terms = library(params, effects=effects)
+        y, columns, used = regressors(m, params, terms)
+    except MkctlError as error:
+        return {**empty, "reason": f"the missing force cannot be computed at the measured states: {error}"}
+    y_used = y[used]
+    cols = {k: v[used] for k, v in columns.items()}
+    train = _blocks(np.ones(y_used.size, bool))
+    selection = select_terms(y_used, cols, train, progress)
+    result = {**empty, "missing_force_rms": float(np.sqrt(np.mean(y_used ** 2))), "samples": int(y_used.size),
+              "steps": selection["steps"], "reason": selection["reason"],
+              "explained_holdout": selection["explained_holdout"]}
+    if not selection["selected"]:
+        result["effective_samples"] = effective_samples(y_used)
+        return result
+    labels = selection["selected"]
+    A = np.column_stack([cols[k] for k in labels])
+    coef, *_ = np.linalg.lstsq(A, y_used, rcond=None)
+    r = y_used - A @ coef
+    n_eff = effective_samples(r)
+    # s^2 (A^T A)^-1, widened by n / n_eff: correlated residuals carry the information of n_eff white samples
+    s2 = float(r @ r) / max(y_used.size - len(labels), 1)
+    cov = s2 * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff)
+    units = {t.label: t.unit for t in terms}
+    matches = {t.label: t.matches for t in terms}
+    result.update({
+        "explained": _explained(y_used, A @ coef), "effective_samples": n_eff,
+        "terms": [{"term": k, "coefficient": float(c), "stderr": float(math.sqrt(max(cov[i, i], 0.0))),
+                   "unit": units[k], "matches": matches[k], "alternatives": selection["alternatives"].get(k, [])}
+                  for i, (k, c) in enumerate(zip(labels, coef))],
+    })
+    return result
+
+
+def registered_effects() -> set:
+    """The effects the diagnosis already offers as candidates (a term of their form needs no effect file).
+
+    Today the candidates of :data:`mkctl.analysis.diagnose.CANDIDATES`; this should come from the effect
+    registry (``mkctl.physics.effects``) once it is merged.
+    """
+    from .diagnose import CANDIDATES
+
+    return set(CANDIDATES)

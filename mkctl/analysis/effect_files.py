@@ -1,0 +1,385 @@
+"""Effect files (model-spec section 4c): a user's own effect in a Python file, loaded, checked and written.
+
+The format
+----------
+An effect file is a Python file that defines ``EFFECTS``, a list with one dict per effect::
+
+    def quadratic_drag(L, Ldot, P, p, xp):
+        \"\"\"Tension of a quadratic (air) drag [N]: c_q Ldot |Ldot|.\"\"\"
+        return p.c_q * Ldot * xp.abs(Ldot)
+
+    EFFECTS = [
+        {
+            "name": "quadratic_drag",                      # not a built-in effect's name; a Python identifier
+            "description": "drag growing with the square of the speed",   # optional
+            "parameters": [
+                # name (not an mkctl parameter's, unique in the file), unit, off value, bounds, typical value
+                {"name": "c_q", "unit": "N s^2/m^2", "off": 0.0, "lower": 0.0, "upper": 1e5, "typical": 2000.0},
+            ],
+            "term": quadratic_drag,                        # added to each actuator's tension, before slack
+        },
+    ]
+
+``term(L, Ldot, P, p, xp)`` returns the force [N] added to each actuator's tension (positive pulls), from the
+actuator's length L [m], lengthening rate Ldot [m/s] and gauge pressure P [Pa]. ``p.NAME`` is the value of one
+of the effect's own parameters or of any mkctl parameter (``p.b``, ``p.n``, ``p.L0``, ``p.vs``: SI, as in
+:class:`mkctl.physics.params.Params`). ``xp`` is the math namespace mkctl hands in: numpy for floats and arrays,
+a sympy namespace for symbols (so that the same function is traced into the compiled core and the native FMUs
+and differentiated for the linearization). Use only ``xp.sqrt exp log sin cos tanh abs sign maximum minimum
+where pi`` and arithmetic: no ``math.``/``np.`` calls and no ``if`` on the arguments (a symbol has no truth
+value). The term must vanish when every parameter of the effect is at its off value.
+
+An effect may instead (or also) change each actuator's pressure: ``"pressure_rate": f(P, P_cmd, p, xp)``, added
+to dP/dt [Pa/s]. (The loader checks that it traces like ``term``; the registry decides where it enters.)
+
+:func:`load_effect_file` reads such a file and checks it (traceable with sympy, no parameter named twice,
+bounds that include the off value and the typical value, a term that is 0 when off and finite at the typical
+values), ending any problem with a one-line :class:`EffectFileError` that names the effect and the problem.
+:func:`write_suggestion` writes the terms a discovery found (:mod:`mkctl.analysis.discovery`) as such a file.
+
+The effect registry (``mkctl.physics.effects``) and the ``--effects`` option load files through
+:func:`load_effect_file`; until it is merged, the built-in names below are the registry's stand-in.
+"""
+from __future__ import annotations
+
+import inspect
+import json
+import keyword
+import math
+import runpy
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from ..errors import MkctlError
+from ..physics.params import DEFAULT, EFFECT_PARAMETERS, PARAMETER_NAMES, Params
+
+#: Names a user effect may not take: the built-in effects (spec sections 4 and 4b). Should come from the
+#: effect registry once it is merged.
+BUILT_IN_EFFECTS = (*EFFECT_PARAMETERS, "dead_time", "asymmetric_lag", "pressure_friction", "pressure_threshold")
+#: Parameter names the spec's built-ins use beyond today's Params fields (spec 4b).
+RESERVED_PARAMETERS = (*PARAMETER_NAMES, "delay", "tau_exhaust", "Fc_p", "P0")
+#: What ``xp`` offers, besides arithmetic.
+XP_FUNCTIONS = ("sqrt", "exp", "log", "sin", "cos", "tanh", "abs", "sign", "maximum", "minimum", "where", "pi")
+
+
+class EffectFileError(MkctlError, ValueError):
+    """An effect file that cannot be loaded or breaks a rule of model-spec section 4c."""
+
+
+@dataclass(frozen=True)
+class EffectParameter:
+    """One parameter of a user effect: name, unit, off value, bounds and a typical value (SI)."""
+
+    name: str
+    unit: str
+    off: float
+    lower: float
+    upper: float
+    typical: float
+
+
+@dataclass(frozen=True)
+class UserEffect:
+    """A user effect read from a file: its name, parameters and the functions it adds."""
+
+    name: str
+    parameters: tuple
+    term: Callable | None
+    pressure_rate: Callable | None = None
+    description: str = ""
+    source: str = ""
+
+    @property
+    def defaults(self) -> dict:
+        """The off value of every parameter."""
+        return {q.name: q.off for q in self.parameters}
+
+    def tension(self, L, Ldot, P, values: dict | None = None, params: Params = DEFAULT):
+        """The term [N] with numpy: at ``values`` ({parameter: value}; missing ones off)."""
+        L, Ldot, P = (np.asarray(v, dtype=float) for v in (L, Ldot, P))
+        return np.asarray(self.term(L, Ldot, P, ParameterView({**self.defaults, **(values or {})}, params), np),
+                          dtype=float) + 0.0 * (L + Ldot + P)
+
+    def symbolic(self, params: Params = DEFAULT):
+        """(expression, {name: symbol}): the term traced with real sympy symbols L, Ldot, P and the effect's
+        parameters (mkctl's parameters as the numbers in params)."""
+        import sympy
+
+        symbols = {name: sympy.Symbol(name, real=True) for name in ("L", "Ldot", "P")}
+        own = {q.name: sympy.Symbol(q.name, real=True) for q in self.parameters}
+        expression = self.term(symbols["L"], symbols["Ldot"], symbols["P"], ParameterView(own, params),
+                               sympy_namespace())
+        return sympy.sympify(expression), {**symbols, **own}
+
+
+class ParameterView:
+    """``p`` in a term: the effect's own parameter values, then mkctl's parameters, by attribute."""
+
+    def __init__(self, own: dict, params: Params = DEFAULT, effect: str = ""):
+        self._own, self._params, self._effect = dict(own), params, effect
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        if name in self._own:
+            return self._own[name]
+        if hasattr(self._params, name) and name in PARAMETER_NAMES:
+            return getattr(self._params, name)
+        raise EffectFileError(f"p.{name} is neither a parameter of the effect nor an mkctl parameter")
+
+
+class _SympyNamespace:
+    """The math namespace ``xp`` for sympy symbols, with numpy's names."""
+
+
+def sympy_namespace():
+    """The ``xp`` of a traced term: numpy's names for sympy's functions (:data:`XP_FUNCTIONS`)."""
+    if not hasattr(_SympyNamespace, "sqrt"):
+        import sympy
+        functions = {"sqrt": sympy.sqrt, "exp": sympy.exp, "log": sympy.log, "sin": sympy.sin, "cos": sympy.cos,
+                     "tanh": sympy.tanh, "abs": sympy.Abs, "sign": sympy.sign, "maximum": sympy.Max,
+                     "minimum": sympy.Min,
+                     "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True))}
+        for name, function in functions.items():
+            setattr(_SympyNamespace, name, staticmethod(function))
+        _SympyNamespace.pi = sympy.pi
+    return _SympyNamespace
+
+
+# --- Loading and checking --------------------------------------------------------------------------------
+
+def load_effect_file(path, params: Params = DEFAULT) -> list[UserEffect]:
+    """Read an effect file (module docstring) and check every effect in it; one-line errors.
+
+    Raises :class:`EffectFileError` naming the file, the effect and the problem.
+    """
+    path = Path(path)
+    where = f"effect file {path.name}"
+    if not path.is_file():
+        raise EffectFileError(f"{where}: no such file")
+    try:
+        namespace = runpy.run_path(str(path))
+    except SyntaxError as error:
+        raise EffectFileError(f"{where} line {error.lineno}: not valid Python: {error.msg}") from None
+    except Exception as error:  # the user's code: any failure is theirs, in one line
+        raise EffectFileError(f"{where}: running it failed: {type(error).__name__}: {error}") from None
+    effects = namespace.get("EFFECTS")
+    if not isinstance(effects, (list, tuple)) or not effects:
+        raise EffectFileError(f"{where}: defines no EFFECTS list (a list of dicts, one per effect; see "
+                              f"docs/effects.md)")
+    loaded, seen_effects, seen_parameters = [], set(), {}
+    for number, entry in enumerate(effects, 1):
+        effect = _check_effect(entry, number, where, params)
+        if effect.name in seen_effects:
+            raise EffectFileError(f"{where}: effect '{effect.name}' is defined twice")
+        seen_effects.add(effect.name)
+        for q in effect.parameters:
+            if q.name in seen_parameters:
+                raise EffectFileError(f"{where}: effect '{effect.name}': parameter '{q.name}' is already a parameter "
+                                      f"of effect '{seen_parameters[q.name]}'")
+            seen_parameters[q.name] = effect.name
+        loaded.append(effect)
+    return loaded
+
+
+def _check_effect(entry, number: int, where: str, params: Params) -> UserEffect:
+    if not isinstance(entry, dict):
+        raise EffectFileError(f"{where}: EFFECTS[{number - 1}] is not a dict")
+    name = entry.get("name")
+    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
+        raise EffectFileError(f"{where}: EFFECTS[{number - 1}] has no valid name (a Python identifier), got {name!r}")
+    fail = lambda text: EffectFileError(f"{where}: effect '{name}': {text}")  # noqa: E731
+    if name in BUILT_IN_EFFECTS:
+        raise fail("the name of a built-in effect; choose another")
+    unknown = sorted(set(entry) - {"name", "description", "parameters", "term", "pressure_rate"})
+    if unknown:
+        raise fail(f"unknown key '{unknown[0]}' (known: name, description, parameters, term, pressure_rate)")
+    term, rate = entry.get("term"), entry.get("pressure_rate")
+    if term is None and rate is None:
+        raise fail("defines neither 'term' (added to the tension) nor 'pressure_rate'")
+    for key, function, arguments in (("term", term, 5), ("pressure_rate", rate, 4)):
+        if function is None:
+            continue
+        if not callable(function):
+            raise fail(f"'{key}' is not a function")
+        try:
+            count = len(inspect.signature(function).parameters)
+        except (TypeError, ValueError):
+            count = arguments
+        if count != arguments:
+            signature = "(L, Ldot, P, p, xp)" if key == "term" else "(P, P_cmd, p, xp)"
+            raise fail(f"'{key}' takes {count} arguments; it must take {signature}")
+    parameters = _check_parameters(entry.get("parameters"), fail)
+    effect = UserEffect(name, parameters, term, rate, str(entry.get("description", "")), where)
+    _check_traceable(effect, params, fail)
+    return effect
+
+
+def _check_parameters(raw, fail) -> tuple:
+    if not isinstance(raw, (list, tuple)) or not raw:
+        raise fail("'parameters' must be a non-empty list of dicts (name, unit, off, lower, upper, typical)")
+    out, names = [], set()
+    for item in raw:
+        if not isinstance(item, dict):
+            raise fail(f"a parameter is not a dict: {item!r}")
+        missing = [k for k in ("name", "unit", "off", "lower", "upper", "typical") if k not in item]
+        if missing:
+            raise fail(f"parameter {item.get('name', '?')!r} lacks '{missing[0]}'")
+        pname = item["name"]
+        if not isinstance(pname, str) or not pname.isidentifier() or pname.startswith("_"):
+            raise fail(f"parameter name {pname!r} is not a Python identifier")
+        if pname in names:
+            raise fail(f"parameter '{pname}' is named twice")
+        if pname in RESERVED_PARAMETERS:
+            raise fail(f"parameter '{pname}' is an mkctl parameter's name; choose another")
+        names.add(pname)
+        values = {}
+        for key in ("off", "lower", "upper", "typical"):
+            value = item[key]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
+            values[key] = float(value)
+        if not values["lower"] < values["upper"]:
+            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper {values['upper']:g}")
+        if not values["lower"] <= values["off"] <= values["upper"]:
+            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its off "
+                       f"value {values['off']:g}")
+        if not values["lower"] <= values["typical"] <= values["upper"]:
+            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its typical "
+                       f"value {values['typical']:g}")
+        out.append(EffectParameter(pname, str(item["unit"]), values["off"], values["lower"], values["upper"],
+                                   values["typical"]))
+    return tuple(out)
+
+
+def _check_traceable(effect: UserEffect, params: Params, fail) -> None:
+    """The term traces with sympy (and differentiates), vanishes when off, and is finite at typical values."""
+    import sympy
+
+    if effect.term is not None:
+        try:
+            expression, symbols = effect.symbolic(params)
+            for name in ("L", "Ldot", "P"):
+                sympy.diff(expression, symbols[name])
+        except EffectFileError as error:
+            raise fail(str(error)) from None
+        except Exception as error:
+            raise fail(f"term cannot be traced with sympy symbols ({type(error).__name__}: {error}); write it with "
+                       f"xp functions and arithmetic only, no if on the arguments") from None
+        allowed = set(symbols.values())
+        stray = sorted(str(s) for s in expression.free_symbols - allowed)
+        if stray:
+            raise fail(f"term depends on {stray[0]}, which is neither an argument nor a parameter")
+        L = np.linspace(0.6, 0.99, 7) * params.b
+        Ldot = np.linspace(-0.2, 0.2, 7)
+        P = np.linspace(0.0, 6e5, 7)
+        try:
+            off = effect.tension(L, Ldot, P, effect.defaults, params)
+            typical = effect.tension(L, Ldot, P, {q.name: q.typical for q in effect.parameters}, params)
+        except EffectFileError as error:
+            raise fail(str(error)) from None
+        except Exception as error:
+            raise fail(f"term fails with numpy arrays ({type(error).__name__}: {error})") from None
+        if not np.all(np.isfinite(typical)):
+            raise fail("term is not finite at the typical values")
+        if np.any(np.abs(off) > 1e-12 * (1.0 + np.max(np.abs(typical)))):
+            raise fail("term is not 0 with every parameter at its off value (an effect switched off must change "
+                       "nothing)")
+    if effect.pressure_rate is not None:
+        own = {q.name: sympy.Symbol(q.name, real=True) for q in effect.parameters}
+        try:
+            P, P_cmd = sympy.Symbol("P", real=True), sympy.Symbol("P_cmd", real=True)
+            sympy.sympify(effect.pressure_rate(P, P_cmd, ParameterView(own, params), sympy_namespace()))
+        except Exception as error:
+            raise fail(f"pressure_rate cannot be traced with sympy symbols ({type(error).__name__}: {error})") from None
+
+
+# --- Writing a discovery's suggestion --------------------------------------------------------------------
+
+def effect_source(name: str, parameter: str, unit: str, expression: str, coefficient: float, description: str) -> tuple:
+    """(function source, EFFECTS entry source) of one effect whose term is ``expression`` (Python, with
+    ``p.<parameter>``), typical value ``coefficient``, bounds from 0 to 100 times it (on its side)."""
+    low, high = (0.0, 100.0 * coefficient) if coefficient >= 0 else (100.0 * coefficient, 0.0)
+    if low == high:
+        high = 1.0
+    function = (f"def {name}(L, Ldot, P, p, xp):\n"
+                f"    \"\"\"The tension this effect adds to each actuator [N]: {expression}.\"\"\"\n"
+                f"    return {expression}\n")
+    entry = (f"    {{\n"
+             f"        \"name\": {json.dumps(name)},\n"
+             f"        \"description\": {json.dumps(description)},\n"
+             f"        \"parameters\": [\n"
+             f"            {{\"name\": {json.dumps(parameter)}, \"unit\": {json.dumps(unit)}, \"off\": 0.0, "
+             f"\"lower\": {low!r}, \"upper\": {high!r}, \"typical\": {float(coefficient)!r}}},\n"
+             f"        ],\n"
+             f"        \"term\": {name},\n"
+             f"    }},\n")
+    return function, entry
+
+
+def _merged_thresholds(terms: list) -> list:
+    """The terms with every threshold term (one per reference P0) merged into one: each coefficient is its share
+    of P0, so the written effect's P0 is their sum (standard errors added in quadrature)."""
+    thresholds = [t for t in terms if t["term"].startswith("threshold")]
+    if len(thresholds) < 2:
+        return list(terms)
+    merged = {**thresholds[0], "term": " + ".join(t["term"] for t in thresholds),
+              "coefficient": float(sum(t["coefficient"] for t in thresholds)),
+              "stderr": float(math.sqrt(sum(t["stderr"] ** 2 for t in thresholds)))}
+    out = [t for t in terms if not t["term"].startswith("threshold")]
+    out.insert(terms.index(thresholds[0]), merged)
+    return out
+
+
+def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path | None:
+    """Write the terms of a discovery (:func:`mkctl.analysis.discovery.discover`) as an effect file.
+
+    Each term that is a tension term and not the form of an effect already ``registered`` (a candidate of the
+    diagnosis) becomes one effect with one parameter, typical value the fitted coefficient. Terms that change
+    the pressure (a lag, a dead time) or match a registered effect are named in the file's docstring only.
+    Returns the path, or None (and writes nothing) when no term can be written.
+    """
+    from .discovery import WRITABLE
+
+    path = Path(path)
+    functions, entries, notes = [], [], []
+    for term in _merged_thresholds(found.get("terms", [])):
+        label, matches = term["term"], term.get("matches")
+        recipe = WRITABLE.get(label.split(" + ")[0])
+        if matches in registered:
+            notes.append(f"{label} has the form of the registered effect {matches}: it is a candidate already")
+            continue
+        if recipe is None:
+            notes.append(f"{label} ({'the form of ' + matches if matches else 'a new term'}) changes the pressure, "
+                         f"not the tension: " + (f"use the built-in effect {matches}" if matches else "not written"))
+            continue
+        name, parameter, expression = recipe
+        if label.startswith("threshold") and not term["coefficient"] > 0:
+            notes.append(f"{label} came out with a threshold of {term['coefficient']:.3g} Pa, not a physical one: "
+                         f"not written")
+            continue
+        if matches:
+            name = f"found_{matches}"
+        description = (f"{label}, found by mkctl's discovery" + (f" in {source}" if source else "")
+                       + (f"; the form of the spec's effect {matches}" if matches else "")
+                       + f": coefficient {term['coefficient']:.4g} +- {term['stderr']:.2g} {term['unit']}")
+        function, entry = effect_source(name, parameter, term["unit"], expression.format(k=parameter),
+                                        term["coefficient"], description)
+        functions.append(function)
+        entries.append(entry)
+    if not entries:
+        return None
+    header = (f"\"\"\"Effect file suggested by mkctl diagnose (model-spec section 4c)"
+              + (f" for {source}" if source else "") + ".\n\n"
+              f"The force the model lacks follows the terms below: {found['explained']:.0%} of it explained "
+              f"({found.get('explained_holdout', 0.0):.0%} on held-out blocks). Add them with\n"
+              f"    mkctl diagnose {source or 'RECORD.csv'} --effects {path.name}\n"
+              + "".join(f"Not written: {note}.\n" for note in notes)
+              + "\"\"\"\n\n")
+    text = header + "\n\n".join(functions) + "\n\nEFFECTS = [\n" + "".join(entries) + "]\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return path

@@ -1,0 +1,20 @@
+"""Your own effects (model-spec section 4c): ``mkctl.effects.register(Effect(...))`` adds one without editing mkctl.
+
+Everything here lives in :mod:`mkctl.physics.effects` (the registry of every effect, built-in ones included);
+this module is its public face. Example::
+
+    from mkctl.effects import Effect, Parameter, register
+
+    register(Effect(
+        "cubic_stiffness", "f += k3 (L - L0)^3",
+        parameters=(Parameter("k3", "N/m^3", off=0.0, lower=0.0, upper=1e9, typical=1e6),),
+        tension=lambda L, Ldot, P, p, xp: p.k3 * (L - p.L0) ** 3))
+
+The new parameter (``k3``) is then a parameter of :class:`mkctl.Params`, of measurement files' metadata, of
+the compiled core and of the FMUs built afterwards.
+"""
+from .physics.effects import (Effect, EffectError, Parameter, all_effects, effect_of, get, names, register,
+                              separating_experiment, unregister)
+
+__all__ = ["Effect", "EffectError", "Parameter", "all_effects", "effect_of", "get", "names", "register",
+           "separating_experiment", "unregister"]

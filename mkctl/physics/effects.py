@@ -1,0 +1,472 @@
+"""Every physical effect beyond the paper, defined once: the registry (model-spec sections 4, 4b, 4c).
+
+An :class:`Effect` says everything mkctl needs to know about one effect, in one place:
+
+- its parameters (:class:`Parameter`: unit, off value, allowed bounds, the value synth hides it at, a typical
+  magnitude, whether it is a 0/1 switch or a setting that is never fitted), which become fields of
+  :class:`mkctl.physics.params.Params`, FMU parameters and metadata names;
+- what it changes in the model, written ONCE on the math namespace ``xp`` mkctl hands in (Python floats, numpy
+  arrays or sympy symbols), so that the same function runs in Python, is traced into the compiled core and the
+  native FMUs, and is differentiated exactly (``sympy.diff``) for the knee-force partials and the linearization:
+
+  * ``tension(L, Ldot, P, p, xp)``: a term added to each actuator's tension before the final limits [N];
+  * ``pressure_rate(P, P_cmd, p, xp)``: a term added to each actuator's pressure rate [Pa/s] (the pressures
+    then become states of the knee);
+  * ``final(f, p, xp)``: a limit applied last to the whole tension (slack: ``max(f, 0)``);
+
+- its quasi-static limit, for the isotonic and isometric tests where nothing moves fast: the tension term at
+  Ldot = 0 always stays (elasticity's whole term, nothing of damping's or friction's), and on top of it
+  ``"play"`` (a band of half-width ``play(P, p, xp)`` [N] around the static tension: a play operator, or two
+  branches at a clamped length, as Coulomb friction), ``"viscous"`` (a coefficient ``viscous(p)`` [N s/m]:
+  backward Euler in the isotonic test, as damping) or ``"static"``/None (nothing more);
+- how the diagnosis sees it: the experiments it can show in, with the search bounds of its fitted parameter,
+  its signature regressor and the experiment that separates it from each other effect.
+
+The registry keeps the effects in a stable order (the spec's, then the order of registration).
+:func:`register` adds an effect at run time (``mkctl.effects.register``, model-spec section 4c); its parameters
+join :class:`~mkctl.physics.params.Params` at once.
+
+Example
+-------
+>>> from mkctl.physics import effects
+>>> [e.name for e in effects.all_effects()][:3]
+['elasticity', 'viscous_damping', 'coulomb_friction']
+>>> effects.get("coulomb_friction").parameter_names
+('Fc', 'vs')
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from types import MappingProxyType
+from typing import Callable, Mapping
+
+from ..errors import ParameterError
+
+#: The quasi-static limits an effect can have (see the module docstring).
+QUASI_STATIC_KINDS = ("static", "play", "viscous", None)
+
+
+class EffectError(ParameterError):
+    """An effect that cannot be registered: a bad name, bounds that exclude the off value, a term that fails."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Parameter:
+    """One parameter an effect brings, in SI units.
+
+    ``off`` switches the effect off (and is the default unless ``default`` is given); values must lie in
+    ``[lower, upper]`` (``lower`` itself excluded when ``strict``); ``typical`` is the value ``synth`` hides the
+    effect at when given by name alone; ``scale`` a typical magnitude (fits work on value / scale); ``switch``: a
+    whole number (0 or 1, or the two values lower and upper); ``fitted`` False: a setting, never fitted.
+    """
+
+    name: str
+    unit: str
+    off: float
+    lower: float
+    upper: float = math.inf
+    typical: float | None = None
+    scale: float = 1.0
+    description: str = ""
+    switch: bool = False
+    fitted: bool = True
+    strict: bool = False
+    default: float | None = None
+    values_text: str = ""  #: the allowed values in words, for a switch ("0 (off) or 1 (on)")
+    fit_range: tuple[float, float] | None = None  #: the range a calibration searches (default: lower, upper)
+    smallest_on: float = 0.0  #: a value other than off must be at least this (1e-320 s is no lag; 1/tau overflows)
+
+    @property
+    def start(self) -> float:
+        """The value a parameter set has unless told otherwise."""
+        return self.off if self.default is None else self.default
+
+    def check(self, value) -> None:
+        """Raise :class:`ParameterError` unless value lies within this parameter's bounds."""
+        if self.switch:
+            if value not in (self.lower, self.upper):
+                raise ParameterError(f"parameter {self.name} must be {self.values_text or f'{self.lower:g} or {self.upper:g}'}"
+                                     f", got {value!r}")
+            return
+        if self.strict and not value > self.lower:
+            words = "positive" if self.lower == 0 else f"greater than {self.lower:g}"
+            raise ParameterError(f"parameter {self.name} must be {words}, got {value!r}")
+        if not self.strict and value < self.lower:
+            words = "not be negative" if self.lower == 0 else f"be at least {self.lower:g}"
+            raise ParameterError(f"parameter {self.name} must {words}, got {value!r}")
+        if value > self.upper:
+            raise ParameterError(f"parameter {self.name} must be at most {self.upper:g}, got {value!r}")
+        if value != self.off and abs(value - self.off) < self.smallest_on:
+            raise ParameterError(f"parameter {self.name} = {value:.6g} {self.unit} must be {self.off:g} (off) or at "
+                                 f"least {self.smallest_on:g} {self.unit}")
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """One physical effect (see the module docstring for every field's meaning)."""
+
+    name: str
+    description: str  #: its form in one line (the docs' table)
+    parameters: tuple[Parameter, ...] = ()
+    uses: tuple[str, ...] = ()  #: parameters of the paper's tables that describe it too (elasticity: C1, C2)
+    switched_by: str | None = None  #: the parameter whose value (not its off value) switches it on
+    tension: Callable | None = None  #: term(L, Ldot, P, p, xp) [N], added before the final limits
+    pressure_rate: Callable | None = None  #: term(P, P_cmd, p, xp) [Pa/s], added to each pressure's rate
+    pressure_step: Callable | None = None  #: exact P after dt with P_cmd held, (P, P_cmd, dt, p, xp)
+    final: Callable | None = None  #: limit(f, p, xp) applied last to the whole tension
+    quasi_static: str | None = None  #: "static", "play", "viscous" or None
+    play: Callable | None = None  #: half-width of the play band (P, p, xp) [N]
+    viscous: Callable | None = None  #: damping coefficient (p) [N s/m]
+    structural: bool = True  #: on and off are different equations (one compiled variant each)
+    fitted: str | None = None  #: the one parameter the diagnosis fits (None: not a diagnosis candidate)
+    experiments: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
+    reference: float | None = 1.0  #: the fitted value its unit signature is taken at (None: the model's own)
+    regressor: str = ""  #: the force term its signature is checked against
+    signature_axis: str = ""  #: what the signature picture's x axis shows
+    separation: Mapping[str, str] = dataclasses.field(default_factory=dict)  #: other effect -> experiment
+    calibrate: bool = False  #: a candidate of ``mkctl calibrate`` (blocked-force records)
+    builtin: bool = False
+
+    @property
+    def parameter_names(self) -> tuple[str, ...]:
+        """The parameters it brings, in order."""
+        return tuple(q.name for q in self.parameters)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Every parameter that describes it: the table parameters it uses, then its own (switch excluded when
+        it is a model choice rather than a value, as elasticity's ``model``)."""
+        own = tuple(n for n in self.parameter_names if not (self.uses and n == self.switched_by))
+        return self.uses + own
+
+    @property
+    def switch_parameter(self) -> Parameter:
+        """The parameter that switches it on (default: its first)."""
+        name = self.switched_by or self.parameters[0].name
+        return next(q for q in self.parameters if q.name == name)
+
+    def is_on(self, params) -> bool:
+        """Whether params switch this effect on: its switch parameter differs from the off value."""
+        q = self.switch_parameter
+        return getattr(params, q.name) != q.off
+
+    @property
+    def is_switch(self) -> bool:
+        """An effect that is on or off and has no value to fit (slack)."""
+        return self.fitted in self.parameter_names and self.parameter(self.fitted).switch
+
+    def parameter(self, name: str) -> Parameter:
+        return next(q for q in self.parameters if q.name == name)
+
+    @property
+    def typical_values(self) -> dict[str, float]:
+        """The values ``synth`` hides it at when it is named alone (parameters with a typical value)."""
+        return {q.name: q.typical for q in self.parameters if q.typical is not None}
+
+
+_REGISTRY: dict[str, Effect] = {}
+#: Bumped at every registration: caches keyed by the registry's contents compare it.
+_generation = [0]
+
+
+def generation() -> int:
+    """A number that changes whenever an effect is registered."""
+    return _generation[0]
+
+
+def _check_effect(effect: Effect) -> None:
+    if not effect.name.isidentifier():
+        raise EffectError(f"effect {effect.name!r}: the name must be an identifier")
+    if effect.name in _REGISTRY:
+        what = "a built-in effect" if _REGISTRY[effect.name].builtin else "already registered"
+        raise EffectError(f"effect {effect.name!r}: the name is {what}")
+    if not effect.parameters:
+        raise EffectError(f"effect {effect.name!r}: it needs at least one parameter (the one that switches it on)")
+    from .params import BASE_NAMES  # the paper's tables and the derived values
+    taken = set(BASE_NAMES) | {n for e in _REGISTRY.values() for n in e.parameter_names}
+    seen = set()
+    for q in effect.parameters:
+        if not q.name.isidentifier():
+            raise EffectError(f"effect {effect.name!r}: parameter name {q.name!r} is not an identifier")
+        if q.name in seen:
+            raise EffectError(f"effect {effect.name!r}: parameter {q.name!r} is named twice")
+        if q.name in taken:
+            raise EffectError(f"effect {effect.name!r}: parameter {q.name!r} is already a parameter of mkctl")
+        seen.add(q.name)
+        values = (q.off, q.lower, q.upper, q.scale) + ((q.typical,) if q.typical is not None else ())
+        if any(not isinstance(v, (int, float)) or isinstance(v, bool) or math.isnan(v) for v in values):
+            raise EffectError(f"effect {effect.name!r}: parameter {q.name!r} has a bound or value that is not a number")
+        if not q.lower <= q.upper:
+            raise EffectError(f"effect {effect.name!r}: parameter {q.name!r} has lower bound {q.lower:g} above its "
+                              f"upper bound {q.upper:g}")
+        try:
+            q.check(q.off)
+            q.check(q.start)
+            if q.typical is not None:
+                q.check(q.typical)
+        except ParameterError as error:
+            raise EffectError(f"effect {effect.name!r}: the bounds exclude a value it declares ({error})") from None
+        if not q.scale > 0:
+            raise EffectError(f"effect {effect.name!r}: parameter {q.name!r} needs a positive scale")
+    if effect.switched_by is not None and effect.switched_by not in seen:
+        raise EffectError(f"effect {effect.name!r}: switched_by {effect.switched_by!r} is not one of its parameters")
+    if effect.quasi_static not in QUASI_STATIC_KINDS:
+        raise EffectError(f"effect {effect.name!r}: quasi_static must be one of {QUASI_STATIC_KINDS}")
+    if effect.quasi_static == "play" and effect.play is None or effect.quasi_static == "viscous" and \
+            effect.viscous is None:
+        raise EffectError(f"effect {effect.name!r}: a {effect.quasi_static!r} limit needs its function")
+    if effect.tension is None and effect.pressure_rate is None and effect.final is None:
+        raise EffectError(f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate or final)")
+    if effect.fitted is not None and effect.fitted not in seen and effect.fitted not in effect.uses:
+        raise EffectError(f"effect {effect.name!r}: fitted parameter {effect.fitted!r} is not one of its parameters")
+    for experiment, (low, high) in effect.experiments.items():
+        if not 0 < low <= high:
+            raise EffectError(f"effect {effect.name!r}: search bounds for {experiment} must be positive and ordered")
+
+
+def _check_term(effect: Effect) -> None:
+    """Evaluate the effect's terms once on floats and once on sympy symbols: a term that fails either way
+    (a name mkctl's math namespace lacks, a Python branch on a symbol) is refused here, in one line."""
+    from . import actuator
+    from .params import Params
+    p = Params()
+    probes = {q.name: q.typical if q.typical is not None else (q.upper if math.isfinite(q.upper) else q.lower + 1.0)
+              for q in effect.parameters}
+    try:
+        p = p.replace(**probes) if all(n in p.as_dict() for n in probes) else p
+    except ParameterError:
+        pass
+    for label, xp in (("on floats", actuator.math_for(0.5)), ("on symbols", None)):
+        try:
+            if xp is None:
+                import sympy
+                L, Ldot, P, f = sympy.symbols("L Ldot P f", real=True)
+                xp = actuator.math_for(L)
+                sp = actuator.SymbolicParams()
+            else:
+                L, Ldot, P, f, sp = 0.19, 0.01, 2e5, 10.0, p
+            with actuator.tracing_domain_checks():
+                if effect.tension is not None:
+                    effect.tension(L, Ldot, P, sp, xp)
+                if effect.pressure_rate is not None:
+                    effect.pressure_rate(P, P * 1.1, sp, xp)
+                if effect.final is not None:
+                    effect.final(f, sp, xp)
+        except Exception as error:  # any failure of user code: say which effect and why, in one line
+            raise EffectError(f"effect {effect.name!r}: its terms cannot be evaluated {label} "
+                              f"({type(error).__name__}: {error})") from None
+
+
+def register(effect: Effect, _builtin: bool = False) -> Effect:
+    """Add an effect to the registry (model-spec section 4c); its parameters join Params at once.
+
+    Raises :class:`EffectError` (one line naming the effect) for a name already taken, a parameter named twice
+    or already a parameter of mkctl, bounds that exclude the off value, or terms that cannot be evaluated on
+    floats and on symbols.
+    """
+    if not isinstance(effect, Effect):
+        raise EffectError(f"register() takes an Effect, got {type(effect).__name__}")
+    if _builtin:
+        effect = dataclasses.replace(effect, builtin=True)
+    _check_effect(effect)
+    _REGISTRY[effect.name] = effect
+    _generation[0] += 1
+    if not _builtin:
+        try:
+            _check_term(effect)
+        except EffectError:
+            del _REGISTRY[effect.name]
+            _generation[0] += 1
+            raise
+    return effect
+
+
+def unregister(name: str) -> None:
+    """Remove a registered (not built-in) effect: for tests that register a throwaway effect."""
+    effect = _REGISTRY.get(name)
+    if effect is None:
+        return
+    if effect.builtin:
+        raise EffectError(f"effect {name!r} is built in and cannot be removed")
+    del _REGISTRY[name]
+    _generation[0] += 1
+
+
+def get(name: str) -> Effect:
+    """The registered effect of this name; :class:`ParameterError` for an unknown one."""
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ParameterError(f"unknown effect {name!r} (known: {', '.join(_REGISTRY)})") from None
+
+
+def all_effects() -> tuple[Effect, ...]:
+    """Every registered effect, in the registry's order (the spec's, then the order of registration)."""
+    return tuple(_REGISTRY.values())
+
+
+def names() -> tuple[str, ...]:
+    return tuple(_REGISTRY)
+
+
+def effect_parameters() -> Mapping[str, tuple[str, ...]]:
+    """Each effect's name -> the parameters that describe it (``params.EFFECT_PARAMETERS``)."""
+    return MappingProxyType({e.name: e.names for e in all_effects()})
+
+
+def parameters() -> tuple[Parameter, ...]:
+    """Every parameter the effects bring, in the registry's order."""
+    return tuple(q for e in all_effects() for q in e.parameters)
+
+
+def effect_of(parameter: str) -> Effect | None:
+    """The effect a parameter belongs to (its own or one it uses), or None."""
+    for e in all_effects():
+        if parameter in e.parameter_names or parameter in e.uses:
+            return e
+    return None
+
+
+def separating_experiment(a: str, b: str) -> str:
+    """The experiment that tells effects a and b apart, as either one's definition gives it ("" if none)."""
+    return get(a).separation.get(b) or get(b).separation.get(a, "") if a in _REGISTRY and b in _REGISTRY else ""
+
+
+# --- the built-in effects (model-spec section 4) --------------------------------------------------------------
+
+def _elastic_term(L, Ldot, P, p, xp):
+    """Model 2's rubber share ``V_r dW/dL`` [N] (Eq. 13)."""
+    from .actuator import strain_energy_gradient
+    return p.V_r * strain_energy_gradient(L, p)
+
+
+def _viscous_term(L, Ldot, P, p, xp):
+    """``c Ldot`` [N]."""
+    return p.c * Ldot
+
+
+def _friction_term(L, Ldot, P, p, xp):
+    """``Fc tanh(Ldot / vs)`` [N]."""
+    return p.Fc * xp.tanh(Ldot / p.vs)
+
+
+def _lag_rate(P, P_cmd, p, xp):
+    """``dP/dt = (P_cmd - P) / tau`` [Pa/s]."""
+    return (P_cmd - P) / p.tau
+
+
+def _lag_step(P, P_cmd, dt, p, xp):
+    """Exact lag over dt with P_cmd held: ``P_cmd + (P - P_cmd) exp(-dt / tau)``."""
+    return P_cmd + (P - P_cmd) * xp.exp(-dt / p.tau)
+
+
+def _slack_limit(f, p, xp):
+    """``max(f, 0)``: a braided muscle cannot push."""
+    if type(f) is float:
+        return f if f > 0.0 else 0.0
+    return xp.maximum(f, 0.0)
+
+
+_SEPARATIONS = {
+    ("viscous_damping", "pressure_lag"):
+        "a pressure step with the leg clamped (a lag delays the force even without motion, damping needs "
+        "motion), or a slow command ramp followed by a fast step (damping grows with speed, a lag delays "
+        "both by tau); with measured bladder pressures (pe_kPa, pf_kPa) the lag shows directly",
+    ("viscous_damping", "coulomb_friction"):
+        "a pressure step instead of a ramp, or sweeps at two rates: friction leaves a rate-independent "
+        "hysteresis loop (and stops a step's ringing at a fixed amplitude), damping's loop shrinks to "
+        "nothing at low rates (and its ringing decays in proportion)",
+    ("coulomb_friction", "pressure_lag"):
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only "
+        "delays the response by tau",
+    ("elasticity", "viscous_damping"):
+        "an isotonic test held at constant pressures under several loads: elasticity changes where the "
+        "length settles, damping only how fast it gets there",
+    ("elasticity", "coulomb_friction"):
+        "an isotonic sweep down to low pressure under several loads: elasticity bends the "
+        "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps apart",
+    ("elasticity", "pressure_lag"):
+        "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
+    ("elasticity", "slack"):
+        "a blocked-force test at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, elasticity bends the whole curve",
+    ("coulomb_friction", "slack"):
+        "a blocked-force test with the pressure stepped up and back down: friction separates the branches "
+        "everywhere, slack only flattens them at zero",
+    ("viscous_damping", "slack"):
+        "a blocked-force test at a short length: slack reads zero at low pressure with nothing moving, damping "
+        "needs motion",
+    ("pressure_lag", "slack"):
+        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, a lag only delays each reading",
+}
+
+
+def _separations(name: str) -> dict[str, str]:
+    """The experiments of _SEPARATIONS that involve the effect name, by the other effect."""
+    return {b if a == name else a: text for (a, b), text in _SEPARATIONS.items() if name in (a, b)}
+
+
+BUILTIN = (
+    Effect(
+        "elasticity", "the Mooney-Rivlin term: model 2 instead of model 1",
+        parameters=(Parameter("model", "1", off=1, lower=1, upper=2, default=2, switch=True, fitted=False,
+                              values_text="1 or 2",
+                              description="1: pressure only (Eq. 7), 2: with rubber elasticity (Eq. 13)"),),
+        uses=("C1", "C2"), switched_by="model", tension=_elastic_term, quasi_static="static", fitted="C1",
+        experiments={"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)}, reference=None,
+        regressor="the rubber's tension (model 2 minus model 1) at the measured length",
+        signature_axis="rubber tension of the model's C1, C2 [N]", separation=_separations("elasticity")),
+    Effect(
+        "viscous_damping", "f += c * Ldot",
+        parameters=(Parameter("c", "N s/m", off=0.0, lower=0.0, upper=1e6, typical=45.0, scale=10.0,
+                              description="viscous damping of each actuator: f += c Ldot"),),
+        tension=_viscous_term, quasi_static="viscous", viscous=lambda p: p.c, structural=False, fitted="c",
+        experiments={"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
+        regressor="the damping force per N s/m at the measured velocity",
+        signature_axis="velocity [mm/s] (damping: c times it)",
+        separation=_separations("viscous_damping")),
+    Effect(
+        "coulomb_friction", "f += Fc * tanh(Ldot / vs); in a quasi-static test a play operator of half-width Fc",
+        parameters=(Parameter("Fc", "N", off=0.0, lower=0.0, upper=1e6, typical=2.0, scale=1.0, fit_range=(0.0, 1e4),
+                              description="Coulomb friction of each actuator: f += Fc tanh(Ldot / vs)"),
+                    Parameter("vs", "m/s", off=1e-3, lower=1e-9, upper=100.0, fitted=False, scale=1e-3,
+                              description="velocity scale of the smoothed Coulomb friction (not fitted)")),
+        switched_by="Fc", tension=_friction_term, quasi_static="play", play=lambda P, p, xp: p.Fc,
+        structural=False, fitted="Fc",
+        experiments={"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0), "isometric": (1e-3, 100.0)},
+        regressor="the friction force per N at the measured direction of motion",
+        signature_axis="direction of motion tanh(v / vs): -1 down, +1 up",
+        separation=_separations("coulomb_friction"), calibrate=True),
+    Effect(
+        "pressure_lag", "tau dP/dt = P_cmd - P for each actuator; P(0) = P_cmd(0)",
+        parameters=(Parameter("tau", "s", off=0.0, lower=0.0, upper=100.0, smallest_on=1e-6, typical=0.05, scale=0.01,
+                              description="pressure lag time constant: tau dP/dt = P_cmd - P"),),
+        pressure_rate=_lag_rate, pressure_step=_lag_step, fitted="tau", experiments={"knee": (1e-3, 2.0)},
+        regressor="the force a lag of 1 s takes away at the measured pressure-command rate",
+        signature_axis="extensor pressure rate (smoothed) [kPa/s]", separation=_separations("pressure_lag")),
+    Effect(
+        "slack", "f = max(f, 0) applied last, to the whole tension: a braided muscle cannot push",
+        parameters=(Parameter("slack", "1", off=0, lower=0, upper=1, switch=True, values_text="0 (off) or 1 (on)",
+                              description="1: a braided muscle cannot push, f = max(f, 0) (a switch, not fitted)"),),
+        final=_slack_limit, fitted="slack", experiments={"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
+        regressor="the model's tension, where it is negative (a slack muscle carries nothing there)",
+        signature_axis="the smaller muscle tension of the model [N] (slack acts below 0)",
+        separation=_separations("slack"),
+        calibrate=True),
+)
+
+#: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).
+WHY = {
+    "elasticity": "model 2 instead of model 1: the rubber's Mooney-Rivlin tension",
+    "viscous_damping": "f += c Ldot",
+    "coulomb_friction": "f += Fc tanh(Ldot / vs) (a play operator in the isotonic test)",
+    "pressure_lag": "tau dP/dt = P_cmd - P",
+    "slack": "f = max(f, 0), applied last: a braided muscle cannot push",
+}
+
+
+def why(name: str) -> str:
+    """What an effect changes, in a few words (its description unless WHY holds a shorter text)."""
+    return WHY.get(name) or get(name).description
