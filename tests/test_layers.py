@@ -116,8 +116,6 @@ def test_every_import_points_down_the_layers(path):
 KNOWN_CIRCLES = {
     # the effect registry builds Params and traces the tension, whose modules read the registry (deferred imports)
     ("mkctl.physics.actuator", "mkctl.physics.effects", "mkctl.physics.params"): "the effect registry's",
-    # the discovery reads the diagnosis's missing force and candidates; the diagnosis calls the discovery
-    ("mkctl.analysis.diagnose", "mkctl.analysis.discovery"): "the discovery's",
     # the native FMU build and its cross-compilation for Windows call each other
     ("mkctl.native.cross", "mkctl.native.fmu"): "the native FMU build's",
 }
