@@ -14,14 +14,17 @@ this file from model-spec sections 2-4b and the paper (Eq. 5-17):
 - effects a rig may have, each off unless given in ``hidden``: viscous damping ``c`` [N s/m], Coulomb
   friction ``Fc`` [N] and friction growing with pressure ``Fc_p`` [N/Pa] (``(Fc + Fc_p P) tanh(Ldot / vs)``),
   a quadratic drag ``cq`` [N s^2/m^2] (``cq Ldot |Ldot|``, which no effect of mkctl has), a pressure lag
-  ``tau`` [s] and a dead time ``delay`` [s] before it, a threshold pressure ``P0`` [Pa] (spec 4b);
+  ``tau`` [s] (exhausting with ``tau_exhaust`` when given) and a dead time ``delay`` [s] before it, a threshold
+  pressure ``P0`` [Pa] (spec 4b);
 - a rig's imperfections: coloured (first-order autoregressive) output noise, noisy measured bladder pressures
   (``pe_kPa``, ``pf_kPa`` columns) on request, and a small model mismatch mkctl cannot represent: the valves
   see each command ``mismatch_delay`` late (0.1 ms by default: it moves the default record's output by 0.0095 mm
   RMS, about the default output noise; 1 ms moves it by 0.095 mm, ten times the noise, which is no longer
   small) on top of any hidden dead time.
 
-Use :func:`knee_record` (a :class:`mkctl.io.measurements.Measurement`) and :func:`knee_truth` for the arrays.
+Use :func:`knee_record` (a :class:`mkctl.io.measurements.Measurement`) and :func:`knee_truth` for the arrays;
+:func:`isotonic_record` for the isotonic test (a muscle under a hanging load, the bladder pressure swept). The
+knee has no end stops: an undamped leg with a threshold pressure rings past straight on long records.
 """
 from __future__ import annotations
 
@@ -35,7 +38,8 @@ from mkctl.io.measurements import measurement_from_arrays
 from mkctl.physics.params import Params
 
 #: Effects the rig knows, with their off values.
-RIG_EFFECTS = {"c": 0.0, "Fc": 0.0, "Fc_p": 0.0, "cq": 0.0, "tau": 0.0, "delay": 0.0, "P0": 0.0, "vs": 1e-3}
+RIG_EFFECTS = {"c": 0.0, "Fc": 0.0, "Fc_p": 0.0, "cq": 0.0, "tau": 0.0, "tau_exhaust": 0.0, "delay": 0.0, "P0": 0.0,
+               "vs": 1e-3}
 
 _STEP = 1e-20  # complex step: exact first derivatives to rounding
 
@@ -184,8 +188,9 @@ def knee_truth(hidden: dict | None = None, params: Params | None = None, samples
             Pe, Pf = (y[2], y[3]) if lag else (valve_e, valve_f)
             dV = float(ground_force(y[0], y[1], Pe, Pf, p, h)) / p.m - p.g
             rates = [y[1], dV]
-            if lag:
-                rates += [(valve_e - Pe) / h["tau"], (valve_f - Pf) / h["tau"]]
+            if lag:  # filling with tau, exhausting with tau_exhaust (spec 4b's asymmetric lag; 0: the same)
+                rates += [(valve - P) / (h["tau"] if valve >= P or h["tau_exhaust"] <= 0 else h["tau_exhaust"])
+                          for valve, P in ((valve_e, Pe), (valve_f, Pf))]
             return rates
 
         inside = np.flatnonzero((time > start) & (time <= stop))
@@ -222,3 +227,71 @@ def knee_record(hidden: dict | None = None, params: Params | None = None, sample
         inputs["pf"] = Pf + rng.normal(0.0, pressure_noise, samples)
     known = {k: v for k, v in p.as_dict().items() if k != "n" and v != getattr(Params(), k)}
     return measurement_from_arrays("knee", time, inputs, measured, params=known or None, source="<independent rig>")
+
+
+# --- The isotonic test (spec section 5: a muscle under a hanging load, the bladder pressure swept) --------
+
+def isotonic_inputs(samples: int = 1500, loads=(20.0, 50.0, 80.0), low: float = 150e3, high: float = 600e3,
+                    cycles=(20.0, 5.0)):
+    """(time, pressure, load): for each load, the pressure swept low -> high -> low once per cycle duration [s]."""
+    period = sum(cycles)
+    time = np.linspace(0.0, period * len(loads), samples)
+    load = np.asarray(loads, dtype=float)[np.minimum((time // period).astype(int), len(loads) - 1)]
+    phase = np.mod(time, period)
+    pressure = np.empty(samples)
+    start = 0.0
+    for k, duration in enumerate(cycles):
+        inside = (phase >= start) & ((phase < start + duration) if k < len(cycles) - 1 else (phase <= period))
+        u = (phase[inside] - start) / duration
+        pressure[inside] = low + (high - low) * (1.0 - np.abs(2.0 * u - 1.0))
+        start += duration
+    return time, pressure, load
+
+
+def isotonic_truth(hidden: dict, params: Params | None = None, samples: int = 1500):
+    """The muscle's true length under the load: ``F = f(L, P) + c Ldot + ...`` solved for Ldot at every instant
+    (the effects of ``hidden`` make it monotone in Ldot; ``c`` > 0 is needed) and integrated by solve_ivp, the
+    pressure varying linearly between samples. Returns (time, pressure, load, L)."""
+    p = params or Params()
+    h = {**RIG_EFFECTS, **hidden}
+    if not h["c"] > 0:
+        raise ValueError("the isotonic rig needs c > 0 (the load hangs from a damper)")
+    time, pressure, load = isotonic_inputs(samples)
+
+    def rate(t, y):
+        P = float(np.interp(t, time, pressure))
+        F = float(load[min(int(np.searchsorted(time, t, side="right")) - 1, samples - 1)])
+        excess = F - float(static_tension(y[0], P, p, h["P0"]))
+        def balance(v):
+            return excess - float(tension(y[0], P, v, p, h) - static_tension(y[0], P, p, h["P0"]))
+        bound = abs(excess) / h["c"] + 1e-9
+        return [brentq(balance, -bound, bound, xtol=1e-14)]
+
+    L0 = brentq(lambda L: float(static_tension(L, pressure[0], p, h["P0"])) - load[0], 0.6 * p.b, 0.999 * p.b)
+    L = np.empty(samples)
+    L[0] = L0
+    changes = np.r_[0, np.flatnonzero(np.diff(load) != 0) + 1, samples - 1]
+    state = [L0]
+    for a, b in zip(changes[:-1], changes[1:]):
+        run = solve_ivp(rate, (time[a], time[b]), state, method="LSODA", dense_output=True, rtol=1e-9, atol=1e-12,
+                        max_step=0.05)
+        assert run.success, run.message
+        L[a:b + 1] = run.sol(time[a:b + 1])[0]
+        state = [L[b]]
+    return time, pressure, load, L
+
+
+def isotonic_record(hidden: dict, params: Params | None = None, samples: int = 1500, noise: float = 1e-5,
+                    noise_tau: float = 0.0, pressure_noise: float = 0.0, seed: int = 0):
+    """An isotonic record as the rig logs it: the length with (coloured) noise, the bladder pressure with sensor
+    noise [Pa]. The file declares the constants of ``params`` that differ from the defaults (a known damper)."""
+    p = params or Params()
+    time, pressure, load, L = isotonic_truth(hidden, p, samples)
+    rng = np.random.default_rng(seed)
+    dt = float(np.mean(np.diff(time)))
+    measured = L + ar1_noise(noise, samples, noise_tau, dt, rng)
+    inputs = {"pressure": pressure + rng.normal(0.0, pressure_noise, samples) if pressure_noise else pressure,
+              "force": load}
+    known = {k: v for k, v in p.as_dict().items() if k != "n" and v != getattr(Params(), k)}
+    return measurement_from_arrays("isotonic", time, inputs, measured, params=known or None,
+                                   source="<independent rig>")

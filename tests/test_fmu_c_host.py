@@ -37,7 +37,8 @@ def python_environment() -> dict[str, str]:
     libpython = Path(sysconfig.get_config_var("LIBDIR")) / sysconfig.get_config_var("INSTSONAME")
     site_packages = str(Path(numpy.__file__).parents[1])
     assert Path(fmpy.__file__).parents[1] == Path(site_packages)
-    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON")}
+    # MKCTL_FMU_STDERR too: importing mkctl.scenarios sets it to 0 in a test process, which would silence the FMU
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTHON") and k != "MKCTL_FMU_STDERR"}
     env.update(LD_PRELOAD=str(libpython), PYTHONHOME=sys.base_prefix, PYTHONPATH=site_packages)
     return env
 

@@ -1380,8 +1380,9 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     if note:
         notes.append(note)
         say(note)
-    # spec 6b: what the final model cannot explain is regressed on a library of physical terms
-    found = discover(record.prepared, final.params, progress=say) if verdict == "incomplete" else None
+    # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
+    # it lacks show as their own terms, "matches" naming them)
+    found = discover(record.prepared, record.start, progress=say) if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})

@@ -75,6 +75,8 @@ MAX_TERMS = 3
 #: Terms that leave at most this many times the least residual sum of squares on the fitting blocks are rivals:
 #: the checking blocks choose among them and the others are reported as alternatives.
 RIVAL_FACTOR = 1.25
+#: An isotonic input that changes by more than this share of its range from one sample to the next is a step.
+STEP_FRACTION = 0.05
 #: Delays of the delayed-pressure terms [s] (dead times of real regulators: 20-40 ms).
 DELAYS = (0.01, 0.02, 0.04)
 #: Time constants of the lagged-pressure terms [s] (regulators: 43-131 ms; mkctl's bench: 50 ms).
@@ -118,7 +120,8 @@ WRITABLE = {
     # the threshold of spec 4b with P0 the coefficient: P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
     **{f"threshold(P0 = {P0 / 1e3:g} kPa)": (
         "threshold_pressure", "P0_found",
-        "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k} * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
+        "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k}"
+        " * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
        for P0 in THRESHOLDS},
 }
 
@@ -175,8 +178,8 @@ def library(params: Params, delays=DELAYS, effects=()) -> list[Term]:
         Term("sign(Ldot)", "N", lambda a: a["sign"]),
         Term("P * sign(Ldot)", "N/Pa", lambda a: a["P"] * a["sign"]),
         Term("-df/dP * dP/dt", "s", lambda a: -a["gain"] * a["rate"], commands_only=True),
-        *[Term(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1", (lambda d: lambda a: a["gain"] * (a["delayed"][d] - a["P"]))(d),
-               commands_only=True) for d in delays],
+        *[Term(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1",
+               (lambda d: lambda a: a["gain"] * (a["delayed"][d] - a["P"]))(d), commands_only=True) for d in delays],
         *[Term(f"f(P lagged {tau * 1e3:g} ms) - f(P)", "1",
                (lambda tau: lambda a: a["gain"] * (a["lagged"][tau] - a["P"]))(tau), commands_only=True)
           for tau in LAGS],
@@ -334,6 +337,13 @@ def regressors(measurement: Measurement, params: Params, terms: list[Term] | Non
     edge = min(edge, n // 4)
     used[:edge] = False
     used[n - edge:] = False
+    if m.experiment == "isotonic":
+        # a load hung on (or a pressure stepped) makes the length jump: the smoothed length and its rate are
+        # wrong for a window around it (a noise-free record of the rig missed 17 N there), so those samples go
+        for name in ("force", "pressure"):
+            values = np.asarray(m.inputs[name], dtype=float)
+            for k in np.flatnonzero(np.abs(np.diff(values)) > STEP_FRACTION * np.ptp(values)):
+                used[max(k - ISOTONIC_SMOOTHING_SAMPLES, 0):k + ISOTONIC_SMOOTHING_SAMPLES + 1] = False
     return missing, columns, used
 
 
@@ -491,17 +501,19 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
         result["effective_samples"] = effective_samples(y_used)
         return result
     labels = selection["selected"]
-    A = np.column_stack([cols[k] for k in labels])
-    coef, *_ = np.linalg.lstsq(A, y_used, rcond=None)
-    r = y_used - A @ coef
+    scales = np.array([float(np.sqrt(np.mean(cols[k] ** 2))) for k in labels])
+    A = np.column_stack([cols[k] for k in labels]) / scales  # standardized: the terms' sizes differ by 1e15
+    scaled, *_ = np.linalg.lstsq(A, y_used, rcond=None)
+    r = y_used - A @ scaled
     n_eff = effective_samples(r)
     # s^2 (A^T A)^-1, widened by n / n_eff: correlated residuals carry the information of n_eff white samples
     s2 = float(r @ r) / max(y_used.size - len(labels), 1)
-    cov = s2 * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff)
+    cov = s2 * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff) / np.outer(scales, scales)
+    coef = scaled / scales
     units = {t.label: t.unit for t in terms}
     matches = {t.label: t.matches for t in terms}
     result.update({
-        "explained": _explained(y_used, A @ coef), "effective_samples": n_eff,
+        "explained": _explained(y_used, A @ scaled), "effective_samples": n_eff,
         "terms": [{"term": k, "coefficient": float(c), "stderr": float(math.sqrt(max(cov[i, i], 0.0))),
                    "unit": units[k], "matches": matches[k], "alternatives": selection["alternatives"].get(k, [])}
                   for i, (k, c) in enumerate(zip(labels, coef))],

@@ -243,7 +243,8 @@ def _check_parameters(raw, fail) -> tuple:
                 raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
             values[key] = float(value)
         if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper {values['upper']:g}")
+            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper "
+                       f"{values['upper']:g}")
         if not values["lower"] <= values["off"] <= values["upper"]:
             raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its off "
                        f"value {values['off']:g}")
@@ -302,7 +303,9 @@ def _check_traceable(effect: UserEffect, params: Params, fail) -> None:
 def effect_source(name: str, parameter: str, unit: str, expression: str, coefficient: float, description: str) -> tuple:
     """(function source, EFFECTS entry source) of one effect whose term is ``expression`` (Python, with
     ``p.<parameter>``), typical value ``coefficient``, bounds from 0 to 100 times it (on its side)."""
+    coefficient = float(f"{coefficient:.6g}")  # 6 digits: the fit's standard error is far larger
     low, high = (0.0, 100.0 * coefficient) if coefficient >= 0 else (100.0 * coefficient, 0.0)
+    low, high = float(f"{low:.6g}"), float(f"{high:.6g}")
     if low == high:
         high = 1.0
     function = (f"def {name}(L, Ldot, P, p, xp):\n"

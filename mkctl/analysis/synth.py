@@ -149,8 +149,8 @@ LARGEST_RATE = 1e6
 LARGEST_NOISE_TAU = 1e4
 
 
-def _check_options(experiment, seed, samples, rate, noise, noise_factor, output_kind, input_noise, noise_tau, offset,
-                   resolution, pressures):
+def _check_ranges(experiment, seed, samples, rate, noise, noise_factor, output_kind, input_noise, noise_tau, offset,
+                  resolution, pressures):
     """The domain of synthesize's arguments: one line naming the argument, its value and the allowed range."""
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
         raise ParameterError(f"seed must be a whole number in [0, 2^63), got {seed!r}")
@@ -298,8 +298,8 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
             q = next((q for q in spec.outputs if q.name == name), spec.output)
             kind, factor = q.kind, UNIT_FACTORS[q.kind].get(unit, factor)
         default = DEFAULT_NOISE_N if experiment == "isometric" else DEFAULT_NOISE_MM
-        _check_options(experiment, seed, samples, rate, default if noise is None else noise, factor, kind,
-                       input_noise, noise_tau, offset, resolution, pressures)
+        _check_ranges(experiment, seed, samples, rate, default if noise is None else noise, factor, kind,
+                      input_noise, noise_tau, offset, resolution, pressures)
     if experiment == "isometric":  # the blocked-force bench (noise in N)
         if resolution:
             raise ParameterError("resolution rounds a knee or isotonic output; the isometric bench has none")

@@ -242,7 +242,7 @@ def _write_suggestion(result, path: Path, source: str) -> None:
         return
     written = write_suggestion(path, found, source=source, registered=registered_effects())
     if written is None:
-        print("--suggest: nothing written: the terms found are registered effects' or change the pressure "
-              "(see the discovery lines)", file=sys.stderr)
+        print("--suggest: nothing written: the terms found have the form of registered effects, or change the "
+              "pressure (see the discovery lines)", file=sys.stderr)
         return
     found["effect_file"] = str(written)

@@ -80,6 +80,7 @@ def non_finite_output_message(name: str, value: str, unit: str) -> str:
     the same text (mkctl.native.fmu)."""
     return f"output {name} = {value} {unit} is not a finite number"
 
+
 #: One entry per run of an FMU script (see :func:`keep_namespace`).
 _KEPT: list = []
 

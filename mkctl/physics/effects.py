@@ -75,7 +75,7 @@ class Parameter:
     default: float | None = None
     values_text: str = ""  #: the allowed values in words, for a switch ("0 (off) or 1 (on)")
     fit_range: tuple[float, float] | None = None  #: the range a calibration searches (default: lower, upper)
-    smallest_on: float = 0.0  #: a value other than off must be at least this (1e-320 s is no lag; 1/tau overflows)
+    smallest_on: float = 0.0  #: a value other than 0 must be at least this (1e-320 s is no lag; 1/tau overflows)
 
     @property
     def start(self) -> float:
@@ -96,10 +96,13 @@ class Parameter:
             words = "not be negative" if self.lower == 0 else f"be at least {self.lower:g}"
             raise ParameterError(f"parameter {self.name} must {words}, got {value!r}")
         if value > self.upper:
-            raise ParameterError(f"parameter {self.name} must be at most {self.upper:g}, got {value!r}")
-        if value != self.off and abs(value - self.off) < self.smallest_on:
-            raise ParameterError(f"parameter {self.name} = {value:.6g} {self.unit} must be {self.off:g} (off) or at "
-                                 f"least {self.smallest_on:g} {self.unit}")
+            unit = "" if self.unit == "1" else " " + self.unit
+            raise ParameterError(f"parameter {self.name} = {value:.6g}{unit} is outside the model's domain "
+                                 f"[{self.lower:g}, {self.upper:g}]{unit}")
+        if value != 0 and abs(value) < self.smallest_on:
+            either = "0 (off) or " if self.off == 0 else ""
+            raise ParameterError(f"parameter {self.name} = {value:.6g} {self.unit} must be {either}at least "
+                                 f"{self.smallest_on:g} {self.unit}")
 
 
 @dataclasses.dataclass(frozen=True)
@@ -431,7 +434,8 @@ BUILTIN = (
         "coulomb_friction", "f += Fc * tanh(Ldot / vs); in a quasi-static test a play operator of half-width Fc",
         parameters=(Parameter("Fc", "N", off=0.0, lower=0.0, upper=1e6, typical=2.0, scale=1.0, fit_range=(0.0, 1e4),
                               description="Coulomb friction of each actuator: f += Fc tanh(Ldot / vs)"),
-                    Parameter("vs", "m/s", off=1e-3, lower=1e-9, upper=100.0, fitted=False, scale=1e-3,
+                    Parameter("vs", "m/s", off=1e-3, lower=0.0, strict=True, upper=100.0, smallest_on=1e-9,
+                              fitted=False, scale=1e-3,
                               description="velocity scale of the smoothed Coulomb friction (not fitted)")),
         switched_by="Fc", tension=_friction_term, quasi_static="play", play=lambda P, p, xp: p.Fc,
         structural=False, fitted="Fc",
