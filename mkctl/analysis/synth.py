@@ -329,7 +329,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
 def _check_choices(experiment: str, baseline: str, noise: float, input_noise: float, noise_tau: float,
                    resolution: float, offset: float, pressures: bool) -> None:
     """One-line errors for choices :func:`synthesize` cannot make (the experiment, the baseline, signs; the
-    ranges are :func:`_check_options`')."""
+    ranges are :func:`_check_ranges`')."""
     if experiment not in ("knee", "isotonic"):
         raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
