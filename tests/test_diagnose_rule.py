@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from mkctl.analysis import diagnosis_rule as rule
+from mkctl.analysis.diagnosis_rule import adequacy, noise_limit
 from mkctl.analysis.diagnosis_rule import Candidate, Rule, Score, best_value, decide, pair_needed, to_drop
 
 N = 200  # training samples
@@ -281,3 +282,136 @@ def test_bic_of_a_small_rss_and_the_decisions_carry_their_judgements():
     assert set(undecided.judgements) == {"viscous_damping", "coulomb_friction", "pressure_lag"}
     added = decide(CURRENT, [a])
     assert added.reason == "viscous_damping passes every criterion" and set(added.judgements) == {"viscous_damping"}
+
+
+# --- round 3: effective samples, the null test, the signature, one forward selection, adequacy ---------------
+
+def test_bic_counts_effective_samples_under_correlated_noise():
+    assert rule.effective_samples(1000, 0.0) == 1000 and rule.effective_samples(1000, 0.5) == pytest.approx(1000 / 3)
+    r = np.random.default_rng(0).standard_normal(400)
+    white = Score.from_residuals(r[:300], r[300:], 1)
+    coloured = Score.from_residuals(r[:300], r[300:], 1, noise_correlation=0.5)
+    assert white.bic == pytest.approx(rule.bic(white.rss_train, 300, 1))
+    assert coloured.bic == pytest.approx(100 * math.log(white.rss_train / 300) + math.log(100))
+
+
+BEFORE = Score(rss_train=100.0, n_train=1000, k=0, rmse_holdout=1.0)
+
+
+def gaining(delta_bic: float, **fields) -> Candidate:
+    rss = 1000 * math.exp((BEFORE.bic + delta_bic - math.log(1000)) / 1000)
+    return Candidate("coulomb_friction", Score(rss, 1000, 1, 0.5), **fields)
+
+
+def test_a_candidate_that_gains_as_much_on_noise_alone_is_refused():
+    assert decide(BEFORE, [gaining(-40.0, null_delta_bic=-35.0)]).verdict == "stop"
+    assert decide(BEFORE, [gaining(-40.0, null_delta_bic=-20.0)]).verdict == "add"
+    assert decide(BEFORE, [gaining(-40.0, null_delta_bic=+3.0)]).verdict == "add"  # noise alone loses BIC
+    reason = decide(BEFORE, [gaining(-40.0, null_delta_bic=-35.0)]).reason
+    assert "noise alone" in reason and "-35.0" in reason
+
+
+def test_a_candidate_whose_signature_goes_against_the_missing_force_is_refused():
+    assert decide(BEFORE, [gaining(-40.0, signature=-0.4)]).verdict == "stop"
+    assert decide(BEFORE, [gaining(-40.0, signature=0.3)]).verdict == "add"
+    assert "r = -0.40" in decide(BEFORE, [gaining(-40.0, signature=-0.4)]).reason
+
+
+def test_forward_selection_runs_the_null_test_on_the_winner_and_judges_the_next():
+    """The winner fails the null test: the next best is judged instead, and only then added."""
+    scores = {"viscous_damping": gaining(-60.0).score, "coulomb_friction": gaining(-40.0).score}
+    added, tested = [], []
+
+    def fit_round(names):
+        return [Candidate(name, scores[name]) for name in names]
+
+    def null_test(candidate):
+        tested.append(candidate.effect)
+        null = -58.0 if candidate.effect == "viscous_damping" else 0.0
+        return Candidate(candidate.effect, candidate.score, null_delta_bic=null)
+
+    def add(decision):
+        added.append(decision.effect)
+        return BEFORE if len(added) < 1 else Score(0.01, 1000, 2, 0.01)
+
+    decision = rule.forward_selection(BEFORE, lambda: [n for n in scores if n not in added], fit_round, add,
+                                      null_test=null_test)
+    assert added[0] == "coulomb_friction" and tested[:2] == ["viscous_damping", "coulomb_friction"]
+    assert decision.verdict == "stop"
+
+
+# --- adequacy ----------------------------------------------------------------------------------------------
+
+def test_noise_limit_is_the_chi_square_quantile_or_the_rules_factor():
+    from scipy.stats import chi2
+
+    assert noise_limit(1e5) == 2.0  # many samples: the rule's factor
+    assert noise_limit(4) == pytest.approx(math.sqrt(chi2.ppf(0.999, 4) / 4))  # few: the chi-square quantile
+    assert noise_limit(4) > 2.0
+    assert noise_limit(4, tests=10) > noise_limit(4)  # Bonferroni over windows
+    assert noise_limit(4, Rule(adequacy_level=0.1)) < noise_limit(4)
+
+
+def test_adequacy_over_the_whole_record_and_window_by_window():
+    rng = np.random.default_rng(2)
+    noise = rng.standard_normal(2000)
+    assert adequacy(noise, 1.0).adequate
+    assert not adequacy(3.0 * noise, 1.0).adequate  # between 3 and 10 times the noise: now said
+    local = noise.copy()
+    local[:200] *= 5.0  # the error sits in one tenth: 1.9 times the noise overall
+    fit = adequacy(local, 1.0)
+    assert fit.ratio < 2.0 and not fit.adequate and fit.worst["start"] == 0 and fit.worst["ratio"] > 4.0
+    assert "in one part" in fit.text()
+    # correlated noise has fewer independent samples: the same window is judged more leniently
+    assert adequacy(local, 1.0, correlation=0.98).worst["limit"] > fit.worst["limit"]
+
+
+
+def test_the_rules_own_criteria_as_methods():
+    r = Rule(bic_threshold=10.0, holdout_gain=0.02, holdout_margin=0.05, holdout_fraction=0.25)
+    assert r.split_time(2.0, 10.0) == pytest.approx(8.0)
+    assert r.passes_bic(-10.01) and not r.passes_bic(-10.0)
+    assert r.passes_holdout(0.979, 1.0) and not r.passes_holdout(0.98, 1.0)
+    assert r.beats(0.949, 1.0) and not r.beats(0.95, 1.0)
+    assert r.promising(-5.01) and not r.promising(-5.0)
+
+
+def test_effective_samples_and_bic_clamp_them():
+    assert rule.effective_samples(100, -0.3) == 100.0
+    assert rule.effective_samples(100, 1.0) == pytest.approx(100 * 0.01 / 1.99)  # correlation capped at 0.99
+    assert rule.bic(10.0, 100, 1, n_effective=1e6) == pytest.approx(rule.bic(10.0, 100, 1))  # never above n
+    assert rule.bic(10.0, 100, 1, n_effective=0.1) == pytest.approx(math.log(0.1))  # never below 1
+
+
+def test_forward_selection_stops_when_nothing_is_left_and_adds_a_tie_broken_together():
+    assert rule.forward_selection(BEFORE, lambda: [], None, None).reason == "no candidate effect left for this experiment"
+    a, b = gaining(-80.0).score, Score(gaining(-78.0).score.rss_train, 1000, 1, 0.505)
+    added = []
+
+    def fit_round(names):
+        return [Candidate(n, {"viscous_damping": a, "coulomb_friction": b}[n]) for n in names]
+
+    def break_tie(decision):
+        assert decision.verdict == "undecided" and decision.rivals == ("coulomb_friction",)
+        return rule.Decision("add", decision.effect, decision.rivals, together=decision.rivals)
+
+    def add(decision):
+        added.extend([decision.effect, *decision.together])
+        return Score(1e-3, 1000, 2, 1e-3)
+
+    names = ["viscous_damping", "coulomb_friction"]
+    last = rule.forward_selection(BEFORE, lambda: [n for n in names if n not in added], fit_round, add,
+                                  break_tie=break_tie)
+    assert added == ["viscous_damping", "coulomb_friction"] and last.verdict == "stop"
+    undecided = rule.forward_selection(BEFORE, lambda: names, fit_round, add)
+    assert undecided.verdict == "undecided"
+
+
+def test_adequacy_without_a_noise_estimate_and_its_texts():
+    assert adequacy(np.ones(10), 0.0) == rule.Adequacy(True, 0.0, math.inf, {})
+    fit = adequacy(np.ones(1000), 1.0)
+    assert fit.adequate and fit.ratio == pytest.approx(1.0) and "noise explains up to 2" in fit.text()
+    assert "over the whole record, more than" in adequacy(3 * np.ones(1000), 1.0).text()
+    assert adequacy(np.full(1000, 1.999), 1.0).adequate and not adequacy(np.full(1000, 2.001), 1.0).adequate
+    assert adequacy(np.ones(1000), 1.0, rule=Rule(adequate_factor=0.5)).limit == pytest.approx(
+        noise_limit(1000, Rule(adequate_factor=0.5)))

@@ -19,8 +19,6 @@ PACKAGE = ROOT / "mkctl"
 #: Imports that still point the wrong way, each with who removes it. A strict xfail: once fixed, the test
 #: passes and pytest says so, and the entry goes.
 KNOWN = {
-    # the compiled core is chosen inside physics.simulate; helper "effects" hands it to physics from above
-    ("mkctl.physics.simulate", "mkctl.native"): "physics.simulate imports the compiled core (being removed)",
     # the native FMUs repeat the pythonfmu FMUs' interface and FMI units, which live in the fmu layer
     ("mkctl.native.fmu", "mkctl.fmu"): "native.fmu reads the pythonfmu slaves' interface and FMI units",
     # the scenarios parse their arguments with the CLI's one-line parser
@@ -113,9 +111,19 @@ def test_every_import_points_down_the_layers(path):
     assert not bad, f"{module_name(path)} imports from a layer above it: {sorted(t for _, t in bad)}"
 
 
-def test_no_module_imports_itself_around_a_circle():
-    """Module-level cycles (packages' ``__init__`` left out: importing a submodule runs it, but a package is
-    not a dependency of its own members' design)."""
+#: Import circles that still stand, each with why (sorted members). The test fails on a new circle and on one of
+#: these that is gone (then the entry goes).
+KNOWN_CIRCLES = {
+    # the effect registry builds Params and traces the tension, whose modules read the registry (deferred imports)
+    ("mkctl.physics.actuator", "mkctl.physics.effects", "mkctl.physics.params"): "the effect registry's",
+    # the native FMU build and its cross-compilation for Windows call each other
+    ("mkctl.native.cross", "mkctl.native.fmu"): "the native FMU build's",
+}
+
+
+def import_graph() -> dict:
+    """{module: the modules of mkctl it imports} (packages' ``__init__`` left out: importing a submodule runs it,
+    but a package is not a dependency of its own members' design)."""
     graph = {}
     modules = {module_name(p): p for p in sources()}
     for name, path in modules.items():
@@ -126,24 +134,49 @@ def test_no_module_imports_itself_around_a_circle():
             if target and target != name and not modules[target].name == "__init__.py":
                 targets.add(target)
         graph[name] = targets
-    state: dict = {}
-    stack: list = []
+    return graph
+
+
+def circles(graph: dict) -> set:
+    """The groups of modules that import each other around a circle (strongly connected, two or more)."""
+    index, low, stack, on, found = {}, {}, [], set(), set()
 
     def visit(node):
-        state[node] = "open"
+        index[node] = low[node] = len(index)
         stack.append(node)
+        on.add(node)
         for nxt in sorted(graph.get(node, ())):
-            if state.get(nxt) == "open":
-                circle = stack[stack.index(nxt):] + [nxt]
-                raise AssertionError("import circle: " + " -> ".join(circle))
-            if nxt not in state:
+            if nxt not in index:
                 visit(nxt)
-        stack.pop()
-        state[node] = "done"
+                low[node] = min(low[node], low[nxt])
+            elif nxt in on:
+                low[node] = min(low[node], index[nxt])
+        if low[node] == index[node]:
+            group = []
+            while True:
+                member = stack.pop()
+                on.discard(member)
+                group.append(member)
+                if member == node:
+                    break
+            if len(group) > 1:
+                found.add(tuple(sorted(group)))
 
     for node in sorted(graph):
-        if node not in state:
+        if node not in index:
             visit(node)
+    return found
+
+
+def test_no_module_imports_itself_around_a_circle():
+    found = circles(import_graph())
+    assert not found - set(KNOWN_CIRCLES), f"import circles: {sorted(found - set(KNOWN_CIRCLES))}"
+    assert not set(KNOWN_CIRCLES) - found, f"gone, remove from KNOWN_CIRCLES: {sorted(set(KNOWN_CIRCLES) - found)}"
+
+
+def test_the_circle_finder_finds_a_circle():
+    assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == {("a", "b", "c")}
+    assert circles({"a": {"b"}, "b": set()}) == set()
 
 
 def test_the_checker_sees_a_wrong_way_import(tmp_path):

@@ -18,7 +18,6 @@ Scores, in the units of the file's output column:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 

@@ -64,6 +64,8 @@ from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
 from .compare import fit_percent, rmse, simulate_output
 from .discovery import discover
+from .equation_error import (ISOTONIC_SMOOTHING_SAMPLES, KNEE_SMOOTHING_S, knee_force_at,  # noqa: F401 (re-exported)
+                             lagged, missing_force, model_pressures)
 from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
                              forward_selection, judge, pair_needed, to_drop)
 
@@ -296,6 +298,8 @@ class NoiseModel:
     sigma: float
     correlation: float = 0.0
     seed: int = 0  #: of the realisation the null test adds to a simulation
+    #: the signal leaked into the estimate (a correlation at :data:`SIGNAL_LEAK_CORRELATION`): taken as white
+    unresolved: bool = False
 
     def on_grid(self, stride: int) -> float:
         """The correlation between samples ``stride`` apart: phi ** stride."""
@@ -368,8 +372,10 @@ def noise_model(signal, window: int = NOISE_WINDOW) -> NoiseModel:
     x = np.asarray(signal, dtype=float)
     white = NoiseModel(output_noise(x))
     estimate = _ar1_estimate(x, window)
-    if estimate is None or not WHITE_NOISE_CORRELATION <= estimate[1] < SIGNAL_LEAK_CORRELATION:
-        return white  # white, or a "noise" correlated beyond what the record resolves: the signal leaked in
+    if estimate is not None and estimate[1] >= SIGNAL_LEAK_CORRELATION:  # the signal leaked in
+        return dataclasses.replace(white, unresolved=True)
+    if estimate is None or estimate[1] < WHITE_NOISE_CORRELATION:
+        return white
     longer = min(MAX_NOISE_WINDOW, x.size // 4)
     longer = min(longer, int(NOISE_WINDOW_PER_TIME / (1.0 - estimate[1]))) | 1
     if longer > window:  # kept unless the signal leaked in (phi driven to the largest it resolves)
@@ -761,76 +767,9 @@ def _lag_one_correlation(residual) -> float:
 
 # --- Signatures: the force the model lacks, against what each effect acts through ------------------
 
-#: Savitzky-Golay smoothing window for the signatures: the knee's in seconds, the isotonic test's in samples.
-KNEE_SMOOTHING_S = 0.1
-ISOTONIC_SMOOTHING_SAMPLES = 11
-
-
-def missing_force(measurement: Measurement, params: Params):
-    """The equation error: the force the model lacks at the measured, smoothed states [N].
-
-    Isotonic (quasi-static): ``F_load - f(L, P, Ldot)``. Knee (Eq. 17): ``m (Xddot + g) - F - F_stop``
-    with X, V, Xddot from a cubic Savitzky-Golay fit of the measured X. Only for explanation: the fits
-    themselves compare simulations with the data, never differentiated data.
-    Returns (missing force, states) with states a dict of the smoothed signals (SI).
-    """
-    from scipy.signal import savgol_filter
-
-    m = measurement
-    if m.experiment == "isometric":  # nothing moves: the measured tension against the model's, point by point
-        L, P = m.inputs["length"], m.inputs["pressure"]
-        return m.output - isometric_tension(L, P, m.branch, params), {"L": L, "P": P, "branch": m.branch}
-    n = m.samples
-    dt = float(np.mean(np.diff(m.time)))
-    window = (ISOTONIC_SMOOTHING_SAMPLES if m.experiment == "isotonic" else int(round(KNEE_SMOOTHING_S / dt)))
-    window = max(5, min(window, n - 1 if n % 2 == 0 else n))
-    window += 1 - window % 2  # odd
-    if window > n:
-        window -= 2
-    order = min(3, window - 2)
-    measured = knee.hip_height(m.output, params) if output_quantity(m) == "beta" else m.output
-    y = savgol_filter(measured, window, order)
-    ydot = savgol_filter(measured, window, order, deriv=1, delta=dt)
-    if m.experiment == "isotonic":
-        P, F = m.inputs["pressure"], m.inputs["force"]
-        states = {"L": y, "Ldot": ydot, "P": P}
-        return F - actuator.tension(y, P, ydot, params), states
-    yddot = savgol_filter(measured, window, order, deriv=2, delta=dt)
-    # the pressures go through the same smoothing as the acceleration, so that a command step does not
-    # show up as a force the model lacks while the smoothed acceleration ramps up to it
-    pressures = _model_pressures(m, params)  # a loop over the samples when there is a lag: once
-    Pe, Pf = (savgol_filter(p, window, order) for p in pressures)
-    rates = [savgol_filter(p, window, order, deriv=1, delta=dt) for p in pressures]
-    states = {"X": y, "V": ydot, "Pe": Pe, "Pf": Pf, "A": yddot, "Pe_rate": rates[0], "Pf_rate": rates[1]}
-    return params.m * (yddot + params.g) - _knee_force(states, params), states
-
-
-def _knee_force(states: dict, params: Params, Pe=None, Pf=None):
-    geo = knee.geometry_at_X(states["X"], params)
-    Pe = states["Pe"] if Pe is None else Pe
-    Pf = states["Pf"] if Pf is None else Pf
-    return (knee.knee_force(geo, states["V"], Pe, Pf, params).F
-            + knee.end_stop_force(states["X"], states["V"], params))
-
-
-def _model_pressures(m: Measurement, params: Params):
-    """The actuator pressures the model sees: the measured ones, the commands, or the commands through the lag."""
-    if "pe" in m.inputs and "pf" in m.inputs:
-        return m.inputs["pe"], m.inputs["pf"]
-    pe, pf = m.inputs["pe_cmd"], m.inputs["pf_cmd"]
-    if params.tau <= 0:
-        return pe, pf
-    return _lagged(m.time, pe, params.tau), _lagged(m.time, pf, params.tau)
-
-
-def _lagged(time, command, tau):
-    """A command held from each sample to the next, through the lag tau dP/dt = P_cmd - P, P(0) = P_cmd(0)."""
-    out = np.empty(time.size)
-    out[0] = command[0]
-    dt = np.diff(time)
-    for k in range(1, time.size):
-        out[k] = actuator.lagged_pressure(out[k - 1], command[k - 1], tau, dt[k - 1])
-    return out
+# The equation error (the force the model lacks at the measured states) lives in
+# :mod:`mkctl.analysis.equation_error`, shared with the discovery; its names stay importable from here.
+_knee_force, _model_pressures, _lagged = knee_force_at, model_pressures, lagged
 
 
 #: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1), from the
@@ -1271,14 +1210,13 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
     if gaps:
         notes.append(gaps)
         say(gaps)
-    # a blocked-force record's points are not a time series: its noise is white by construction
-    noise = noise_model(m.output) if m.has_time and m.experiment != "isometric" else NoiseModel(output_noise(m.output))
     for note in input_notes:
         say(note)
     try:
         full_before = simulate_output(prepared, m.params)
     except MkctlError as error:
         raise MkctlError(f"{m.source}: the model cannot simulate this record: {error}") from None
+    noise = _output_noise_model(m, full_before)
     saturation = saturation_note(prepared, m.params, full_before)
     if saturation:
         notes.append(saturation["text"])
@@ -1292,6 +1230,20 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
     problems = sanity_problems(m, full_before, m.params, fit_offset)
     return _Record(m, prepared, start, lag, {"pressure_lag"} if lag_judged else set(), noise, full_before, notes,
                    common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info))
+
+
+def _output_noise_model(m: Measurement, baseline) -> NoiseModel:
+    """The output noise (:func:`noise_model`) of a time series; white for a blocked-force record (points, not a
+    time series). Where the signal changes too fast for the local cubic (pressure held on levels a few samples
+    long), the estimate is made again on the baseline's residual, from which the model took that signal out."""
+    if not m.has_time or m.experiment == "isometric":
+        return NoiseModel(output_noise(m.output))
+    noise = noise_model(m.output)
+    if noise.unresolved:
+        again = noise_model(m.output - baseline)
+        if not again.unresolved and again.sigma > noise.sigma:
+            return again
+    return noise
 
 
 def _not_diagnosed(record: _Record, say) -> DiagnosisResult:
@@ -1396,6 +1348,16 @@ def verdict_of(added: list, undecided: list, fit: Adequacy, noise_text: str) -> 
                           f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
 
 
+def _final_noise(record: _Record, final: _Final) -> NoiseModel:
+    """The noise the final model should leave: the record's estimate, or, where the signal changed too fast to
+    resolve it (:attr:`NoiseModel.unresolved`), the estimate on the final model's residual when that is resolved
+    and larger (the model took the signal out; a residual that still changes with the signal stays unresolved)."""
+    if not record.noise.unresolved:
+        return record.noise
+    again = noise_model(record.measurement.output - final.simulated)
+    return again if not again.unresolved and again.sigma > record.noise.sigma else record.noise
+
+
 def _result(record: _Record, state: "_Search", final: _Final, offset_before: float, rule: Rule,
             say) -> DiagnosisResult:
     """The report: the error after each step over every sample, the adequacy of the final model, the verdict."""
@@ -1407,10 +1369,11 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         step["rmse"] = value
     before = record.full_before + offset_before
     floor = record.input_floor(final.params, final.simulated - final.offset)
-    sigma = math.hypot(record.noise.sigma, floor)
-    fit = adequacy(m.output - final.simulated, sigma, record.noise.correlation, rule)
-    noise_text = f"estimated output noise {record.noise.sigma * to_file:.2g} {m.output_unit}" + (
-        f", correlated {record.noise.correlation:.2f} between samples" if record.noise.correlation else "") + (
+    noise = _final_noise(record, final)
+    sigma = math.hypot(noise.sigma, floor)
+    fit = adequacy(m.output - final.simulated, sigma, noise.correlation, rule)
+    noise_text = f"estimated output noise {noise.sigma * to_file:.2g} {m.output_unit}" + (
+        f", correlated {noise.correlation:.2f} between samples" if noise.correlation else "") + (
         f", and {floor * to_file:.2g} {m.output_unit} of the measured inputs' noise through the model" if floor else "")
     verdict, note = verdict_of(final.added, state.undecided, fit, noise_text)
     notes = list(record.notes)

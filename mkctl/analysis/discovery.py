@@ -3,7 +3,7 @@
 Model-spec section 6b. The force the model lacks (Eq. 17's equation error ``m (Xddot + g) - F - F_stop`` for
 the knee, smoothed alike on both sides by :func:`knee_equation_error`; ``F_load - f(L, P, Ldot)`` for the
 isotonic test and the measured minus the model's tension for the isometric one, as
-:func:`mkctl.analysis.diagnose.missing_force` gives them) is regressed on a library of physically
+:func:`mkctl.analysis.equation_error.missing_force` gives them) is regressed on a library of physically
 meaningful terms, each a term added to every actuator's tension, ``t(L, Ldot, P)``, with one coefficient:
 
 ==========================  ===========  ============================================================
@@ -264,7 +264,7 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delay
     V and the model's pressures as they are (commands held, or measured). Returns (error [N], {label: column}, edge)."""
     from scipy.signal import savgol_filter
 
-    from .diagnose import KNEE_SMOOTHING_S
+    from .equation_error import KNEE_SMOOTHING_S
 
     n = m.samples
     dt = float(np.mean(np.diff(m.time)))
@@ -312,10 +312,10 @@ def regressors(measurement: Measurement, params: Params, terms: list[Term] | Non
     """The missing force [N] and each term's contribution to it per unit coefficient.
 
     Knee: :func:`knee_equation_error`; isotonic and isometric:
-    :func:`mkctl.analysis.diagnose.missing_force`. Returns (missing force, {label: column}, samples used (a
+    :func:`mkctl.analysis.equation_error.missing_force`. Returns (missing force, {label: column}, samples used (a
     boolean mask: the smoothing's edges left out)).
     """
-    from .diagnose import ISOTONIC_SMOOTHING_SAMPLES, missing_force
+    from .equation_error import ISOTONIC_SMOOTHING_SAMPLES, missing_force
 
     m = measurement
     terms = library(params) if terms is None else terms
@@ -524,9 +524,9 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
 def registered_effects() -> set:
     """The effects the diagnosis already offers as candidates (a term of their form needs no effect file).
 
-    Today the candidates of :data:`mkctl.analysis.diagnose.CANDIDATES`; this should come from the effect
-    registry (``mkctl.physics.effects``) once it is merged.
+    The candidates of :data:`mkctl.analysis.diagnose.CANDIDATES`, read from the effect registry they are made
+    of (``mkctl.physics.effects``: every effect with a fitted parameter and the experiments it shows in).
     """
-    from .diagnose import CANDIDATES
+    from ..physics import effects
 
-    return set(CANDIDATES)
+    return {e.name for e in effects.all_effects() if e.fitted is not None and e.experiments}

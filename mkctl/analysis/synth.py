@@ -307,7 +307,7 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
                                     seed=seed, samples=ISOMETRIC_SAMPLES if samples is None else samples,
                                     baseline=baseline, declare_offset=declare_offset)
     noise = DEFAULT_NOISE_MM if noise is None else noise
-    _check_options(experiment, baseline, noise, input_noise, noise_tau, resolution, offset, pressures)
+    _check_choices(experiment, baseline, noise, input_noise, noise_tau, resolution, offset, pressures)
     spec = EXPERIMENTS[experiment]
     output_column = output or f"{spec.output.name}_{spec.output.unit}"
     out_quantity = _output_quantity(spec, output_column)
@@ -326,9 +326,10 @@ def synthesize(experiment: str, hidden=None, known: dict | None = None, baseline
                            resolution)
 
 
-def _check_options(experiment: str, baseline: str, noise: float, input_noise: float, noise_tau: float,
+def _check_choices(experiment: str, baseline: str, noise: float, input_noise: float, noise_tau: float,
                    resolution: float, offset: float, pressures: bool) -> None:
-    """One-line errors for options :func:`synthesize` cannot use."""
+    """One-line errors for choices :func:`synthesize` cannot make (the experiment, the baseline, signs; the
+    ranges are :func:`_check_ranges`')."""
     if experiment not in ("knee", "isotonic"):
         raise ParameterError(f"unknown experiment {experiment!r} for synth (known: knee, isotonic)")
     if baseline not in BASELINES:
