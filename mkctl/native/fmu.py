@@ -27,7 +27,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import datetime
-import functools
 import math
 import os
 import shutil
@@ -330,7 +329,9 @@ def _c_template(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\001", '\\001""') + '"'
 
 
-@functools.lru_cache(maxsize=1)
+_core_sources: dict[str, str] = {}
+
+
 def core_source() -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
     (:func:`mkctl.native.build.cache_dir`), keyed by everything it is generated from (the core's inputs and
@@ -341,10 +342,14 @@ def core_source() -> str:
     from .variants import all_variants
     digest = hashlib.sha256(build.input_key(all_variants()).encode())
     digest.update(Path(__file__).read_bytes())
-    path = build.cache_dir() / f"fmu-core-{digest.hexdigest()[:20]}.c"
+    key = digest.hexdigest()[:20]  # the registry's effects included: an effect registered since then counts
+    if key in _core_sources:
+        return _core_sources[key]
+    path = build.cache_dir() / f"fmu-core-{key}.c"
     if path.is_file():
-        return path.read_text()
-    text = generate_core_source()
+        _core_sources[key] = path.read_text()
+        return _core_sources[key]
+    text = _core_sources[key] = generate_core_source()
     try:
         build._write_atomic(path, text.encode())
     except OSError:  # a read-only cache only costs time
