@@ -448,6 +448,20 @@ BUILTIN = (
         regressor="the model's tension, where it is negative (a slack muscle carries nothing there)",
         signature_axis="tension the slack muscle would not carry [N]", separation=_separations("slack"),
         calibrate=True),
+    # --- model-spec section 4b: effects a real rig has ---
+    Effect(
+        "pressure_friction", "f += Fc_p * P * tanh(Ldot / vs): the friction level grows with the actuator's own "
+        "gauge pressure; quasi-static: a play operator of half-width Fc + Fc_p * P",
+        parameters=(Parameter("Fc_p", "N/Pa", off=0.0, lower=0.0, typical=5e-6, scale=1e-6, fit_range=(0.0, 1e-3),
+                              description="friction per unit gauge pressure of each actuator: "
+                                          "f += Fc_p P tanh(Ldot / vs)"),),
+        tension=lambda L, Ldot, P, p, xp: p.Fc_p * P * xp.tanh(Ldot / p.vs), quasi_static="play",
+        play=lambda P, p, xp: p.Fc_p * P, structural=False, fitted="Fc_p",
+        regressor="the friction force per N/Pa (the gauge pressure) at the measured direction of motion",
+        signature_axis="velocity [mm/s]",
+        separation={"coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
+                                        "constant friction keeps the branches 2 Fc apart at every pressure, "
+                                        "pressure friction opens them in proportion to the pressure"}),
 )
 
 #: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).

@@ -1,0 +1,106 @@
+"""The effects a real rig has (model-spec section 4b), each against a hand computation independent of the
+library's composition, the compiled core (1e-10 against Python) and ``synth --hidden``."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mkctl.physics import actuator, knee
+from mkctl.physics.isometric import isometric_tension
+from mkctl.physics.isotonic import simulate_isotonic, static_length
+from mkctl.physics.params import Params
+
+#: Model 2 at (0.18 m, 300 kPa), model-spec section 2's reference table [N].
+F2_REFERENCE = 75.248131
+
+
+def _core(params):
+    from mkctl.native import build, compiled
+    if build.find_compiler() is None:
+        pytest.skip("no C compiler here")
+    core = compiled.core_for(params)
+    assert core is not None
+    return core
+
+
+def _core_agrees(params, rng, lag_states=False):
+    """The compiled right-hand side, outputs and tension agree with Python at random states (1e-10)."""
+    from mkctl.physics.simulate import default_commands, knee_outputs
+    core = _core(params)
+    low, high = knee.stop_positions(params)
+    pe, pf = default_commands(params)
+    for _ in range(20):
+        X, V = rng.uniform(low, high), rng.normal(0, 0.2)
+        state = [X, V] + ([pe * rng.uniform(0.8, 1.2), pf * rng.uniform(0.5, 2)] if lag_states else [])
+        pe_cmd, pf_cmd = pe * rng.uniform(0.8, 1.2), pf * rng.uniform(0.5, 2)
+        np.testing.assert_allclose(core.knee_rhs(params, state, pe_cmd, pf_cmd),
+                                   knee.knee_derivatives(state, pe_cmd, pf_cmd, params), rtol=1e-10, atol=1e-9)
+        P = (state[2], state[3]) if lag_states else (pe_cmd, pf_cmd)
+        expected = knee_outputs(X, V, *P, params)
+        got = core.knee_outputs(params, state, pe_cmd, pf_cmd)
+        for i, name in enumerate(expected):
+            assert got[i] == pytest.approx(float(expected[name]), rel=1e-10, abs=1e-9), name
+        L, Ldot, P = rng.uniform(0.16, 0.22), rng.normal(0, 0.01), rng.uniform(0, 6e5)
+        assert core.actuator("tension", params, L, P, Ldot) == pytest.approx(
+            float(actuator.tension(L, P, Ldot, params)), rel=1e-10, abs=1e-9)
+
+
+def _synth_hides(item, parameter, value, effect):
+    from mkctl.analysis.synth import synthesize
+    record = synthesize("knee", hidden=[item], samples=200, seed=1)
+    assert getattr(record.truth, parameter) == pytest.approx(value)
+    assert effect in record.hidden_effects
+
+
+# --- pressure_friction: f += Fc_p P tanh(Ldot / vs) -------------------------------------------------------------
+
+def test_pressure_friction_by_hand():
+    p = Params(Fc=1.5, Fc_p=4e-6, vs=2e-3)
+    L, P, Ldot = 0.18, 300e3, 1.3e-3
+    by_hand = F2_REFERENCE + (1.5 + 4e-6 * 300e3) * math.tanh(Ldot / 2e-3)
+    assert float(actuator.tension(L, P, Ldot, p)) == pytest.approx(by_hand, abs=1e-6)
+    assert p.effects == ("elasticity", "coulomb_friction", "pressure_friction")
+    # a clamped muscle: the branches differ by 2 (Fc + Fc_p P)
+    up, down = isometric_tension(L, P, +1, p), isometric_tension(L, P, -1, p)
+    assert float(down - up) == pytest.approx(2 * (1.5 + 4e-6 * 300e3), rel=1e-12)
+    assert float(up) == pytest.approx(F2_REFERENCE - 2.7, abs=1e-6)
+    # at rest the knee's damping is the friction's slope: a1 = -(Fc + Fc_p P)/vs (G_e^2 + G_f^2) / m, per muscle
+    geo = knee.geometry_at_X(0.8, p)
+    Pe, Pf = 1.2e6, 1e5
+    d = knee.knee_force_partials(geo, 0.0, Pe, Pf, p)
+    slope_e, slope_f = (1.5 + 4e-6 * Pe) / 2e-3, (1.5 + 4e-6 * Pf) / 2e-3
+    assert float(d.dF_dV) == pytest.approx(-(slope_e * geo.G_e**2 + slope_f * geo.G_f**2), rel=1e-10)
+
+
+def test_pressure_friction_in_the_isotonic_test_is_a_play_band_that_widens_with_pressure():
+    p = Params(Fc_p=5e-6)
+    t = np.linspace(0, 10, 201)
+    P = np.concatenate([np.linspace(150e3, 600e3, 101), np.linspace(600e3, 150e3, 101)[1:]])
+    F = np.full(t.size, 50.0)
+    L = simulate_isotonic(t, P, F, p)
+    rising, falling = slice(5, 101), slice(110, 201)  # the muscle shortens while P rises, lengthens while it falls
+    np.testing.assert_allclose(L[rising], static_length(P[rising], F[rising] + 5e-6 * P[rising], p), rtol=1e-9)
+    np.testing.assert_allclose(L[falling], static_length(P[falling], F[falling] - 5e-6 * P[falling], p), rtol=1e-9)
+
+
+def test_pressure_friction_in_the_compiled_core():
+    _core_agrees(Params(Fc=0.8, Fc_p=3e-6, vs=5e-3, c=10.0), np.random.default_rng(11))
+    # the damped isotonic test in C: the band's half-width Fc + Fc_p P comes from the generated code
+    from mkctl.physics import backend
+    p = Params(Fc_p=5e-6, c=30.0)
+    t = np.linspace(0, 4, 401)
+    P = 375e3 + 225e3 * np.sin(2 * np.pi * t / 4)
+    fast = simulate_isotonic(t, P, np.full(t.size, 50.0), p)
+    previous = backend.install(None)
+    try:
+        slow = simulate_isotonic(t, P, np.full(t.size, 50.0), p)
+    finally:
+        backend.install(previous)
+    np.testing.assert_allclose(fast, slow, rtol=1e-10)
+
+
+def test_synth_hides_pressure_friction():
+    _synth_hides("Fc_p=5e-6", "Fc_p", 5e-6, "pressure_friction")
+    _synth_hides("pressure_friction", "Fc_p", 5e-6, "pressure_friction")
