@@ -422,7 +422,7 @@ def _tension_expressions(sp):
     L, Ldot, P, f = (sympy.Dummy(n, real=True) for n in ("L", "Ldot", "P", "f"))
     g = tension_before_limits(L, P, Ldot, sp)
     limit = apply_limits(f, sp)
-    return (L, Ldot, P, f), [g, sympy.diff(g, L), sympy.diff(g, Ldot), sympy.diff(g, P),
+    return (L, Ldot, P, f), [g, *(_heaviside_as_step(sympy.diff(g, x)) for x in (L, Ldot, P)),
                              _heaviside_as_step(sympy.diff(limit, f))]
 
 
@@ -465,7 +465,7 @@ def _pressure_expressions(sp):
     import sympy
     P, P_cmd = sympy.Dummy("P", real=True), sympy.Dummy("P_cmd", real=True)
     rate = sympy.sympify(pressure_derivative(P, P_cmd, sp))
-    return (P, P_cmd), [rate, sympy.diff(rate, P), sympy.diff(rate, P_cmd)]
+    return (P, P_cmd), [rate, _heaviside_as_step(sympy.diff(rate, P)), _heaviside_as_step(sympy.diff(rate, P_cmd))]
 
 
 def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
@@ -506,7 +506,7 @@ def static_tension_dL(L, P, params: Params = DEFAULT):
     if is_symbolic(L) or is_symbolic(P):
         import sympy
         x = sympy.Symbol("L_", real=True)
-        return sympy.diff(tension_before_limits(x, P, 0.0, params, quasi_static=True), x).subs(x, L)
+        return _heaviside_as_step(sympy.diff(tension_before_limits(x, P, 0.0, params, quasi_static=True), x)).subs(x, L)
     function, names = _derivative_function("static", params, _static_expressions)
     return function(L, P, *[getattr(params, n) for n in names])[1]
 
@@ -515,7 +515,7 @@ def _static_expressions(sp):
     import sympy
     L, P = sympy.Dummy("L", real=True), sympy.Dummy("P", real=True)
     f = tension_before_limits(L, P, 0.0, sp, quasi_static=True)
-    return (L, P), [f, sympy.diff(f, L)]
+    return (L, P), [f, _heaviside_as_step(sympy.diff(f, L))]
 
 
 def static_tension_dP(L, params: Params = DEFAULT):
