@@ -104,3 +104,42 @@ def test_pressure_friction_in_the_compiled_core():
 def test_synth_hides_pressure_friction():
     _synth_hides("Fc_p=5e-6", "Fc_p", 5e-6, "pressure_friction")
     _synth_hides("pressure_friction", "Fc_p", 5e-6, "pressure_friction")
+
+
+# --- pressure_threshold: P_eff = P - P0 (1 - exp(-P / P0)) in Eq. 7 ---------------------------------------------
+
+def test_pressure_threshold_by_hand():
+    from mkctl.physics.params import DEFAULT
+    p = Params(P0=1e5)
+    L, P = 0.18, 300e3
+    P_eff = P - 1e5 * (1 - math.exp(-3.0))
+    # model 2 is affine in P at a fixed length: the threshold is model 2 at P_eff, the rubber unchanged
+    assert float(actuator.tension(L, P, 0.0, p)) == pytest.approx(float(actuator.tension_model2(L, P_eff)), rel=1e-13)
+    n = math.sqrt(0.241**2 - 0.208**2) / (math.pi * 0.013)
+    gain = (3 * L * L - 0.241**2) / (4 * math.pi * n * n)
+    assert float(actuator.tension(L, P, 0.0, p)) == pytest.approx(F2_REFERENCE - (P - P_eff) * gain, abs=1e-6)
+    # no pressure, a negative one, or P0 = 0: the paper's model
+    for pressure in (0.0, -2e4):
+        assert float(actuator.tension(L, pressure, 0.0, p)) == float(actuator.tension(L, pressure, 0.0, DEFAULT))
+    # the asymptotes of spec 4b: P^2 / (2 P0) at low pressure, P - P0 at high pressure
+    low = float(actuator.tension_model1(L, 1e3, p.replace(model=1))) / 1e3  # the gain
+    assert float(actuator.tension(L, 1e3, 0.0, p.replace(model=1))) / low == pytest.approx(1e3**2 / 2e5, rel=1e-2)
+    assert float(actuator.tension(L, 4e6, 0.0, p.replace(model=1))) / low == pytest.approx(4e6 - 1e5, rel=1e-9)
+    # the slope in P is (1 - exp(-P/P0)) times the paper's, in the knee's partials
+    geo = knee.geometry_at_X(0.8, p)
+    d = knee.knee_force_partials(geo, 0.0, 1.2e6, 1e5, p)
+    d0 = knee.knee_force_partials(geo, 0.0, 1.2e6, 1e5, DEFAULT)
+    assert float(d.dF_dPe) == pytest.approx(float(d0.dF_dPe) * (1 - math.exp(-12.0)), rel=1e-12)
+    assert float(d.dF_dPf) == pytest.approx(float(d0.dF_dPf) * (1 - math.exp(-1.0)), rel=1e-12)
+    assert float(isometric_tension(L, P, 1, p)) == pytest.approx(float(actuator.tension_model2(L, P_eff)), rel=1e-13)
+    with pytest.raises(Exception, match="P0 must be at most 400000"):
+        Params(P0=5e5)
+
+
+def test_pressure_threshold_in_the_compiled_core():
+    _core_agrees(Params(P0=8e4, Fc=0.5), np.random.default_rng(12))
+    _core_agrees(Params(P0=8e4, tau=0.04, slack=1), np.random.default_rng(13), lag_states=True)
+
+
+def test_synth_hides_pressure_threshold():
+    _synth_hides("P0=5e4", "P0", 5e4, "pressure_threshold")

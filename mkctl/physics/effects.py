@@ -357,6 +357,14 @@ def _lag_step(P, P_cmd, dt, p, xp):
     return P_cmd + (P - P_cmd) * xp.exp(-dt / p.tau)
 
 
+def _threshold_term(L, Ldot, P, p, xp):
+    """The pressure threshold: Eq. 7's pressure term with ``P_eff = P - P0 (1 - exp(-P / P0))`` for P > 0 instead
+    of P, written as the term it adds, ``-P0 (1 - exp(-max(P, 0) / P0)) (3 L^2 - b^2) / (4 pi n^2)`` [N]
+    (``max(P, 0)``: P_eff = P for P <= 0, and no overflow there)."""
+    from .actuator import pressure_gain
+    return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * pressure_gain(L, p.b, p.n)
+
+
 def _slack_limit(f, p, xp):
     """``max(f, 0)``: a braided muscle cannot push."""
     if type(f) is float:
@@ -462,6 +470,18 @@ BUILTIN = (
         separation={"coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
                                         "constant friction keeps the branches 2 Fc apart at every pressure, "
                                         "pressure friction opens them in proportion to the pressure"}),
+    Effect(
+        "pressure_threshold", "the pressure term of Eq. 7 uses P_eff = P - P0 (1 - exp(-P / P0)) for P > 0 (P_eff = P "
+        "for P <= 0); the rubber term is unchanged",
+        parameters=(Parameter("P0", "Pa", off=0.0, lower=0.0, upper=4e5, typical=5e4, scale=1e4,
+                              description="threshold pressure the braid takes up gradually: "
+                                          "P_eff = P - P0 (1 - exp(-P / P0))"),),
+        tension=_threshold_term, fitted="P0",
+        regressor="the tension a threshold of 1 Pa takes away at the measured pressure and length",
+        signature_axis="gauge pressure [kPa]",
+        separation={"elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
+                                  "the force-pressure curve at low pressure at every length, elasticity shifts it "
+                                  "by a length-dependent constant"}),
 )
 
 #: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).
