@@ -54,6 +54,7 @@ class _ScalarMath:
                                                                  math.atan2, math.asin, math.acos, math.hypot,
                                                                  math.exp)
     maximum = staticmethod(max)
+    where = staticmethod(lambda condition, a, b: a if condition else b)
     pi = math.pi
 
 
@@ -481,15 +482,17 @@ def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
 
 
 def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
-    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: the effect's exact solution
-    when one pressure effect is on and has one (the lag: ``P_cmd + (P - P_cmd) exp(-dt/tau)``), else the
-    pressure dynamics integrated; the command itself when no effect has pressure dynamics."""
+    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: an effect's exact solution
+    when it covers every pressure effect on (its own and those it requires: the lag,
+    ``P_cmd + (P - P_cmd) exp(-dt/tau)``; the asymmetric lag), else the pressure dynamics integrated; the command
+    itself when no effect has pressure dynamics."""
     P, P_cmd = as_values(P), as_values(P_cmd)
     dynamic = [e for e in active_effects(params) if e.pressure_rate is not None]
     if not dynamic:
         return P_cmd + 0.0 * P
-    if len(dynamic) == 1 and dynamic[0].pressure_step is not None:
-        return dynamic[0].pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
+    for effect in reversed(dynamic):
+        if effect.pressure_step is not None and all(e is effect or e.name in effect.requires for e in dynamic):
+            return effect.pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
     from .integrate import integrate
     if not dt > 0:
         return P

@@ -115,6 +115,7 @@ class Effect:
     play: Callable | None = None  #: half-width of the play band (P, p, xp) [N]
     viscous: Callable | None = None  #: damping coefficient (p) [N s/m]
     structural: bool = True  #: on and off are different equations (one compiled variant each)
+    requires: tuple[str, ...] = ()  #: effects that must be on when this one is (asymmetric_lag: pressure_lag)
     fitted: str | None = None  #: the one parameter the diagnosis fits (None: not a diagnosis candidate)
     experiments: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     reference: float | None = 1.0  #: the fitted value its unit signature is taken at (None: the model's own)
@@ -214,6 +215,9 @@ def _check_effect(effect: Effect) -> None:
         raise EffectError(f"effect {effect.name!r}: a {effect.quasi_static!r} limit needs its function")
     if effect.tension is None and effect.pressure_rate is None and effect.final is None:
         raise EffectError(f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate or final)")
+    unknown = [name for name in effect.requires if name not in _REGISTRY]
+    if unknown:
+        raise EffectError(f"effect {effect.name!r}: it requires {unknown[0]!r}, which is not registered")
     if effect.fitted is not None and effect.fitted not in seen and effect.fitted not in effect.uses:
         raise EffectError(f"effect {effect.name!r}: fitted parameter {effect.fitted!r} is not one of its parameters")
     for experiment, (low, high) in effect.experiments.items():
