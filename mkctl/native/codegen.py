@@ -39,6 +39,7 @@ import math
 from typing import NamedTuple
 
 import sympy
+from sympy.functions.elementary.piecewise import ExprCondPair
 from sympy.printing.c import C99CodePrinter
 
 from ..physics import actuator, integrate, isotonic, knee, simulate
@@ -145,6 +146,9 @@ def _split_constants(exprs, constant: set, prefix: str):
     def visit(expr):
         if expr.is_Atom:
             return expr
+        if isinstance(expr, ExprCondPair):  # a Piecewise's (value, condition): the condition stays a condition
+            cond = expr.cond
+            return ExprCondPair(visit(expr.expr), cond.func(*[visit(a) for a in cond.args]) if cond.args else cond)
         if is_constant(expr):
             return name_of(expr)
         if isinstance(expr, (sympy.Add, sympy.Mul)):
