@@ -143,3 +143,67 @@ def test_pressure_threshold_in_the_compiled_core():
 
 def test_synth_hides_pressure_threshold():
     _synth_hides("P0=5e4", "P0", 5e4, "pressure_threshold")
+
+
+# --- asymmetric_lag: tau fills, tau_exhaust exhausts -------------------------------------------------------------
+
+def test_asymmetric_lag_by_hand():
+    from mkctl.errors import ParameterError
+    from mkctl.physics.simulate import ActuatorSimulator
+    p = Params(tau=0.05, tau_exhaust=0.15)
+    # the rates: (P_cmd - P) / tau filling, / tau_exhaust exhausting
+    assert float(actuator.pressure_derivative(1e5, 3e5, p)) == pytest.approx(2e5 / 0.05, rel=1e-13)
+    assert float(actuator.pressure_derivative(3e5, 1e5, p)) == pytest.approx(-2e5 / 0.15, rel=1e-13)
+    # the actuator's exact step, against the closed form of each branch
+    sim = ActuatorSimulator(p, 1e5)
+    assert sim.step(0.02, 3e5) == pytest.approx(3e5 - 2e5 * math.exp(-0.02 / 0.05), rel=1e-14)
+    start = sim.pressure
+    assert sim.step(0.07, 0.0) == pytest.approx(start * math.exp(-0.07 / 0.15), rel=1e-14)
+    # the knee: a command step down then up, integrated by the library, against solve_ivp of the pressure alone
+    from scipy.integrate import solve_ivp
+    from mkctl.physics.simulate import simulate_knee, default_commands
+    pe, pf = default_commands(p)
+    t = np.linspace(0, 0.6, 601)
+    pe_cmd = np.where(t < 0.3, pe * 0.95, pe)
+
+    def rate(time, y):
+        command = pe * 0.95 if time < 0.3 else pe
+        return [(command - y[0]) / (0.15 if command < y[0] else 0.05)]
+    expected = np.concatenate([solve_ivp(rate, (0, 0.3), [pe * 0.95], t_eval=t[t <= 0.3], rtol=1e-11,
+                                         atol=1e-6).y[0],
+                               solve_ivp(rate, (0.3, 0.6), [pe * 0.95], t_eval=t[t > 0.3], rtol=1e-11,
+                                         atol=1e-6).y[0]])
+    run = simulate_knee(t, pe_cmd, pf, p)
+    np.testing.assert_allclose(run["Pe"], expected, rtol=1e-7)
+    down = simulate_knee(t, np.where(t < 0.3, pe, pe * 0.95), pf, p)
+    after = t > 0.3
+    expected_down = pe * 0.95 + pe * 0.05 * np.exp(-(t[after] - 0.3) / 0.15)
+    np.testing.assert_allclose(down["Pe"][after], expected_down, rtol=1e-7)
+    # it needs the lag
+    with pytest.raises(ParameterError, match="needs the effect pressure_lag"):
+        Params(tau_exhaust=0.1)
+    assert p.effects == ("elasticity", "pressure_lag", "asymmetric_lag")
+
+
+def test_asymmetric_lag_linearizes_on_the_filling_branch_at_rest():
+    p = Params(tau=0.05, tau_exhaust=0.15)
+    X = float(knee.X_from_alpha(1.0, p))
+    from mkctl.physics import stability
+    Pe = float(stability.equilibrium_pressure(1.0, 1e5, p))
+    A, B = knee.linearization(X, Pe, 1e5, Pe, 1e5, p)
+    assert A[2, 2] == pytest.approx(-1 / 0.05) and B[2, 0] == pytest.approx(1 / 0.05)
+
+
+def test_asymmetric_lag_in_the_compiled_core():
+    _core_agrees(Params(tau=0.04, tau_exhaust=0.11), np.random.default_rng(14), lag_states=True)
+    core = _core(Params(tau=0.04, tau_exhaust=0.11))
+    p = Params(tau=0.04, tau_exhaust=0.11)
+    for P, command in ((1e5, 3e5), (3e5, 1e5)):
+        assert core.actuator("lagged_pressure", p, P, command, 0.03) == pytest.approx(
+            float(actuator.pressure_after(P, command, 0.03, p)), rel=1e-13)
+
+
+def test_synth_hides_asymmetric_lag():
+    from mkctl.analysis.synth import synthesize
+    record = synthesize("knee", hidden=["tau=0.05", "tau_exhaust=0.12"], samples=200, seed=1)
+    assert record.truth.tau_exhaust == 0.12 and "asymmetric_lag" in record.hidden_effects

@@ -369,6 +369,18 @@ def _threshold_term(L, Ldot, P, p, xp):
     return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * pressure_gain(L, p.b, p.n)
 
 
+def _exhaust_rate(P, P_cmd, p, xp):
+    """What exhausting (P_cmd < P) adds to the lag's rate so that ``tau_exhaust dP/dt = P_cmd - P`` there:
+    ``-max(P - P_cmd, 0) (1/tau_exhaust - 1/tau)`` [Pa/s]."""
+    return -xp.maximum(P - P_cmd, 0.0) * (1 / p.tau_exhaust - 1 / p.tau)
+
+
+def _asymmetric_step(P, P_cmd, dt, p, xp):
+    """Exact lag over dt with P_cmd held: the pressure moves monotonically towards P_cmd, so one branch holds:
+    ``P_cmd + (P - P_cmd) exp(-dt / tau_b)``, tau_b = tau_exhaust while P_cmd < P, else tau."""
+    return P_cmd + (P - P_cmd) * xp.exp(-dt / xp.where(P_cmd < P, p.tau_exhaust, p.tau))
+
+
 def _slack_limit(f, p, xp):
     """``max(f, 0)``: a braided muscle cannot push."""
     if type(f) is float:
@@ -486,6 +498,18 @@ BUILTIN = (
         separation={"elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
                                   "the force-pressure curve at low pressure at every length, elasticity shifts it "
                                   "by a length-dependent constant"}),
+    Effect(
+        "asymmetric_lag", "needs pressure_lag: tau dP/dt = P_cmd - P while filling (P_cmd >= P), "
+        "tau_exhaust dP/dt = P_cmd - P while exhausting (P_cmd < P)",
+        parameters=(Parameter("tau_exhaust", "s", off=0.0, lower=0.0, typical=0.12, scale=0.01,
+                              description="exhausting time constant of the pressure lag (0: the same as tau)"),),
+        pressure_rate=_exhaust_rate, pressure_step=_asymmetric_step, requires=("pressure_lag",),
+        fitted="tau_exhaust",
+        regressor="the force an exhausting lag of 1 s takes away where the command falls below the pressure",
+        signature_axis="extensor pressure rate while exhausting (smoothed) [kPa/s]",
+        separation={"pressure_lag": "pressure steps up and down of the same size (best with measured bladder "
+                                    "pressures): a symmetric lag follows both at the same rate, an asymmetric "
+                                    "one fills and exhausts at different rates"}),
 )
 
 #: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).
