@@ -140,6 +140,16 @@ def active_effects(params) -> tuple:
     return active
 
 
+def command_delay(params):
+    """How late each actuator sees its pressure command [s]: the sum of the command delays of the effects params
+    switch on (a dead time), 0.0 without any."""
+    delay = 0.0
+    for effect in active_effects(params):
+        if effect.command_delay is not None:
+            delay = delay + effect.command_delay(params)
+    return delay
+
+
 def has_pressure_states(params) -> bool:
     """Whether params switch on an effect with pressure dynamics: the actuator pressures are then states."""
     return any(e.pressure_rate is not None for e in active_effects(params))

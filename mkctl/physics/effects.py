@@ -111,6 +111,7 @@ class Effect:
     pressure_rate: Callable | None = None  #: term(P, P_cmd, p, xp) [Pa/s], added to each pressure's rate
     pressure_step: Callable | None = None  #: exact P after dt with P_cmd held, (P, P_cmd, dt, p, xp)
     final: Callable | None = None  #: limit(f, p, xp) applied last to the whole tension
+    command_delay: Callable | None = None  #: delay(p) [s] of the pressure commands (a transport dead time)
     quasi_static: str | None = None  #: "static", "play", "viscous" or None
     play: Callable | None = None  #: half-width of the play band (P, p, xp) [N]
     viscous: Callable | None = None  #: damping coefficient (p) [N s/m]
@@ -213,8 +214,10 @@ def _check_effect(effect: Effect) -> None:
     if effect.quasi_static == "play" and effect.play is None or effect.quasi_static == "viscous" and \
             effect.viscous is None:
         raise EffectError(f"effect {effect.name!r}: a {effect.quasi_static!r} limit needs its function")
-    if effect.tension is None and effect.pressure_rate is None and effect.final is None:
-        raise EffectError(f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate or final)")
+    if effect.tension is None and effect.pressure_rate is None and effect.final is None and \
+            effect.command_delay is None:
+        raise EffectError(f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate, final or "
+                          "command_delay)")
     unknown = [name for name in effect.requires if name not in _REGISTRY]
     if unknown:
         raise EffectError(f"effect {effect.name!r}: it requires {unknown[0]!r}, which is not registered")
@@ -253,6 +256,8 @@ def _check_term(effect: Effect) -> None:
                     effect.pressure_rate(P, P * 1.1, sp, xp)
                 if effect.final is not None:
                     effect.final(f, sp, xp)
+                if effect.command_delay is not None:
+                    effect.command_delay(sp)
         except Exception as error:  # any failure of user code: say which effect and why, in one line
             raise EffectError(f"effect {effect.name!r}: its terms cannot be evaluated {label} "
                               f"({type(error).__name__}: {error})") from None
