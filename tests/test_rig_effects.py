@@ -207,3 +207,118 @@ def test_synth_hides_asymmetric_lag():
     from mkctl.analysis.synth import synthesize
     record = synthesize("knee", hidden=["tau=0.05", "tau_exhaust=0.12"], samples=200, seed=1)
     assert record.truth.tau_exhaust == 0.12 and "asymmetric_lag" in record.hidden_effects
+
+
+# --- dead_time: P_cmd(t - delay) ---------------------------------------------------------------------------------
+
+def _step_record(p, delay_samples=0, dt=1e-3, n=801):
+    from mkctl.physics.simulate import default_commands
+    pe, pf = default_commands(p)
+    t = np.arange(n) * dt
+    pe_cmd = np.where(np.arange(n) < 100 + delay_samples, pe, pe * 1.04)
+    pf_cmd = np.where(np.arange(n) < 300 + delay_samples, pf, pf * 1.3)
+    return t, pe_cmd, pf_cmd
+
+
+def test_dead_time_is_the_record_shifted_by_the_delay():
+    from mkctl.physics.simulate import simulate_knee
+    p = Params(delay=0.03, tau=0.02)
+    t, pe_cmd, pf_cmd = _step_record(p)
+    delayed = simulate_knee(t, pe_cmd, pf_cmd, p)
+    # by hand: the same commands given 30 samples (= 0.03 s) later, to the model without a dead time
+    _, pe_late, pf_late = _step_record(p, delay_samples=30)
+    shifted = simulate_knee(t, pe_late, pf_late, p.replace(delay=0.0))
+    for name in ("X", "V", "Pe", "Pf", "F"):
+        span = np.ptp(shifted[name]) + np.abs(shifted[name]).max()
+        np.testing.assert_allclose(delayed[name], shifted[name], rtol=0, atol=1e-10 * span, err_msg=name)
+    assert np.ptp(delayed["X"]) > 1e-3
+    # a delay between samples: the command arrives between them, the step is cut there; knee_states agrees
+    from mkctl.physics.simulate import knee_states
+    p2 = p.replace(delay=0.0315)
+    run = simulate_knee(t, pe_cmd, pf_cmd, p2)
+    X, V = knee_states(t, pe_cmd, pf_cmd, p2, at=[0, 200, 500, 800])
+    np.testing.assert_allclose(X, run["X"][[0, 200, 500, 800]], rtol=1e-12)
+    assert run["Pe"][130] == pytest.approx(run["Pe"][0], rel=1e-12)  # before 0.1315 s nothing has arrived
+    assert run["Pe"][132] > run["Pe"][0]
+
+
+def test_dead_time_in_the_step_by_step_simulator_matches_the_record():
+    from mkctl.physics.simulate import ActuatorSimulator, KneeSimulator, simulate_knee
+    p = Params(delay=0.03)
+    t, pe_cmd, pf_cmd = _step_record(p, n=401)
+    run = simulate_knee(t, pe_cmd, pf_cmd, p)
+    sim = KneeSimulator(p, run["X"][0], pe_cmd[0], pf_cmd[0])
+    X = [sim.state[0]]
+    for k in range(t.size - 1):
+        sim.step(t[k + 1] - t[k], pe_cmd[k], pf_cmd[k])
+        X.append(sim.state[0])
+    np.testing.assert_allclose(X, run["X"], rtol=0, atol=1e-8)
+    # a saved state carries the commands still on their way
+    snapshot = sim.get_state()
+    sim.step(0.01, pe_cmd[0], pf_cmd[0])
+    after = sim.state.copy()
+    sim.set_state(snapshot)
+    sim.step(0.01, pe_cmd[0], pf_cmd[0])
+    np.testing.assert_array_equal(sim.state, after)
+    # the actuator: the command seen 0.03 s late, then the exact lag
+    act = ActuatorSimulator(Params(delay=0.03, tau=0.05), 1e5)
+    act.step(0.02, 3e5)
+    assert act.pressure == pytest.approx(1e5)
+    act.step(0.02, 3e5)  # 0.01 s of the new command seen
+    assert act.pressure == pytest.approx(3e5 - 2e5 * math.exp(-0.01 / 0.05), rel=1e-13)
+
+
+def test_dead_time_linearizes_by_a_first_order_pade_approximation():
+    p = Params(delay=0.03)
+    from mkctl.physics import stability
+    X = float(knee.X_from_alpha(1.0, p))
+    Pe = float(stability.equilibrium_pressure(1.0, 1e5, p))
+    A, B = knee.linearization(X, Pe, 1e5, Pe, 1e5, p)
+    A0, B0 = knee.linearization(X, Pe, 1e5, Pe, 1e5, p.replace(delay=0.0))
+    assert knee.linearization_state_names(p) == ("X", "V", "pe_pade", "pf_pade")
+    # the transfer functions: the delayed system is the undelayed one times (1 - s d/2) / (1 + s d/2)
+    for w in (0.1, 3.0, 20.0):
+        s = 1j * w
+        G = np.linalg.solve(s * np.eye(4) - A, B)[:2]
+        G0 = np.linalg.solve(s * np.eye(2) - A0, B0)
+        np.testing.assert_allclose(G, G0 * (1 - s * 0.015) / (1 + s * 0.015), rtol=1e-10)
+    assert np.sort(np.linalg.eigvals(A).real)[0] <= -2 / 0.03 * 0.999
+
+
+def test_dead_time_in_the_compiled_core():
+    from mkctl.physics import backend
+    from mkctl.physics.simulate import simulate_knee
+    p = Params(delay=0.0315, tau=0.02, Fc=0.5)
+    _core(p)
+    t, pe_cmd, pf_cmd = _step_record(p)
+    fast = simulate_knee(t, pe_cmd, pf_cmd, p)
+    previous = backend.install(None)
+    try:
+        slow = simulate_knee(t, pe_cmd, pf_cmd, p)
+    finally:
+        backend.install(previous)
+    for name in ("X", "V", "Pe", "F", "a1"):
+        span = np.ptp(slow[name]) + np.abs(slow[name]).max()
+        np.testing.assert_allclose(fast[name], slow[name], rtol=0, atol=1e-10 * span, err_msg=name)
+    _core_agrees(p, np.random.default_rng(15), lag_states=True)
+
+
+def test_the_native_fmu_refuses_a_dead_time_with_a_message(tmp_path):
+    _core(Params())
+    from fmpy import simulate_fmu
+    from mkctl.native.fmu import build_one
+    fmu = build_one("McKibbenActuator", tmp_path / "actuator.fmu")
+    messages = []
+
+    def logger(component, instance, status, category, message):
+        messages.append(message.decode() if isinstance(message, bytes) else str(message))
+    with pytest.raises(Exception, match="fmi2ExitInitializationMode"):  # refused at initialization: fmi2Error
+        simulate_fmu(str(fmu), stop_time=0.1, start_values={"delay": 0.03}, logger=logger)
+    assert any("dead time (command delay 0.03 s) is not simulated by the native FMU" in m for m in messages), messages
+    result = simulate_fmu(str(fmu), stop_time=0.1, start_values={"delay": 0.0})
+    assert len(result) > 1
+
+
+def test_synth_hides_a_dead_time():
+    _synth_hides("delay=0.03", "delay", 0.03, "dead_time")
+    _synth_hides("dead_time", "delay", 0.03, "dead_time")

@@ -515,6 +515,18 @@ BUILTIN = (
         separation={"pressure_lag": "pressure steps up and down of the same size (best with measured bladder "
                                     "pressures): a symmetric lag follows both at the same rate, an asymmetric "
                                     "one fills and exhausts at different rates"}),
+    Effect(
+        "dead_time", "each actuator sees its command delay late: P_cmd(t - delay), the first command held for "
+        "t < t0 + delay; it acts before the lag (valve and line transport); linearized by a first-order Pade "
+        "approximation",
+        parameters=(Parameter("delay", "s", off=0.0, lower=0.0, typical=0.03, scale=0.01,
+                              description="transport dead time of the pressure commands: P_cmd(t - delay)"),),
+        command_delay=lambda p: p.delay, structural=False, fitted="delay",
+        regressor="the force the command's change over 1 s of delay takes away (first order: -delay dP_cmd/dt)",
+        signature_axis="extensor command rate (smoothed) [kPa/s]",
+        separation={"pressure_lag": "a step of the command with the bladder pressure measured: a dead time "
+                                    "leaves it flat for the delay and then moves at once, a lag starts at once "
+                                    "and approaches exponentially"}),
 )
 
 #: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).
