@@ -340,10 +340,15 @@ def separating_experiment(a: str, b: str) -> str:
 
 # --- the built-in effects (model-spec section 4) --------------------------------------------------------------
 
+#: The physics modules the built-in terms call (filled by :mod:`mkctl.physics.actuator` when it is imported: it
+#: imports this module, so this one cannot import it at the top, and an import inside a term costs in the
+#: integrator's inner loop).
+PHYSICS: dict = {}
+
+
 def _elastic_term(L, Ldot, P, p, xp):
     """Model 2's rubber share ``V_r dW/dL`` [N] (Eq. 13)."""
-    from .actuator import strain_energy_gradient
-    return p.V_r * strain_energy_gradient(L, p)
+    return p.V_r * PHYSICS["actuator"].strain_energy_gradient(L, p)
 
 
 def _viscous_term(L, Ldot, P, p, xp):
@@ -370,8 +375,7 @@ def _threshold_term(L, Ldot, P, p, xp):
     """The pressure threshold: Eq. 7's pressure term with ``P_eff = P - P0 (1 - exp(-P / P0))`` for P > 0 instead
     of P, written as the term it adds, ``-P0 (1 - exp(-max(P, 0) / P0)) (3 L^2 - b^2) / (4 pi n^2)`` [N]
     (``max(P, 0)``: P_eff = P for P <= 0, and no overflow there)."""
-    from .actuator import pressure_gain
-    return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * pressure_gain(L, p.b, p.n)
+    return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * PHYSICS["actuator"].pressure_gain(L, p.b, p.n)
 
 
 def _exhaust_rate(P, P_cmd, p, xp):
