@@ -213,7 +213,7 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: f
 # --- Linearizations ------------------------------------------------------------------------------
 
 def _named_ss(A, B, params: Params, name: str) -> ct.StateSpace:
-    names = list(knee.state_names(params))
+    names = list(knee.linearization_state_names(params))[:A.shape[0]]  # a dead time's Pade states, if any
     n = len(names)
     return ct.ss(A, B, np.eye(n), np.zeros((n, 2)), states=names, inputs=list(INPUT_NAMES), outputs=names,
                  name=name)

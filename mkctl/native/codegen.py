@@ -39,6 +39,7 @@ import math
 from typing import NamedTuple
 
 import sympy
+from sympy.functions.elementary.piecewise import ExprCondPair
 from sympy.printing.c import C99CodePrinter
 
 from ..physics import actuator, integrate, isotonic, knee, simulate
@@ -145,6 +146,9 @@ def _split_constants(exprs, constant: set, prefix: str):
     def visit(expr):
         if expr.is_Atom:
             return expr
+        if isinstance(expr, ExprCondPair):  # a Piecewise's (value, condition): the condition stays a condition
+            cond = expr.cond
+            return ExprCondPair(visit(expr.expr), cond.func(*[visit(a) for a in cond.args]) if cond.args else cond)
         if is_constant(expr):
             return name_of(expr)
         if isinstance(expr, (sympy.Add, sympy.Mul)):
@@ -303,7 +307,14 @@ def common_functions(checks: CheckTable) -> str:
         return [knee.X_from_alpha(sympy.Float(knee.ALPHA_STOP_LOW), params),
                 knee.X_from_alpha(sympy.Float(knee.ALPHA_STOP_HIGH), params)]
 
-    parts = [emit_function("step_checks", "double pe_cmd, double pf_cmd, mk_fault *fault", "pe_cmd, pf_cmd, fault",
+    every = actuator.SymbolicParams()  # every effect on: the delay of whichever are on at run time (0 when off)
+    parts = [emit_function("command_delay", "double *out, mk_fault *fault", "out, fault", parameters,
+                           set(parameters), trace(lambda params: [actuator.command_delay(params)], every), "out",
+                           checks),
+             "/* how late the actuators see their commands [s] (actuator.command_delay: a dead time) */",
+             "int mk_command_delay(const double *p, double *out, mk_fault *fault)",
+             "{", "    return command_delay_once(p, NULL, out, fault);", "}", "",
+             emit_function("step_checks", "double pe_cmd, double pf_cmd, mk_fault *fault", "pe_cmd, pf_cmd, fault",
                            {**parameters, "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd"}, set(parameters),
                            trace(step_checks, pe_cmd, pf_cmd), "out", checks),
              emit_function("stop_positions", "double *out, mk_fault *fault", "out, fault", parameters,

@@ -67,8 +67,11 @@ class Variant(NamedTuple):
 def all_variants() -> tuple[Variant, ...]:
     """Every structure a Params can have with the effects registered now."""
     names = [e.name for e in structural_effects()]
-    return tuple(Variant(tuple(n for n, on in zip(names, bits) if on))
-                 for bits in itertools.product((False, True), repeat=len(names)))
+    combinations = (tuple(n for n, on in zip(names, bits) if on)
+                    for bits in itertools.product((False, True), repeat=len(names)))
+    # an effect that requires another (asymmetric_lag: pressure_lag) is never on without it (Params refuses it)
+    return tuple(Variant(on) for on in combinations
+                 if all(r in on for name in on for r in effects.get(name).requires if effects.get(r).structural))
 
 
 def __getattr__(name):

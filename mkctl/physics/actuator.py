@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 import sys
 from contextlib import contextmanager
+from typing import NamedTuple
 
 import numpy as np
 
@@ -54,6 +55,7 @@ class _ScalarMath:
                                                                  math.atan2, math.asin, math.acos, math.hypot,
                                                                  math.exp)
     maximum = staticmethod(max)
+    where = staticmethod(lambda condition, a, b: a if condition else b)
     pi = math.pi
 
 
@@ -84,7 +86,10 @@ def math_for(x):
 
 def math_for_all(*values):
     """The one namespace for several values: sympy if any is symbolic, numpy if any is an array, else floats."""
-    if all(type(x) is float for x in values):
+    for x in values:
+        if type(x) is not float:
+            break
+    else:
         return _ScalarMath
     if any(is_symbolic(x) for x in values):
         return _symbolic_math()
@@ -125,23 +130,51 @@ class SymbolicParams:
         return rubber_volume(self.t0, self.D0, self.L0)
 
 
-def active_effects(params) -> tuple:
-    """The registered effects params switch on, in the registry's order (remembered on params)."""
+class Structure(NamedTuple):
+    """What the equations need to know of the effects a parameter set switches on (remembered on the set)."""
+
+    active: tuple  #: the effects switched on, in the registry's order
+    tension: tuple  #: (effect, term) of those with a tension term
+    final: tuple  #: their final limits
+    pressure: tuple  #: their pressure-rate terms
+    lag: bool  #: whether the pressures are states
+
+
+def structure(params) -> Structure:
+    """The :class:`Structure` of params (cached on params until the registry changes)."""
     own = getattr(params, "__dict__", None)
-    generation = _effects.generation()
+    generation = _effects._generation[0]
     if own is not None:
-        cached = own.get("_active_effects")
+        cached = own.get("_structure")
         if cached is not None and cached[0] == generation:
             return cached[1]
     active = tuple(e for e in _effects.all_effects() if e.is_on(params))
+    pressure = tuple(e.pressure_rate for e in active if e.pressure_rate is not None)
+    result = Structure(active, tuple((e, e.tension) for e in active if e.tension is not None),
+                       tuple(e.final for e in active if e.final is not None), pressure, bool(pressure))
     if own is not None:
-        own["_active_effects"] = (generation, active)
-    return active
+        own["_structure"] = (generation, result)
+    return result
+
+
+def active_effects(params) -> tuple:
+    """The registered effects params switch on, in the registry's order (remembered on params)."""
+    return structure(params).active
+
+
+def command_delay(params):
+    """How late each actuator sees its pressure command [s]: the sum of the command delays of the effects params
+    switch on (a dead time), 0.0 without any."""
+    delay = 0.0
+    for effect in active_effects(params):
+        if effect.command_delay is not None:
+            delay = delay + effect.command_delay(params)
+    return delay
 
 
 def has_pressure_states(params) -> bool:
     """Whether params switch on an effect with pressure dynamics: the actuator pressures are then states."""
-    return any(e.pressure_rate is not None for e in active_effects(params))
+    return structure(params).lag
 
 
 #: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead of
@@ -327,17 +360,16 @@ def tension_before_limits(L, P, Ldot, params: Params = DEFAULT, quasi_static: bo
         Ldot = 0.0
     xp = math_for_all(L, P, Ldot)
     f = P * pressure_gain(L, params.b, params.n)
-    for effect in active_effects(params):
-        if effect.tension is not None and not (quasi_static and effect.quasi_static in ("play", "viscous")):
-            f = f + effect.tension(L, Ldot, P, params, xp)
+    for effect, term in structure(params).tension:
+        if not (quasi_static and effect.quasi_static in ("play", "viscous")):
+            f = f + term(L, Ldot, P, params, xp)
     return f
 
 
 def apply_limits(f, params: Params = DEFAULT):
     """The final limits of the effects params switch on (slack: ``max(f, 0)``), in the registry's order [N]."""
-    for effect in active_effects(params):
-        if effect.final is not None:
-            f = effect.final(f, params, math_for(f))
+    for limit in structure(params).final:
+        f = limit(f, params, math_for(f))
     return f
 
 
@@ -350,6 +382,14 @@ def compose_tension(L, P, Ldot=0.0, params: Params = DEFAULT, quasi_static: bool
     :func:`play_half_width`, :func:`viscous_coefficient`), without the final limits.
     Parameters: L [m] in 0 < L < b, P gauge pressure [Pa], Ldot [m/s] (finite).
     """
+    if type(L) is float and type(P) is float and type(Ldot) is float:  # the integrator's case: cheap checks
+        if not 0 < L < params.b:
+            check_length(L, params.b)
+        if not (math.isfinite(P) and math.isfinite(Ldot)):
+            check_pressure(P)
+            raise DomainError(_LDOT_MESSAGE)
+        f = tension_before_limits(L, P, Ldot, params, quasi_static)
+        return f if quasi_static else apply_limits(f, params)
     L, P, Ldot = as_values(L), as_values(P), as_values(Ldot)
     check_length(L, params.b)
     check_pressure(P)
@@ -393,9 +433,10 @@ def _symbol_arguments(expressions, leading):
     return sorted({s.name for e in expressions for s in e.free_symbols if s not in set(leading)})
 
 
-def _derivative_function(kind: str, params, build):
+def _derivative_function(kind: str, params, build, scalar: bool = False):
     """A lambdified function of (inputs..., parameter values...) for the structure of params, made once per
-    structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns (function, parameter names)."""
+    structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns (function, parameter names).
+    scalar: the version for Python floats (the math module: much cheaper than numpy on one value)."""
     key = (kind, _effects.generation(), tuple(e.name for e in active_effects(params)))
     entry = _DERIVATIVES.get(key)
     if entry is None:
@@ -406,9 +447,10 @@ def _derivative_function(kind: str, params, build):
         expressions = [sympy.sympify(e) for e in expressions]
         names = _symbol_arguments(expressions, inputs)
         symbols = {s.name: s for e in expressions for s in e.free_symbols if s not in set(inputs)}
-        function = sympy.lambdify([*inputs, *(symbols[n] for n in names)], expressions, modules="numpy")
-        entry = _DERIVATIVES[key] = (function, tuple(names))
-    return entry
+        arguments = [*inputs, *(symbols[n] for n in names)]
+        entry = _DERIVATIVES[key] = (sympy.lambdify(arguments, expressions, modules="numpy", cse=True),
+                                     sympy.lambdify(arguments, expressions, modules="math", cse=True), tuple(names))
+    return (entry[1] if scalar else entry[0]), entry[2]
 
 
 def _heaviside_as_step(expr):
@@ -422,7 +464,7 @@ def _tension_expressions(sp):
     L, Ldot, P, f = (sympy.Dummy(n, real=True) for n in ("L", "Ldot", "P", "f"))
     g = tension_before_limits(L, P, Ldot, sp)
     limit = apply_limits(f, sp)
-    return (L, Ldot, P, f), [g, sympy.diff(g, L), sympy.diff(g, Ldot), sympy.diff(g, P),
+    return (L, Ldot, P, f), [g, *(_heaviside_as_step(sympy.diff(g, x)) for x in (L, Ldot, P)),
                              _heaviside_as_step(sympy.diff(limit, f))]
 
 
@@ -441,23 +483,22 @@ def tension_partials(L, P, Ldot, params: Params = DEFAULT):
         values = {l: L, ld: Ldot, pp: P}
         return (g, *(sympy.sympify(e).subs(values, simultaneous=True) for e in expressions[1:4]),
                 sympy.sympify(expressions[4]).subs(f, g))
-    function, names = _derivative_function("tension", params, _tension_expressions)
-    arguments = [getattr(params, n) for n in names]
+    scalar = type(L) is float and type(P) is float and type(Ldot) is float
+    function, names = _derivative_function("tension", params, _tension_expressions, scalar)
     g = tension_before_limits(L, P, Ldot, params)
-    _, dL, dLdot, dP, _ = function(L, Ldot, P, 0.0, *arguments)
-    factor = function(L, Ldot, P, g, *arguments)[4]
+    _, dL, dLdot, dP, factor = function(L, Ldot, P, g, *[getattr(params, n) for n in names])
     return g, dL, dLdot, dP, factor
 
 
 def pressure_derivative(P, P_cmd, params: Params = DEFAULT):
     """dP/dt of one actuator [Pa/s]: the sum of the pressure-rate terms of the effects params switch on
     (pressure lag: ``(P_cmd - P) / tau``); 0 without any."""
-    P, P_cmd = as_values(P), as_values(P_cmd)
+    if not (type(P) is float and type(P_cmd) is float):
+        P, P_cmd = as_values(P), as_values(P_cmd)
     xp = math_for_all(P, P_cmd)
     rate = 0.0
-    for effect in active_effects(params):
-        if effect.pressure_rate is not None:
-            rate = rate + effect.pressure_rate(P, P_cmd, params, xp)
+    for term in structure(params).pressure:
+        rate = rate + term(P, P_cmd, params, xp)
     return rate
 
 
@@ -465,7 +506,7 @@ def _pressure_expressions(sp):
     import sympy
     P, P_cmd = sympy.Dummy("P", real=True), sympy.Dummy("P_cmd", real=True)
     rate = sympy.sympify(pressure_derivative(P, P_cmd, sp))
-    return (P, P_cmd), [rate, sympy.diff(rate, P), sympy.diff(rate, P_cmd)]
+    return (P, P_cmd), [rate, _heaviside_as_step(sympy.diff(rate, P)), _heaviside_as_step(sympy.diff(rate, P_cmd))]
 
 
 def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
@@ -475,21 +516,24 @@ def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
         import sympy
         (p, pc), expressions = _pressure_expressions(params)
         return tuple(sympy.sympify(e).subs({p: P, pc: P_cmd}, simultaneous=True) for e in expressions[1:])
-    function, names = _derivative_function("pressure", params, _pressure_expressions)
+    scalar = type(P) is float and type(P_cmd) is float
+    function, names = _derivative_function("pressure", params, _pressure_expressions, scalar)
     _, dP, dPcmd = function(P, P_cmd, *[getattr(params, n) for n in names])
     return float(dP), float(dPcmd)
 
 
 def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
-    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: the effect's exact solution
-    when one pressure effect is on and has one (the lag: ``P_cmd + (P - P_cmd) exp(-dt/tau)``), else the
-    pressure dynamics integrated; the command itself when no effect has pressure dynamics."""
+    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: an effect's exact solution
+    when it covers every pressure effect on (its own and those it requires: the lag,
+    ``P_cmd + (P - P_cmd) exp(-dt/tau)``; the asymmetric lag), else the pressure dynamics integrated; the command
+    itself when no effect has pressure dynamics."""
     P, P_cmd = as_values(P), as_values(P_cmd)
     dynamic = [e for e in active_effects(params) if e.pressure_rate is not None]
     if not dynamic:
         return P_cmd + 0.0 * P
-    if len(dynamic) == 1 and dynamic[0].pressure_step is not None:
-        return dynamic[0].pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
+    for effect in reversed(dynamic):
+        if effect.pressure_step is not None and all(e is effect or e.name in effect.requires for e in dynamic):
+            return effect.pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
     from .integrate import integrate
     if not dt > 0:
         return P
@@ -506,8 +550,9 @@ def static_tension_dL(L, P, params: Params = DEFAULT):
     if is_symbolic(L) or is_symbolic(P):
         import sympy
         x = sympy.Symbol("L_", real=True)
-        return sympy.diff(tension_before_limits(x, P, 0.0, params, quasi_static=True), x).subs(x, L)
-    function, names = _derivative_function("static", params, _static_expressions)
+        return _heaviside_as_step(sympy.diff(tension_before_limits(x, P, 0.0, params, quasi_static=True), x)).subs(x, L)
+    function, names = _derivative_function("static", params, _static_expressions,
+                                           type(L) is float and type(P) is float)
     return function(L, P, *[getattr(params, n) for n in names])[1]
 
 
@@ -515,7 +560,7 @@ def _static_expressions(sp):
     import sympy
     L, P = sympy.Dummy("L", real=True), sympy.Dummy("P", real=True)
     f = tension_before_limits(L, P, 0.0, sp, quasi_static=True)
-    return (L, P), [f, sympy.diff(f, L)]
+    return (L, P), [f, _heaviside_as_step(sympy.diff(f, L))]
 
 
 def static_tension_dP(L, params: Params = DEFAULT):
@@ -602,3 +647,6 @@ def lagged_pressure(P, P_cmd, tau: float, dt: float):
         return P_cmd + 0.0 * P
     decay = -dt / tau
     return P_cmd + (P - P_cmd) * (_symbolic_math().exp(decay) if is_symbolic(decay) else math.exp(decay))
+
+
+_effects.PHYSICS["actuator"] = sys.modules[__name__]  # what the built-in effect terms call

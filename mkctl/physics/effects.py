@@ -117,10 +117,12 @@ class Effect:
     pressure_rate: Callable | None = None  #: term(P, P_cmd, p, xp) [Pa/s], added to each pressure's rate
     pressure_step: Callable | None = None  #: exact P after dt with P_cmd held, (P, P_cmd, dt, p, xp)
     final: Callable | None = None  #: limit(f, p, xp) applied last to the whole tension
+    command_delay: Callable | None = None  #: delay(p) [s] of the pressure commands (a transport dead time)
     quasi_static: str | None = None  #: "static", "play", "viscous" or None
     play: Callable | None = None  #: half-width of the play band (P, p, xp) [N]
     viscous: Callable | None = None  #: damping coefficient (p) [N s/m]
     structural: bool = True  #: on and off are different equations (one compiled variant each)
+    requires: tuple[str, ...] = ()  #: effects that must be on when this one is (asymmetric_lag: pressure_lag)
     fitted: str | None = None  #: the one parameter the diagnosis fits (None: not a diagnosis candidate)
     experiments: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
     reference: float | None = 1.0  #: the fitted value its unit signature is taken at (None: the model's own)
@@ -218,8 +220,13 @@ def _check_effect(effect: Effect) -> None:
     if effect.quasi_static == "play" and effect.play is None or effect.quasi_static == "viscous" and \
             effect.viscous is None:
         raise EffectError(f"effect {effect.name!r}: a {effect.quasi_static!r} limit needs its function")
-    if effect.tension is None and effect.pressure_rate is None and effect.final is None:
-        raise EffectError(f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate or final)")
+    if effect.tension is None and effect.pressure_rate is None and effect.final is None and \
+            effect.command_delay is None:
+        raise EffectError(f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate, final or "
+                          "command_delay)")
+    unknown = [name for name in effect.requires if name not in _REGISTRY]
+    if unknown:
+        raise EffectError(f"effect {effect.name!r}: it requires {unknown[0]!r}, which is not registered")
     if effect.fitted is not None and effect.fitted not in seen and effect.fitted not in effect.uses:
         raise EffectError(f"effect {effect.name!r}: fitted parameter {effect.fitted!r} is not one of its parameters")
     for experiment, (low, high) in effect.experiments.items():
@@ -255,6 +262,8 @@ def _check_term(effect: Effect) -> None:
                     effect.pressure_rate(P, P * 1.1, sp, xp)
                 if effect.final is not None:
                     effect.final(f, sp, xp)
+                if effect.command_delay is not None:
+                    effect.command_delay(sp)
         except Exception as error:  # any failure of user code: say which effect and why, in one line
             raise EffectError(f"effect {effect.name!r}: its terms cannot be evaluated {label} "
                               f"({type(error).__name__}: {error})") from None
@@ -337,10 +346,15 @@ def separating_experiment(a: str, b: str) -> str:
 
 # --- the built-in effects (model-spec section 4) --------------------------------------------------------------
 
+#: The physics modules the built-in terms call (filled by :mod:`mkctl.physics.actuator` when it is imported: it
+#: imports this module, so this one cannot import it at the top, and an import inside a term costs in the
+#: integrator's inner loop).
+PHYSICS: dict = {}
+
+
 def _elastic_term(L, Ldot, P, p, xp):
     """Model 2's rubber share ``V_r dW/dL`` [N] (Eq. 13)."""
-    from .actuator import strain_energy_gradient
-    return p.V_r * strain_energy_gradient(L, p)
+    return p.V_r * PHYSICS["actuator"].strain_energy_gradient(L, p)
 
 
 def _viscous_term(L, Ldot, P, p, xp):
@@ -361,6 +375,25 @@ def _lag_rate(P, P_cmd, p, xp):
 def _lag_step(P, P_cmd, dt, p, xp):
     """Exact lag over dt with P_cmd held: ``P_cmd + (P - P_cmd) exp(-dt / tau)``."""
     return P_cmd + (P - P_cmd) * xp.exp(-dt / p.tau)
+
+
+def _threshold_term(L, Ldot, P, p, xp):
+    """The pressure threshold: Eq. 7's pressure term with ``P_eff = P - P0 (1 - exp(-P / P0))`` for P > 0 instead
+    of P, written as the term it adds, ``-P0 (1 - exp(-max(P, 0) / P0)) (3 L^2 - b^2) / (4 pi n^2)`` [N]
+    (``max(P, 0)``: P_eff = P for P <= 0, and no overflow there)."""
+    return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * PHYSICS["actuator"].pressure_gain(L, p.b, p.n)
+
+
+def _exhaust_rate(P, P_cmd, p, xp):
+    """What exhausting (P_cmd < P) adds to the lag's rate so that ``tau_exhaust dP/dt = P_cmd - P`` there:
+    ``-max(P - P_cmd, 0) (1/tau_exhaust - 1/tau)`` [Pa/s]."""
+    return -xp.maximum(P - P_cmd, 0.0) * (1 / p.tau_exhaust - 1 / p.tau)
+
+
+def _asymmetric_step(P, P_cmd, dt, p, xp):
+    """Exact lag over dt with P_cmd held: the pressure moves monotonically towards P_cmd, so one branch holds:
+    ``P_cmd + (P - P_cmd) exp(-dt / tau_b)``, tau_b = tau_exhaust while P_cmd < P, else tau."""
+    return P_cmd + (P - P_cmd) * xp.exp(-dt / xp.where(P_cmd < P, p.tau_exhaust, p.tau))
 
 
 def _slack_limit(f, p, xp):
@@ -458,6 +491,56 @@ BUILTIN = (
         signature_axis="the smaller muscle tension of the model [N] (slack acts below 0)",
         separation=_separations("slack"),
         calibrate=True),
+    # --- model-spec section 4b: effects a real rig has ---
+    Effect(
+        "pressure_friction", "f += Fc_p * P * tanh(Ldot / vs): the friction level grows with the actuator's own "
+        "gauge pressure; quasi-static: a play operator of half-width Fc + Fc_p * P",
+        parameters=(Parameter("Fc_p", "N/Pa", off=0.0, lower=0.0, typical=5e-6, scale=1e-6, fit_range=(0.0, 1e-3),
+                              description="friction per unit gauge pressure of each actuator: "
+                                          "f += Fc_p P tanh(Ldot / vs)"),),
+        tension=lambda L, Ldot, P, p, xp: p.Fc_p * P * xp.tanh(Ldot / p.vs), quasi_static="play",
+        play=lambda P, p, xp: p.Fc_p * P, structural=False, fitted="Fc_p",
+        regressor="the friction force per N/Pa (the gauge pressure) at the measured direction of motion",
+        signature_axis="velocity [mm/s]",
+        separation={"coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
+                                        "constant friction keeps the branches 2 Fc apart at every pressure, "
+                                        "pressure friction opens them in proportion to the pressure"}),
+    Effect(
+        "pressure_threshold", "the pressure term of Eq. 7 uses P_eff = P - P0 (1 - exp(-P / P0)) for P > 0 (P_eff = P "
+        "for P <= 0); the rubber term is unchanged",
+        parameters=(Parameter("P0", "Pa", off=0.0, lower=0.0, upper=4e5, typical=5e4, scale=1e4,
+                              description="threshold pressure the braid takes up gradually: "
+                                          "P_eff = P - P0 (1 - exp(-P / P0))"),),
+        tension=_threshold_term, fitted="P0",
+        regressor="the tension a threshold of 1 Pa takes away at the measured pressure and length",
+        signature_axis="gauge pressure [kPa]",
+        separation={"elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
+                                  "the force-pressure curve at low pressure at every length, elasticity shifts it "
+                                  "by a length-dependent constant"}),
+    Effect(
+        "asymmetric_lag", "needs pressure_lag: tau dP/dt = P_cmd - P while filling (P_cmd >= P), "
+        "tau_exhaust dP/dt = P_cmd - P while exhausting (P_cmd < P)",
+        parameters=(Parameter("tau_exhaust", "s", off=0.0, lower=0.0, typical=0.12, scale=0.01,
+                              description="exhausting time constant of the pressure lag (0: the same as tau)"),),
+        pressure_rate=_exhaust_rate, pressure_step=_asymmetric_step, requires=("pressure_lag",),
+        fitted="tau_exhaust",
+        regressor="the force an exhausting lag of 1 s takes away where the command falls below the pressure",
+        signature_axis="extensor pressure rate while exhausting (smoothed) [kPa/s]",
+        separation={"pressure_lag": "pressure steps up and down of the same size (best with measured bladder "
+                                    "pressures): a symmetric lag follows both at the same rate, an asymmetric "
+                                    "one fills and exhausts at different rates"}),
+    Effect(
+        "dead_time", "each actuator sees its command delay late: P_cmd(t - delay), the first command held for "
+        "t < t0 + delay; it acts before the lag (valve and line transport); linearized by a first-order Pade "
+        "approximation",
+        parameters=(Parameter("delay", "s", off=0.0, lower=0.0, typical=0.03, scale=0.01,
+                              description="transport dead time of the pressure commands: P_cmd(t - delay)"),),
+        command_delay=lambda p: p.delay, structural=False, fitted="delay",
+        regressor="the force the command's change over 1 s of delay takes away (first order: -delay dP_cmd/dt)",
+        signature_axis="extensor command rate (smoothed) [kPa/s]",
+        separation={"pressure_lag": "a step of the command with the bladder pressure measured: a dead time "
+                                    "leaves it flat for the delay and then moves at once, a lag starts at once "
+                                    "and approaches exponentially"}),
 )
 
 #: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).

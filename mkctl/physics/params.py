@@ -218,6 +218,15 @@ class Params:
                 raise ParameterError(f"parameter {name} must not be negative, got {own[name]!r}")
         for q in effects.parameters():
             q.check(own[q.name])
+        for effect in effects.all_effects():
+            q = effect.switch_parameter
+            if own[q.name] == q.off:
+                continue
+            for name in effect.requires:
+                needed = effects.get(name).switch_parameter
+                if own[needed.name] == needed.off:
+                    raise ParameterError(f"parameter {q.name} ({effect.name}) needs the effect {name} "
+                                         f"({needed.name} switched on)")
         if own["L0"] >= own["b"]:
             raise ParameterError(f"rest length L0 = {own['L0']} m must be shorter than the braid b = {own['b']} m")
         if own["t0"] >= own["D0"] / 2:

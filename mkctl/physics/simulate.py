@@ -17,6 +17,7 @@ Example
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
@@ -63,8 +64,12 @@ class KneeSimulator:
     """
 
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0, pf0: float = 0.0,
-                 stops: bool = True, rtol: float = 1e-10):
+                 stops: bool = True, rtol: float = 1e-10, delay_commands: bool = True):
         self.params = params
+        #: the commands as the actuators see them, a dead time late (None without one, or when the caller hands
+        #: in commands already delayed: delay_commands False)
+        delay = float(actuator.command_delay(params))
+        self.schedule = CommandSchedule(delay, (float(pe0), float(pf0))) if delay > 0 and delay_commands else None
         self.stops = _stop_positions(params) if stops else None
         self.rtol = rtol
         X0 = default_hip_height(params) if X0 is None else float(X0)
@@ -80,24 +85,49 @@ class KneeSimulator:
 
     # --- state, for FMU get/set state and replay ---
     def get_state(self) -> tuple:
-        """A snapshot of everything that determines the future: time, states and the integrator's step."""
-        return (self.time, self.state.copy(), self.step_hint)
+        """A snapshot of everything that determines the future: time, states, the integrator's step and the
+        commands still on their way (a dead time)."""
+        return (self.time, self.state.copy(), self.step_hint,
+                None if self.schedule is None else self.schedule.snapshot())
 
     def set_state(self, snapshot: tuple) -> None:
         """Return to a snapshot taken by :meth:`get_state`."""
-        self.time, state, self.step_hint = snapshot
+        self.time, state, self.step_hint = snapshot[:3]
         self.state = np.array(state, dtype=float)
+        if self.schedule is not None and len(snapshot) > 3 and snapshot[3] is not None:
+            self.schedule.restore(snapshot[3])
+
+    def seen_commands(self, pe_cmd: float, pf_cmd: float) -> tuple[float, float]:
+        """The commands the actuators see now: the given ones, or with a dead time those given delay earlier."""
+        if self.schedule is None:
+            return pe_cmd, pf_cmd
+        return self.schedule.at(self.time)
 
     def pressures(self, pe_cmd: float, pf_cmd: float) -> tuple[float, float]:
-        """The actuator pressures now: the lag states, or the commands when there is no lag."""
+        """The actuator pressures now: the lag states, or the (seen) commands when there is no lag."""
         if self.lag:
             return float(self.state[2]), float(self.state[3])
+        pe_cmd, pf_cmd = self.seen_commands(pe_cmd, pf_cmd)
         return float(pe_cmd), float(pf_cmd)
 
     def step(self, dt: float, pe_cmd: float, pf_cmd: float) -> np.ndarray:
-        """Advance by dt [s] with the commands pe_cmd, pf_cmd [Pa] held constant; returns the new state."""
+        """Advance by dt [s] with the commands pe_cmd, pf_cmd [Pa] held constant; returns the new state.
+
+        With a dead time the actuators see each command ``delay`` later: the step is cut where a command given
+        earlier reaches them (:class:`CommandSchedule`)."""
         actuator.check_pressure(pe_cmd)
         actuator.check_pressure(pf_cmd)
+        if self.schedule is None:
+            return self._held_step(dt, pe_cmd, pf_cmd)
+        self.schedule.give(self.time, (float(pe_cmd), float(pf_cmd)))
+        end = self.time + dt
+        for start, stop, (pe, pf) in self.schedule.pieces(self.time, end):
+            self._held_step(stop - start if stop < end else end - self.time, pe, pf)
+        self.schedule.forget_before(self.time)
+        return self.state
+
+    def _held_step(self, dt: float, pe_cmd: float, pf_cmd: float) -> np.ndarray:
+        """Advance by dt [s] with the commands the actuators see, pe_cmd, pf_cmd [Pa], held."""
         if dt > 0:
             def rhs(y):
                 return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
@@ -139,7 +169,51 @@ class KneeSimulator:
 
     def outputs(self, pe_cmd: float, pf_cmd: float) -> dict[str, float]:
         """Every output of model-spec section 7 at the present state (a1, a2 without the end stops)."""
-        return state_outputs(self.state, pe_cmd, pf_cmd, self.params)
+        return state_outputs(self.state, *self.seen_commands(pe_cmd, pf_cmd), self.params)
+
+
+class CommandSchedule:
+    """Commands as the actuators see them through a dead time: each command given at time t acts from t + delay;
+    before the first one arrives, the first command holds (model-spec section 4b, dead_time).
+
+    ``give(t, command)`` records a command given at t; ``at(t)`` is the command seen at t; ``pieces(t0, t1)``
+    cuts [t0, t1) where the seen command changes: (start, stop, command) in order.
+    """
+
+    def __init__(self, delay: float, first: tuple):
+        self.delay = float(delay)
+        self.changes = [(-math.inf, tuple(first))]  #: (time it arrives, command), increasing
+
+    def snapshot(self) -> tuple:
+        return tuple(self.changes)
+
+    def restore(self, snapshot) -> None:
+        self.changes = list(snapshot)
+
+    def give(self, t: float, command: tuple) -> None:
+        arrives = t + self.delay
+        while self.changes and self.changes[-1][0] >= arrives and len(self.changes) > 1:
+            self.changes.pop()  # a command given again at the same time replaces the earlier one
+        if self.changes[-1][1] != command:
+            self.changes.append((arrives, command))
+
+    def at(self, t: float) -> tuple:
+        seen = self.changes[0][1]
+        for arrives, command in self.changes:
+            if arrives <= t:
+                seen = command
+            else:
+                break
+        return seen
+
+    def pieces(self, t0: float, t1: float):
+        cuts = [t0] + [a for a, _ in self.changes if t0 < a < t1] + [t1]
+        return [(a, b, self.at(a)) for a, b in zip(cuts[:-1], cuts[1:])]
+
+    def forget_before(self, t: float) -> None:
+        """Drop the commands that no longer matter (all but the one seen at t and those still to come)."""
+        while len(self.changes) > 1 and self.changes[1][0] <= t:
+            self.changes.pop(0)
 
 
 def state_outputs(state, pe_cmd: float, pf_cmd: float, params: Params = DEFAULT) -> dict[str, float]:
@@ -208,7 +282,32 @@ def held_command_runs(pe_cmd, pf_cmd) -> list[tuple[int, int]]:
     return list(zip(bounds[:-1], bounds[1:])) if n > 1 else []
 
 
-def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_outputs):
+def delayed_commands(time, pe_cmd, pf_cmd, delay: float):
+    """A record's commands as the actuators see them through a dead time of ``delay`` [s] (model-spec 4b):
+    the command given at sample k (held to sample k+1) acts from time[k] + delay, the first one before that.
+
+    Returns (grid, pe_seen, pf_seen, at): the sample times with the arrival times of every command change added
+    (sorted; an arrival within 1e-12 s of a sample is that sample), the seen commands held from each grid point
+    to the next, and the grid index of each original sample.
+    """
+    changes = np.flatnonzero((pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])) + 1
+    arrivals = time[changes] + delay
+    arrivals = arrivals[arrivals < time[-1]]
+    near = np.searchsorted(time, arrivals)
+    close = np.zeros(arrivals.size, dtype=bool)
+    for offset in (-1, 0):
+        index = np.clip(near + offset, 0, time.size - 1)
+        close |= np.abs(time[index] - arrivals) <= 1e-12 * max(1.0, abs(time[-1]))
+    grid = np.union1d(time, arrivals[~close])
+    at = np.searchsorted(grid, time)
+    # the command seen at grid point g: the last one given at or before g - delay (sample times within 1e-12 s
+    # of an arrival count as arrived)
+    given = np.searchsorted(time, grid - delay + 1e-12 * max(1.0, abs(time[-1])), side="right") - 1
+    given = np.clip(given, 0, time.size - 1)
+    return grid, pe_cmd[given], pf_cmd[given], at
+
+
+def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_outputs, delayed=False):
     """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each sample to
     the next, one integration per run of held commands (:func:`held_command_runs`), the states at the samples
     with stop_at[k] (stop_at None: every sample) and at each run's end read off the integrator's dense output.
@@ -217,10 +316,22 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
     also resumes after a fault of the compiled run (at the start of the failing run) to raise its own error.
     Returns the states (n x nstate, filled at sample 0 and every stop) and the outputs (n x outputs) or None.
     """
+    delay = 0.0 if delayed else float(actuator.command_delay(params))
+    if delay > 0 and time.size > 1:  # a dead time: the same record on a grid cut where the late commands arrive
+        grid, pe_seen, pf_seen, at = delayed_commands(time, pe_cmd, pf_cmd, delay)
+        mask = None
+        if stop_at is not None:
+            mask = np.zeros(grid.size, dtype=bool)
+            mask[at[stop_at]] = True
+        if X0 is None:
+            X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
+        states, outputs = _run_record(grid, pe_seen, pf_seen, params, X0, stops, rtol, mask, with_outputs,
+                                      delayed=True)
+        return states[at], None if outputs is None else outputs[at]
     n = time.size
     if X0 is None:
         X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
-    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol)
+    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol, delay_commands=False)
     states = np.empty((n, sim.state.size))
     outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
     resume = 0
@@ -296,23 +407,36 @@ class ActuatorSimulator:
         self.params = params
         self.time = 0.0
         self.pressure = float(p0)
+        delay = float(actuator.command_delay(params))
+        #: the command as the actuator sees it through a dead time (None without one)
+        self.schedule = CommandSchedule(delay, (float(p0),)) if delay > 0 else None
 
     def get_state(self) -> tuple:
-        return (self.time, self.pressure)
+        return (self.time, self.pressure, None if self.schedule is None else self.schedule.snapshot())
 
     def set_state(self, snapshot: tuple) -> None:
-        self.time, self.pressure = snapshot
+        self.time, self.pressure = snapshot[:2]
+        if self.schedule is not None and len(snapshot) > 2 and snapshot[2] is not None:
+            self.schedule.restore(snapshot[2])
 
     def step(self, dt: float, p_cmd: float) -> float:
-        """Advance the pressure by dt [s] towards p_cmd [Pa]; returns the new pressure [Pa]."""
+        """Advance the pressure by dt [s] towards p_cmd [Pa] (seen a dead time late, if any); returns the new
+        pressure [Pa]."""
         actuator.check_pressure(p_cmd)
-        self.pressure = float(actuator.pressure_after(self.pressure, p_cmd, dt, self.params))
+        if self.schedule is None:
+            self.pressure = float(actuator.pressure_after(self.pressure, p_cmd, dt, self.params))
+        else:
+            self.schedule.give(self.time, (float(p_cmd),))
+            for start, stop, (seen,) in self.schedule.pieces(self.time, self.time + dt):
+                self.pressure = float(actuator.pressure_after(self.pressure, seen, stop - start, self.params))
+            self.schedule.forget_before(self.time + dt)
         self.time += dt
         return self.pressure
 
     def outputs(self, p_cmd: float, L: float, Ldot: float) -> dict[str, float]:
-        """The actuator FMU's outputs now: pressure "P" [Pa] (the lag state, or p_cmd without a lag) and
-        tension "f" [N] at length L [m] and lengthening rate Ldot [m/s]."""
+        """The actuator FMU's outputs now: pressure "P" [Pa] (the lag state, or the command it sees without a
+        lag) and tension "f" [N] at length L [m] and lengthening rate Ldot [m/s]."""
         actuator.check_pressure(p_cmd)
-        P = self.pressure if actuator.has_pressure_states(self.params) else float(p_cmd)
+        seen = p_cmd if self.schedule is None else self.schedule.at(self.time)[0]
+        P = self.pressure if actuator.has_pressure_states(self.params) else float(seen)
         return {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}

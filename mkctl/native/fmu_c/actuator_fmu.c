@@ -20,7 +20,11 @@ static void params_of(const mk_data *d, double *p) { mk_param_vector(d, d->aux[A
 int mk_model_start(mk_data *d, char *msg, size_t size)
 {
     char detail[MK_MESSAGE - 64];
+    double p[MK_NPARAM];
     d->aux[AUX_N] = mk_turns(d);
+    params_of(d, p);
+    if (mk_refuse_delay(p, msg, size) != 0)
+        return 1;
     d->s.ny = 1;
     d->s.y[0] = d->v[VR_p_cmd];
     if (mk_model_outputs(d, detail, sizeof detail) != 0) { /* 0 < L < b, a finite pressure */

@@ -27,6 +27,8 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     d->aux[AUX_N] = mk_turns(d);
     params_of(d, p);
+    if (mk_refuse_delay(p, msg, size) != 0)
+        return 1;
     X0 = d->v[VR_X0];
     if (X0 == mk_variables[VR_X0].start && mk_fmu_X_from_alpha(p, MK_FMU_DEFAULT_ALPHA, &X0, &fault) != 0) {
         mk_fault_message(&fault, detail, sizeof detail);

@@ -26,6 +26,7 @@ int mk_knee_step(const double *p, const double *stops, double *y, double dt, dou
 int mk_knee_outputs(const double *p, const double *y, double pe_cmd, double pf_cmd, double *out, mk_fault *fault);
 int mk_knee_nstate(const double *p);
 int mk_pressure_is_state(const double *p); /* 1 when an effect with pressure dynamics is on (a lag) */
+int mk_command_delay(const double *p, double *out, mk_fault *fault); /* a dead time [s], 0 without */
 int mk_stop_positions(const double *p, double *out, mk_fault *fault);
 int mk_actuator_tension(const double *p, double L, double P, double Ldot, double *f, mk_fault *fault);
 int mk_actuator_lagged_pressure(const double *p, double P, double P_cmd, double dt, double *out, mk_fault *fault);
@@ -40,6 +41,8 @@ extern const double MK_FMU_KNEE_H0;
 
 /* the fault as mkctl's Python would say it (the library's message, with the failing value) */
 void mk_fault_message(const mk_fault *fault, char *msg, size_t size);
+/* 1 with a message when p holds a dead time the native FMUs do not simulate (a command buffer), else 0 */
+int mk_refuse_delay(const double *p, char *msg, size_t size);
 /* n = sqrt(b^2 - L0^2) / (pi D0), mkctl.physics.params.derived_turns */
 double mk_fmu_derived_turns(double b, double L0, double D0);
 
