@@ -417,3 +417,25 @@ def test_a_tampered_compiled_core_is_built_again_not_loaded(tmp_path, monkeypatc
     text = source.read_text()
     source.write_text(text + "\nint injected(void) { return 1; }\n")  # the generated source edited
     assert build.generated_source(variants).read_text() == text
+
+
+# --- size limits ----------------------------------------------------------------------------------------
+
+def test_a_file_too_big_for_the_memory_is_refused_with_the_figure(records, tmp_path, capsys, monkeypatch):
+    import mkctl.errors
+
+    path = tmp_path / "knee.csv"
+    path.write_text(records["knee"])
+    monkeypatch.setattr(mkctl.errors, "available_memory", lambda: 100_000)  # a machine with 100 kB free
+    refused(["compare", path], capsys, f"{path}: reading a file of", "would need", "KiB of memory",
+            "97.7 KiB available")
+
+
+def test_running_out_of_memory_anyway_is_one_line(tmp_path, capsys, monkeypatch):
+    from mkctl.analysis import synth
+
+    def allocate(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr(synth, "synthesize", allocate)
+    refused(["synth", "knee", tmp_path / "s.csv"], capsys, "out of memory")
