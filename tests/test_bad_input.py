@@ -171,6 +171,9 @@ def test_every_domain_edge_is_a_working_model():
     (["step", "--no-fmu", "--duration", "1e308"], ("--duration 1e+308", "at most 1000 s")),
     (["step", "--no-fmu", "--dt", "1e-12"], ("2e+12 samples", "would need", "of memory")),
     (["linearize", "--no-fmu", "--pf", "1e308"], ("--pf 1e+308", "[0, 100000] kPa")),
+    (["rootlocus", "--ti", "1e-320"], ("--ti 9.99989e-321", "[1e-06, 10000] s")),
+    (["rootlocus", "--tau", "1e-320"], ("tau = 9.99989e-321 s must be 0 (off) or at least 1e-06 s",)),
+    (["step", "--no-fmu", "--small", "1e-12"], ("--small 1e-12", "at least 0.001")),
 ])
 def test_control_options_outside_their_range_are_one_line(tmp_path, capsys, args, expected):
     refused([*args, "--out", tmp_path], capsys, *expected)
@@ -210,6 +213,7 @@ def test_an_actuator_fmu_is_refused_where_the_knee_is_needed(built_fmus, tmp_pat
     (["--rate", "inf"], ("sample rate = inf Hz is outside (0, 1e+06] Hz",)),
     (["--input-noise", "5"], ("--pressures",)),
     (["--offset", "1e308"], ("offset = 1e+308",)),
+    (["--samples", "9" * 400], ("would need more than 1e30 bytes",)),
 ])
 def test_synth_options_outside_their_range_are_one_line(tmp_path, capsys, args, expected):
     refused(["synth", "knee", tmp_path / "s.csv", *args], capsys, *expected)
@@ -234,6 +238,8 @@ def test_synth_refuses_a_device_as_its_output(capsys):
     (["--grid", "c=0:10:2", "--chunk", "-1"], "chunk must be a whole number of points >= 1, got -1"),
     (["--grid", "c=0:10:100000", "m=1:10:100000"], "a sweep of 1e+10 points would need"),
     (["--grid", "c=0:inf:3"], "the grid's ends must be finite"),
+    (["--grid", "c=0:1:inf"], "the number of grid values must be a whole number >= 1, got inf"),
+    (["--grid", "c=0:1e-320:3"], "must be 0 (off) or at least 1e-09 N s/m"),
 ])
 def test_sweep_options_outside_their_range_are_one_line(tmp_path, capsys, args, expected):
     refused(["sweep", *args, "--out", tmp_path, "--jobs", "0", "--quiet"], capsys, expected)

@@ -234,8 +234,8 @@ DOMAIN = MappingProxyType({
 
 
 #: Parameters whose value is 0 (the effect off) or at least this much: a time constant of 1e-320 s is no lag, but its
-#: rate 1/tau overflows.
-OFF_OR_AT_LEAST = MappingProxyType({"tau": 1e-6})
+#: rate 1/tau overflows; a damping of 1e-320 N s/m is none, but the decay time it gives overflows.
+OFF_OR_AT_LEAST = MappingProxyType({"tau": 1e-6, "c": 1e-9})
 
 
 def check_domain(params) -> None:
