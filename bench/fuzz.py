@@ -38,7 +38,7 @@ from pathlib import Path
 OUTCOMES = ("refused", "accepted", "traceback", "hang", "warnings", "not one line", "non-finite written",
             "non-finite printed")
 #: Seconds a case may take before it counts as a hang.
-CASE_TIMEOUT_S = 120
+CASE_TIMEOUT_S = 300
 
 #: Values a careless user or a broken file puts where a number belongs.
 HOSTILE_NUMBERS = ("0", "-0", "-1", "1", "0.5", "-0.5", "1e308", "-1e308", "1e-308", "1e-320", "1e-12", "1e6",

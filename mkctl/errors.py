@@ -69,7 +69,10 @@ def available_memory() -> int:
 def check_memory(what: str, count: float, bytes_each: float, fraction: float = 0.5) -> None:
     """Raise :class:`ResourceError` naming ``what`` and the figure if ``count`` items of ``bytes_each`` bytes would
     take more than ``fraction`` of the memory available now (:func:`available_memory`)."""
-    need = float(count) * float(bytes_each)
+    try:
+        need = float(count) * float(bytes_each)
+    except OverflowError:  # a whole number with hundreds of digits
+        need = float("inf")
     have = available_memory()
     if not need <= fraction * have:  # NaN and inf refused too
         raise ResourceError(f"{what} would need {_bytes(need)} of memory; this machine has {_bytes(have)} available "

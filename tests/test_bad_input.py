@@ -171,6 +171,9 @@ def test_every_domain_edge_is_a_working_model():
     (["step", "--no-fmu", "--duration", "1e308"], ("--duration 1e+308", "at most 1000 s")),
     (["step", "--no-fmu", "--dt", "1e-12"], ("2e+12 samples", "would need", "of memory")),
     (["linearize", "--no-fmu", "--pf", "1e308"], ("--pf 1e+308", "[0, 100000] kPa")),
+    (["rootlocus", "--ti", "1e-320"], ("--ti 9.99989e-321", "[1e-06, 10000] s")),
+    (["rootlocus", "--tau", "1e-320"], ("tau = 9.99989e-321 s must be 0 (off) or at least 1e-06 s",)),
+    (["step", "--no-fmu", "--small", "1e-12"], ("--small 1e-12", "at least 0.001")),
 ])
 def test_control_options_outside_their_range_are_one_line(tmp_path, capsys, args, expected):
     refused([*args, "--out", tmp_path], capsys, *expected)
@@ -210,6 +213,7 @@ def test_an_actuator_fmu_is_refused_where_the_knee_is_needed(built_fmus, tmp_pat
     (["--rate", "inf"], ("sample rate = inf Hz is outside (0, 1e+06] Hz",)),
     (["--input-noise", "5"], ("--pressures",)),
     (["--offset", "1e308"], ("offset = 1e+308",)),
+    (["--samples", "9" * 400], ("would need more than 1e30 bytes",)),
 ])
 def test_synth_options_outside_their_range_are_one_line(tmp_path, capsys, args, expected):
     refused(["synth", "knee", tmp_path / "s.csv", *args], capsys, *expected)
@@ -234,6 +238,8 @@ def test_synth_refuses_a_device_as_its_output(capsys):
     (["--grid", "c=0:10:2", "--chunk", "-1"], "chunk must be a whole number of points >= 1, got -1"),
     (["--grid", "c=0:10:100000", "m=1:10:100000"], "a sweep of 1e+10 points would need"),
     (["--grid", "c=0:inf:3"], "the grid's ends must be finite"),
+    (["--grid", "c=0:1:inf"], "the number of grid values must be a whole number >= 1, got inf"),
+    (["--grid", "c=0:1e-320:3"], "must be 0 (off) or at least 1e-09 N s/m"),
 ])
 def test_sweep_options_outside_their_range_are_one_line(tmp_path, capsys, args, expected):
     refused(["sweep", *args, "--out", tmp_path, "--jobs", "0", "--quiet"], capsys, expected)
@@ -344,14 +350,15 @@ def test_a_rerun_completes_what_a_killed_batch_left(two_records, tmp_path, monke
     assert sorted(seen) == ["a.csv", "b.csv"]
 
 
-def test_the_local_cluster_listens_on_loopback_without_a_dashboard():
+def test_the_local_cluster_listens_on_loopback_only():
     from mkctl.analysis import batch
 
     client, cluster = batch._client(1, None)
     try:
         addresses = [client.scheduler.address, *client.scheduler_info()["workers"]]
         assert all(a.startswith("tcp://127.0.0.1:") for a in addresses), addresses
-        assert cluster.scheduler.http_server is None or "dashboard" not in str(cluster.dashboard_link or "")
+        http = [socket.getsockname() for socket in cluster.scheduler.http_server._sockets.values()]
+        assert http and all(host == "127.0.0.1" and port != 8787 for host, port, *_ in http), http
     finally:
         client.close()
         cluster.close()
@@ -417,3 +424,25 @@ def test_a_tampered_compiled_core_is_built_again_not_loaded(tmp_path, monkeypatc
     text = source.read_text()
     source.write_text(text + "\nint injected(void) { return 1; }\n")  # the generated source edited
     assert build.generated_source(variants).read_text() == text
+
+
+# --- size limits ----------------------------------------------------------------------------------------
+
+def test_a_file_too_big_for_the_memory_is_refused_with_the_figure(records, tmp_path, capsys, monkeypatch):
+    import mkctl.errors
+
+    path = tmp_path / "knee.csv"
+    path.write_text(records["knee"])
+    monkeypatch.setattr(mkctl.errors, "available_memory", lambda: 100_000)  # a machine with 100 kB free
+    refused(["compare", path], capsys, f"{path}: reading a file of", "would need", "KiB of memory",
+            "97.7 KiB available")
+
+
+def test_running_out_of_memory_anyway_is_one_line(tmp_path, capsys, monkeypatch):
+    from mkctl.analysis import synth
+
+    def allocate(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr(synth, "synthesize", allocate)
+    refused(["synth", "knee", tmp_path / "s.csv"], capsys, "out of memory")

@@ -100,9 +100,9 @@ def _call(function: Callable, item) -> tuple:
 
 
 def _client(jobs: int | None, scheduler: str | None, dashboard: str | None = None):
-    """A distributed.Client on a new LocalCluster of ``jobs`` processes (scheduler and workers on loopback; the
-    dashboard only if asked, at ``dashboard``: ``HOST:PORT``, or ``PORT`` on loopback), or on the scheduler at
-    ``scheduler``."""
+    """A distributed.Client on a new LocalCluster of ``jobs`` processes (scheduler, workers and the scheduler's HTTP
+    server on loopback; ``dashboard``: where that server listens instead, ``HOST:PORT`` or ``PORT`` on loopback),
+    or on the scheduler at ``scheduler``."""
     import dask
     from distributed import Client, LocalCluster
 
@@ -131,10 +131,12 @@ def _client(jobs: int | None, scheduler: str | None, dashboard: str | None = Non
     return Client(cluster), cluster
 
 
-def _dashboard_address(dashboard: str | None) -> str | None:
-    """The dashboard's address for LocalCluster: None (no dashboard), ``PORT`` -> loopback:PORT, ``HOST:PORT``."""
+def _dashboard_address(dashboard: str | None) -> str:
+    """The dashboard's address for LocalCluster: ``PORT`` -> loopback:PORT, ``HOST:PORT`` as given; None -> any
+    free port on loopback (the scheduler's HTTP server runs anyway, for its health and metrics routes: on Dask's
+    fixed 8787 a second batch would warn that the port is taken)."""
     if dashboard is None:
-        return None
+        return f"{LOOPBACK}:0"
     text = str(dashboard).strip()
     host, sep, port = text.rpartition(":")
     if not sep:
@@ -186,8 +188,8 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
         order): write results down here, so that nothing finished is lost if the batch stops later.
     description : what the items are, for the progress bar.
     dashboard : serve Dask's dashboard of the local cluster at this address (``PORT`` on loopback, or
-        ``HOST:PORT``; its link is printed on stderr); default None: no dashboard. The scheduler and the
-        workers of the local cluster listen on loopback only.
+        ``HOST:PORT``; its link is printed on stderr); default None: a free port on loopback, not printed.
+        The scheduler and the workers of the local cluster listen on loopback only.
 
     Returns a list of :class:`Outcome`, one per item, in the items' order. An item whose function raised
     has ``error`` set (one line) and does not stop the others; so has an item whose worker died more often

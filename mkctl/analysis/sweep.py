@@ -129,9 +129,10 @@ def parse_axis(text: str, random: bool = False):
         if ":" in spec:
             start, stop, count = spec.split(":")
             count = float(count)
-            return name, (float(start), float(stop), int(count) if count == int(count) else count)
+            return name, (float(start), float(stop), int(count) if math.isfinite(count) and count == int(count)
+                          else count)
         return name, [float(part) for part in spec.split(",")]
-    except ValueError:
+    except (ValueError, OverflowError):
         raise SweepError(f"{name}: expected {form} with numbers, got {spec!r}") from None
 
 
@@ -338,7 +339,8 @@ def step_metrics(poles, band: float = SETTLING_BAND, per_period: int = 40, max_s
     total = np.sum(np.abs(residues), axis=1)
     horizon = np.log(np.maximum(total / band, 1.0 + 1e-12)) / sigma
     periods = np.max(np.abs(poles.imag), axis=1) * horizon / (2 * np.pi)
-    samples = np.clip((per_period * periods).astype(int) + 200, 200, max_samples)
+    # clipped before the cast: a nearly undamped system (zeta ~ 1e-19) would ask for more samples than an int holds
+    samples = np.clip(per_period * periods + 200, 200, max_samples).astype(int)
     order = np.argsort(samples)
     start = 0
     while start < rows:  # blocks of rows with similar sample counts, at most max_elements values each

@@ -26,8 +26,9 @@ def add_engine_options(parser) -> None:
                         help="run on the Dask cluster of this scheduler instead, e.g. tcp://10.0.0.5:8786 "
                              "(workers need mkctl installed and the files under the same paths)")
     parser.add_argument("--dashboard", metavar="[HOST:]PORT", default=None,
-                        help="serve Dask's dashboard of the local cluster here (PORT alone: on 127.0.0.1; 0: any free "
-                             "port); default: no dashboard. The local scheduler and workers listen on 127.0.0.1 only")
+                        help="serve Dask's dashboard of the local cluster here and print its link (PORT alone: on "
+                             "127.0.0.1; 0: any free port; HOST:PORT to offer it to the network). Default: a free "
+                             "port on 127.0.0.1; the local scheduler and workers listen on 127.0.0.1 only")
 
 
 def _check_jobs(args) -> None:

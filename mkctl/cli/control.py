@@ -44,6 +44,10 @@ LARGEST_KPA = 1e5
 LARGEST_ZETA = 100.0
 #: Largest height gain --gain takes [Pa/m]: a 1 mm error would command 1000 MPa.
 LARGEST_GAIN = 1e12
+#: The integral times --ti takes [s].
+SHORTEST_TI, LONGEST_TI = 1e-6, 1e4
+#: Smallest pressure step --small and --large take [kPa] (1 Pa: below it the response is lost in rounding).
+SMALLEST_STEP_KPA = 1e-3
 #: Longest step response --duration takes [s].
 LONGEST_RESPONSE = 1000.0
 
@@ -230,6 +234,8 @@ def run_rootlocus(args) -> int:
     if args.gain is not None and args.vary != "tau":
         raise UsageError(f"--gain applies only to --vary tau (with --vary {args.vary} "
                          + ("the gain itself is scanned)" if args.vary == "gain" else "there is no height loop)"))
+    if args.ti is not None and not (math.isfinite(args.ti) and SHORTEST_TI <= args.ti <= LONGEST_TI):
+        raise UsageError(f"--ti {args.ti:g}: the integral time must lie in [{SHORTEST_TI:g}, {LONGEST_TI:g}] s")
     op = _setup(args, needs_damping=True)
     print(f"operating point: {_describe(op)}")
     out = args.out
@@ -279,9 +285,9 @@ def run_step(args) -> int:
         raise UsageError(f"--dt {args.dt:g}: the output interval must be positive and shorter than the response "
                          f"after the step ({args.duration - t_step:g} s)")
     for option, kpa in (("--small", args.small), ("--large", args.large)):
-        if not (math.isfinite(kpa) and kpa != 0 and abs(kpa) <= LARGEST_KPA):
-            raise UsageError(f"{option} {kpa:g}: the pressure step must be a non-zero number of kPa, at most "
-                             f"{LARGEST_KPA:g} either way")
+        if not (math.isfinite(kpa) and SMALLEST_STEP_KPA <= abs(kpa) <= LARGEST_KPA):
+            raise UsageError(f"{option} {kpa:g}: the pressure step must be a non-zero number of kPa, at least "
+                             f"{SMALLEST_STEP_KPA:g} and at most {LARGEST_KPA:g} either way")
     op = _setup(args, needs_damping=True)
     for option, kpa in (("--small", args.small), ("--large", args.large)):
         if op.Pe + kpa * 1e3 < 0:
@@ -299,8 +305,11 @@ def run_step(args) -> int:
             print(f"  {name:9s}: {mc.describe_response(info)}, final X - X_op = {1e3 * result[name][-1]:+.4g} mm")
         ref = np.abs(result["nonlinear"]).max()
         others = [n for n in ("linear", "fmu") if result[n] is not None]
-        print("  max difference from the nonlinear model, relative to its peak: " + ", ".join(
-            f"{n} {np.abs(result[n] - result['nonlinear']).max() / ref:.3g}" for n in others))
+        if ref > 0:
+            print("  max difference from the nonlinear model, relative to its peak: " + ", ".join(
+                f"{n} {np.abs(result[n] - result['nonlinear']).max() / ref:.3g}" for n in others))
+        else:
+            print("  the nonlinear model does not move: no relative difference to show")
         path = mc.plot_step(result, op, args.out / f"step_{label}.png")
         print(f"  wrote {path}")
     return 0

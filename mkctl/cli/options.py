@@ -126,6 +126,10 @@ def run_reporting_errors(prog: str, run, *args) -> int:
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130
+    except MemoryError:  # the up-front checks (mkctl.errors.check_memory) missed a case: still one line
+        print(f"{prog}: error: out of memory (the job needs more than this machine has: make it smaller)",
+              file=sys.stderr)
+        return 2
 
 
 # --- parameters: a muscle file first, then NAME=VALUE items on top -----------------------------------

@@ -565,6 +565,12 @@ def write_measurement(path, experiment: str, time, inputs: dict, output, metadat
     quantities.append(out)
     arrays.append(np.asarray(output, dtype=float))
     scaled = np.column_stack([a / UNIT_FACTORS[q.kind][q.unit] for a, q in zip(arrays, quantities)])
+    bad = ~np.isfinite(scaled)
+    if bad.any():  # nothing non-finite is written: a file mkctl writes is one it reads back
+        row, column = (int(i[0]) for i in np.nonzero(bad))
+        q = quantities[column]
+        raise MeasurementFileError(f"cannot write {scaled[row, column]} in column {q.name}_{q.unit} (row {row + 1}): "
+                                   "a measurement file holds finite numbers only")
     number = "{:.%dg}" % DIGITS
     lines = [f"# {text}" for text in comments]
     lines.append(f"# experiment = {experiment}")

@@ -4,12 +4,24 @@ from __future__ import annotations
 from pathlib import Path
 
 
+#: Memory a text file takes once read and parsed, per byte of the file (the text, its lines, the numbers as Python
+#: floats in lists, then as arrays).
+BYTES_PER_CHARACTER = 12
+
+
 def read_user_text(path, error_class, what: str) -> str:
     """The text of ``path`` (UTF-8, a byte-order mark dropped); any problem raises ``error_class`` with one line
     naming the file: missing, a folder instead of ``what`` ("a measurement file"), not UTF-8, unreadable."""
+    from ..errors import ResourceError, check_memory
+
     path = Path(path)
     try:
+        if path.is_file():  # a file's numbers take about ten times its size once read
+            size = path.stat().st_size
+            check_memory(f"{path}: reading a file of {size / 2**20:.4g} MiB", size, BYTES_PER_CHARACTER)
         return path.read_text(encoding="utf-8-sig")
+    except ResourceError as error:
+        raise error_class(str(error)) from None
     except FileNotFoundError:
         raise error_class(f"{path}: no such file") from None
     except IsADirectoryError:

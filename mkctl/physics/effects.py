@@ -455,7 +455,7 @@ BUILTIN = (
         signature_axis="rubber tension of the model's C1, C2 [N]", separation=_separations("elasticity")),
     Effect(
         "viscous_damping", "f += c * Ldot",
-        parameters=(Parameter("c", "N s/m", off=0.0, lower=0.0, upper=1e6, typical=45.0, scale=10.0,
+        parameters=(Parameter("c", "N s/m", off=0.0, lower=0.0, upper=1e6, smallest_on=1e-9, typical=45.0, scale=10.0,
                               description="viscous damping of each actuator: f += c Ldot"),),
         tension=_viscous_term, quasi_static="viscous", viscous=lambda p: p.c, structural=False, fitted="c",
         experiments={"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},

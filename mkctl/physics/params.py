@@ -340,9 +340,9 @@ def domain_of(name: str) -> tuple[float, float] | None:
 
 
 def check_domain(values) -> None:
-    """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``values`` (names
-    to values) lies in :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than the extensor's thigh
-    anchor distance ``L1``, so that ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3) is defined
+    """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``values``
+    (names to values) lies in :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than
+    the extensor's thigh anchor distance ``L1``, so that ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3) is defined
     for every kneecap angle alpha in (0, pi/2)."""
     for name, (low, high) in DOMAIN.items():
         value = values.get(name)
