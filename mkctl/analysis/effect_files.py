@@ -403,10 +403,9 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
 #: upper bound caps it). The built-ins' intervals span 4 to 6 decades likewise.
 SEARCH_DECADES = 3.0
 
-#: What this process registered from effect files: effect name -> (definition fingerprint, UserEffect).
-_registered: dict[str, tuple[str, UserEffect]] = {}
-#: The files registered in this process, in order (absolute paths): batch workers register the same.
-_files: list[str] = []
+#: What this process registered from effect files: effect name -> (definition fingerprint, UserEffect, the file
+#: it was first registered from, absolute).
+_registered: dict[str, tuple[str, UserEffect, str]] = {}
 
 
 def _definition(effect: UserEffect) -> str:
@@ -496,7 +495,7 @@ def register_effect_file(path) -> list[registry.Effect]:
             plan.append((effect, fingerprint, None))
             continue
         plan.append((effect, fingerprint, to_registry_effect(effect)))
-    done = []
+    done, resolved = [], str(path.resolve())
     try:
         for effect, fingerprint, new in plan:
             if new is None:
@@ -506,16 +505,13 @@ def register_effect_file(path) -> list[registry.Effect]:
                 done.append((registry.register(new), True))
             except registry.EffectError as error:
                 raise EffectFileError(f"{where}: {error}") from None
-            _registered[effect.name] = (fingerprint, effect)
+            _registered[effect.name] = (fingerprint, effect, resolved)
     except EffectFileError:
         for registered, is_new in done:
             if is_new:
                 registry.unregister(registered.name)
                 _registered.pop(registered.name, None)
         raise
-    resolved = str(path.resolve())
-    if resolved not in _files:
-        _files.append(resolved)
     return [registered for registered, _ in done]
 
 
@@ -525,18 +521,19 @@ def register_effect_files(paths) -> list[registry.Effect]:
 
 
 def registered_files() -> tuple[str, ...]:
-    """The effect files registered in this process (absolute paths), for worker processes to register alike."""
-    return tuple(_files)
+    """The effect files whose effects are registered in this process (absolute paths, each effect's first file, in
+    the order of registration), for worker processes to register alike."""
+    return tuple(dict.fromkeys(path for name, (_, _, path) in _registered.items() if name in registry.names()))
 
 
 def registered_definitions() -> dict[str, str]:
     """{effect name: fingerprint of its definition} of the user effects registered in this process."""
-    return {name: fingerprint for name, (fingerprint, _) in _registered.items() if name in registry.names()}
+    return {name: fingerprint for name, (fingerprint, _, _) in _registered.items() if name in registry.names()}
 
 
 def registered_user_effects() -> tuple[UserEffect, ...]:
     """The user effects registered from files in this process that are still registered, as loaded."""
-    return tuple(effect for name, (_, effect) in _registered.items() if name in registry.names())
+    return tuple(effect for name, (_, effect, _) in _registered.items() if name in registry.names())
 
 
 def discovery_effects() -> tuple[UserEffect, ...]:
@@ -552,6 +549,3 @@ def unregister_effect_file(path) -> None:
         if effect.name in _registered:
             registry.unregister(effect.name)
             del _registered[effect.name]
-    resolved = str(Path(path).resolve())
-    if resolved in _files:
-        _files.remove(resolved)
