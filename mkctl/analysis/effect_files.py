@@ -469,7 +469,7 @@ def to_registry_effect(effect: UserEffect) -> registry.Effect:
         tension=effect.term, pressure_rate=effect.pressure_rate, quasi_static="static", structural=structural,
         fitted=first.name if candidate else None, experiments=experiments,
         regressor=f"the force of {effect.name} per unit {first.name}",
-        signature_axis=f"the term of {effect.name} [N]", calibrate=candidate and static and effect.pressure_rate is None)
+        signature_axis="velocity [mm/s] (what the diagnosis plots a user effect against)", calibrate=candidate and static and effect.pressure_rate is None)
 
 
 def register_effect_file(path) -> list[registry.Effect]:
