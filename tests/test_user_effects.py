@@ -284,3 +284,17 @@ def test_sweep_workers_register_the_files(drag, pressure_damping, tmp_path):
     zeta = {float(r["c_p"]): float(r["damping_ratio"]) for r in rows}
     assert zeta[0.0] == pytest.approx(0.0, abs=1e-6) and zeta[1e-4] > 0.1
     assert not [r for r in rows if r.get("error")]
+
+
+def test_the_compiled_cache_key_follows_the_users_term(tmp_path):
+    """Another term under the same name and parameters generates other C: the source's key must differ."""
+    from mkctl.native import build
+    from mkctl.native.variants import Variant
+    keys = []
+    for number, term in enumerate(("Ldot * xp.abs(Ldot)", "Ldot ** 3")):
+        with effect_file(tmp_path, DRAG.replace("Ldot * xp.abs(Ldot)", term), f"drag{number}.py") as path:
+            register_effect_file(path)
+            keys.append(build.input_key((Variant.of(Params(c_q=1.0)),)))
+    assert "quadratic_drag" not in effects.names()
+    keys.append(build.input_key((Variant.of(Params()),)))
+    assert len(set(keys)) == 3
