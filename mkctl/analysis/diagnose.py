@@ -66,6 +66,7 @@ from .compare import fit_percent, rmse, simulate_output
 from .discovery import discover
 from .equation_error import (ISOTONIC_SMOOTHING_SAMPLES, KNEE_SMOOTHING_S, knee_force_at,  # noqa: F401 (re-exported)
                              lagged, missing_force, model_pressures)
+from .effect_files import discovery_effects
 from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
                              forward_selection, judge, pair_needed, to_drop)
 
@@ -1382,7 +1383,8 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         say(note)
     # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
     # it lacks show as their own terms, "matches" naming them)
-    found = discover(record.prepared, record.start, progress=say) if verdict == "incomplete" else None
+    found = discover(record.prepared, record.start, progress=say, effects=discovery_effects()) \
+        if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
