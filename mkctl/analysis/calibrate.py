@@ -793,13 +793,24 @@ def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple,
     held = {}
     if not groups:
         return current, stderr, correlation, groups, held
-    records = fitter.records
+    choice = {}
     for group in groups:
-        for name in group[1:]:
-            held[name] = 0.0 if is_offset(name) else float(getattr(start, name))
+        choice.update(_choose_held(fitter, current, model, group, start))
+    held = {k: value for k, (value, _) in choice.items()}
     notes.append("the data cannot separate " + "; ".join(" and ".join(g) for g in groups) + ": "
-                 + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')}" for k, v in held.items())
+                 + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')} ({why})" for k, (v, why) in choice.items())
                  + " and the rest refitted")
+    refit, model = _hold(fitter, current, model, held)
+    stderr, _, more = _uncertainty(refit, model)
+    groups += [g for g in more if g not in groups]  # what the refit still cannot separate
+    stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
+    return refit, stderr, correlation, groups, held
+
+
+def _hold(fitter: _Fitter, current: _Fit, model: _Model, held: dict):
+    """The fit refitted with the names in held fixed at their values (the rest from where they are).
+    Returns (fit, its model)."""
+    records = fitter.records
     keep = tuple(n for n in model.names if n not in held)
     base = current.params.replace(**{k: v for k, v in held.items() if not is_offset(k)})
     model = _Model(records, base, keep, fitter.link_n)
@@ -807,10 +818,44 @@ def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple,
     refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, fitter.max_evaluations)
     fitter.evaluations += refit.evaluations
     refit.values.update({k: v for k, v in held.items()})
-    stderr, _, more = _uncertainty(refit, model)
-    groups += [g for g in more if g not in groups]  # what the refit still cannot separate
-    stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
-    return refit, stderr, correlation, groups, held
+    return refit, model
+
+
+def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start: Params) -> dict:
+    """Which names of a group the data cannot separate are held, and at what: {name: (value, why)}.
+
+    As a rule the later ones are held at their start (the file's or Table I's; a force offset at 0). But when
+    the free fit (``free``: every name fitted) drives one of them to a bound of its range (its estimate within
+    2 standard errors of the bound), holding that one there instead is tried too, and chosen when holding
+    at the start costs clearly more (RSS more than ``EQUALLY_GOOD`` s^2 above): the data then ask for none of
+    it, and the others take its share. Blocked-force data of short muscles, say, drive C1 to 0 and want C2
+    of 1.4-1.8 MPa, which C2 held at Table I's 1300 Pa cannot give. The reason goes into the note."""
+    usual = {n: 0.0 if is_offset(n) else float(getattr(start, n)) for n in group[1:]}
+    usual_fit, _ = _hold(fitter, free, model, usual)
+    choice = {n: (v, "its starting value") for n, v in usual.items()}
+    points, k = model.size, len(model.names)
+    if points <= k:
+        return choice
+    s2 = free.rss / (points - k)
+    errors = _standard_errors(free, model)
+    best = None
+    for name in (n for n in group if not is_offset(n) and n in errors):
+        value, error = free.values[name], errors[name]
+        for side, bound in zip(("lower", "upper"), _bounds(name, fitter.records, free.params, free.names)):
+            if not (math.isfinite(bound) and abs(value - bound) <= 2 * error):
+                continue
+            fit, _ = _hold(fitter, free, model, {name: float(bound)})
+            if fit.converged and fit.rss < usual_fit.rss - EQUALLY_GOOD * s2 and (best is None or fit.rss < best[0]):
+                best = (fit.rss, name, float(bound), side, value, error)
+    if best is None:
+        return choice
+    rss, name, bound, side, value, error = best
+    unit = UNITS.get(name, "N")
+    others = ", ".join(f"{n} at its start {v:g} {UNITS.get(n, 'N')}" for n, v in usual.items())
+    return {name: (bound, f"the free fit drove it to its {side} bound ({value:.4g} +- {error:.2g} {unit}): "
+                          f"the data ask for {'none' if bound == 0 else 'no other value'} of it; holding {others} "
+                          f"instead would leave {math.sqrt(usual_fit.rss / points):.4g} N RMS, not "
+                          f"{math.sqrt(rss / points):.4g} N")}
 
 
 def _settle_bounds(records, current: _Fit, notes: list) -> list:
@@ -880,18 +925,37 @@ def _check_converged(fit: _Fit, what: str, max_evaluations: int, force_range: fl
                            f"best it reached: NRMS {_nrms(fit.residual, force_range):.2%} with {best}")
 
 
-def _uncertainty(fit: _Fit, model: _Model):
-    """Standard errors, the correlation matrix and the groups of names whose estimates cannot be separated."""
+def _covariance(fit: _Fit, model: _Model):
+    """``cov = s^2 (J^T J)^-1`` of the scaled estimates (value / scale) and their standard deviations, with
+    ``s^2 = RSS / (N - k)`` and J the Jacobian of the force residuals on every point; None when there is none."""
     J = np.asarray(fit.result.jac, dtype=float) if fit.result.jac is not None else None
-    names = list(model.names)
-    n, k = model.size, len(names)
+    n, k = model.size, len(model.names)
     if J is None or n <= k:
-        return {}, {"names": names, "matrix": None}, []
+        return None
     # the Jacobian of the residual on every point (least_squares's may be of the training part only)
     if J.shape[0] != n:
         J = _jacobian(model, fit.result.x)
     cov_x = fit.rss / (n - k) * np.linalg.pinv(J.T @ J)
-    sd_x = np.sqrt(np.clip(np.diag(cov_x), 0.0, None))
+    return cov_x, np.sqrt(np.clip(np.diag(cov_x), 0.0, None))
+
+
+def _standard_errors(fit: _Fit, model: _Model) -> dict:
+    """Every fitted name's standard error [its unit], those the data cannot separate included (there it is the
+    whole range the data allow along the group, large)."""
+    covariance = _covariance(fit, model)
+    if covariance is None:
+        return {}
+    return {name: float(s * scale) for name, s, scale in zip(model.names, covariance[1], model.scales)}
+
+
+def _uncertainty(fit: _Fit, model: _Model):
+    """Standard errors, the correlation matrix and the groups of names whose estimates cannot be separated."""
+    names = list(model.names)
+    k = len(names)
+    covariance = _covariance(fit, model)
+    if covariance is None:
+        return {}, {"names": names, "matrix": None}, []
+    cov_x, sd_x = covariance
     stderr = {name: float(s * scale) for name, s, scale in zip(names, sd_x, model.scales)}
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov_x / np.outer(sd_x, sd_x)
