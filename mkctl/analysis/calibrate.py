@@ -470,7 +470,7 @@ class CalibrationResult(Result):
 GROWTH_SIGMAS, GROWTH_FACTOR = 5.0, 1.5
 
 
-def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
+def hysteresis_growth(records: list[ForceRecord], muscle: Params | None = None) -> dict | None:
     """How the gap between the rising and falling branches of the isometric records changes with pressure.
 
     At a clamped length the measured tension is ``f - Fc`` on the rising branch and ``f + Fc`` on the falling
@@ -479,7 +479,11 @@ def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
     length, and ``half gap = a + b P`` is fitted over all of them by least squares. Returns None without two
     branches to compare, else {"low": (P [Pa], half gap [N]), "high": (P, half gap), "slope": b [N/Pa],
     "slope_stderr", "grows": whether the gap grows clearly (:data:`GROWTH_SIGMAS`, :data:`GROWTH_FACTOR`)}:
-    a friction that grows with pressure, which the spec's constant Fc cannot follow.
+    a friction that grows with pressure, which the spec's constant Fc cannot follow; "intercept": a [N].
+
+    ``muscle``: a calibrated muscle with slack on; the points where its rising branch is slack (tension 0) are
+    left out, for there the branches are not 2 (Fc + Fc_p P) apart but clipped at zero (a short muscle at low
+    pressure), which would bend the line.
     """
     pressures, gaps = [], []
     for r in records:
@@ -493,6 +497,8 @@ def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
             order = np.argsort(r.pressure[down])
             P_down, F_down = r.pressure[down][order], r.force[down][order]
             inside = up & (r.pressure >= P_down[0]) & (r.pressure <= P_down[-1])
+            if muscle is not None and muscle.slack:
+                inside &= isometric_tension(r.length, r.pressure, 1.0, muscle) > 0
             pressures.append(r.pressure[inside])
             gaps.append(0.5 * (np.interp(r.pressure[inside], P_down, F_down) - r.force[inside]))
     if not pressures:
@@ -509,7 +515,7 @@ def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
     gap_low, gap_high = float(a + b * low), float(a + b * high)
     grows = bool(b > GROWTH_SIGMAS * stderr and gap_high > GROWTH_FACTOR * max(gap_low, 0.0) and gap_high > 0)
     return {"low": (low, gap_low), "high": (high, gap_high), "slope": float(b), "slope_stderr": stderr,
-            "grows": grows}
+            "grows": grows, "intercept": float(a)}
 
 
 # --- The calibration ---------------------------------------------------------------------------------
@@ -581,7 +587,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     current, stderr, correlation, groups, held = _separate(fitter, current, current_model, uncertainty, start,
                                                            ambiguous, notes)
     at_bound = _settle_bounds(records, current, notes)
-    _note_hysteresis(records, current, notes)
+    _note_hysteresis(records, current, notes, added, stderr, effects)
     nrms_after = _nrms(current.residual, force_range)
     fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
               if n in current.values}
@@ -716,11 +722,7 @@ class _EffectSelection:
     def _fit_round(self, left: list[str]) -> list[Outcome]:
         current, rows, outcomes = self.current, [], []
         for effect in left:
-            starts = [dict(current.values)]
-            if CANDIDATES[effect] == "Fc":
-                sign = np.concatenate([r.sign for r in self.records])
-                guess = float(np.mean(-sign * current.residual)) if np.any(sign) else 0.0
-                starts = [{**current.values, "Fc": max(guess, 0.01)}]
+            starts = _candidate_starts(effect, current, self.records)
             starts += [{**s, **{k: v for k, v in starts[0].items() if k not in s}} for s in self.static_starts]
             fitted_train, _, k = self.fitter.fit([*self.added, effect], current.params, starts, self.train)
             score = self.score(fitted_train, k)
@@ -764,6 +766,34 @@ class _EffectSelection:
                            "candidates": self.public_rows})
         self.say(f"added {decision.effect}: NRMS {nrms:.2%}")
         return self.now
+
+
+def _candidate_starts(effect: str, current: _Fit, records) -> list[dict]:
+    """Where a candidate's fit starts besides the static starts: the current fit with the candidate's parameter
+    guessed. A play effect (Coulomb friction, pressure friction: a band of half-width ``value * u(P)``) gets the
+    least-squares value of ``-sign * residual = value * u(P)``, the branches' offset from the current fit; any
+    other fitted parameter starts at its typical value (the threshold: P0 = 50 kPa) and at its off value."""
+    name = CANDIDATES[effect]
+    if not name:
+        return [dict(current.values)]
+    found = effects.get(effect)
+    q = found.parameter(name) if name in found.parameter_names else None
+    if found.quasi_static == "play" and q is not None:
+        P = np.concatenate([r.pressure for r in records])
+        sign = np.concatenate([r.sign for r in records])
+        try:
+            unit = np.broadcast_to(np.asarray(found.play(P, current.params.replace(**{name: q.scale}), np), float),
+                                   P.shape) / q.scale
+        except (MkctlError, ArithmeticError, ValueError):
+            unit = np.zeros_like(P)
+        signed = sign * unit
+        if signed @ signed > 0:
+            guess = float(-(signed @ current.residual) / (signed @ signed))
+            return [{**current.values, name: max(guess, 0.01 * q.scale)}]
+    starts = [dict(current.values)]
+    if q is not None and q.typical is not None:
+        starts.append({**current.values, name: q.typical})
+    return starts
 
 
 def _refit_from_every_start(fitter: _Fitter, current: _Fit, model: _Model, added: list, static_starts: list,
@@ -824,19 +854,26 @@ def _hold(fitter: _Fitter, current: _Fit, model: _Model, held: dict):
 def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start: Params) -> dict:
     """Which names of a group the data cannot separate are held, and at what: {name: (value, why)}.
 
-    As a rule the later ones are held at their start (the file's or Table I's; a force offset at 0). But when
-    the free fit (``free``: every name fitted) drives one of them to a bound of its range (its estimate within
-    2 standard errors of the bound), holding that one there instead is tried too, and chosen when holding
-    at the start costs clearly more (RSS more than ``EQUALLY_GOOD`` s^2 above): the data then ask for none of
-    it, and the others take its share. Blocked-force data of short muscles, say, drive C1 to 0 and want C2
-    of 1.4-1.8 MPa, which C2 held at Table I's 1300 Pa cannot give. The reason goes into the note."""
+    Holding must not make the fit clearly worse than the free fit (``free``: every name fitted); "clearly" is
+    an RSS more than ``EQUALLY_GOOD`` s^2 above it. In this order, the first that does not:
+
+    1. the later ones at their start (the file's or Table I's; a force offset at 0), as a rule;
+    2. the one the free fit drives to a bound of its range (its estimate within 2 standard errors of the bound)
+       held on that bound: the data ask for none of it, and the others take its share. Blocked-force data of
+       short muscles, say, drive C1 to 0 and want C2 of 1.4-1.8 MPa, which C2 held at Table I's 1300 Pa cannot
+       give (the cheapest such bound, if several);
+    3. otherwise the later ones where the free fit put them (their values are then one of many equally good).
+
+    The reason goes into the note."""
     usual = {n: 0.0 if is_offset(n) else float(getattr(start, n)) for n in group[1:]}
-    usual_fit, _ = _hold(fitter, free, model, usual)
     choice = {n: (v, "its starting value") for n, v in usual.items()}
     points, k = model.size, len(model.names)
     if points <= k:
         return choice
     s2 = free.rss / (points - k)
+    usual_fit, _ = _hold(fitter, free, model, usual)
+    if usual_fit.rss <= free.rss + EQUALLY_GOOD * s2:
+        return choice
     errors = _standard_errors(free, model)
     best = None
     for name in (n for n in group if not is_offset(n) and n in errors):
@@ -845,17 +882,18 @@ def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start:
             if not (math.isfinite(bound) and abs(value - bound) <= 2 * error):
                 continue
             fit, _ = _hold(fitter, free, model, {name: float(bound)})
-            if fit.converged and fit.rss < usual_fit.rss - EQUALLY_GOOD * s2 and (best is None or fit.rss < best[0]):
+            if fit.converged and fit.rss <= free.rss + EQUALLY_GOOD * s2 and (best is None or fit.rss < best[0]):
                 best = (fit.rss, name, float(bound), side, value, error)
-    if best is None:
-        return choice
-    rss, name, bound, side, value, error = best
-    unit = UNITS.get(name, "N")
+    rms = lambda rss: f"{math.sqrt(rss / points):.4g} N"  # noqa: E731
     others = ", ".join(f"{n} at its start {v:g} {UNITS.get(n, 'N')}" for n, v in usual.items())
-    return {name: (bound, f"the free fit drove it to its {side} bound ({value:.4g} +- {error:.2g} {unit}): "
-                          f"the data ask for {'none' if bound == 0 else 'no other value'} of it; holding {others} "
-                          f"instead would leave {math.sqrt(usual_fit.rss / points):.4g} N RMS, not "
-                          f"{math.sqrt(rss / points):.4g} N")}
+    if best is None:
+        return {n: (free.values[n], f"where the free fit put it: holding {others} would leave {rms(usual_fit.rss)} "
+                                    f"RMS, not {rms(free.rss)}, and no estimate of the group ends near a bound")
+                for n in usual}
+    rss, name, bound, side, value, error = best
+    return {name: (bound, f"the free fit drove it to its {side} bound ({value:.4g} +- {error:.2g} "
+                          f"{UNITS.get(name, 'N')}): the data ask for {'none' if bound == 0 else 'no other value'} of "
+                          f"it; holding {others} instead would leave {rms(usual_fit.rss)} RMS, not {rms(rss)}")}
 
 
 def _settle_bounds(records, current: _Fit, notes: list) -> list:
@@ -881,16 +919,41 @@ def _settle_bounds(records, current: _Fit, notes: list) -> list:
     return at_bound
 
 
-def _note_hysteresis(records, current: _Fit, notes: list) -> None:
-    """A note when the gap between the branches grows with pressure (friction the constant Fc cannot follow)."""
-    growth = hysteresis_growth(records)
-    if growth and growth["grows"]:
-        (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
-        notes.append(f"the gap between the rising and falling branches grows with pressure: half of it is "
-                     f"{gap_low:.2g} N at {low / 1e3:.0f} kPa and {gap_high:.2g} N at {high / 1e3:.0f} kPa. That is "
-                     f"friction growing with pressure, which the constant Fc of the model cannot follow"
-                     + (f" (the fitted Fc = {current.values['Fc']:.3g} N is an average)" if "Fc" in current.values
-                        else "") + "; expect the largest errors at the extremes of pressure")
+def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None, candidates=()) -> None:
+    """What the gap between the branches says on its own (:func:`hysteresis_growth`), as a note.
+
+    With ``pressure_friction`` added, the gap is an independent cross-check of the fitted friction: half of it is
+    ``Fc + Fc_p P`` whatever the static model, so its line's slope and intercept are printed beside the fitted
+    Fc_p and Fc. Without it, a gap that grows with pressure is a friction the constant Fc cannot follow, and the
+    note says which candidate would follow it."""
+    growth = hysteresis_growth(records, current.params)
+    if not growth:
+        return
+    stderr = stderr or {}
+
+    def value(name):
+        error = stderr.get(name)
+        return f"{current.values.get(name, 0.0):.3g}" + (f" +- {error:.2g}" if error is not None else "")
+
+    (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
+    intercept = growth["intercept"]
+    if "pressure_friction" in added:
+        notes.append(f"friction that grows with pressure, fitted as pressure_friction: Fc_p = {value('Fc_p')} N/Pa"
+                     + (f" with Fc = {value('Fc')} N" if "Fc" in current.values else "") + "; cross-check from the "
+                     f"gap between the rising and falling branches alone (whatever the static model): half of it is "
+                     f"{intercept:.3g} N + {growth['slope']:.3g} +- {growth['slope_stderr']:.2g} N/Pa times P")
+        return
+    if not growth["grows"]:
+        return
+    if "pressure_friction" in candidates:
+        hint = "the pressure_friction candidate that follows it was not added (see the steps)"
+    else:
+        hint = "the candidate pressure_friction (Fc + Fc_p P) follows it: add it to the effects tried"
+    notes.append(f"the gap between the rising and falling branches grows with pressure: half of it is "
+                 f"{gap_low:.2g} N at {low / 1e3:.0f} kPa and {gap_high:.2g} N at {high / 1e3:.0f} kPa. That is "
+                 f"friction growing with pressure, which the constant Fc of the model cannot follow"
+                 + (f" (the fitted Fc = {current.values['Fc']:.3g} N is an average)" if "Fc" in current.values
+                    else "") + f"; expect the largest errors at the extremes of pressure; {hint}")
 
 
 #: Two fits whose RSS differ by less than this many times the noise variance s^2 fit equally well.
