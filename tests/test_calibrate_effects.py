@@ -35,3 +35,66 @@ def test_c1_is_held_when_the_free_fit_drives_it_to_zero():
     noise_rms = float(np.sqrt(np.mean((rec.output - rec.output_clean) ** 2)))
     assert result.rms_after < 1.1 * noise_rms
     assert not any(s["label"].startswith("final (") for s in result.steps)  # holding C1 cost nothing
+
+
+# --- a force law written here (not mkctl's): Eq. 7 with a threshold pressure, Mooney-Rivlin rubber from the
+# --- stretches of Eq. 10-11 differentiated numerically, a play operator of half-width Fc + Fc_p P, slack
+
+def rubber_energy(L, C1, C2, b, n):
+    """Mooney-Rivlin energy density W [Pa] from the principal stretches (paper Eq. 10-11)."""
+    l1 = L / SHORT["L0"]
+    l2 = math.sqrt(b * b - L * L) / (SHORT["D0"] * n * math.pi)
+    l3 = 1.0 / (l1 * l2)
+    return C1 * (l1 ** 2 + l2 ** 2 + l3 ** 2 - 3) + C2 * (l1 ** -2 + l2 ** -2 + l3 ** -2 - 3)
+
+
+def threshold_law(L, P, branch, C1=1e5, C2=0.0, P0=5e4, Fc=0.5, Fc_p=8e-6, b=B_SHORT, n=N_SHORT):
+    """Blocked-force tension [N]: ``max(P_eff (3 L^2 - b^2) / (4 pi n^2) + V_r dW/dL - branch (Fc + Fc_p P), 0)``,
+    ``P_eff = P - P0 (1 - exp(-P / P0))`` (P_eff = P when P0 = 0), dW/dL by central differences."""
+    h = 1e-7
+    dW = np.array([(rubber_energy(x + h, C1, C2, b, n) - rubber_energy(x - h, C1, C2, b, n)) / (2 * h) for x in L])
+    V_r = math.pi * SHORT["t0"] * (SHORT["D0"] - SHORT["t0"]) * SHORT["L0"]
+    P_eff = P - P0 * (1 - np.exp(-P / P0)) if P0 > 0 else P
+    f = P_eff * (3 * L * L - b * b) / (4 * math.pi * n * n) + V_r * dW - branch * (Fc + Fc_p * P)
+    return np.maximum(f, 0.0)
+
+
+def blocked_force_test(noise=0.3, seed=0, **law):
+    """Four lengths (75 % to 98 % of L0), 0 -> 600 kPa -> 0 in 100 readings each: (record, noise-free force)."""
+    lengths, per = (0.075, 0.083, 0.091, 0.098), 100
+    up = per // 2
+    ramp = np.concatenate([np.linspace(0.0, 600e3, up), np.linspace(600e3, 0.0, per - up + 1)[1:]])
+    P = np.tile(ramp, len(lengths))
+    branch = np.tile(np.concatenate([np.ones(up), -np.ones(per - up)]), len(lengths))
+    L = np.repeat(lengths, per)
+    clean = threshold_law(L, P, branch, **law)
+    force = clean + np.random.default_rng(seed).normal(0.0, noise, clean.size)
+    return isometric_record(L, P, force, branch, SHORT, source=f"threshold law, seed {seed}"), clean
+
+
+def test_threshold_and_pressure_friction_are_found_on_a_short_muscle_made_by_another_law():
+    """P0 = 50 kPa and Fc_p = 8e-6 N/Pa (0.5 N + 4.8 N of friction at 600 kPa) hidden in a 10 cm muscle: calibrate
+    names both, recovers them within their standard errors and reaches the noise; the branch gap's own line
+    (a cross-check independent of the static model) is printed beside the fitted friction."""
+    record, clean = blocked_force_test(seed=0)
+    result = calibrate([record])
+    assert {"pressure_threshold", "pressure_friction"} <= set(result.effects)
+    truth = {"P0": 5e4, "Fc_p": 8e-6, "C1": 1e5}
+    for name, value in truth.items():
+        assert name in result.stderr and result.stderr[name] < 0.1 * value, name
+        assert abs(result.fitted[name] - value) <= 3.5 * result.stderr[name], (name, result.fitted[name])
+    noise_rms = float(np.sqrt(np.mean((record.force - clean) ** 2)))
+    assert result.rms_after < 1.05 * noise_rms
+    assert result.nrms_before > 10 * result.nrms_after  # the static fit alone was far off
+    note = next(n for n in result.notes if "fitted as pressure_friction" in n)
+    assert "cross-check" in note and not any("cannot follow" in n for n in result.notes)
+
+
+def test_neither_is_added_when_the_law_has_neither():
+    """The same law with no threshold and a constant friction of 1 N: only slack and Coulomb friction are added,
+    and the branch gap, flat, prompts no note."""
+    record, clean = blocked_force_test(seed=1, P0=0.0, Fc=1.0, Fc_p=0.0)
+    result = calibrate([record])
+    assert sorted(result.effects) == ["coulomb_friction", "slack"]
+    assert abs(result.fitted["Fc"] - 1.0) <= 3.5 * result.stderr["Fc"]
+    assert not any("pressure" in note for note in result.notes)
