@@ -98,3 +98,18 @@ def test_neither_is_added_when_the_law_has_neither():
     assert sorted(result.effects) == ["coulomb_friction", "slack"]
     assert abs(result.fitted["Fc"] - 1.0) <= 3.5 * result.stderr["Fc"]
     assert not any("pressure" in note for note in result.notes)
+
+
+def test_a_rubber_dominated_short_muscle_keeps_the_free_fit_when_holding_at_the_start_would_cost():
+    """C1 = 0, C2 = 1.5 MPa and the same threshold: C1 and C2 cannot be separated and neither ends near a bound
+    (part of the threshold goes into C1), so C2 is held where the free fit put it, not at Table I's 1300 Pa
+    (which would leave 26 times the noise). Here the rubber and the geometry absorb the threshold (the fit
+    reaches the noise without it): pressure_threshold is honestly not added."""
+    record, clean = blocked_force_test(seed=0, C1=0.0, C2=1.5e6)
+    result = calibrate([record])
+    assert result.not_identifiable == [["C1", "C2"]] and list(result.held) == ["C2"]
+    assert result.held["C2"] == pytest.approx(1.5e6, rel=0.15)
+    assert any("where the free fit put it" in note for note in result.notes)
+    noise_rms = float(np.sqrt(np.mean((record.force - clean) ** 2)))
+    assert result.rms_after < 1.05 * noise_rms
+    assert "pressure_friction" in result.effects
