@@ -470,7 +470,7 @@ class CalibrationResult(Result):
 GROWTH_SIGMAS, GROWTH_FACTOR = 5.0, 1.5
 
 
-def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
+def hysteresis_growth(records: list[ForceRecord], muscle: Params | None = None) -> dict | None:
     """How the gap between the rising and falling branches of the isometric records changes with pressure.
 
     At a clamped length the measured tension is ``f - Fc`` on the rising branch and ``f + Fc`` on the falling
@@ -479,7 +479,11 @@ def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
     length, and ``half gap = a + b P`` is fitted over all of them by least squares. Returns None without two
     branches to compare, else {"low": (P [Pa], half gap [N]), "high": (P, half gap), "slope": b [N/Pa],
     "slope_stderr", "grows": whether the gap grows clearly (:data:`GROWTH_SIGMAS`, :data:`GROWTH_FACTOR`)}:
-    a friction that grows with pressure, which the spec's constant Fc cannot follow.
+    a friction that grows with pressure, which the spec's constant Fc cannot follow; "intercept": a [N].
+
+    ``muscle``: a calibrated muscle with slack on; the points where its rising branch is slack (tension 0) are
+    left out, for there the branches are not 2 (Fc + Fc_p P) apart but clipped at zero (a short muscle at low
+    pressure), which would bend the line.
     """
     pressures, gaps = [], []
     for r in records:
@@ -493,6 +497,8 @@ def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
             order = np.argsort(r.pressure[down])
             P_down, F_down = r.pressure[down][order], r.force[down][order]
             inside = up & (r.pressure >= P_down[0]) & (r.pressure <= P_down[-1])
+            if muscle is not None and muscle.slack:
+                inside &= isometric_tension(r.length, r.pressure, 1.0, muscle) > 0
             pressures.append(r.pressure[inside])
             gaps.append(0.5 * (np.interp(r.pressure[inside], P_down, F_down) - r.force[inside]))
     if not pressures:
@@ -509,7 +515,7 @@ def hysteresis_growth(records: list[ForceRecord]) -> dict | None:
     gap_low, gap_high = float(a + b * low), float(a + b * high)
     grows = bool(b > GROWTH_SIGMAS * stderr and gap_high > GROWTH_FACTOR * max(gap_low, 0.0) and gap_high > 0)
     return {"low": (low, gap_low), "high": (high, gap_high), "slope": float(b), "slope_stderr": stderr,
-            "grows": grows}
+            "grows": grows, "intercept": float(a)}
 
 
 # --- The calibration ---------------------------------------------------------------------------------
@@ -581,7 +587,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     current, stderr, correlation, groups, held = _separate(fitter, current, current_model, uncertainty, start,
                                                            ambiguous, notes)
     at_bound = _settle_bounds(records, current, notes)
-    _note_hysteresis(records, current, notes)
+    _note_hysteresis(records, current, notes, added, stderr, effects)
     nrms_after = _nrms(current.residual, force_range)
     fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
               if n in current.values}
@@ -716,11 +722,7 @@ class _EffectSelection:
     def _fit_round(self, left: list[str]) -> list[Outcome]:
         current, rows, outcomes = self.current, [], []
         for effect in left:
-            starts = [dict(current.values)]
-            if CANDIDATES[effect] == "Fc":
-                sign = np.concatenate([r.sign for r in self.records])
-                guess = float(np.mean(-sign * current.residual)) if np.any(sign) else 0.0
-                starts = [{**current.values, "Fc": max(guess, 0.01)}]
+            starts = _candidate_starts(effect, current, self.records)
             starts += [{**s, **{k: v for k, v in starts[0].items() if k not in s}} for s in self.static_starts]
             fitted_train, _, k = self.fitter.fit([*self.added, effect], current.params, starts, self.train)
             score = self.score(fitted_train, k)
@@ -766,6 +768,34 @@ class _EffectSelection:
         return self.now
 
 
+def _candidate_starts(effect: str, current: _Fit, records) -> list[dict]:
+    """Where a candidate's fit starts besides the static starts: the current fit with the candidate's parameter
+    guessed. A play effect (Coulomb friction, pressure friction: a band of half-width ``value * u(P)``) gets the
+    least-squares value of ``-sign * residual = value * u(P)``, the branches' offset from the current fit; any
+    other fitted parameter starts at its typical value (the threshold: P0 = 50 kPa) and at its off value."""
+    name = CANDIDATES[effect]
+    if not name:
+        return [dict(current.values)]
+    found = effects.get(effect)
+    q = found.parameter(name) if name in found.parameter_names else None
+    if found.quasi_static == "play" and q is not None:
+        P = np.concatenate([r.pressure for r in records])
+        sign = np.concatenate([r.sign for r in records])
+        try:
+            unit = np.broadcast_to(np.asarray(found.play(P, current.params.replace(**{name: q.scale}), np), float),
+                                   P.shape) / q.scale
+        except (MkctlError, ArithmeticError, ValueError):
+            unit = np.zeros_like(P)
+        signed = sign * unit
+        if signed @ signed > 0:
+            guess = float(-(signed @ current.residual) / (signed @ signed))
+            return [{**current.values, name: max(guess, 0.01 * q.scale)}]
+    starts = [dict(current.values)]
+    if q is not None and q.typical is not None:
+        starts.append({**current.values, name: q.typical})
+    return starts
+
+
 def _refit_from_every_start(fitter: _Fitter, current: _Fit, model: _Model, added: list, static_starts: list,
                             points: int, notes: list):
     """The final model fitted once more from every starting point: kept if better; another end that fits as well
@@ -793,13 +823,24 @@ def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple,
     held = {}
     if not groups:
         return current, stderr, correlation, groups, held
-    records = fitter.records
+    choice = {}
     for group in groups:
-        for name in group[1:]:
-            held[name] = 0.0 if is_offset(name) else float(getattr(start, name))
+        choice.update(_choose_held(fitter, current, model, group, start))
+    held = {k: value for k, (value, _) in choice.items()}
     notes.append("the data cannot separate " + "; ".join(" and ".join(g) for g in groups) + ": "
-                 + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')}" for k, v in held.items())
+                 + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')} ({why})" for k, (v, why) in choice.items())
                  + " and the rest refitted")
+    refit, model = _hold(fitter, current, model, held)
+    stderr, _, more = _uncertainty(refit, model)
+    groups += [g for g in more if g not in groups]  # what the refit still cannot separate
+    stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
+    return refit, stderr, correlation, groups, held
+
+
+def _hold(fitter: _Fitter, current: _Fit, model: _Model, held: dict):
+    """The fit refitted with the names in held fixed at their values (the rest from where they are).
+    Returns (fit, its model)."""
+    records = fitter.records
     keep = tuple(n for n in model.names if n not in held)
     base = current.params.replace(**{k: v for k, v in held.items() if not is_offset(k)})
     model = _Model(records, base, keep, fitter.link_n)
@@ -807,10 +848,52 @@ def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple,
     refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, fitter.max_evaluations)
     fitter.evaluations += refit.evaluations
     refit.values.update({k: v for k, v in held.items()})
-    stderr, _, more = _uncertainty(refit, model)
-    groups += [g for g in more if g not in groups]  # what the refit still cannot separate
-    stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
-    return refit, stderr, correlation, groups, held
+    return refit, model
+
+
+def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start: Params) -> dict:
+    """Which names of a group the data cannot separate are held, and at what: {name: (value, why)}.
+
+    Holding must not make the fit clearly worse than the free fit (``free``: every name fitted); "clearly" is
+    an RSS more than ``EQUALLY_GOOD`` s^2 above it. In this order, the first that does not:
+
+    1. the later ones at their start (the file's or Table I's; a force offset at 0), as a rule;
+    2. the one the free fit drives to a bound of its range (its estimate within 2 standard errors of the bound)
+       held on that bound: the data ask for none of it, and the others take its share. Blocked-force data of
+       short muscles, say, drive C1 to 0 and want C2 of 1.4-1.8 MPa, which C2 held at Table I's 1300 Pa cannot
+       give (the cheapest such bound, if several);
+    3. otherwise the later ones where the free fit put them (their values are then one of many equally good).
+
+    The reason goes into the note."""
+    usual = {n: 0.0 if is_offset(n) else float(getattr(start, n)) for n in group[1:]}
+    choice = {n: (v, "its starting value") for n, v in usual.items()}
+    points, k = model.size, len(model.names)
+    if points <= k:
+        return choice
+    s2 = free.rss / (points - k)
+    usual_fit, _ = _hold(fitter, free, model, usual)
+    if usual_fit.rss <= free.rss + EQUALLY_GOOD * s2:
+        return choice
+    errors = _standard_errors(free, model)
+    best = None
+    for name in (n for n in group if not is_offset(n) and n in errors):
+        value, error = free.values[name], errors[name]
+        for side, bound in zip(("lower", "upper"), _bounds(name, fitter.records, free.params, free.names)):
+            if not (math.isfinite(bound) and abs(value - bound) <= 2 * error):
+                continue
+            fit, _ = _hold(fitter, free, model, {name: float(bound)})
+            if fit.converged and fit.rss <= free.rss + EQUALLY_GOOD * s2 and (best is None or fit.rss < best[0]):
+                best = (fit.rss, name, float(bound), side, value, error)
+    rms = lambda rss: f"{math.sqrt(rss / points):.4g} N"  # noqa: E731
+    others = ", ".join(f"{n} at its start {v:g} {UNITS.get(n, 'N')}" for n, v in usual.items())
+    if best is None:
+        return {n: (free.values[n], f"where the free fit put it: holding {others} would leave {rms(usual_fit.rss)} "
+                                    f"RMS, not {rms(free.rss)}, and no estimate of the group ends near a bound")
+                for n in usual}
+    rss, name, bound, side, value, error = best
+    return {name: (bound, f"the free fit drove it to its {side} bound ({value:.4g} +- {error:.2g} "
+                          f"{UNITS.get(name, 'N')}): the data ask for {'none' if bound == 0 else 'no other value'} of "
+                          f"it; holding {others} instead would leave {rms(usual_fit.rss)} RMS, not {rms(rss)}")}
 
 
 def _settle_bounds(records, current: _Fit, notes: list) -> list:
@@ -836,16 +919,41 @@ def _settle_bounds(records, current: _Fit, notes: list) -> list:
     return at_bound
 
 
-def _note_hysteresis(records, current: _Fit, notes: list) -> None:
-    """A note when the gap between the branches grows with pressure (friction the constant Fc cannot follow)."""
-    growth = hysteresis_growth(records)
-    if growth and growth["grows"]:
-        (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
-        notes.append(f"the gap between the rising and falling branches grows with pressure: half of it is "
-                     f"{gap_low:.2g} N at {low / 1e3:.0f} kPa and {gap_high:.2g} N at {high / 1e3:.0f} kPa. That is "
-                     f"friction growing with pressure, which the constant Fc of the model cannot follow"
-                     + (f" (the fitted Fc = {current.values['Fc']:.3g} N is an average)" if "Fc" in current.values
-                        else "") + "; expect the largest errors at the extremes of pressure")
+def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None, candidates=()) -> None:
+    """What the gap between the branches says on its own (:func:`hysteresis_growth`), as a note.
+
+    With ``pressure_friction`` added, the gap is an independent cross-check of the fitted friction: half of it is
+    ``Fc + Fc_p P`` whatever the static model, so its line's slope and intercept are printed beside the fitted
+    Fc_p and Fc. Without it, a gap that grows with pressure is a friction the constant Fc cannot follow, and the
+    note says which candidate would follow it."""
+    growth = hysteresis_growth(records, current.params)
+    if not growth:
+        return
+    stderr = stderr or {}
+
+    def value(name):
+        error = stderr.get(name)
+        return f"{current.values.get(name, 0.0):.3g}" + (f" +- {error:.2g}" if error is not None else "")
+
+    (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
+    intercept = growth["intercept"]
+    if "pressure_friction" in added:
+        notes.append(f"friction that grows with pressure, fitted as pressure_friction: Fc_p = {value('Fc_p')} N/Pa"
+                     + (f" with Fc = {value('Fc')} N" if "Fc" in current.values else "") + "; cross-check from the "
+                     f"gap between the rising and falling branches alone (whatever the static model): half of it is "
+                     f"{intercept:.3g} N + {growth['slope']:.3g} +- {growth['slope_stderr']:.2g} N/Pa times P")
+        return
+    if not growth["grows"]:
+        return
+    if "pressure_friction" in candidates:
+        hint = "the pressure_friction candidate that follows it was not added (see the steps)"
+    else:
+        hint = "the candidate pressure_friction (Fc + Fc_p P) follows it: add it to the effects tried"
+    notes.append(f"the gap between the rising and falling branches grows with pressure: half of it is "
+                 f"{gap_low:.2g} N at {low / 1e3:.0f} kPa and {gap_high:.2g} N at {high / 1e3:.0f} kPa. That is "
+                 f"friction growing with pressure, which the constant Fc of the model cannot follow"
+                 + (f" (the fitted Fc = {current.values['Fc']:.3g} N is an average)" if "Fc" in current.values
+                    else "") + f"; expect the largest errors at the extremes of pressure; {hint}")
 
 
 #: Two fits whose RSS differ by less than this many times the noise variance s^2 fit equally well.
@@ -880,18 +988,37 @@ def _check_converged(fit: _Fit, what: str, max_evaluations: int, force_range: fl
                            f"best it reached: NRMS {_nrms(fit.residual, force_range):.2%} with {best}")
 
 
-def _uncertainty(fit: _Fit, model: _Model):
-    """Standard errors, the correlation matrix and the groups of names whose estimates cannot be separated."""
+def _covariance(fit: _Fit, model: _Model):
+    """``cov = s^2 (J^T J)^-1`` of the scaled estimates (value / scale) and their standard deviations, with
+    ``s^2 = RSS / (N - k)`` and J the Jacobian of the force residuals on every point; None when there is none."""
     J = np.asarray(fit.result.jac, dtype=float) if fit.result.jac is not None else None
-    names = list(model.names)
-    n, k = model.size, len(names)
+    n, k = model.size, len(model.names)
     if J is None or n <= k:
-        return {}, {"names": names, "matrix": None}, []
+        return None
     # the Jacobian of the residual on every point (least_squares's may be of the training part only)
     if J.shape[0] != n:
         J = _jacobian(model, fit.result.x)
     cov_x = fit.rss / (n - k) * np.linalg.pinv(J.T @ J)
-    sd_x = np.sqrt(np.clip(np.diag(cov_x), 0.0, None))
+    return cov_x, np.sqrt(np.clip(np.diag(cov_x), 0.0, None))
+
+
+def _standard_errors(fit: _Fit, model: _Model) -> dict:
+    """Every fitted name's standard error [its unit], those the data cannot separate included (there it is the
+    whole range the data allow along the group, large)."""
+    covariance = _covariance(fit, model)
+    if covariance is None:
+        return {}
+    return {name: float(s * scale) for name, s, scale in zip(model.names, covariance[1], model.scales)}
+
+
+def _uncertainty(fit: _Fit, model: _Model):
+    """Standard errors, the correlation matrix and the groups of names whose estimates cannot be separated."""
+    names = list(model.names)
+    k = len(names)
+    covariance = _covariance(fit, model)
+    if covariance is None:
+        return {}, {"names": names, "matrix": None}, []
+    cov_x, sd_x = covariance
     stderr = {name: float(s * scale) for name, s, scale in zip(names, sd_x, model.scales)}
     with np.errstate(invalid="ignore", divide="ignore"):
         corr = cov_x / np.outer(sd_x, sd_x)

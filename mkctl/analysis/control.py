@@ -198,6 +198,14 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: f
         raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
                                    f"pf = {pf / 1e3:g} kPa: {error}") from error
     residual = np.abs(sys.dynamics(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
+    if found.result.success and 1e-9 < residual < 1e-6:  # converged but loosely (a stiff friction term): polish
+        try:
+            found = ct.find_operating_point(sys, found.states, found.inputs, y0=x_guess, iy=[0], iu=[1],
+                                            return_result=True)
+        except MkctlError as error:
+            raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
+                                       f"pf = {pf / 1e3:g} kPa: {error}") from error
+        residual = np.abs(sys.dynamics(0.0, found.states, found.inputs)).max()
     if not found.result.success or residual > 1e-9:
         raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, pf = {pf / 1e3:g} kPa "
                                    f"({found.result.message.strip()})")

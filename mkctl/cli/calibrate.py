@@ -28,7 +28,7 @@ def register(subparsers) -> None:
         "calibrate", help=COMMANDS["calibrate"],
         description="Fit the static parameters a user cannot measure (b, n, C1, C2; more with --fit) from one or "
                     "more isometric and/or isotonic files of the same muscle, from several starting points within "
-                    "physical bounds; then add the effects the data support (slack, coulomb_friction: forward "
+                    "physical bounds; then add the effects the data support (the registry's calibration candidates: forward "
                     "stepwise, BIC and a held-out quarter of the points), refitting the static parameters with "
                     "each. Prints the error fall, standard errors and what the data cannot separate; writes the "
                     "muscle file (model-spec section 5b) and <stem>_fit.png, <stem>_error.png beside it.")

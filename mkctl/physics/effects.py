@@ -504,7 +504,8 @@ BUILTIN = (
         signature_axis="velocity [mm/s]",
         separation={"coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
                                         "constant friction keeps the branches 2 Fc apart at every pressure, "
-                                        "pressure friction opens them in proportion to the pressure"}),
+                                        "pressure friction opens them in proportion to the pressure"},
+        calibrate=True),
     Effect(
         "pressure_threshold", "the pressure term of Eq. 7 uses P_eff = P - P0 (1 - exp(-P / P0)) for P > 0 (P_eff = P "
         "for P <= 0); the rubber term is unchanged",
@@ -516,7 +517,8 @@ BUILTIN = (
         signature_axis="gauge pressure [kPa]",
         separation={"elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
                                   "the force-pressure curve at low pressure at every length, elasticity shifts it "
-                                  "by a length-dependent constant"}),
+                                  "by a length-dependent constant"},
+        calibrate=True),
     Effect(
         "asymmetric_lag", "needs pressure_lag: tau dP/dt = P_cmd - P while filling (P_cmd >= P), "
         "tau_exhaust dP/dt = P_cmd - P while exhausting (P_cmd < P)",
