@@ -52,10 +52,10 @@ def _note_missing() -> None:
     print(f"mkctl.native: note: {missing_cross_compiler()}", file=sys.stderr)
 
 
-def add_windows_binary(sources: Path, units: list[str], target: Path) -> bool:
-    """Compile the units into the Windows DLL target (``.../binaries/win64/<model>.dll``); False (and a note on
-    stderr, once per process) when no cross compiler is installed."""
-    from .fmu import compile_binary
+def add_windows_binary(sources: Path, units: list[str], target: Path, compile_binary) -> bool:
+    """Compile the units into the Windows DLL target (``.../binaries/win64/<model>.dll``) with the build's own
+    ``compile_binary`` (:func:`mkctl.native.fmu.compile_binary`, handed in: that module calls this one); False (and
+    a note on stderr, once per process) when no cross compiler is installed."""
     compiler = find_cross_compiler()
     if compiler is None:
         _note_missing()

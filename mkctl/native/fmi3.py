@@ -177,7 +177,7 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         (stage / "modelDescription.xml").write_bytes(
             model_description(interface, token, fmi2.core_event_indicators(model_name)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
-        add_windows_binary(sources, units, stage / "binaries" / WINDOWS / f"{model_name}.dll")
+        add_windows_binary(sources, units, stage / "binaries" / WINDOWS / f"{model_name}.dll", fmi2.compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(stage.rglob("*")):

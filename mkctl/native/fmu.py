@@ -807,7 +807,8 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
             model_description(interface, guid, units, core_event_indicators(model_name)))
         compile_binary(stage / "sources", units, stage / "binaries" / "linux64" / f"{model_name}.so")
         from .cross import add_windows_binary  # win64 too, when MinGW-w64 is installed (model-spec 7c)
-        add_windows_binary(stage / "sources", units, stage / "binaries" / "win64" / f"{model_name}.dll")
+        add_windows_binary(stage / "sources", units, stage / "binaries" / "win64" / f"{model_name}.dll",
+                           compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as fmu:
             for path in sorted(stage.rglob("*")):

@@ -47,6 +47,18 @@ from ..errors import ParameterError
 QUASI_STATIC_KINDS = ("static", "play", "viscous", None)
 
 
+def outside_domain_message(name: str, value_text: str, low: float, high: float, unit: str) -> str:
+    """The one line for a parameter outside its range: ``parameter b = 1e+300 m is outside the model's domain
+    [1e-06, 100] m``. ``value_text`` is the value as printed (``%.6g``; the native FMUs pass the C format)."""
+    unit = "" if unit == "1" else " " + unit
+    return f"parameter {name} = {value_text}{unit} is outside the model's domain [{low:g}, {high:g}]{unit}"
+
+
+#: The parameter names of the paper's tables and the derived ones (handed in by :mod:`mkctl.physics.params`,
+#: which defines them and imports this module): an effect may not take them.
+BASE_NAMES: list = []
+
+
 class EffectError(ParameterError):
     """An effect that cannot be registered: a bad name, bounds that exclude the off value, a term that fails."""
 
@@ -96,7 +108,6 @@ class Parameter:
             words = "not be negative" if self.lower == 0 else f"be at least {self.lower:g}"
             raise ParameterError(f"parameter {self.name} must {words}, got {value!r}")
         if value > self.upper:
-            from .params import outside_domain_message
             raise ParameterError(outside_domain_message(self.name, f"{value:.6g}", self.lower, self.upper, self.unit))
         if value != 0 and abs(value) < self.smallest_on:
             either = "0 (off) or " if self.off == 0 else ""
@@ -187,7 +198,6 @@ def _check_effect(effect: Effect) -> None:
         raise EffectError(f"effect {effect.name!r}: the name is {what}")
     if not effect.parameters:
         raise EffectError(f"effect {effect.name!r}: it needs at least one parameter (the one that switches it on)")
-    from .params import BASE_NAMES  # the paper's tables and the derived values
     taken = set(BASE_NAMES) | {n for e in _REGISTRY.values() for n in e.parameter_names}
     seen = set()
     for q in effect.parameters:
@@ -237,9 +247,10 @@ def _check_effect(effect: Effect) -> None:
 def _check_term(effect: Effect) -> None:
     """Evaluate the effect's terms once on floats and once on sympy symbols: a term that fails either way
     (a name mkctl's math namespace lacks, a Python branch on a symbol) is refused here, in one line."""
-    from . import actuator
-    from .params import Params
-    p = Params()
+    actuator = PHYSICS.get("actuator")
+    if actuator is None:  # only mkctl.physics.effects imported: the physics that traces a term is not loaded
+        raise EffectError(f"effect {effect.name!r}: import mkctl (or mkctl.effects) before registering an effect")
+    p = actuator.DEFAULT
     probes = {q.name: q.typical if q.typical is not None else (q.upper if math.isfinite(q.upper) else q.lower + 1.0)
               for q in effect.parameters}
     try:
@@ -346,9 +357,9 @@ def separating_experiment(a: str, b: str) -> str:
 
 # --- the built-in effects (model-spec section 4) --------------------------------------------------------------
 
-#: The physics modules the built-in terms call (filled by :mod:`mkctl.physics.actuator` when it is imported: it
-#: imports this module, so this one cannot import it at the top, and an import inside a term costs in the
-#: integrator's inner loop).
+#: The physics modules the built-in terms call and a new effect's terms are traced with (filled by
+#: :mod:`mkctl.physics.actuator` when it is imported: it imports this module, so this one does not import it; the
+#: layer above hands it in, as it hands the compiled core to the physics).
 PHYSICS: dict = {}
 
 

@@ -25,6 +25,7 @@ from types import MappingProxyType
 from typing import NamedTuple
 
 from . import effects
+from .effects import outside_domain_message  # noqa: F401  (re-exported: the native FMUs write it into C)
 from ..errors import ParameterError
 
 
@@ -323,13 +324,6 @@ DOMAIN = MappingProxyType({
 })
 
 
-def outside_domain_message(name: str, value_text: str, low: float, high: float, unit: str) -> str:
-    """The one line for a parameter outside its range: ``parameter b = 1e+300 m is outside the model's domain
-    [1e-06, 100] m``. ``value_text`` is the value as printed (``%.6g``; the native FMUs pass the C format)."""
-    unit = "" if unit == "1" else " " + unit
-    return f"parameter {name} = {value_text}{unit} is outside the model's domain [{low:g}, {high:g}]{unit}"
-
-
 def domain_of(name: str) -> tuple[float, float] | None:
     """The range [low, high] a parameter must lie in (the paper's from :data:`DOMAIN`, an effect's from its
     registry bounds), or None when it has no finite range."""
@@ -355,6 +349,7 @@ def check_domain(values) -> None:
 
 _BASE_DEFAULTS = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}
 
+effects.BASE_NAMES[:] = BASE_NAMES  # the registry refuses an effect that takes one of these names
 for _effect in effects.BUILTIN:
     effects.register(_effect, _builtin=True)
 
