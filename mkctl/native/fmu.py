@@ -467,11 +467,17 @@ def _c_template(text: str) -> str:
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\001", '\\001""') + '"'
 
 
-@functools.lru_cache(maxsize=1)
 def core_source() -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
     (:func:`mkctl.native.build.cache_dir`), keyed by everything it is generated from (the core's inputs and
-    this module): tracing the equations takes seconds, and every build of the FMUs needs the same text."""
+    this module): tracing the equations takes seconds, and every build of the FMUs needs the same text. Kept in
+    memory too, until an effect is registered (a user's effect changes the source)."""
+    from ..physics import effects
+    return _core_source(effects.generation())
+
+
+@functools.lru_cache(maxsize=1)
+def _core_source(generation: int) -> str:
     import hashlib
 
     from . import build
