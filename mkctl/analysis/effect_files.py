@@ -23,14 +23,15 @@ An effect file is a Python file that defines ``EFFECTS``, a list with one dict p
 ``term(L, Ldot, P, p, xp)`` returns the force [N] added to each actuator's tension (positive pulls), from the
 actuator's length L [m], lengthening rate Ldot [m/s] and gauge pressure P [Pa]. ``p.NAME`` is the value of one
 of the effect's own parameters or of any mkctl parameter (``p.b``, ``p.n``, ``p.L0``, ``p.vs``: SI, as in
-:class:`mkctl.physics.params.Params`). ``xp`` is the math namespace mkctl hands in: numpy for floats and arrays,
-a sympy namespace for symbols (so that the same function is traced into the compiled core and the native FMUs
-and differentiated for the linearization). Use only ``xp.sqrt exp log sin cos tanh abs sign maximum minimum
+:class:`mkctl.physics.params.Params`). ``xp`` is the math namespace mkctl hands in: plain functions for floats,
+numpy for arrays, sympy's functions for symbols, all under numpy's names (one list,
+:data:`mkctl.physics.actuator.MATH_FUNCTIONS`), so that the same function runs in Python, is traced into the
+compiled core and the native FMUs and is differentiated for the linearization. Use only ``xp.sqrt exp log sin cos tanh abs sign maximum minimum
 where pi`` and arithmetic: no ``math.``/``np.`` calls and no ``if`` on the arguments (a symbol has no truth
 value). The term must vanish when every parameter of the effect is at its off value.
 
 An effect may instead (or also) change each actuator's pressure: ``"pressure_rate": f(P, P_cmd, p, xp)``, added
-to dP/dt [Pa/s]. (The loader checks that it traces like ``term``; the registry decides where it enters.)
+to dP/dt [Pa/s]; the actuator pressures then become states of the knee, as with ``pressure_lag``.
 
 :func:`load_effect_file` reads such a file and checks it (traceable with sympy, no parameter named twice,
 bounds that include the off value and the typical value, a term that is 0 when off and finite at the typical
