@@ -1,6 +1,6 @@
 """Build the FMI 2.0 co-simulation FMUs of model-spec section 7 and check them (the design card's entry point).
 
-    python build_fmu.py [--out DIR] [--no-run] [--params MUSCLE.json]
+    python build_fmu.py [--out DIR] [--no-run] [--params MUSCLE.json] [--effects FILE.py ...]
 
 writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist`` next to this file),
 and with a C compiler their native twins: FMI 2.0 in ``DIR/native/``, FMI 3.0 in ``DIR/fmi3/`` (Linux binaries, and

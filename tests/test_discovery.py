@@ -5,6 +5,7 @@ noise, optionally noisy measured pressures, and a small mismatch (the valves see
 """
 import json
 import math
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -308,6 +309,35 @@ def test_the_tutorial_runs_as_docs_effects_md_shows_it(tmp_path):
     assert written == block
     (effect,) = load_effect_file(tmp_path / "mine.py")
     assert effect.parameters[0].typical == pytest.approx(report["discovery"]["terms"][0]["coefficient"], rel=1e-5)
+
+    # step 4: with --effects mine.py the error falls to the noise
+    command = "mkctl diagnose knee_drag.csv --effects mine.py --json drag2.json --out figures --quiet"
+    assert f"$ {command}\n" in doc
+    run = subprocess.run([sys.executable, "-m", "mkctl", *command.split()[1:]], capture_output=True, text=True,
+                         cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    after = json.loads((tmp_path / "drag2.json").read_text())
+    assert after["verdict"] == "diagnosed" and after["missing"] == ["quadratic_drag"]
+    assert after["rmse_after"] < 0.05 * report["rmse_after"]
+    shown = [line for line in run.stdout.splitlines() if line.startswith(("  quadratic_drag", "  -> added", "verdict:",
+                                                                          "after:", "missing:", "  c_quad", "baseline:"))]
+    assert len(shown) == 7 and all(line in doc for line in shown), shown
+    # step 5: the FMUs built with it (here without their default experiments, checked by the FMU tests), then
+    # run_fmu.py as the page shows it
+    command = "python -m mkctl.fmu.build --effects mine.py --out dist"
+    assert f"$ {command}\n" in doc
+    run = subprocess.run([sys.executable, *command.split()[1:], "--no-run"], capture_output=True, text=True,
+                         cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    assert all(f"built dist/{name}.fmu (validated" in run.stdout.replace(str(tmp_path) + "/", "")
+               for name in ("McKibbenKnee", "native/McKibbenKnee", "fmi3/McKibbenKnee"))
+    script = re.search(r"```python run_fmu.py\n(.*?)```", doc, re.S).group(1)
+    (tmp_path / "run_fmu.py").write_text(script)
+    run = subprocess.run([sys.executable, "run_fmu.py"], capture_output=True, text=True, cwd=tmp_path,
+                         env={**os.environ, "MKCTL_FMU_STDERR": "0"})
+    assert run.returncode == 0, run.stderr
+    lines = run.stdout.splitlines()
+    assert len(lines) == 2 and all(line in doc for line in lines), lines
 
 
 def test_a_diagnosed_record_has_no_discovery_and_suggest_writes_nothing(tmp_path):

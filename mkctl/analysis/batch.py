@@ -89,10 +89,17 @@ def error_message(error: BaseException) -> str:
     return f"{type(error).__name__}: {text[0] if text else ''}".rstrip(": ")
 
 
-def _call(function: Callable, item) -> tuple:
-    """Run on a worker: (value, error message or None, seconds). Never raises for the function's errors."""
+def _call(function: Callable, item, effect_files=()) -> tuple:
+    """Run on a worker: (value, error message or None, seconds). Never raises for the function's errors.
+
+    ``effect_files``: the user's effect files registered in the submitting process (model-spec section 4c), which
+    the worker registers first (once: registering the same file again does nothing), so that it knows their
+    effects and parameters as the submitter does."""
     start = time.perf_counter()
     try:
+        if effect_files:
+            from .effect_files import register_effect_files
+            register_effect_files(effect_files)
         value, error = function(item), None
     except Exception as exc:  # noqa: BLE001 - one bad item must not stop the batch
         value, error = None, error_message(exc)
@@ -211,7 +218,9 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     try:
-        futures = [client.submit(_call, function, item, pure=False) for item in items]
+        from .effect_files import registered_files
+        effect_files = registered_files()  # workers need the same paths, as for the records
+        futures = [client.submit(_call, function, item, effect_files, pure=False) for item in items]
         index = {future.key: i for i, future in enumerate(futures)}
         for future in as_completed(futures):
             i = index[future.key]
@@ -510,8 +519,13 @@ def _input_key(file: str, base, fit_offset: bool) -> dict:
         digest = hashlib.sha256(Path(file).read_bytes()).hexdigest()
     except OSError:
         digest = None
-    return {"sha256": digest, "fit_offset": bool(fit_offset),
-            "params": None if base is None else {k: v for k, v in base.as_dict().items()}}
+    key = {"sha256": digest, "fit_offset": bool(fit_offset),
+           "params": None if base is None else {k: v for k, v in base.as_dict().items()}}
+    from .effect_files import registered_definitions
+    user = registered_definitions()
+    if user:  # the user's effects are candidates: another definition makes another report
+        key["effects"] = user
+    return key
 
 
 def _kept_report(path: Path, key: dict) -> dict | None:

@@ -66,6 +66,7 @@ from .compare import fit_percent, rmse, simulate_output
 from .discovery import discover
 from .equation_error import (ISOTONIC_SMOOTHING_SAMPLES, KNEE_SMOOTHING_S, knee_force_at,  # noqa: F401 (re-exported)
                              lagged, missing_force, model_pressures)
+from .effect_files import discovery_effects
 from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
                              forward_selection, judge, pair_needed, to_drop)
 
@@ -694,8 +695,16 @@ def _evaluate(problem: _Problem, params: Params, values: dict):
     return _Fit(params, dict(values), score, offset, simulated)
 
 
-def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: float, progress) -> tuple[float, int]:
-    """Best value of the candidate's parameter on the training part, 0 when off does as well."""
+def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: float, progress,
+             hint: float | None = None) -> tuple[float, int]:
+    """Best value of the candidate's parameter on the training part, 0 when off does as well.
+
+    ``hint``: the value its signature's slope suggests (:func:`signatures`). The grid of one point per decade
+    assumes a cost unimodal in log space; a threshold pressure's is not on the knee (a small P0 weakens the
+    flexor at 100 kPa most, a large one the extensor: the hip first rises, then falls through the truth, in a
+    valley narrower than a decade). When the hint does better than the grid's best, the search is repeated
+    within a quarter decade of it.
+    """
     evaluations = [0]
 
     def cost(value):
@@ -706,7 +715,16 @@ def _fit_one(problem: _Problem, base: Params, candidate: Candidate, rss_off: flo
         r = problem.train_residual(simulated)
         return float(r @ r)
 
-    value, _ = best_value(cost, candidate.bounds[problem.measurement.experiment], rss_off, xatol=FIT_XATOL)
+    bounds = candidate.bounds[problem.measurement.experiment]
+    value, best = best_value(cost, bounds, rss_off, xatol=FIT_XATOL)
+    if hint is not None and math.isfinite(hint) and bounds[0] < hint < bounds[1] and not candidate.switch \
+            and abs(math.log10(hint) - math.log10(value if value > 0 else bounds[0])) > 0.25:
+        near = (max(bounds[0], hint / 10 ** 0.25), min(bounds[1], hint * 10 ** 0.25))
+        if cost(hint) < best:
+            around, cost_around = best_value(cost, near, rss_off, points_per_decade=4.0, xatol=FIT_XATOL,
+                                             early_stop=False)
+            if around > 0 and cost_around < best:
+                value = around
     if progress:
         progress(f"    {candidate.effect}: {diagnosis_report.parameter_text(candidate.parameter, value)} "
                  f"({evaluations[0]} simulations)")
@@ -806,8 +824,10 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
     for name in names:
         cand = CANDIDATES[name]
         ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
-        if name == "pressure_lag":
+        if name in ("pressure_lag", "dead_time", "asymmetric_lag"):  # first order: P = P_cmd - T dP_cmd/dt
             rate_e, rate_f = states["Pe_rate"], states["Pf_rate"]
+            if name == "asymmetric_lag":  # tau_exhaust acts only while the pressure falls
+                rate_e, rate_f = np.minimum(rate_e, 0.0), np.minimum(rate_f, 0.0)
             term = _knee_force(states, params, states["Pe"] - ref * rate_e, states["Pf"] - ref * rate_f) \
                 - _knee_force(states, params)
             x = rate_e / 1e3
@@ -1029,17 +1049,24 @@ def _blocked_problem(problem: _Problem, baseline: Params, full_before, out_sigma
 
 
 def _fit_candidate(problem: _Problem, baseline: Params, current: _Fit, added: list, individual: dict, name: str,
-                   say, rule: Rule = RULE):
-    """Fit one candidate against the current model; returns (fit or None, value, simulations, values)."""
+                   say, rule: Rule = RULE, hint: float | None = None):
+    """Fit one candidate against the current model; returns (fit or None, value, simulations, values).
+
+    ``hint``: the value its signature suggests (see :func:`_fit_one`). A candidate that refines an effect
+    already added (asymmetric_lag: the lag's exhausting time constant) is always refitted jointly with it: with
+    tau held at the compromise the symmetric lag found, tau_exhaust alone gains little.
+    """
     cand = CANDIDATES[name]
-    value, evaluations = _fit_one(problem, current.params, cand, current.rss_train, say)
+    value, evaluations = _fit_one(problem, current.params, cand, current.rss_train, say, hint)
     if not added:
         individual[name] = value
     values = {**current.values, cand.parameter: value}
     if math.isnan(value):
         return None, value, evaluations, values
     fit = current if value == 0.0 else _evaluate(problem, cand.apply(current.params, value), values)
-    promising = fit is not None and fit is not current and rule.promising(fit.score.bic - current.score.bic)
+    refines = bool(set(effects.get(name).requires) & set(added))
+    promising = fit is not None and fit is not current and (rule.promising(fit.score.bic - current.score.bic)
+                                                            or refines)
     if added and promising:
         # effects interact (damping and a lag both calm the leg): refit jointly with the effects already
         # added, from this round's value and from the values each took alone in round 1
@@ -1382,7 +1409,8 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         say(note)
     # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
     # it lacks show as their own terms, "matches" naming them)
-    found = discover(record.prepared, record.start, progress=say) if verdict == "incomplete" else None
+    found = discover(record.prepared, record.start, progress=say, effects=discovery_effects()) \
+        if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
@@ -1430,6 +1458,7 @@ class _Search:
         self.stopped = None
         self.signatures_first = None
         self.current = None
+        self.hints: dict = {}  #: each candidate's value its signature suggests, this round
 
     def forward(self, current: _Fit) -> None:
         """Forward selection from ``current`` (:func:`mkctl.analysis.diagnosis_rule.forward_selection`): each
@@ -1441,17 +1470,20 @@ class _Search:
         self._stop(decision)
 
     def _remaining(self) -> list[str]:
-        return [e for e in self.pending_all if e not in self.added]
+        """The candidates not added yet whose required effects are on (asymmetric_lag: once pressure_lag is)."""
+        on = set(self.start.effects) | set(self.added)
+        return [e for e in self.pending_all if e not in self.added and set(effects.get(e).requires) <= on]
 
     def _fit_round(self, pending: list[str]) -> list[Outcome]:
         """Fit every pending candidate against the current model; keeps the report's rows and the fits."""
         problem, current = self.problem, self.current
         self.say(f"round {len(self.steps) + 1}: fitting {', '.join(pending)}")
         sigs = self._signatures(pending)
+        self.hints = {name: sig.get("estimate") for name, sig in sigs.items()}
         rows, outcomes, fits = [], [], {}
         for name in pending:
             fit, value, evaluations, _ = _fit_candidate(problem, self.start, current, self.added, self.individual,
-                                                        name, self.say, self.rule)
+                                                        name, self.say, self.rule, self.hints.get(name))
             row, outcome = _row(name, fit, value, evaluations, current, problem, sigs.get(name), self.to_file,
                                 self.rule)
             rows.append(row)
@@ -1486,7 +1518,8 @@ class _Search:
         null_current = _evaluate(null_problem, current.params, current.values)
         if null_current is None:
             return outcome
-        fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {}, name, None, self.rule)
+        fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {}, name, None, self.rule,
+                                      self.hints.get(name))
         k_more = dataclasses.replace(null_current.score, k=null_current.score.k + 1)
         null_score = fit.score if fit is not None and fit is not null_current else k_more
         tested = dataclasses.replace(outcome, null_delta_bic=null_score.bic - null_current.score.bic)
@@ -1546,6 +1579,8 @@ class _Search:
             without = {}
             for earlier in self.added[:-newest]:
                 rest = [e for e in self.added if e != earlier]
+                if any(earlier in effects.get(e).requires for e in rest):  # the lag under an asymmetric lag
+                    continue
                 rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
                 values, _, _, params = _joint_fit(self.problem, self.start, rest, rest_values, train_only=True)
                 without[earlier] = _evaluate(self.problem, params, values)

@@ -37,11 +37,20 @@ bounds that include the off value and the typical value, a term that is 0 when o
 values), ending any problem with a one-line :class:`EffectFileError` that names the effect and the problem.
 :func:`write_suggestion` writes the terms a discovery found (:mod:`mkctl.analysis.discovery`) as such a file.
 
-The effect registry (``mkctl.physics.effects``) and the ``--effects`` option load files through
-:func:`load_effect_file`; until it is merged, the built-in names below are the registry's stand-in.
+Registering
+-----------
+:func:`register_effect_file` loads a file and registers each of its effects into the effect registry
+(:mod:`mkctl.physics.effects`, :func:`to_registry_effect`), which makes it a full citizen: its parameters join
+:class:`~mkctl.physics.params.Params` (``--set``, metadata, ``synth --hidden``, FMU parameters), its term is traced
+into the compiled core and the native FMUs, differentiated for the linearization, and (when its first parameter is
+off at 0 with a positive typical value) it is a candidate of ``diagnose`` and ``calibrate``. The ``--effects
+FILE.py`` option of every command that takes parameters calls it before any parameter set is made
+(:func:`mkctl.cli.options.register_effects`). Registering the same effects again (the same file, or a copy of it)
+is harmless; another effect under a name already taken is a one-line error.
 """
 from __future__ import annotations
 
+import hashlib
 import inspect
 import json
 import keyword
@@ -54,15 +63,27 @@ from typing import Callable
 import numpy as np
 
 from ..errors import MkctlError
-from ..physics.params import DEFAULT, EFFECT_PARAMETERS, PARAMETER_NAMES, Params
+from ..physics import effects as registry
+from ..physics.actuator import MATH_FUNCTIONS, symbolic_math
+from ..physics.params import BASE_NAMES, DEFAULT, PARAMETER_NAMES, Params
 
-#: Names a user effect may not take: the built-in effects (spec sections 4 and 4b). Should come from the
-#: effect registry once it is merged.
-BUILT_IN_EFFECTS = (*EFFECT_PARAMETERS, "dead_time", "asymmetric_lag", "pressure_friction", "pressure_threshold")
-#: Parameter names the spec's built-ins use beyond today's Params fields (spec 4b).
-RESERVED_PARAMETERS = (*PARAMETER_NAMES, "delay", "tau_exhaust", "Fc_p", "P0")
-#: What ``xp`` offers, besides arithmetic.
-XP_FUNCTIONS = ("sqrt", "exp", "log", "sin", "cos", "tanh", "abs", "sign", "maximum", "minimum", "where", "pi")
+#: The built-in effects of spec section 4b, reserved even where the registry does not have them yet.
+SPEC_4B_EFFECTS = ("dead_time", "asymmetric_lag", "pressure_friction", "pressure_threshold")
+#: Their parameters (spec 4b), reserved likewise.
+SPEC_4B_PARAMETERS = ("delay", "tau_exhaust", "Fc_p", "P0")
+#: What ``xp`` offers, besides arithmetic (the one list of :mod:`mkctl.physics.actuator`).
+XP_FUNCTIONS = MATH_FUNCTIONS
+
+
+def built_in_effects() -> tuple:
+    """Names a user effect may not take: the built-in effects (spec sections 4 and 4b)."""
+    return tuple(dict.fromkeys((*(e.name for e in registry.all_effects() if e.builtin), *SPEC_4B_EFFECTS)))
+
+
+def reserved_parameters() -> tuple:
+    """Parameter names a user effect may not take: the tables', the derived ones and the built-in effects'."""
+    own = (q.name for e in registry.all_effects() if e.builtin for q in e.parameters)
+    return tuple(dict.fromkeys((*BASE_NAMES, *own, *SPEC_4B_PARAMETERS)))
 
 
 class EffectFileError(MkctlError, ValueError):
@@ -131,22 +152,10 @@ class ParameterView:
         raise EffectFileError(f"p.{name} is neither a parameter of the effect nor an mkctl parameter")
 
 
-class _SympyNamespace:
-    """The math namespace ``xp`` for sympy symbols, with numpy's names."""
-
-
 def sympy_namespace():
-    """The ``xp`` of a traced term: numpy's names for sympy's functions (:data:`XP_FUNCTIONS`)."""
-    if not hasattr(_SympyNamespace, "sqrt"):
-        import sympy
-        functions = {"sqrt": sympy.sqrt, "exp": sympy.exp, "log": sympy.log, "sin": sympy.sin, "cos": sympy.cos,
-                     "tanh": sympy.tanh, "abs": sympy.Abs, "sign": sympy.sign, "maximum": sympy.Max,
-                     "minimum": sympy.Min,
-                     "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True))}
-        for name, function in functions.items():
-            setattr(_SympyNamespace, name, staticmethod(function))
-        _SympyNamespace.pi = sympy.pi
-    return _SympyNamespace
+    """The ``xp`` of a traced term: mkctl's one symbolic math namespace (:func:`mkctl.physics.actuator.symbolic_math`),
+    numpy's names for sympy's functions."""
+    return symbolic_math()
 
 
 # --- Loading and checking --------------------------------------------------------------------------------
@@ -192,7 +201,7 @@ def _check_effect(entry, number: int, where: str, params: Params) -> UserEffect:
     if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
         raise EffectFileError(f"{where}: EFFECTS[{number - 1}] has no valid name (a Python identifier), got {name!r}")
     fail = lambda text: EffectFileError(f"{where}: effect '{name}': {text}")  # noqa: E731
-    if name in BUILT_IN_EFFECTS:
+    if name in built_in_effects():
         raise fail("the name of a built-in effect; choose another")
     unknown = sorted(set(entry) - {"name", "description", "parameters", "term", "pressure_rate"})
     if unknown:
@@ -233,7 +242,7 @@ def _check_parameters(raw, fail) -> tuple:
             raise fail(f"parameter name {pname!r} is not a Python identifier")
         if pname in names:
             raise fail(f"parameter '{pname}' is named twice")
-        if pname in RESERVED_PARAMETERS:
+        if pname in reserved_parameters():
             raise fail(f"parameter '{pname}' is an mkctl parameter's name; choose another")
         names.add(pname)
         values = {}
@@ -386,3 +395,157 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text, encoding="utf-8")
     return path
+
+
+# --- Registering a file's effects (model-spec section 4c) ---------------------------------------------------
+
+#: Search interval of a candidate's parameter around its typical value: this factor below and above it (the
+#: upper bound caps it). The built-ins' intervals span 4 to 6 decades likewise.
+SEARCH_DECADES = 3.0
+
+#: What this process registered from effect files: effect name -> (definition fingerprint, UserEffect, the file
+#: it was first registered from, absolute).
+_registered: dict[str, tuple[str, UserEffect, str]] = {}
+
+
+def _definition(effect: UserEffect) -> str:
+    """What an effect is, independent of the file it came from: its parameters and its traced terms."""
+    import sympy
+
+    parts = [effect.name, repr(effect.parameters)]
+    if effect.term is not None:
+        parts.append(sympy.srepr(effect.symbolic()[0]))
+    if effect.pressure_rate is not None:
+        own = {q.name: sympy.Symbol(q.name, real=True) for q in effect.parameters}
+        P, P_cmd = sympy.Symbol("P", real=True), sympy.Symbol("P_cmd", real=True)
+        parts.append(sympy.srepr(sympy.sympify(effect.pressure_rate(P, P_cmd, ParameterView(own), sympy_namespace()))))
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()
+
+
+def _vanishes(expression, substitutions: dict) -> bool:
+    """Whether a traced term is identically 0 with these substitutions."""
+    import sympy
+
+    reduced = expression.subs(substitutions)
+    return reduced == 0 or sympy.simplify(reduced) == 0
+
+
+def to_registry_effect(effect: UserEffect) -> registry.Effect:
+    """The registry's :class:`~mkctl.physics.effects.Effect` of a user effect.
+
+    - parameters: name, unit, off, bounds and typical value as the file gives them (the fit's scale: the typical
+      value's size); the first switches the effect on and is the one ``diagnose``/``calibrate`` fit, the others are
+      settings (``--set``, metadata) starting at their off values;
+    - ``term`` becomes the tension term and ``pressure_rate`` the pressure-rate term, both called with mkctl's own
+      ``p`` (:class:`~mkctl.physics.params.Params`) and math namespace;
+    - the experiments it can show in: the knee always; the isotonic and isometric tests too when its term is not 0
+      at rest (``Ldot = 0``: a static term, then also a candidate of ``calibrate``); a pressure-rate effect the knee
+      only. It is a candidate when its first parameter is off at 0 = its lower bound with a positive typical
+      value (the search is in log space), over ``typical / 10^3 .. min(upper, typical 10^3)``;
+    - structural (one compiled variant on, one off) unless its term is 0 whenever the first parameter is off.
+    """
+    first = effect.parameters[0]
+    parameters = tuple(
+        registry.Parameter(q.name, q.unit, off=q.off, lower=q.lower, upper=q.upper, typical=q.typical,
+                           scale=abs(q.typical) or abs(q.upper) or 1.0, fitted=i == 0,
+                           description=f"parameter of the user effect {effect.name}" + (f" ({effect.description})"
+                                                                                       if effect.description else ""))
+        for i, q in enumerate(effect.parameters))
+    static, structural = False, effect.pressure_rate is not None
+    if effect.term is not None:
+        expression, symbols = effect.symbolic()
+        static = not _vanishes(expression, {symbols["Ldot"]: 0})
+        structural = structural or not _vanishes(expression, {symbols[first.name]: first.off})
+    candidate = first.off == 0 == first.lower and first.typical > 0
+    experiments = {}
+    if candidate:
+        low = first.typical / 10 ** SEARCH_DECADES
+        high = min(first.upper, first.typical * 10 ** SEARCH_DECADES)
+        experiments = {"knee": (low, high)}
+        if static and effect.pressure_rate is None:
+            experiments.update(isotonic=(low, high), isometric=(low, high))
+    return registry.Effect(
+        effect.name, effect.description or f"the user effect {effect.name}", parameters=parameters,
+        tension=effect.term, pressure_rate=effect.pressure_rate, quasi_static="static", structural=structural,
+        fitted=first.name if candidate else None, experiments=experiments,
+        regressor=f"the force of {effect.name} per unit {first.name}",
+        signature_axis="velocity [mm/s] (what the diagnosis plots a user effect against)", calibrate=candidate and static and effect.pressure_rate is None)
+
+
+def register_effect_file(path) -> list[registry.Effect]:
+    """Load an effect file (:func:`load_effect_file`) and register each of its effects (spec 4c).
+
+    Returns the registered :class:`~mkctl.physics.effects.Effect` objects, in the file's order. An effect whose
+    name is registered already with the same definition (same parameters, same traced terms: the same file again,
+    or a copy) is kept as it is; a different effect under a taken name, or any other problem, raises a one-line
+    :class:`EffectFileError` naming the file and the effect. Nothing of a file is registered unless all of it is.
+    """
+    path = Path(path)
+    loaded = load_effect_file(path)
+    where = f"effect file {path.name}"
+    plan = []
+    for effect in loaded:
+        fingerprint = _definition(effect)
+        if effect.name in registry.names():
+            known = _registered.get(effect.name)
+            if known is None or known[0] != fingerprint:
+                origin = "by another definition" if known is not None else "already (not from this file)"
+                raise EffectFileError(f"{where}: effect '{effect.name}': the name is registered {origin}; rename "
+                                      f"the effect")
+            plan.append((effect, fingerprint, None))
+            continue
+        plan.append((effect, fingerprint, to_registry_effect(effect)))
+    done, resolved = [], str(path.resolve())
+    try:
+        for effect, fingerprint, new in plan:
+            if new is None:
+                done.append((registry.get(effect.name), False))
+                continue
+            try:
+                done.append((registry.register(new), True))
+            except registry.EffectError as error:
+                raise EffectFileError(f"{where}: {error}") from None
+            _registered[effect.name] = (fingerprint, effect, resolved)
+    except EffectFileError:
+        for registered, is_new in done:
+            if is_new:
+                registry.unregister(registered.name)
+                _registered.pop(registered.name, None)
+        raise
+    return [registered for registered, _ in done]
+
+
+def register_effect_files(paths) -> list[registry.Effect]:
+    """:func:`register_effect_file` for each path, in order."""
+    return [e for path in paths or () for e in register_effect_file(path)]
+
+
+def registered_files() -> tuple[str, ...]:
+    """The effect files whose effects are registered in this process (absolute paths, each effect's first file, in
+    the order of registration), for worker processes to register alike."""
+    return tuple(dict.fromkeys(path for name, (_, _, path) in _registered.items() if name in registry.names()))
+
+
+def registered_definitions() -> dict[str, str]:
+    """{effect name: fingerprint of its definition} of the user effects registered in this process."""
+    return {name: fingerprint for name, (fingerprint, _, _) in _registered.items() if name in registry.names()}
+
+
+def registered_user_effects() -> tuple[UserEffect, ...]:
+    """The user effects registered from files in this process that are still registered, as loaded."""
+    return tuple(effect for name, (_, effect, _) in _registered.items() if name in registry.names())
+
+
+def discovery_effects() -> tuple[UserEffect, ...]:
+    """The registered user effects whose terms join the discovery's library (spec 6b): a tension term, one
+    parameter, a typical value other than the off value."""
+    return tuple(e for e in registered_user_effects()
+                 if e.term is not None and len(e.parameters) == 1 and e.parameters[0].typical != e.parameters[0].off)
+
+
+def unregister_effect_file(path) -> None:
+    """Remove a file's effects from the registry again (for tests)."""
+    for effect in load_effect_file(path):
+        if effect.name in _registered:
+            registry.unregister(effect.name)
+            del _registered[effect.name]

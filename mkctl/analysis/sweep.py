@@ -49,7 +49,7 @@ import numpy as np
 from ..io.text import write_text_atomic
 from ..errors import DomainError, MkctlError, ParameterError, check_memory
 from ..physics import knee, stability
-from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params
+from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, LiveSequence, Params
 from ..results import Result
 from .batch import default_jobs, run_batch
 
@@ -57,7 +57,7 @@ from .batch import default_jobs, run_batch
 POSTURE_NAMES = {"alpha_deg": ("deg", math.degrees(stability.DEFAULT_ALPHA), "posture: kneecap angle alpha"),
                  "pf_kPa": ("kPa", stability.DEFAULT_PF / 1e3, "flexor pressure (the extensor's holds the posture)")}
 #: Every name a sweep can vary.
-SWEEP_NAMES = tuple(name for name in PARAMETER_NAMES if name != "n") + tuple(POSTURE_NAMES)
+SWEEP_NAMES = LiveSequence(lambda: tuple(name for name in PARAMETER_NAMES if name != "n") + tuple(POSTURE_NAMES))
 #: The settling band of :func:`step_metrics` (as python-control's ``step_info``).
 SETTLING_BAND = 0.02
 #: What each computed column holds (name: (unit, meaning)).

@@ -10,7 +10,7 @@ import argparse
 import sys
 
 from . import batch, calibrate, control, measure, paper, run
-from .options import OneLineParser, run_reporting_errors
+from .options import OneLineParser, run_command, run_reporting_errors
 
 #: Subcommand modules, in the order ``mkctl --help`` lists them. Each is light to import: what a command needs
 #: (scipy, matplotlib, python-control, fmpy, Dask) is imported when the command runs, and its options (whose
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    return run_reporting_errors(f"mkctl {args.command}", args.func, args)
+    return run_reporting_errors(f"mkctl {args.command}", run_command, args)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from .options import UsageError, base_params, output_folder
+from .options import UsageError, add_effects_option, base_params, output_folder
 
 
 def add_engine_options(parser) -> None:
@@ -72,6 +72,7 @@ def register(subparsers) -> None:
     p.add_argument("--out", metavar="DIR", default="sweep", help="folder for the table and maps (default: sweep)")
     p.add_argument("--chunk", type=int, default=None, metavar="POINTS", help="points per task (default: automatic)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_effects_option(p)
     add_engine_options(p)
     p.set_defaults(func=run_sweep)
 

@@ -50,15 +50,33 @@ def register(subparsers) -> None:
     p.add_argument("--link-n", action="store_true",
                    help="tie n to b, L0, D0 (n = sqrt(b^2 - L0^2) / (pi D0), model-spec section 2) instead of "
                         "fitting it")
-    p.add_argument("--effects", default=",".join(CANDIDATES), metavar="NAMES",
-                   help=f"candidate effects (comma-separated, default {','.join(CANDIDATES)}; 'none' for the "
-                        "static fit only)")
+    p.add_argument("--effects", action="append", default=[], metavar="NAMES|FILE.py",
+                   help=f"candidate effects (comma-separated, default {','.join(CANDIDATES)} and those of the effect "
+                        "files given; 'none' for the static fit only), and/or a file of your own effects (model-spec "
+                        "section 4c, docs/effects.md): an item ending in .py is registered first and its effects "
+                        "join the candidates (repeatable)")
     p.add_argument("--png-dir", metavar="DIR", default=None, help="folder for the PNGs (default: beside --out)")
     p.add_argument("--max-evaluations", type=int, default=MAX_EVALUATIONS, metavar="N",
                    help=f"cap on model evaluations per least-squares run, per parameter (default {MAX_EVALUATIONS})")
     p.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
-    add_params_option(p)
+    add_params_option(p, effects=False)  # --effects above takes effect files too
     p.set_defaults(func=run_calibrate)
+
+
+def candidate_effects(args) -> list[str]:
+    """The candidates of ``--effects``: effect files (items ending in .py) are registered, their effects that
+    calibrate can add join the names given (default: every candidate); ``none`` alone: the static fit only."""
+    from ..analysis.calibrate import CANDIDATES
+    from ..analysis.effect_files import register_effect_file
+
+    items = split_items(args.effects)
+    files = [item for item in items if item.endswith(".py")]
+    names = [item for item in items if not item.endswith(".py")]
+    added = [e.name for path in files for e in register_effect_file(path) if e.name in CANDIDATES]
+    if [n.lower() for n in names] == ["none"]:
+        return []
+    chosen = names or [n for n in CANDIDATES if n not in added]
+    return list(dict.fromkeys([*chosen, *added]))
 
 
 def run_calibrate(args) -> int:
@@ -72,7 +90,7 @@ def run_calibrate(args) -> int:
     folder = output_folder(args.png_dir, "--png-dir") if args.png_dir else out.resolve().parent
     if args.max_evaluations < 1:
         raise UsageError(f"--max-evaluations must be at least 1, got {args.max_evaluations}")
-    effects = [] if args.effects.strip().lower() == "none" else split_items([args.effects])
+    effects = candidate_effects(args)
     start = base_params(args) if args.params is not None else None
     measurements = read_records(args.files, start)
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
@@ -98,8 +116,7 @@ def run_calibrate_each(args) -> int:
     out = output_folder(args.out, "--out")
     if args.jobs is not None and args.jobs < 0:
         raise UsageError(f"--jobs must be 0 or more, got {args.jobs}")
-    effects = None if args.effects is None else \
-        ([] if args.effects.strip().lower() == "none" else split_items([args.effects]))
+    effects = candidate_effects(args)
     rows = calibrate_batch(args.files, out, jobs=args.jobs, scheduler=args.scheduler, progress=not args.quiet,
                            base=base_params(args) if args.params is not None else None,
                            fit=split_items(args.fit), link_n=args.link_n, effects=effects)

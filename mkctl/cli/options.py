@@ -134,11 +134,43 @@ def run_reporting_errors(prog: str, run, *args) -> int:
 
 # --- parameters: a muscle file first, then NAME=VALUE items on top -----------------------------------
 
-def add_params_option(parser) -> None:
-    """Add ``--params MUSCLE.json`` (model-spec section 5b) to a subcommand's parser."""
+def add_params_option(parser, effects: bool = True) -> None:
+    """Add ``--params MUSCLE.json`` (model-spec section 5b) to a subcommand's parser, and (``effects``) ``--effects
+    FILE.py`` (:func:`add_effects_option`)."""
     parser.add_argument("--params", type=Path, default=None, metavar="MUSCLE.json",
                         help="a muscle file (from mkctl calibrate): its parameters replace the paper's defaults; "
                              "values given with --set/--param win over it")
+    if effects:
+        add_effects_option(parser)
+
+
+#: The help of ``--effects FILE.py``.
+EFFECTS_HELP = ("a file of your own effects (model-spec section 4c, docs/effects.md), registered before anything "
+                "else: their parameters become parameters like the others, and they are candidates of the "
+                "diagnosis (repeatable)")
+
+
+def add_effects_option(parser) -> None:
+    """Add ``--effects FILE.py`` (repeatable; model-spec section 4c) to a subcommand's parser. The files are
+    registered by :func:`register_effects` before the command runs (``mkctl``'s main), so before any Params."""
+    parser.add_argument("--effects", action="append", default=[], dest="effect_files", metavar="FILE.py",
+                        help=EFFECTS_HELP)
+
+
+def register_effects(args) -> list:
+    """Register the effect files of ``--effects`` (:func:`mkctl.analysis.effect_files.register_effect_file`);
+    nothing without the option. A bad file raises a one-line error naming it and the effect."""
+    files = getattr(args, "effect_files", None)
+    if not files:
+        return []
+    from ..analysis.effect_files import register_effect_files
+    return register_effect_files(files)
+
+
+def run_command(args) -> int:
+    """A subcommand's ``func(args)``, after its ``--effects`` files are registered."""
+    register_effects(args)
+    return args.func(args)
 
 
 def base_params(args):

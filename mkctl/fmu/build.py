@@ -1,6 +1,6 @@
 """Build the FMI 2.0 co-simulation FMUs of model-spec section 7 and check them.
 
-    python -m mkctl.fmu.build [--out DIR] [--no-run] [--params MUSCLE.json]
+    python -m mkctl.fmu.build [--out DIR] [--no-run] [--params MUSCLE.json] [--effects FILE.py ...]
     python build_fmu.py ...                    (the same, from a checkout)
 
 writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
@@ -253,15 +253,30 @@ def _run_check(*fmus: Path) -> None:
 
 # --- the build ---------------------------------------------------------------------------------------------
 
+def _stage_effects(dest: Path, files) -> Path | None:
+    """Copy the effect files into dest/mkctl_effects as ``NN_<name>`` (their order kept), or None without any."""
+    from .slave import EFFECTS_FOLDER
+    if not files:
+        return None
+    folder = dest / EFFECTS_FOLDER
+    folder.mkdir(parents=True)
+    for number, path in enumerate(files):
+        shutil.copy2(path, folder / f"{number:02d}_{Path(path).name}")
+    return folder
+
+
 def build(out, run: bool = True, params: Params | None = None, native: bool = True, *,
-          _fix_exit: bool = True) -> dict[str, Path]:
+          effects=(), _fix_exit: bool = True) -> dict[str, Path]:
     """Build, complete and check both FMUs, and (``native``) their compiled twins in ``out/native``.
 
     Parameters: out, the folder to write ``McKibbenKnee.fmu`` and ``McKibbenActuator.fmu`` to (created if
     needed); run, whether to run each default experiment (in a fresh process) as a check; params, the muscle and
     knee whose values become the FMUs' start values (default :data:`mkctl.physics.params.DEFAULT`: Table I and
     II, effects off). ``_fix_exit=False`` leaves pythonfmu's binary as it is: only for the tests and the bench
-    that show what the fix prevents.
+    that show what the fix prevents. effects, the user's effect files (model-spec section 4c) the FMUs carry: they
+    are registered here (before params' values are read, so a muscle file may set their parameters: register them
+    first), packed into the pythonfmu FMUs' resources (the slave registers them when it loads) and compiled into
+    the native ones; their parameters become FMU parameters.
 
     The native FMUs (model-spec section 7b, :func:`mkctl.native.fmu.build_native`) need a C compiler; without one
     they are skipped with a note on stderr and the pythonfmu FMUs are still built.
@@ -271,6 +286,9 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
 
     from . import models
 
+    from ..analysis.effect_files import register_effect_files
+    effect_files = [Path(f).resolve() for f in effects or ()]
+    register_effect_files(effect_files)
     params = DEFAULT if params is None else params
     out = Path(out).resolve()  # the checks run in another folder
     out.mkdir(parents=True, exist_ok=True)
@@ -278,10 +296,11 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
     with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
         temp = Path(temp)
         package = _stage_mkctl(temp / "stage")
+        packed = _stage_effects(temp / "effects", effect_files)
         for name, script in FMU_SCRIPTS.items():
             slave_class = getattr(models, name)
             starts = _stage_starts(temp / "starts" / name, slave_class, params)
-            raw = FmuBuilder.build_FMU(script, dest=temp / f"{name}.fmu", project_files=[package, starts],
+            raw = FmuBuilder.build_FMU(script, dest=temp / f"{name}.fmu", project_files=[package, starts, *([packed] if packed else [])],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
             target = out / f"{name}.fmu"
             _complete_fmu(Path(raw), target, slave_class.units, fix_exit=_fix_exit)
@@ -318,13 +337,19 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser.add_argument("--no-native", action="store_true", help="skip the native (compiled) FMUs of dist/native")
     parser.add_argument("--params", type=Path, default=None, metavar="MUSCLE.json",
                         help="a muscle file (mkctl calibrate writes one): its values become the FMUs' defaults")
+    parser.add_argument("--effects", action="append", default=[], type=Path, metavar="FILE.py",
+                        help="a file of your own effects (model-spec section 4c, docs/effects.md): the FMUs carry "
+                             "them, their parameters become FMU parameters (repeatable)")
     args = parser.parse_args(argv)
     try:
         params = None
+        if args.effects:  # before the muscle file, which may set their parameters
+            from ..analysis.effect_files import register_effect_files
+            register_effect_files(args.effects)
         if args.params is not None:
             from ..io.muscle import read_muscle
             params = read_muscle(args.params)
-        built = build(args.out, run=not args.no_run, params=params, native=not args.no_native)
+        built = build(args.out, run=not args.no_run, params=params, native=not args.no_native, effects=args.effects)
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1

@@ -12,6 +12,10 @@ slave modules import it; ``import mkctl`` does not load it), and being in mkctl 
 shared names (``mkctl``, ``mkctl.fmu.slave``, ``pythonfmu``) resolve to whichever FMU was loaded first, which is
 the same code since one build packs the same files into both.
 
+Your own effects. An FMU built with ``--effects FILE.py`` carries the files in ``resources/mkctl_effects``
+(:data:`EFFECTS_FOLDER`); the slave registers them (:func:`register_packed_effects`) before it declares its
+parameters, so their parameters are FMU parameters and their terms act as in mkctl.
+
 Start values. The build writes ``resources/mkctl_start.json`` (:data:`START_FILE`): the start value of every
 settable variable, computed from the :class:`~mkctl.physics.params.Params` the FMU was built for
 (:meth:`McKibbenSlave.start_values`). Without that file the slave starts from
@@ -48,11 +52,15 @@ from pathlib import Path
 from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Status
 
+from ..analysis.effect_files import register_effect_files
 from ..errors import MkctlError
 from ..physics.params import DEFAULT, INTEGER_PARAMETERS, RATED_PRESSURE, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
+#: Folder, in the FMU's resources, of the user's effect files the FMU was built with (model-spec section 4c),
+#: named ``NN_<file>.py`` so that they register in the build's order (the parameters' value references follow it).
+EFFECTS_FOLDER = "mkctl_effects"
 #: Description of the parameter ``n``, common to both FMUs.
 N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
                  "sqrt(b^2 - L0^2) / (pi D0)")
@@ -101,6 +109,15 @@ def _drop_repeated_path(resources) -> None:
         sys.path[first + 1:] = [entry for entry in sys.path[first + 1:] if entry != resources]
 
 
+def register_packed_effects(resources) -> list:
+    """Register the effect files packed into the FMU's resources (:data:`EFFECTS_FOLDER`), in the build's order.
+    In a host that registered them already (the same definitions) this changes nothing."""
+    folder = Path(resources) / EFFECTS_FOLDER if resources else None
+    if folder is None or not folder.is_dir():
+        return []
+    return register_effect_files(sorted(folder.glob("*.py")))
+
+
 class McKibbenSlave(Fmi2Slave):
     """A co-simulation slave around a simulator of :mod:`mkctl.physics.simulate`.
 
@@ -133,6 +150,7 @@ class McKibbenSlave(Fmi2Slave):
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         _drop_repeated_path(kwargs.get("resources"))
+        register_packed_effects(kwargs.get("resources"))  # before the parameters: theirs are among them
         #: the start value of every settable variable (the build's Params, or DEFAULT)
         self._starts = self._read_starts(kwargs.get("resources"))
         for name in self.inputs:

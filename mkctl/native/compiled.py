@@ -12,6 +12,7 @@ import warnings
 
 import numpy as np
 
+from ..physics import effects
 from ..physics.params import PARAMETER_NAMES, Params
 from . import build
 from .variants import Variant
@@ -161,14 +162,16 @@ class Core:
         return n - 1 if rc == 0 else int(fault.sample)
 
 
-_cores: dict[Variant, Core | None] = {}
-_reasons: dict[Variant, str] = {}
+_cores: dict[tuple[int, Variant], Core | None] = {}
+_reasons: dict[tuple[int, Variant], str] = {}
 _lock = threading.Lock()
 
 
 def core_for(params: Params) -> Core | None:
     """The compiled core for params' structure, built on first use; None when it is not available."""
-    variant = Variant.of(params)
+    # keyed by the registry's generation too: an effect registered since (a user's, spec 4c) changes the
+    # parameter vector and the traced terms even where the structure is the same
+    variant = (effects.generation(), Variant.of(params))
     core = _cores.get(variant, False)
     if core is not False and build.enabled():
         return core
@@ -177,7 +180,7 @@ def core_for(params: Params) -> Core | None:
     with _lock:
         if variant not in _cores:
             try:
-                _cores[variant] = Core(build.build_library((variant,)))
+                _cores[variant] = Core(build.build_library((variant[1],)))
             except build.BuildUnavailable as reason:
                 _cores[variant], _reasons[variant] = None, str(reason)
             except Exception as error:  # a bug in generation or loading must not stop a simulation
@@ -194,5 +197,5 @@ def status(params: Params | None = None) -> str:
         return f"python (switched off by {build.ENV_SWITCH})"
     core = core_for(params)
     if core is None:
-        return f"python ({_reasons.get(Variant.of(params), 'unavailable')})"
+        return f"python ({_reasons.get((effects.generation(), Variant.of(params)), 'unavailable')})"
     return f"compiled ({core.path})"

@@ -54,9 +54,22 @@ class _ScalarMath:
     sqrt, sin, cos, tanh, arctan2, arcsin, arccos, hypot, exp = (math.sqrt, math.sin, math.cos, math.tanh,
                                                                  math.atan2, math.asin, math.acos, math.hypot,
                                                                  math.exp)
-    maximum = staticmethod(max)
-    where = staticmethod(lambda condition, a, b: a if condition else b)
+    maximum, minimum, abs = staticmethod(max), staticmethod(min), staticmethod(abs)
+    log = staticmethod(math.log)
     pi = math.pi
+
+    @staticmethod
+    def sign(x):
+        return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
+
+    @staticmethod
+    def where(condition, a, b):
+        return a if condition else b
+
+
+#: What every math namespace offers besides arithmetic (floats, numpy, sympy): the functions an effect's terms may
+#: use (model-spec section 4c; :mod:`mkctl.analysis.effect_files`).
+MATH_FUNCTIONS = ("sqrt", "exp", "log", "sin", "cos", "tanh", "abs", "sign", "maximum", "minimum", "where", "pi")
 
 
 class _SymbolicMath:
@@ -69,11 +82,18 @@ def _symbolic_math():
         for name, function in {
             "sqrt": sympy.sqrt, "sin": sympy.sin, "cos": sympy.cos, "tanh": sympy.tanh, "arctan2": sympy.atan2,
             "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": sympy.Max, "pi": sympy.pi,
+            "minimum": sympy.Min, "abs": sympy.Abs, "sign": sympy.sign, "log": sympy.log,
             "hypot": lambda a, b: sympy.sqrt(a * a + b * b),
             "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True)),
         }.items():
             setattr(_SymbolicMath, name, function if name == "pi" else staticmethod(function))
     return _SymbolicMath
+
+
+def symbolic_math():
+    """The math namespace for sympy expressions (numpy's names, :data:`MATH_FUNCTIONS` among them): what effect
+    terms are traced with, by the compiled core's generator and by the effect-file checks alike."""
+    return _symbolic_math()
 
 
 def math_for(x):

@@ -435,6 +435,69 @@ _SEPARATIONS = {
     ("pressure_lag", "slack"):
         "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
         "positive, a lag only delays each reading",
+    # model-spec section 4b: every pair of diagnosis candidates has an experiment (the pairs with their nearest
+    # neighbour are in the effects' own definitions below)
+    ("pressure_friction", "elasticity"):
+        "an isotonic sweep down to low pressure in both directions: pressure friction separates the up- and "
+        "down-sweeps by an amount that grows with pressure, elasticity bends both the same way",
+    ("pressure_friction", "viscous_damping"):
+        "sweeps at two rates: friction's hysteresis loop is the same at both rates (and widens with pressure), "
+        "damping's shrinks to nothing at low rates",
+    ("pressure_friction", "pressure_lag"):
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only delays the "
+        "response by tau",
+    ("pressure_friction", "slack"):
+        "a blocked-force test stepped up and back down: pressure friction separates the branches in proportion "
+        "to the pressure, slack only flattens them at zero",
+    ("pressure_friction", "pressure_threshold"):
+        "a blocked-force test stepped up and back down at several pressures: pressure friction opens the branches "
+        "apart, a threshold lowers both together (most at low pressure)",
+    ("pressure_friction", "asymmetric_lag"):
+        "a slow ramp of the pressure command up and back down: friction makes the leg stick and then slip both "
+        "ways, an asymmetric lag only delays the fall more than the rise",
+    ("pressure_friction", "dead_time"):
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a dead time only "
+        "shifts the response by the delay",
+    ("pressure_threshold", "viscous_damping"):
+        "slow steady states at several pressures: a threshold changes where the length settles, damping only "
+        "how fast it gets there",
+    ("pressure_threshold", "coulomb_friction"):
+        "a blocked-force test stepped up and back down: a threshold lowers both branches together (most at low "
+        "pressure), friction separates them",
+    ("pressure_threshold", "pressure_lag"):
+        "slow steady states at several pressures: a threshold changes them, a lag cannot",
+    ("pressure_threshold", "slack"):
+        "a blocked-force test at a long length from zero pressure up: the threshold bends the force-pressure "
+        "curve at low pressure where the tension stays positive, slack acts only where it would be negative",
+    ("pressure_threshold", "asymmetric_lag"):
+        "slow steady states at several pressures: a threshold changes them, a lag cannot",
+    ("pressure_threshold", "dead_time"):
+        "slow steady states at several pressures: a threshold changes them, a dead time cannot",
+    ("asymmetric_lag", "elasticity"):
+        "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
+    ("asymmetric_lag", "viscous_damping"):
+        "pressure steps up and down with the leg clamped and the bladder pressure measured: the lag fills and "
+        "exhausts at different rates without motion, damping needs motion",
+    ("asymmetric_lag", "coulomb_friction"):
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag only delays the "
+        "response",
+    ("asymmetric_lag", "slack"):
+        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, a lag only delays each reading",
+    ("asymmetric_lag", "dead_time"):
+        "a step of the command down with the bladder pressure measured: a dead time leaves it flat for the delay "
+        "and then moves at once, an exhausting lag starts at once and approaches exponentially",
+    ("dead_time", "elasticity"):
+        "slow steady states at several pressures (isotonic): elasticity changes them, a dead time cannot",
+    ("dead_time", "viscous_damping"):
+        "a pressure step with the leg clamped and the bladder pressure (or force) measured: a dead time delays "
+        "it even without motion, damping needs motion",
+    ("dead_time", "coulomb_friction"):
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a dead time only "
+        "shifts the response by the delay",
+    ("dead_time", "slack"):
+        "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
+        "positive, a dead time only delays each reading",
 }
 
 
@@ -500,9 +563,10 @@ BUILTIN = (
                                           "f += Fc_p P tanh(Ldot / vs)"),),
         tension=lambda L, Ldot, P, p, xp: p.Fc_p * P * xp.tanh(Ldot / p.vs), quasi_static="play",
         play=lambda P, p, xp: p.Fc_p * P, structural=False, fitted="Fc_p",
+        experiments={"isotonic": (1e-8, 1e-4), "knee": (1e-8, 1e-4)},  # 1e-4: 100 N at 1 MPa, as Fc's 100 N
         regressor="the friction force per N/Pa (the gauge pressure) at the measured direction of motion",
         signature_axis="velocity [mm/s]",
-        separation={"coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
+        separation={**_separations("pressure_friction"), "coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
                                         "constant friction keeps the branches 2 Fc apart at every pressure, "
                                         "pressure friction opens them in proportion to the pressure"},
         calibrate=True),
@@ -513,9 +577,10 @@ BUILTIN = (
                               description="threshold pressure the braid takes up gradually: "
                                           "P_eff = P - P0 (1 - exp(-P / P0))"),),
         tension=_threshold_term, fitted="P0",
+        experiments={"isotonic": (1e3, 3.9e5), "knee": (1e3, 3.9e5)},  # below the domain's 4e5: 10**log10 rounds up
         regressor="the tension a threshold of 1 Pa takes away at the measured pressure and length",
         signature_axis="gauge pressure [kPa]",
-        separation={"elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
+        separation={**_separations("pressure_threshold"), "elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
                                   "the force-pressure curve at low pressure at every length, elasticity shifts it "
                                   "by a length-dependent constant"},
         calibrate=True),
@@ -525,10 +590,10 @@ BUILTIN = (
         parameters=(Parameter("tau_exhaust", "s", off=0.0, lower=0.0, typical=0.12, scale=0.01,
                               description="exhausting time constant of the pressure lag (0: the same as tau)"),),
         pressure_rate=_exhaust_rate, pressure_step=_asymmetric_step, requires=("pressure_lag",),
-        fitted="tau_exhaust",
+        fitted="tau_exhaust", experiments={"knee": (1e-3, 2.0)},
         regressor="the force an exhausting lag of 1 s takes away where the command falls below the pressure",
         signature_axis="extensor pressure rate while exhausting (smoothed) [kPa/s]",
-        separation={"pressure_lag": "pressure steps up and down of the same size (best with measured bladder "
+        separation={**_separations("asymmetric_lag"), "pressure_lag": "pressure steps up and down of the same size (best with measured bladder "
                                     "pressures): a symmetric lag follows both at the same rate, an asymmetric "
                                     "one fills and exhausts at different rates"}),
     Effect(
@@ -537,10 +602,10 @@ BUILTIN = (
         "approximation",
         parameters=(Parameter("delay", "s", off=0.0, lower=0.0, typical=0.03, scale=0.01,
                               description="transport dead time of the pressure commands: P_cmd(t - delay)"),),
-        command_delay=lambda p: p.delay, structural=False, fitted="delay",
+        command_delay=lambda p: p.delay, structural=False, fitted="delay", experiments={"knee": (1e-3, 0.5)},
         regressor="the force the command's change over 1 s of delay takes away (first order: -delay dP_cmd/dt)",
         signature_axis="extensor command rate (smoothed) [kPa/s]",
-        separation={"pressure_lag": "a step of the command with the bladder pressure measured: a dead time "
+        separation={**_separations("dead_time"), "pressure_lag": "a step of the command with the bladder pressure measured: a dead time "
                                     "leaves it flat for the delay and then moves at once, a lag starts at once "
                                     "and approaches exponentially"}),
 )
