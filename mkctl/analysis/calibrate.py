@@ -18,8 +18,9 @@ The fit, step by step (each step's NRMS is shown, and drawn in the error-fall fi
 2. **static fit**: model 2 with ``b, n, C1, C2`` (and any of ``L0, D0, t0, offset`` asked for with
    ``fit=``) by bounded least squares (``scipy.optimize.least_squares``, trust-region reflective) from
    several starting points (:func:`starting_points`); the best is kept. Its NRMS is ``nrms_before``.
-3. **effects**, forward stepwise as in model-spec section 6: each candidate (:data:`CANDIDATES`: ``slack``,
-   ``coulomb_friction``) is fitted *together with the static parameters* on a training part (three of
+3. **effects**, forward stepwise as in model-spec section 6: each candidate (:data:`CANDIDATES`, the registry's
+   effects marked ``calibrate``: ``slack``, ``coulomb_friction``, ``pressure_friction``, ``pressure_threshold``
+   and any user effect so marked) is fitted *together with the static parameters* on a training part (three of
    every four points of each record; every fourth is held out), scored by
    ``BIC = n ln(RSS / n) + k ln n`` on the training part and by its RMS error on the held-out points,
    and judged by the diagnosis's rule and forward selection (:mod:`mkctl.analysis.diagnosis_rule`): the
@@ -48,8 +49,10 @@ residuals at the optimum; the standard errors are its diagonal's roots. Two fitt
 estimates correlate by more than ``IDENTIFIABLE_CORRELATION`` (|r| > 0.99) cannot be separated by these
 data: they are reported as ``not_identifiable`` (C1 and C2 on force data, typically: the rubber's two
 terms have nearly the same shape over the lengths of a blocked-force test) with no standard error for
-either, the later one of the group is held at its starting value (the file's, or Table I's) and the
-rest refitted, so that the numbers in ``params`` remain a usable muscle. A parameter that ends on a
+either, one of the group is held and the rest refitted, so that the numbers in ``params`` remain a usable
+muscle: the later one at its starting value (the file's, or Table I's), unless that makes the fit clearly
+worse, in which case the one the free fit drives to a bound is held on it (short muscles: C1 at 0), or else
+the later one where the free fit put it (:func:`_choose_held`; the note says which and why). A parameter that ends on a
 bound is listed in ``at_bound``.
 
 ``NRMS`` is the RMS force error divided by the range of the measured forces (max - min over all points).

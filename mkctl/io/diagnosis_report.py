@@ -171,7 +171,7 @@ def plot_isometric(length, pressure, force, branch, curves: dict, path, title: s
             except MkctlError:  # this model cannot reach this length: no curve
                 continue
             ax.plot(grid / 1e3, up, "-", color=color, lw=1.3, label=label if number == 0 else None)
-            if params.Fc:
+            if np.any(down != up):  # a play effect (Coulomb or pressure friction) parts the branches
                 ax.plot(grid / 1e3, down, "--", color=color, lw=1.1)
         ax.axhline(0, color="k", lw=0.5)
         share = f" ({value / L0:.0%} of L0)" if L0 else ""
