@@ -131,3 +131,34 @@ def test_an_undecided_pair_names_the_registrys_separating_experiment():
         text = effects.get(a).separation[b]
         assert DISCRIMINATING_EXPERIMENTS[frozenset({a, b})] == text
         assert len(text) > 40
+
+
+# --- with the bladder pressures measured (0.5 kPa of white sensor noise): the pressure path is judged on them ---
+
+def test_measured_pressures_show_a_dead_time_not_a_lag():
+    """A lag fitted to these pressures (about 30 ms) was taken as the answer before the dead time was judged on
+    them: "diagnosed" with the wrong effect. Without a lag the pressures place the delay only to a sample (2 ms),
+    so the motion fits it."""
+    result = knee((("delay", 0.03),), pressures=True)
+    assert result.verdict == "diagnosed" and result.missing == ["dead_time"], result
+    within(result, "delay", 0.03 + MISMATCH)
+
+
+def test_measured_pressures_show_an_asymmetric_lag():
+    result = knee((("tau", 0.08), ("tau_exhaust", 0.13)), pressures=True)
+    assert result.verdict == "diagnosed" and result.missing == ["pressure_lag", "asymmetric_lag"], result
+    within(result, "tau", 0.08 + MISMATCH)  # the 0.1 ms late commands lengthen the fitted lag by about that
+    within(result, "tau_exhaust", 0.13 + MISMATCH)
+
+
+def test_measured_pressures_show_a_dead_time_before_a_lag():
+    result = knee((("tau", 0.05), ("delay", 0.03)), pressures=True)
+    assert result.verdict == "diagnosed" and sorted(result.missing) == ["dead_time", "pressure_lag"], result
+    within(result, "tau", 0.05)
+    within(result, "delay", 0.03 + MISMATCH)
+
+
+def test_measured_pressures_of_a_plain_lag_add_nothing_else():
+    result = knee((("tau", 0.08),), pressures=True)
+    assert result.verdict == "diagnosed" and result.missing == ["pressure_lag"], result
+    within(result, "tau", 0.08 + MISMATCH)

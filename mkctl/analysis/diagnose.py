@@ -147,14 +147,49 @@ def candidates_for(measurement: Measurement, params: Params) -> list[str]:
             and not (name == "pressure_lag" and measured_pressures)]
 
 
-def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE) -> dict | None:
-    """The pressure lag judged directly on a knee file's measured bladder pressures, or None without them.
+#: The effects of the pressure path (command -> bladder pressure), judged on measured pressures when a knee file
+#: has them, in the order they are tried, with their parameter.
+PRESSURE_PATH = {"pressure_lag": "tau", "dead_time": "delay", "asymmetric_lag": "tau_exhaust"}
 
-    The measured pe, pf are compared with the commands through the lag ``tau dP/dt = P_cmd - P``
-    (:func:`mkctl.physics.actuator.lagged_pressure`, commands held between samples); tau is fitted like
-    any candidate (log-space search, "off" an option) on the first part of the record and judged by the
-    same rule against no lag. Returns {"accepted", "tau" [s], "uncertainty" [s], "candidate" (a report
-    row, RMSE in kPa), "reason"}; a lag the file already declares (tau in the metadata) is not judged.
+
+def pressure_path(time, command, tau: float = 0.0, delay: float = 0.0, tau_exhaust: float = 0.0) -> np.ndarray:
+    """The bladder pressure a command gives through a dead time and the lag [Pa] (model-spec sections 4, 4b).
+
+    The command is held from its sample to the next and reaches the lag ``delay`` late (the first command held
+    before that); ``tau dP/dt = P_cmd - P`` while filling, ``tau_exhaust`` instead while exhausting when it is
+    given; P(0) = P_cmd(0). Exact between the instants the delayed command changes; no lag: the delayed command.
+    """
+    time, command = np.asarray(time, dtype=float), np.asarray(command, dtype=float)
+    seen_from = time + delay  # command[j] acts from time[j] + delay on
+    if tau <= 0:
+        return command[np.clip(np.searchsorted(seen_from, time + 1e-12, side="right") - 1, 0, time.size - 1)]
+    out = np.empty(time.size)
+    P = out[0] = command[0]
+    j = 0  # the command acting now
+    for k in range(1, time.size):
+        t, stop = time[k - 1], time[k]
+        while t < stop:
+            while j + 1 < time.size and seen_from[j + 1] <= t + 1e-12:
+                j += 1
+            until = min(stop, seen_from[j + 1]) if j + 1 < time.size else stop
+            target = command[j]
+            rate_tau = tau_exhaust if (tau_exhaust > 0 and target < P) else tau
+            P = target + (P - target) * math.exp(-(until - t) / rate_tau)
+            t = until
+        out[k] = P
+    return out
+
+
+def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE) -> dict | None:
+    """The pressure path judged directly on a knee file's measured bladder pressures, or None without them.
+
+    The measured pe, pf are compared with the commands through a lag ``tau dP/dt = P_cmd - P``, a dead time, or
+    both, and a lag that exhausts at its own rate (:func:`pressure_path`, commands held between samples): forward
+    selection by the same rule as the motion's candidates, on the first part of the record, against the commands
+    themselves. Round 1 tries the lag and the dead time alone, round 2 adds the other (or the exhausting time
+    constant) fitted jointly. Returns {"accepted" (the lag), "tau" [s], "uncertainty" [s], "candidate" (the lag's
+    report row, RMSE in kPa), "reason", "path": {"effects", "values", "uncertainty", "undecided"}}; a lag the file
+    already declares (tau in the metadata) is not judged.
     """
     m = measurement
     if m.experiment != "knee" or not ("pe" in m.inputs and "pf" in m.inputs) or params.tau > 0:
@@ -164,40 +199,106 @@ def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RU
     train_one = m.time <= rule.split_time(m.time[0], m.time[-1])
     train = np.concatenate([train_one, train_one])
 
-    def residual(tau):
-        if tau <= 0:
-            model = np.concatenate([m.inputs["pe_cmd"], m.inputs["pf_cmd"]])
-        else:
-            model = np.concatenate([_lagged(m.time, m.inputs["pe_cmd"], tau), _lagged(m.time, m.inputs["pf_cmd"], tau)])
+    def residual(values):
+        model = np.concatenate([pressure_path(m.time, m.inputs[c], **values) for c in ("pe_cmd", "pf_cmd")])
         return (measured - model) / 1e3  # kPa
 
     def score(r, k):
         return Score.from_residuals(r[train], r[~train], k)
 
-    off = score(residual(0.0), 0)
-    bounds = CANDIDATES["pressure_lag"].bounds["knee"]
-    tau, _ = best_value(lambda v: float(np.sum(residual(v)[train] ** 2)), bounds, off.rss_train)
+    def bounds(name):
+        return CANDIDATES[name].bounds["knee"]
+
+    def fit(names, start):
+        """The parameters of ``names`` fitted jointly (log space) from ``start``; (values, Outcome)."""
+        lows = np.log10([bounds(e)[0] for e in names])
+        highs = np.log10([bounds(e)[1] for e in names])
+        x0 = np.clip(np.log10([max(start.get(PRESSURE_PATH[e], 0.0), 1e-300) for e in names]), lows + 1e-9,
+                     highs - 1e-9)
+        keys = [PRESSURE_PATH[e] for e in names]
+        result = least_squares(lambda x: residual(dict(zip(keys, 10.0 ** x)))[train], x0, bounds=(lows, highs),
+                               diff_step=1e-4, xtol=1e-6, max_nfev=40 * len(names))
+        values = dict(zip(keys, (float(v) for v in 10.0 ** result.x)))
+        pinned = any(at_bound(values[PRESSURE_PATH[e]], bounds(e)) for e in names)
+        return values, Outcome(names[-1], score(residual(values), len(names)), at_bound=pinned)
+
+    off = score(residual({}), 0)
+    # round 1: the lag alone (as before: a 1-D search, "off" an option) and the dead time alone
+    tau, _ = best_value(lambda v: float(np.sum(residual({"tau": v})[train] ** 2)), bounds("pressure_lag"),
+                        off.rss_train)
     if tau == 0.0:
-        outcome = Outcome("pressure_lag", dataclasses.replace(off, k=1), switched_off=True)
+        lag_outcome = Outcome("pressure_lag", dataclasses.replace(off, k=1), switched_off=True)
     else:
-        outcome = Outcome("pressure_lag", score(residual(tau), 1), at_bound=at_bound(tau, bounds))
-    decision = decide(off, [outcome], rule)
-    uncertainty = None
-    if tau > 0:
-        step = tau * 1e-3
-        jac = (residual(tau + step) - residual(tau - step)) / (2 * step)
-        r = residual(tau)
-        dof = max(r.size - 1, 1)
+        lag_outcome = Outcome("pressure_lag", score(residual({"tau": tau}), 1), at_bound=at_bound(tau, bounds("pressure_lag")))
+    delay, _ = best_value(lambda v: float(np.sum(residual({"delay": v})[train] ** 2)), bounds("dead_time"),
+                          off.rss_train)
+    dead_outcome = (Outcome("dead_time", dataclasses.replace(off, k=1), switched_off=True) if delay == 0.0 else
+                    Outcome("dead_time", score(residual({"delay": delay}), 1), at_bound=at_bound(delay, bounds("dead_time"))))
+    decision = decide(off, [lag_outcome, dead_outcome], rule)
+    path = {"effects": [], "values": {}, "uncertainty": {}, "undecided": []}
+    first_values = {"pressure_lag": {"tau": tau}, "dead_time": {"delay": delay}}
+    current_score = off
+    if decision.verdict == "undecided":
+        effects_ = [decision.effect, *decision.rivals]
+        path["undecided"].append({"effects": effects_, "experiment": experiment_to_separate(effects_),
+                                  "text": f"the measured pressures cannot tell {' from '.join(e.replace('_', ' ') for e in effects_)}: "
+                                          f"{decision.reason}"})
+    elif decision.verdict == "add":
+        path["effects"] = [decision.effect]
+        path["values"] = dict(first_values[decision.effect])
+        current_score = (lag_outcome if decision.effect == "pressure_lag" else dead_outcome).score
+        # round 2: the other effect of the path, or the exhausting time constant, fitted jointly with it
+        trials = {}
+        if decision.effect == "pressure_lag":
+            trials["dead_time"] = ["pressure_lag", "dead_time"], {"tau": tau, "delay": 1e-2}
+            trials["asymmetric_lag"] = ["pressure_lag", "asymmetric_lag"], {"tau": tau, "tau_exhaust": tau}
+        else:
+            trials["pressure_lag"] = ["dead_time", "pressure_lag"], {"delay": delay, "tau": 1e-2}
+        fitted = {name: fit(names, start) for name, (names, start) in trials.items()}
+        second = decide(current_score, [outcome for _, outcome in fitted.values()], rule)
+        if second.verdict == "add":
+            path["effects"].append(second.effect)
+            path["values"] = fitted[second.effect][0]
+            if "pressure_lag" not in path["effects"][:1] and second.effect == "pressure_lag":
+                path["effects"] = ["pressure_lag", "dead_time"]  # the lag first: an asymmetric lag needs it
+            current_score = fitted[second.effect][1].score
+            if second.effect == "dead_time" or "dead_time" in path["effects"]:
+                if "pressure_lag" in path["effects"]:  # round 3: with both, the exhausting time constant
+                    values3, outcome3 = fit(["pressure_lag", "dead_time", "asymmetric_lag"],
+                                            {**path["values"], "tau_exhaust": path["values"]["tau"]})
+                    third = decide(current_score, [outcome3], rule)
+                    if third.verdict == "add":
+                        path["effects"].append("asymmetric_lag")
+                        path["values"] = values3
+        path["values"] = {k: v for k, v in path["values"].items()
+                          if any(PRESSURE_PATH[e] == k for e in path["effects"])}
+        # standard errors: each parameter by a central difference of the whole record's residual, the others held
+        r = residual(path["values"])
+        dof = max(r.size - len(path["values"]), 1)
         rho = _lag_one_correlation(r[:n])
         widen = (1 + rho) / (1 - rho) if rho > 0 else 1.0
-        uncertainty = float(math.sqrt(widen * (r @ r) / dof / max(jac @ jac, 1e-300)))
+        for key, value in path["values"].items():
+            step = value * 1e-3
+            jac = (residual({**path["values"], key: value + step}) - residual({**path["values"], key: value - step})) \
+                / (2 * step)
+            path["uncertainty"][key] = float(math.sqrt(widen * (r @ r) / dof / max(jac @ jac, 1e-300)))
+    accepted = "pressure_lag" in path["effects"]
+    tau_found = path["values"].get("tau", tau)
     j = decision.judgements["pressure_lag"]
-    row = {"effect": "pressure_lag", "params": {"tau": tau}, "rmse_train_kPa": outcome.score.rmse_train,
-           "rmse_holdout_kPa": outcome.score.rmse_holdout, "rmse_holdout_before_kPa": off.rmse_holdout,
+    lag_row_score = score(residual(path["values"]), len(path["values"])) if path["effects"] else lag_outcome.score
+    row = {"effect": "pressure_lag", "params": {"tau": tau_found}, "rmse_train_kPa": lag_row_score.rmse_train,
+           "rmse_holdout_kPa": lag_row_score.rmse_holdout, "rmse_holdout_before_kPa": off.rmse_holdout,
            "delta_bic": j.delta_bic, "passes_bic": j.passes_bic, "passes_holdout": j.passes_holdout,
-           "switched_off": outcome.switched_off, "at_bound": outcome.at_bound}
-    return {"accepted": decision.verdict == "add", "tau": tau, "uncertainty": uncertainty, "candidate": row,
-            "reason": decision.reason}
+           "switched_off": lag_outcome.switched_off, "at_bound": lag_outcome.at_bound}
+    reason = decision.reason if not accepted or decision.effect == "pressure_lag" else "found with a dead time"
+    if path["effects"] == ["dead_time"]:
+        # without a lag the modelled pressure is the delayed command, sample by sample: the pressures place
+        # the delay only within a sample, and the motion, which follows it continuously, fits it instead
+        path["motion"] = "dead_time"
+        path["effects"], path["values"], path["uncertainty"] = [], {}, {}
+    return {"accepted": accepted, "tau": tau_found,
+            "uncertainty": path["uncertainty"].get("tau") if accepted else None, "candidate": row,
+            "reason": reason, "path": path}
 
 
 # --- Preparing the record: measured inputs, commands, sanity -----------------------------------------
@@ -1131,9 +1232,16 @@ def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, sa
     if lag is None:
         return None, m, baseline, False
     tau = lag["tau"] if lag["accepted"] else 0.0
+    path = lag["path"]
     noise = max(input_noise(m.inputs["pe"]), input_noise(m.inputs["pf"])) / 1e3  # kPa
     model_rmse = lag["candidate"]["rmse_train_kPa"]
-    found = f"found, tau = {tau:.4g} s" if lag["accepted"] else "not found: " + lag["reason"]
+    found = (f"found, tau = {tau:.4g} s" if lag["accepted"] else "not found: " + lag["reason"])
+    others = [e for e in path["effects"] if e != "pressure_lag"]
+    if others:
+        found += "; " + ", ".join(f"{e.replace('_', ' ')} found, {PRESSURE_PATH[e]} = "
+                                  f"{path['values'][PRESSURE_PATH[e]]:.4g} s" for e in others)
+    if path.get("motion"):
+        found += "; they show a dead time, placed by them only to within a sample: it is fitted on the motion"
     if model_rmse > 5.0 * max(noise, 1e-6):
         notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly "
                      f"({found}); they depart from the lagged commands by {model_rmse:.3g} kPa RMS (noise "
@@ -1145,7 +1253,8 @@ def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, sa
                  f"they follow the commands through it to within their noise ({model_rmse:.3g} kPa RMS), so the "
                  f"motion is driven by the commands through that lag, free of the pressure sensors' noise")
     say(notes[-1])
-    return lag, dataclasses.replace(m, inputs=inputs), baseline.replace(tau=tau) if tau > 0 else baseline, True
+    return lag, dataclasses.replace(m, inputs=inputs), baseline.replace(**path["values"]) if path["values"] else \
+        baseline, True
 
 
 def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = None, fit_offset: bool = False,
@@ -1255,7 +1364,8 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
                   output_noise_correlation=noise.correlation, saturation=saturation,
                   rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
     problems = sanity_problems(m, full_before, m.params, fit_offset)
-    return _Record(m, prepared, start, lag, {"pressure_lag"} if lag_judged else set(), noise, full_before, notes,
+    judged = set(PRESSURE_PATH) - ({lag["path"]["motion"]} if lag_judged and lag["path"].get("motion") else set())
+    return _Record(m, prepared, start, lag, judged if lag_judged else set(), noise, full_before, notes,
                    common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info))
 
 
@@ -1298,6 +1408,8 @@ def _select(problem: _Problem, record: _Record, rule: Rule, say):
     state = _Search(problem, start, pending_all, rule, record.to_file, say, record.noise)
     state.renoised = record.renoised
     state.forward(current)
+    if record.lag is not None:  # what the measured pressures could not tell apart
+        state.undecided = [*record.lag["path"]["undecided"], *state.undecided]
     if (state.added or state.undecided) and len(pending_all) >= 2:
         inadequate = _inadequacy(problem, state.current, record.noise.sigma)
         if inadequate > WIDER_SEARCH_FACTOR:
@@ -1345,11 +1457,11 @@ def _final_fit(problem: _Problem, record: _Record, state: "_Search", offset_befo
         for name in final_values:
             moved = 0.5 * abs(spread[1][name] - spread[0][name])
             uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), moved)
-    if lag is not None and lag["accepted"]:
-        added = ["pressure_lag", *added]
-        final_values = {"tau": lag["tau"], **final_values}
-        if lag["uncertainty"] is not None:
-            uncertainty = {"tau": lag["uncertainty"], **uncertainty}
+    if lag is not None and lag["path"]["effects"]:
+        path = lag["path"]
+        added = [*path["effects"], *added]
+        final_values = {**path["values"], **final_values}
+        uncertainty = {**path["uncertainty"], **uncertainty}
     return _Final(added, final_values, uncertainty, offset, simulated, final_params)
 
 
