@@ -19,7 +19,6 @@ need (a C compiler, sympy) and fmpy's FMI 3.0 headers (``fmpy/c-code``).
 """
 from __future__ import annotations
 
-import argparse
 import datetime
 import shutil
 import sys
@@ -30,7 +29,6 @@ from pathlib import Path
 from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
-from ..errors import MkctlError
 from ..physics.params import Params
 from . import fmu as fmi2
 from .fmu import C_DIR, MODEL_NAMES, Interface, NativeBuildError
@@ -195,19 +193,8 @@ def build_fmi3(out: Path, params: Params | None = None) -> dict[str, Path]:
 
 
 def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Build the FMI 3.0 native FMUs (model-spec section 7c).")
-    parser.add_argument("--out", type=Path, default=Path("dist"), help="output folder (default: dist in the "
-                        "working folder); the FMUs go into OUT/fmi3")
-    args = parser.parse_args(argv)
-    try:
-        built = build_fmi3(args.out)
-    except MkctlError as error:
-        print(f"mkctl.native.fmi3: {error}", file=sys.stderr)
-        return 2
-    for path in built.values():
-        print(f"built {path} (validated)")
-    return 0
-
+    return fmi2.command_line(argv, build_fmi3, "Build the FMI 3.0 native FMUs (model-spec section 7c).", "fmi3",
+                             "mkctl.native.fmi3")
 
 if __name__ == "__main__":
     sys.exit(main())

@@ -826,20 +826,26 @@ def build_native(out: Path, params: Params | None = None) -> dict[str, Path]:
     return {name: build_one(name, folder / f"{name}.fmu", params) for name in MODEL_NAMES}
 
 
-def main(argv=None) -> int:
-    parser = argparse.ArgumentParser(description="Build the native FMUs (model-spec section 7b).")
+def command_line(argv, build, description: str, folder: str, program: str) -> int:
+    """The small command line of a native build (``python -m mkctl.native.fmu``, ``python -m mkctl.native.fmi3``):
+    ``build(out)`` writes the FMUs into ``OUT/<folder>``; one line per FMU, or one line and exit 2 on an error."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--out", type=Path, default=Path("dist"), help="output folder (default: dist in the "
-                        "working folder); the FMUs go into OUT/native")
+                        f"working folder); the FMUs go into OUT/{folder}")
     args = parser.parse_args(argv)
     try:
-        built = build_native(args.out)
+        built = build(args.out)
     except MkctlError as error:
-        print(f"mkctl.native.fmu: {error}", file=sys.stderr)
+        print(f"{program}: {error}", file=sys.stderr)
         return 2
     for path in built.values():
         print(f"built {path} (validated)")
     return 0
 
+
+def main(argv=None) -> int:
+    return command_line(argv, build_native, "Build the native FMUs (model-spec section 7b).", "native",
+                        "mkctl.native.fmu")
 
 if __name__ == "__main__":
     sys.exit(main())
