@@ -132,7 +132,7 @@ def test_pressure_threshold_by_hand():
     assert float(d.dF_dPe) == pytest.approx(float(d0.dF_dPe) * (1 - math.exp(-12.0)), rel=1e-12)
     assert float(d.dF_dPf) == pytest.approx(float(d0.dF_dPf) * (1 - math.exp(-1.0)), rel=1e-12)
     assert float(isometric_tension(L, P, 1, p)) == pytest.approx(float(actuator.tension_model2(L, P_eff)), rel=1e-13)
-    with pytest.raises(Exception, match="P0 = 500000 Pa is outside the model's domain \[0, 400000\] Pa"):
+    with pytest.raises(Exception, match=r"P0 = 500000 Pa is outside the model's domain \[0, 400000\] Pa"):
         Params(P0=5e5)
 
 
