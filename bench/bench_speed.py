@@ -1,6 +1,14 @@
 """Speed of the compiled core against scipy's solve_ivp, measured side by side in one run (issue 12).
 
-Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``.
+Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``, or only the work-precision table:
+``PYTHONPATH=. python bench/bench_speed.py --precision [--quick]`` (issue 22).
+
+0. Work-precision table (``--precision``; ``--quick`` for rtol 1e-3, 1e-6, 1e-9 only, well under a minute): the
+   default 6 s record of 1 solved by solve_ivp RK45, DOP853, LSODA, Radau and BDF at rtol 1e-3 ... 1e-10
+   (atol = 1e-3 rtol), by simulate_knee and by knee_states (compiled core, mkctl's rtol 1e-10); each row gives
+   wall time and CPU time (time.process_time), best of a few runs, and max |X - X_ref| against a tight
+   reference (solve_ivp DOP853, rtol 1e-12, atol 1e-15). The ratio: the fastest solve_ivp run at least as
+   accurate as mkctl, over mkctl's time (wall and CPU, measured side by side in one run).
 
 1. The same 6 s knee record at 1 kHz (the default knee experiment of :mod:`mkctl.analysis.synth`: the
    holding commands with extensor steps), simulated by
@@ -37,6 +45,7 @@ from scipy.integrate import solve_ivp
 
 from mkctl.analysis import synth
 from mkctl.analysis.diagnose import diagnose
+from mkctl.errors import MkctlError
 from mkctl.io.measurements import read_measurement
 from mkctl.native import build, compiled
 from mkctl.native.variants import ALL_VARIANTS
@@ -59,8 +68,19 @@ def best_of(function, repeat: int) -> tuple[float, object]:
     return best, result
 
 
-def reference(t, pe, pf, params, X0, **tolerances):
-    """solve_ivp (LSODA) on the library's right-hand side, restarted wherever a command changes (the commands
+def best_of_both(function, repeat: int) -> tuple[float, float, object]:
+    """(best wall time [s], best CPU time [s] (time.process_time), last result) over ``repeat`` calls."""
+    wall, cpu, result = float("inf"), float("inf"), None
+    for _ in range(repeat):
+        start_wall, start_cpu = time.perf_counter(), time.process_time()
+        result = function()
+        wall = min(wall, time.perf_counter() - start_wall)
+        cpu = min(cpu, time.process_time() - start_cpu)
+    return wall, cpu, result
+
+
+def reference(t, pe, pf, params, X0, method: str = "LSODA", **tolerances):
+    """solve_ivp (LSODA by default) on the library's right-hand side, restarted wherever a command changes (the commands
     are held from each sample to the next, so the right-hand side jumps there); output at every sample."""
     stops = knee.stop_positions(params)
     changes = np.flatnonzero((pe[1:] != pe[:-1]) | (pf[1:] != pf[:-1])) + 1
@@ -71,7 +91,7 @@ def reference(t, pe, pf, params, X0, **tolerances):
     for first, last in zip(bounds[:-1], bounds[1:]):
         pe_k, pf_k = pe[first], pf[first]
         run = solve_ivp(lambda _, state: knee.knee_derivatives(state, pe_k, pf_k, params, stops),
-                        (t[first], t[last]), y, method="LSODA", t_eval=t[first + 1:last + 1], **tolerances)
+                        (t[first], t[last]), y, method=method, t_eval=t[first + 1:last + 1], **tolerances)
         if not run.success:
             raise RuntimeError(run.message)
         X[first + 1:last + 1] = run.y[0]
@@ -105,6 +125,62 @@ def time_record(t, pe, pf, params, X0, repeat: int, tight: bool = True) -> tuple
     return ref_time, speedup
 
 
+PRECISION_METHODS = ("RK45", "DOP853", "LSODA", "Radau", "BDF")
+PRECISION_RTOLS = tuple(10.0 ** -k for k in range(3, 11))
+QUICK_RTOLS = (1e-3, 1e-6, 1e-9)
+
+
+def work_precision(t, pe, pf, params, X0, quick: bool) -> dict[str, float]:
+    """Print the work-precision table (section 0) and return mkctl's ratios: for simulate_knee and knee_states,
+    (time of the fastest solve_ivp run whose max |X - X_ref| is at most mkctl's) / (mkctl's time), wall and CPU.
+
+    Error: max over the record of |X - X_ref| [m], X_ref from solve_ivp DOP853 at rtol 1e-12, atol 1e-15."""
+    rtols = QUICK_RTOLS if quick else PRECISION_RTOLS
+    ref_repeat, mk_repeat = (1, 10) if quick else (2, 20)
+    X_ref = reference(t, pe, pf, params, X0, method="DOP853", rtol=1e-12, atol=1e-15)
+    rows = []  # (label, is mkctl, wall [s], cpu [s], error [m])
+    failed = []
+    for method in PRECISION_METHODS:
+        for rtol in rtols:
+            label = f"solve_ivp {method}, rtol {rtol:.0e}"
+            try:
+                wall, cpu, X = best_of_both(
+                    lambda: reference(t, pe, pf, params, X0, method=method, rtol=rtol, atol=1e-3 * rtol),
+                    ref_repeat)
+            except MkctlError as error:  # a trial step left the leg's range: the run fails, no row
+                failed.append(f"{label}: {error}")
+                continue
+            rows.append((label, False, wall, cpu, np.max(np.abs(X - X_ref))))
+    simulate_knee(t, pe, pf, params, X0=X0)  # load the library
+    wall, cpu, run = best_of_both(lambda: simulate_knee(t, pe, pf, params, X0=X0), mk_repeat)
+    rows.append(("mkctl simulate_knee, compiled (rtol 1e-10)", True, wall, cpu, np.max(np.abs(run["X"] - X_ref))))
+    wall, cpu, (X, _) = best_of_both(lambda: knee_states(t, pe, pf, params, X0=X0), mk_repeat)
+    rows.append(("mkctl knee_states, compiled (rtol 1e-10)", True, wall, cpu, np.max(np.abs(X - X_ref))))
+
+    print(f"   {'':<44} {'wall [ms]':>10} {'CPU [ms]':>10} {'max |X - X_ref| [m]':>20}")
+    for label, _, wall, cpu, error in rows:
+        print(f"   {label:<44} {1e3 * wall:>10.2f} {1e3 * cpu:>10.2f} {error:>20.2e}")
+    for line in failed:
+        print(f"   failed: {line}")
+    ratios = {}
+    for label, mine, wall, cpu, error in rows:
+        if not mine:
+            continue
+        as_accurate = [row for row in rows if not row[1] and row[4] <= error]
+        name = label.split(",")[0]
+        if not as_accurate:
+            print(f"   {name}: no solve_ivp run is as accurate ({error:.1e} m)")
+            continue
+        fastest_wall = min(as_accurate, key=lambda row: row[2])
+        fastest_cpu = min(as_accurate, key=lambda row: row[3])
+        ratios[name] = fastest_wall[2] / wall
+        print(f"   {name}: the fastest solve_ivp run as accurate ({error:.1e} m) is {fastest_wall[0]} "
+              f"({1e3 * fastest_wall[2]:.1f} ms wall): {fastest_wall[2] / wall:.0f}x wall; by CPU time "
+              f"{fastest_cpu[0]} ({1e3 * fastest_cpu[3]:.1f} ms): {fastest_cpu[3] / cpu:.0f}x "
+              f"(target >= {SPEED_TARGET:g}x)")
+    return ratios
+
+
 def python_path(function):
     previous = os.environ.get(build.ENV_SWITCH)
     os.environ[build.ENV_SWITCH] = "0"
@@ -121,10 +197,18 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--python", action="store_true", help="also time diagnose on the Python path (slow)")
     parser.add_argument("--repeat", type=int, default=5)
+    parser.add_argument("--precision", action="store_true", help="only the work-precision table (section 0)")
+    parser.add_argument("--quick", action="store_true", help="with --precision: rtol 1e-3, 1e-6, 1e-9 only")
     args = parser.parse_args()
 
     params = Params()
     print(f"compiled core: {compiled.status(params)}")
+    if args.precision:  # the default variant only: simulate_knee builds it (or finds it) on its first call
+        t, pe, pf = synth.knee_inputs(SAMPLES, RATE, params)
+        X0 = stability.equilibrium_hip_height(pe[0], pf[0], params)
+        print(f"\n0. work-precision, one {t[-1] + 1 / RATE:g} s knee record at {RATE:g} Hz ({SAMPLES} samples)")
+        work_precision(t, pe, pf, params, X0, args.quick)
+        return 0
     start = time.perf_counter()
     for variant in ALL_VARIANTS:  # once per machine: generation + compilation, or the cache
         build.build_library((variant,))
