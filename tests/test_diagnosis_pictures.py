@@ -30,6 +30,9 @@ def test_each_signature_is_against_its_effects_own_regressor(damped):
     direction = sigs["coulomb_friction"]["x"]
     assert np.all(np.abs(direction) <= 1) and direction.min() < -0.9 and direction.max() > 0.9
     np.testing.assert_allclose(direction, np.tanh(speed / (measurement.params.vs * 1e3)))
+    # pressure friction: the pressure times the direction (not the velocity again, nor the direction alone)
+    np.testing.assert_allclose(sigs["pressure_friction"]["x"], sigs["pressure_threshold"]["x"] * direction)
+    assert np.ptp(sigs["pressure_friction"]["x"] - direction) > 1.0
     # slack: the smaller muscle tension of the model, positive everywhere in this record (nothing goes slack)
     assert sigs["slack"]["x"].min() > 1.0 and np.ptp(sigs["slack"]["x"]) > 1.0
     # the lag: the extensor's pressure behind its command at the first round's fitted tau, zero between transients

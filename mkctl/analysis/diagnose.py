@@ -947,6 +947,8 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
                 x = np.minimum(forces.fe, forces.ff)
             elif name == "pressure_threshold":  # its picture's axis: the gauge pressure (the extensor's on the knee)
                 x = (states["P"] if isotonic else states["Pe"]) / 1e3
+            elif name == "pressure_friction":  # friction as strong as the pressure, through the direction of motion
+                x = (states["P"] if isotonic else states["Pe"]) / 1e3 * np.tanh(speed / (params.vs * 1e3))
             else:
                 x = term if name in ("elasticity", "slack") else speed
         out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}

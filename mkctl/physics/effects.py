@@ -576,7 +576,7 @@ BUILTIN = (
         play=lambda P, p, xp: p.Fc_p * P, structural=False, fitted="Fc_p",
         experiments={"isotonic": (1e-8, 1e-4), "knee": (1e-8, 1e-4)},  # 1e-4: 100 N at 1 MPa, as Fc's 100 N
         regressor="the friction force per N/Pa (the gauge pressure) at the measured direction of motion",
-        signature_axis="velocity [mm/s]",
+        signature_axis="gauge pressure times the direction of motion tanh(v / vs) [kPa]",
         separation={**_separations("pressure_friction"), "coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
                                         "constant friction keeps the branches 2 Fc apart at every pressure, "
                                         "pressure friction opens them in proportion to the pressure"},
