@@ -38,7 +38,8 @@ PRESETS = {
     "physics": (
         ["mkctl/physics/actuator.py", "mkctl/physics/knee.py", "mkctl/physics/stability.py"],
         ["tests/test_actuator.py", "tests/test_knee.py", "tests/test_stability.py", "tests/test_pinned.py",
-         "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py"],
+         "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py",
+         "tests/test_effects.py", "tests/test_rig_effects.py"],  # the registry: generated partials, 4b terms
     ),
     "diagnosis": (  # the acceptance rule, apart from the loop that fits (mkctl.analysis.diagnosis_rule)
         ["mkctl/analysis/diagnosis_rule.py"],
