@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from compiled_check import assert_core_matches_python
 
 from mkctl.analysis import effect_files
 from mkctl.analysis.effect_files import EffectFileError, register_effect_file, unregister_effect_file
@@ -181,29 +182,13 @@ def test_synth_hides_it_and_diagnose_finds_and_fits_it(drag, tmp_path):
 def test_the_compiled_core_computes_it_as_the_python_path(drag):
     compiled_or_skip()
     register_effect_file(drag)
-    from mkctl.native import build, compiled
-    from mkctl.physics import backend, knee
-    from mkctl.physics.simulate import default_commands, simulate_knee
+    from mkctl.native import build
+    from mkctl.physics.simulate import simulate_knee
     p = Params(c_q=2000.0, tau=0.03)
     assert "c_q" in build.registry_fingerprint() and "quadratic_drag" in build.registry_fingerprint()
-    core = compiled.core_for(p)
-    assert core is not None
-    pe, pf = default_commands(p)
-    state = [float(knee.X_from_alpha(1.0, p)), 0.05, pe * 1.05, pf]
-    np.testing.assert_allclose(core.knee_rhs(p, state, pe, pf), knee.knee_derivatives(state, pe, pf, p),
-                               rtol=1e-11, atol=1e-9)
-    t = np.linspace(0, 0.6, 301)
-    pe_cmd = np.where(t < 0.1, pe, pe * 1.04)
-    fast = simulate_knee(t, pe_cmd, pf, p)
-    previous = backend.install(None)  # the Python path
-    try:
-        slow = simulate_knee(t, pe_cmd, pf, p)
-    finally:
-        backend.install(previous)
-    for name in ("X", "V", "fe", "F", "a1", "a2"):
-        span = np.ptp(slow[name]) + abs(slow[name]).max()
-        np.testing.assert_allclose(fast[name], slow[name], rtol=0, atol=1e-10 * span, err_msg=name)
-    plain = simulate_knee(t, pe_cmd, pf, p.replace(c_q=0.0))
+    checked = assert_core_matches_python(p)
+    fast = checked["run"]
+    plain = simulate_knee(checked["t"], checked["pe_cmd"], checked["pf"], p.replace(c_q=0.0))
     assert np.abs(plain["V"] - fast["V"]).max() > 1e-2 * np.abs(plain["V"]).max()  # the drag is really there
 
 
