@@ -8,7 +8,8 @@ interfaces, the Model Exchange one generated from the same equations as Co-Simul
   run to 1e-6 of each output's range, and an event falls on the contact; without a lag too (the lag states stay);
 - the actuator's pressure lag through CVode agrees with the exact lag of Co-Simulation;
 - a negative pressure ends a Model Exchange run with the message; a parameter Model Exchange cannot represent
-  (a dead time, when the FMU has one) is refused at initialization.
+  (mkctl.native.fmu.ME_REFUSED_PARAMETERS, none today) is refused at initialization. (A dead time runs under
+  Model Exchange: tests/test_native_deadtime.py.)
 The native FMUs carry no Python: they run in this process.
 """
 from __future__ import annotations
@@ -232,8 +233,9 @@ def test_a_negative_pressure_ends_a_model_exchange_run_with_the_message(native, 
 
 
 def test_a_parameter_model_exchange_cannot_represent_is_refused_at_initialization(tmp_path, monkeypatch):
-    """The mechanism for the dead time (model-spec section 7c), shown on a parameter the FMU has today: Model
-    Exchange refuses it when not 0, with the reason; Co-Simulation runs it."""
+    """The mechanism of model-spec section 7c (a parameter Model Exchange cannot represent; none today, the dead
+    time runs), shown on a parameter the FMU has: Model Exchange refuses it when not 0, with the reason;
+    Co-Simulation runs it."""
     from fmpy.fmi1 import FMICallException
     from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, defaultCallbacks
     from mkctl.native import fmu as native_fmu

@@ -303,22 +303,6 @@ def test_dead_time_in_the_compiled_core():
     _core_agrees(p, np.random.default_rng(15), lag_states=True)
 
 
-def test_the_native_fmu_refuses_a_dead_time_with_a_message(tmp_path):
-    _core(Params())
-    from fmpy import simulate_fmu
-    from mkctl.native.fmu import build_one
-    fmu = build_one("McKibbenActuator", tmp_path / "actuator.fmu")
-    messages = []
-
-    def logger(component, instance, status, category, message):
-        messages.append(message.decode() if isinstance(message, bytes) else str(message))
-    with pytest.raises(Exception, match="fmi2ExitInitializationMode"):  # refused at initialization: fmi2Error
-        simulate_fmu(str(fmu), stop_time=0.1, start_values={"delay": 0.03}, logger=logger)
-    assert any("dead time (command delay 0.03 s) is not simulated by the native FMU" in m for m in messages), messages
-    result = simulate_fmu(str(fmu), stop_time=0.1, start_values={"delay": 0.0})
-    assert len(result) > 1
-
-
 def test_synth_hides_a_dead_time():
     _synth_hides("delay=0.03", "delay", 0.03, "dead_time")
     _synth_hides("dead_time", "delay", 0.03, "dead_time")

@@ -31,7 +31,12 @@ right-hand side (``mk_knee_rhs``) and, for the actuator, the time derivative at 
 expressions themselves (:func:`switching_functions`): every Piecewise condition, Max/Min, Abs, sign or Heaviside
 argument that depends on the state or an input (end-stop contact, the stop's damper letting go, slack, a lag's
 direction), one generated C function per variant, so that no effect is named in hand-written C. Parameters that
-Model Exchange cannot represent (a dead time, :data:`ME_REFUSED_PARAMETERS`) are refused at initialization.
+Model Exchange cannot represent (:data:`ME_REFUSED_PARAMETERS`, none today) are refused at initialization.
+
+A dead time (``delay > 0``, model-spec section 4b) runs in both interfaces (``fmu_c/mk_run.c``, ``mk_delay_*``):
+the pressure commands on their way are kept in the FMU state (at most ``MK_HISTORY`` changes, ``fmu_c/mk_fmu.h``).
+Co-Simulation cuts each step where a command given earlier arrives, as ``KneeSimulator.step`` does; Model Exchange
+records the pressure inputs as the host sets them and switches the commands the actuators see at time events.
 """
 from __future__ import annotations
 
@@ -94,11 +99,9 @@ ME_STATES = {
 }
 
 #: Parameters Model Exchange cannot represent, with the reason, refused at initialization when not 0 (model-spec
-#: section 7c): a dead time needs the history of the commands, which the host's integrator does not keep.
-ME_REFUSED_PARAMETERS = {
-    "delay": "a dead time needs the history of the commands, which Model Exchange does not keep; use the "
-             "Co-Simulation interface, or delay = 0",
-}
+#: section 7c). None today: a dead time runs under Model Exchange too (the FMU records the commands as the host sets
+#: them; docs/fmu.md, "Dead time").
+ME_REFUSED_PARAMETERS: dict[str, str] = {}
 
 _LOG_CATEGORIES = {
     "logStatusWarning": "Log messages with fmi2Warning status.",

@@ -16,8 +16,14 @@
  *   for ever; a host driving the FMU call by call can still set a valid input and step again;
  * - Model Exchange: fmi2GetDerivatives and fmi2GetEventIndicators answer fmi2Error with a logged message when the
  *   inputs or the state are outside the model's domain, and fmi2CompletedIntegratorStep and fmi2NewDiscreteStates
- *   then ask the host to terminate; a parameter Model Exchange cannot represent (a dead time) is refused at
+ *   then ask the host to terminate; a parameter Model Exchange cannot represent (mk_me_refused) is refused at
  *   fmi2ExitInitializationMode;
+ * - a dead time (delay > 0): Co-Simulation keeps the commands given at each doStep and cuts a step where one
+ *   arrives; Model Exchange takes the pressure inputs as given at every fmi2CompletedIntegratorStep and
+ *   fmi2NewDiscreteStates (at the time of the host's last fmi2SetTime; what a host sets while its integrator
+ *   searches, between them, is not a command given), and the commands the actuators see are a discrete state
+ *   switched at time events (nextEventTime of fmi2NewDiscreteStates; fmi2CompletedIntegratorStep asks for event
+ *   mode when a command given there must be announced); mk_run.c, mk_delay_*;
  * - outputs are computed when read, from the state and the present inputs (direct feedthrough);
  * - messages with status fmi2Discard or worse always reach the host's logger; others only with logging on.
  *
@@ -243,6 +249,8 @@ static int start_run(mk_instance *inst)
         d->failed = 1;
     } else if (mk_check_start_inputs(d, msg, sizeof msg) != 0) {
         snprintf(d->error, sizeof d->error, "invalid start inputs: %s", msg);
+        d->failed = 1;
+    } else if (mk_delay_start(d, inst->me, d->error, sizeof d->error) != 0) {
         d->failed = 1;
     } else if (mk_model_start(d, d->error, sizeof d->error) != 0) {
         d->failed = 1;
@@ -829,14 +837,29 @@ fmi2Status fmi2EnterEventMode(fmi2Component c)
 
 fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *info)
 {
+    char msg[MK_MESSAGE];
     ME_INSTANCE(c, "fmi2NewDiscreteStates");
     if (info == NULL) return refuse(inst, fmi2Error, "fmi2NewDiscreteStates: no fmi2EventInfo given");
-    /* no discrete states: the right-hand side switches by itself; an event only restarts the host's integrator */
+    /* the right-hand side switches by itself (an event only restarts the host's integrator), but for a dead time:
+     * the commands the actuators see switch now to those in force, and the next arrival is a time event */
     info->newDiscreteStatesNeeded = fmi2False;
     info->nominalsOfContinuousStatesChanged = fmi2False;
     info->valuesOfContinuousStatesChanged = fmi2False;
     info->nextEventTimeDefined = fmi2False;
     info->nextEventTime = 0.0;
+    if (me_ready(inst) && inst->d.dl.delay > 0 && mk_check_inputs(&inst->d, msg, sizeof msg) == 0) {
+        double next; /* the commands given now (bad inputs end the run below) */
+        if (mk_delay_give(&inst->d, inst->d.s.time, msg, sizeof msg) != 0) {
+            info->terminateSimulation = fmi2True;
+            return refuse(inst, fmi2Error, "fmi2NewDiscreteStates at t = %g s: %s", inst->d.s.time, msg);
+        }
+        next = mk_delay_event_update(&inst->d, inst->d.s.time);
+        inst->d.outputs_fresh = 0;
+        if (isfinite(next)) {
+            info->nextEventTimeDefined = fmi2True;
+            info->nextEventTime = next;
+        }
+    }
     info->terminateSimulation = me_must_terminate(inst, "fmi2NewDiscreteStates") ? fmi2True : fmi2False;
     if (!info->terminateSimulation) check_rating(inst, inst->d.s.time);
     return inst->d.failed ? fmi2Error : fmi2OK;
@@ -858,7 +881,16 @@ fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean noSetFMUStat
     ME_INSTANCE(c, "fmi2CompletedIntegratorStep");
     (void)noSetFMUStatePriorToCurrentPoint;
     terminate = me_must_terminate(inst, "fmi2CompletedIntegratorStep");
-    if (enterEventMode != NULL) *enterEventMode = fmi2False;
+    if (!terminate && inst->d.dl.delay > 0) { /* a dead time: the commands given now */
+        char msg[MK_MESSAGE];
+        if (mk_delay_give(&inst->d, inst->d.s.time, msg, sizeof msg) != 0) {
+            if (terminateSimulation != NULL) *terminateSimulation = fmi2True;
+            return refuse(inst, fmi2Error, "fmi2CompletedIntegratorStep at t = %g s: %s", inst->d.s.time, msg);
+        }
+    }
+    /* ... to be announced as a time event (or one has arrived that the host passed) */
+    if (enterEventMode != NULL)
+        *enterEventMode = !terminate && mk_delay_event_needed(&inst->d, inst->d.s.time) ? fmi2True : fmi2False;
     if (terminateSimulation != NULL) *terminateSimulation = terminate ? fmi2True : fmi2False;
     if (!terminate) check_rating(inst, inst->d.s.time);
     return inst->d.failed ? fmi2Error : fmi2OK;

@@ -5,7 +5,9 @@
  * at the commands. The
  * end stops of mkctl.physics.knee engage at the core's mk_stop_positions. Each doStep integrates the compiled
  * right-hand side with the core's Dormand-Prince 5(4) stepper and KneeSimulator's tolerances, the commands held;
- * a step that fails (a domain check, a collapsed step size) is refused and the state kept.
+ * a step that fails (a domain check, a collapsed step size) is refused and the state kept. With a dead time the
+ * commands reach the actuators delay late (mk_run.c, mk_delay_*): each step is cut where a command given earlier
+ * arrives, as KneeSimulator.step cuts it, and each piece integrated with the commands then in force.
  */
 #include <math.h>
 #include <stdio.h>
@@ -13,6 +15,7 @@
 
 #include "mk_fmu.h"
 #include "mk_core_api.h"
+#include "mk_run.h"
 
 #define AUX_N 0    /* n in use (given or derived) */
 #define AUX_LOW 1  /* end stop positions [m] */
@@ -27,8 +30,6 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     d->aux[AUX_N] = mk_turns(d);
     params_of(d, p);
-    if (mk_refuse_delay(p, msg, size) != 0)
-        return 1;
     X0 = d->v[VR_X0];
     if (X0 == mk_variables[VR_X0].start && mk_fmu_X_from_alpha(p, MK_FMU_DEFAULT_ALPHA, &X0, &fault) != 0) {
         mk_fault_message(&fault, detail, sizeof detail);
@@ -66,27 +67,51 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
 
 int mk_model_step(mk_data *d, double dt, char *msg, size_t size)
 {
-    double p[MK_NPARAM];
+    double p[MK_NPARAM], seen[MK_MAX_COMMANDS], end, start, stop, h;
     mk_state s = d->s;
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     params_of(d, p);
-    if (mk_knee_step(p, d->aux + AUX_LOW, s.y, dt, d->v[VR_pe_cmd], d->v[VR_pf_cmd], MK_FMU_KNEE_RTOL,
-                     MK_FMU_KNEE_ATOL, &s.h, s.k, &s.k1_valid, &s.k_pe, &s.k_pf, &fault) != 0) {
-        mk_fault_message(&fault, msg, size);
-        d->s.k1_valid = 0;
-        return 1; /* the state as it was */
+    if (!(d->dl.delay > 0)) {
+        if (mk_knee_step(p, d->aux + AUX_LOW, s.y, dt, d->v[VR_pe_cmd], d->v[VR_pf_cmd], MK_FMU_KNEE_RTOL,
+                         MK_FMU_KNEE_ATOL, &s.h, s.k, &s.k1_valid, &s.k_pe, &s.k_pf, &fault) != 0) {
+            mk_fault_message(&fault, msg, size);
+            d->s.k1_valid = 0;
+            return 1; /* the state as it was */
+        }
+        s.time += dt;
+        d->s = s;
+        return 0;
     }
-    s.time += dt;
+    /* a dead time: KneeSimulator.step, the step cut where a command given earlier arrives */
+    if (mk_delay_give(d, s.time, msg, size) != 0)
+        return 1;
+    end = s.time + dt;
+    for (start = s.time;; start = stop) {
+        stop = mk_delay_next_cut(d, start, end);
+        mk_delay_at(d, start, seen);
+        h = stop < end ? stop - start : end - s.time;
+        if (h > 0) {
+            if (mk_knee_step(p, d->aux + AUX_LOW, s.y, h, seen[0], seen[1], MK_FMU_KNEE_RTOL, MK_FMU_KNEE_ATOL, &s.h,
+                             s.k, &s.k1_valid, &s.k_pe, &s.k_pf, &fault) != 0) {
+                mk_fault_message(&fault, msg, size);
+                d->s.k1_valid = 0;
+                return 1; /* the state as it was (the command given stays: a step again from here replaces it) */
+            }
+            s.time += h;
+        }
+        if (!(stop < end)) break;
+    }
     d->s = s;
     return 0;
 }
 
 int mk_model_outputs(mk_data *d, char *msg, size_t size)
 {
-    double p[MK_NPARAM], out[14];
+    double p[MK_NPARAM], out[14], seen[MK_MAX_COMMANDS];
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     params_of(d, p);
-    if (mk_knee_outputs(p, d->s.y, d->v[VR_pe_cmd], d->v[VR_pf_cmd], out, &fault) != 0) {
+    mk_seen_commands(d, seen); /* the commands, or with a dead time those in force now */
+    if (mk_knee_outputs(p, d->s.y, seen[0], seen[1], out, &fault) != 0) {
         mk_fault_message(&fault, msg, size);
         return 1;
     }

@@ -20,17 +20,6 @@ double mk_fmu_derived_turns(double b, double L0, double D0)
     return sqrt(b * b - L0 * L0) / (3.141592653589793 * D0);
 }
 
-int mk_refuse_delay(const double *p, char *msg, size_t size)
-{
-    double delay = 0.0;
-    mk_fault fault = {0, 0, 0, 0, 0, 0};
-    if (mk_command_delay(p, &delay, &fault) != 0 || delay == 0.0)
-        return 0;
-    snprintf(msg, size, "a dead time (command delay %g s) is not simulated by the native FMU: use the pythonfmu "
-             "FMU (build_fmu.py) for it", delay);
-    return 1;
-}
-
 double mk_turns(const mk_data *d)
 {
     /* as the slaves do: n left at its start value while b, L0 or D0 changed follows them */

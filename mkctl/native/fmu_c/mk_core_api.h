@@ -41,8 +41,6 @@ extern const double MK_FMU_KNEE_H0;
 
 /* the fault as mkctl's Python would say it (the library's message, with the failing value) */
 void mk_fault_message(const mk_fault *fault, char *msg, size_t size);
-/* 1 with a message when p holds a dead time the native FMUs do not simulate (a command buffer), else 0 */
-int mk_refuse_delay(const double *p, char *msg, size_t size);
 /* n = sqrt(b^2 - L0^2) / (pi D0), mkctl.physics.params.derived_turns */
 double mk_fmu_derived_turns(double b, double L0, double D0);
 

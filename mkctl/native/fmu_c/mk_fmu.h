@@ -69,6 +69,23 @@ typedef struct {
     double k_pe, k_pf;       /* the commands k was computed with */
 } mk_state;
 
+/* A dead time (model-spec section 4b, dead_time): the pressure commands on their way to the actuators, as
+ * mkctl.physics.simulate.CommandSchedule keeps them. Each change of the commands given at time t arrives at
+ * t + delay; before the first change arrives the start commands hold. A ring of at most MK_HISTORY changes (those
+ * not yet arrived and the one in force), inside the FMU state. Functions in mk_run.c (mk_delay_*). */
+#define MK_HISTORY 2048
+#define MK_MAX_COMMANDS 2
+typedef struct {
+    double delay;                  /* [s]; 0: no dead time, the actuators see the inputs themselves */
+    int n;                         /* commands: the pressure inputs (knee 2, actuator 1) */
+    int discrete;                  /* Model Exchange: the seen commands are a discrete state, updated at events */
+    int first, count;              /* the changes e[first], ..., e[first + count - 1] (mod MK_HISTORY), count >= 1 */
+    double arrives[MK_HISTORY];    /* when each change reaches the actuators [s] (-inf: the start commands) */
+    double command[MK_HISTORY][MK_MAX_COMMANDS];
+    double seen[MK_MAX_COMMANDS];  /* Model Exchange: the commands the actuators see since the last event */
+    double next_event;             /* Model Exchange: the next event time last reported to the host (inf: none) */
+} mk_delay_line;
+
 /* Everything an FMU state holds (fmi2GetFMUstate copies it whole). */
 typedef struct {
     double v[NV];            /* every variable, by value reference */
@@ -83,6 +100,7 @@ typedef struct {
     int over_rating[4];      /* per pressure output: above P_rated now (warned once per excursion) */
     int refused;             /* the last doStep was refused: fmi2Terminated answers true, so the host ends there */
     char error[MK_MESSAGE];
+    mk_delay_line dl;        /* the commands on their way through a dead time */
 } mk_data;
 
 enum mk_phase { MK_INSTANTIATED, MK_INITIALIZATION, MK_STEPPING, MK_TERMINATED,

@@ -26,7 +26,7 @@ typedef struct {
     int vr;
     const char *reason;
 } mk_me_refusal;
-extern const mk_me_refusal mk_me_refused[];         /* parameters Model Exchange refuses when not 0 (dead time) */
+extern const mk_me_refusal mk_me_refused[];         /* parameters Model Exchange refuses when not 0 */
 extern const int mk_n_me_refused;
 
 /* --- checks of a run (Co-Simulation and Model Exchange) --- */
@@ -38,8 +38,29 @@ int mk_check_start_inputs(const mk_data *d, char *msg, size_t size);
  * the outputs in d->v are left as they were */
 int mk_compute_outputs(mk_data *d, char *msg, size_t size);
 
+/* --- a dead time (mk_fmu.h: mk_delay_line; model-spec section 4b) --- */
+/* the delay line of a new run: the delay of the present parameters, the start commands (the pressure inputs) in
+ * force until the first change arrives; discrete: Model Exchange (the seen commands change only at events) */
+int mk_delay_start(mk_data *d, int discrete, char *msg, size_t size);
+/* the present commands given at time t (CommandSchedule.give): changes arriving at or after t + delay are
+ * replaced, those no longer in force at t forgotten; 1 with a message when the line cannot hold one more change */
+int mk_delay_give(mk_data *d, double t, char *msg, size_t size);
+/* the commands in force at time t: the last change arrived at or before t (CommandSchedule.at) */
+void mk_delay_at(const mk_data *d, double t, double *command);
+/* the first arrival of a change in (t0, t1), else t1: where a step from t0 to t1 is cut (CommandSchedule.pieces) */
+double mk_delay_next_cut(const mk_data *d, double t0, double t1);
+/* the commands the actuators see now: the inputs without a dead time; with one, in Co-Simulation those in force at
+ * d->s.time, in Model Exchange the discrete state (the commands in force at the last event) */
+void mk_seen_commands(const mk_data *d, double *command);
+/* Model Exchange, at an event at time t: the seen commands become those in force at t; returns the next arrival
+ * after t (inf when none), remembered as the event time reported to the host */
+double mk_delay_event_update(mk_data *d, double t);
+/* Model Exchange: 1 when the host must enter event mode at t (a change given since the last event arrives before
+ * the event time reported then, or a change has arrived that the seen commands do not have yet) */
+int mk_delay_event_needed(const mk_data *d, double t);
+
 /* --- Model Exchange --- */
-/* what Model Exchange cannot run (a nonzero dead time), refused at initialization */
+/* what Model Exchange cannot run (mk_me_refused: none today), refused at initialization */
 int mk_me_check_start(const mk_data *d, char *msg, size_t size);
 void mk_me_get_states(const mk_data *d, double *x);            /* x[MK_ME_NX] */
 void mk_me_set_states(mk_data *d, const double *x);
