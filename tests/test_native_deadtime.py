@@ -4,7 +4,8 @@
   mkctl.physics.simulate.KneeSimulator and ActuatorSimulator do (what the pythonfmu FMUs run): driven call by call
   with the same commands, the native knee (FMI 2.0 and 3.0) agrees with KneeSimulator to 1e-9 of each output's
   range on a pressure-step record whose delay falls between the steps, and the native actuator with
-  ActuatorSimulator (a delay longer and one shorter than the step); independently of the Python path, the delayed
+  ActuatorSimulator (a delay longer and one shorter than the step); driven by fmpy's simulate_fmu, both agree with
+  the pythonfmu FMUs to 1e-9; independently of the Python path, the delayed
   native run equals the native run without a dead time whose commands are given ``delay`` later;
 - the commands on their way are part of the FMU state: a replay from a saved state is identical;
 - Model Exchange (fmpy's CVode) records the commands as the host gives them and switches what the actuators see
@@ -16,6 +17,8 @@
 The native FMUs carry no Python: they run in this process.
 """
 from __future__ import annotations
+
+import json
 
 import numpy as np
 import pytest
@@ -170,6 +173,30 @@ def test_co_simulation_actuator_with_a_dead_time_agrees_with_the_python_simulato
         fmu.free()
     _assert_close(np.array(got), np.array(ref), 1e-9, ("P", "f"))
     assert np.ptp(np.array(ref)[:, 0]) > 1e5
+
+
+def test_co_simulation_agrees_with_the_pythonfmu_fmus_driven_by_fmpy(fmus, built_fmus, run_python):
+    """The same record through fmpy's simulate_fmu, the native FMU and the pythonfmu one (each in a fresh process):
+    every output to 1e-9 of its range."""
+    from test_native_fmu import SIMULATE, _steps
+    cases = {
+        "knee": {"stop": 0.4, "dt": 1e-3, "start": KNEE_START, "signal": _steps(
+            [0.0, 0.1, 0.18, 0.25, 0.4], [{"pe_cmd": PE0, "pf_cmd": PF0}, {"pe_cmd": PE0 * 1.05, "pf_cmd": PF0},
+                                          {"pe_cmd": PE0 * 1.05, "pf_cmd": PF0 * 1.3},
+                                          {"pe_cmd": PE0, "pf_cmd": PF0 * 1.3}, {"pe_cmd": PE0, "pf_cmd": PF0 * 1.3}])},
+        "actuator": {"stop": 0.5, "dt": 1e-2, "start": {"delay": 0.0237, "tau": 0.05, "c": 10.0}, "signal": _steps(
+            [0.0, 0.2, 0.35, 0.5], [{"p_cmd": 1e5, "L": 0.18, "Ldot": 0.0}, {"p_cmd": 4e5, "L": 0.17, "Ldot": -0.02},
+                                    {"p_cmd": 2e5, "L": 0.19, "Ldot": 0.01}, {"p_cmd": 2e5, "L": 0.19, "Ldot": 0.01}])},
+    }
+    for model, case in cases.items():
+        native = run_python(SIMULATE, fmus["fmi2"][model], json.dumps([case]))[0]
+        python = run_python(SIMULATE, built_fmus[model], json.dumps([case]))[0]
+        assert native["time"][-1] == pytest.approx(case["stop"]) and native.keys() == python.keys()
+        for output in python:
+            ref, got = np.array(python[output], float), np.array(native[output], float)
+            assert np.abs(got - ref).max() <= 1e-9 * max(1.0, np.abs(ref).max()), f"{model}: {output}"
+        pressure = np.array(python["Pe" if model == "knee" else "P"])
+        assert np.all(pressure[:131] == pressure[0]) if model == "knee" else np.ptp(pressure) > 1e5
 
 
 def test_the_commands_on_their_way_are_part_of_the_fmu_state(fmus, tmp_path):
