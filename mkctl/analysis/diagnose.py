@@ -36,7 +36,10 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
 6. **Verdict** (:func:`verdict_of`): "diagnosed" only when the final model leaves what the noise explains,
    over the whole record and in each tenth of it (:func:`mkctl.analysis.diagnosis_rule.adequacy`: the
-   output noise and the measured inputs' noise passed through the model); else "incomplete".
+   output noise and the measured inputs' noise passed through the model); else "incomplete", and the
+   discovery of model-spec section 6b runs. A tie is judged on the best of the tied effects (the final model
+   refitted with each, :func:`_tied_rivals`): "undecided" when it reaches the noise, else neither explains the
+   record and the verdict is "incomplete" (the tie still reported).
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most
@@ -1469,16 +1472,27 @@ def _final_fit(problem: _Problem, record: _Record, state: "_Search", offset_befo
     return _Final(added, final_values, uncertainty, offset, simulated, final_params)
 
 
-def verdict_of(added: list, undecided: list, fit: Adequacy, noise_text: str) -> tuple[str, str | None]:
+def verdict_of(added: list, undecided: list, fit: Adequacy, noise_text: str,
+               tied: tuple[list, Adequacy] | None = None) -> tuple[str, str | None]:
     """The verdict, and the note that explains an ``"incomplete"`` one (else None): the one place where a
-    diagnosis is found incomplete (and, later, handed to the discovery of model-spec section 6b).
+    diagnosis is found incomplete (and handed to the discovery of model-spec section 6b).
 
-    A tie is ``"undecided"``. Otherwise what was added (or the baseline) must leave only what the noise
-    explains (:func:`mkctl.analysis.diagnosis_rule.adequacy`, over the whole record and window by window):
-    then ``"diagnosed"`` (or ``"nothing missing"``), else ``"incomplete"``.
+    What was added (or the baseline) must leave only what the noise explains
+    (:func:`mkctl.analysis.diagnosis_rule.adequacy`, over the whole record and window by window): then
+    ``"diagnosed"`` (or ``"nothing missing"``), else ``"incomplete"``. A tie is judged on the best of the tied
+    explanations instead of on the model with neither: ``tied`` is (the effects of the best, the adequacy of the
+    model refitted with them) (:func:`_tied_rivals`; None when not judged). A tie stays ``"undecided"`` unless
+    even the best of them leaves clearly more than the noise: then neither explains the record, and it is
+    ``"incomplete"`` (the tie is still reported).
     """
-    if undecided:
+    if undecided and (tied is None or tied[1].adequate):
         return "undecided", None
+    if undecided:
+        rivals, best = tied
+        pairs = "; ".join(" from ".join(e.replace("_", " ") for e in u["effects"]) for u in undecided)
+        return "incomplete", (f"this record cannot tell {pairs}, and neither explains it: with the best of them "
+                              f"({', '.join(rivals)}) {best.text()} ({noise_text}): something outside the "
+                              f"candidates is missing")
     if fit.adequate:
         return ("diagnosed" if added else "nothing missing"), None
     left = f"{fit.text()} ({noise_text})"
@@ -1491,14 +1505,61 @@ def verdict_of(added: list, undecided: list, fit: Adequacy, noise_text: str) -> 
                           f"here: calibrate it (mkctl calibrate) and diagnose with --params MUSCLE.json")
 
 
-def _final_noise(record: _Record, final: _Final) -> NoiseModel:
-    """The noise the final model should leave: the record's estimate, or, where the signal changed too fast to
-    resolve it (:attr:`NoiseModel.unresolved`), the estimate on the final model's residual when that is resolved
-    and larger (the model took the signal out; a residual that still changes with the signal stays unresolved)."""
+def _final_noise(record: _Record, simulated) -> NoiseModel:
+    """The noise a final model (its simulation over every sample [SI]) should leave: the record's estimate, or,
+    where the signal changed too fast to resolve it (:attr:`NoiseModel.unresolved`), the estimate on the model's
+    residual when that is resolved and larger (the model took the signal out; a residual that still changes with
+    the signal stays unresolved)."""
     if not record.noise.unresolved:
         return record.noise
-    again = noise_model(record.measurement.output - final.simulated)
+    again = noise_model(record.measurement.output - simulated)
     return again if not again.unresolved and again.sigma > record.noise.sigma else record.noise
+
+
+def _adequacy_at(record: _Record, params: Params, simulated, offset: float,
+                 rule: Rule) -> tuple[Adequacy, NoiseModel, float]:
+    """The adequacy test of a final model (its simulation over every sample [SI], offset included): (adequacy,
+    the output noise it should leave, the measured inputs' noise through it [SI])."""
+    floor = record.input_floor(params, simulated - offset)
+    noise = _final_noise(record, simulated)
+    sigma = math.hypot(noise.sigma, floor)
+    return adequacy(record.measurement.output - simulated, sigma, noise.correlation, rule), noise, floor
+
+
+def _tied_rivals(record: _Record, state: "_Search", rule: Rule, say) -> tuple[list, Adequacy] | None:
+    """The best of the tied explanations and its adequacy: the final model refitted on the whole record with each
+    (one effect from each tie in ``state.undecided``), the best being one that passes the adequacy test, else the
+    one that leaves least. None when none could be fitted (the tie is then left undecided)."""
+    problem, current = state.problem, state.current
+    best = None
+    for combo in itertools.product(*[u["effects"] for u in state.undecided]):
+        rivals = [e for e in dict.fromkeys(combo) if e not in state.added and e in CANDIDATES]
+        if not rivals:
+            continue
+        start = dict(current.values)
+        for name in rivals:
+            parameter = CANDIDATES[name].parameter
+            fit = state.fits.get(name)
+            value = fit.values.get(parameter, 0.0) if fit is not None else 0.0
+            if not value > 0:  # a tie judged elsewhere (the pressure path): fitted alone against the current model
+                value, _ = _fit_one(problem, current.params, CANDIDATES[name], current.rss_train, None)
+            start[parameter] = value
+        if not all(start[CANDIDATES[e].parameter] > 0 for e in rivals):
+            continue
+        values, _, _, params = _joint_fit(problem, record.start, [*state.added, *rivals], start, train_only=False)
+        on_grid = problem.simulate(params)
+        if on_grid is _FAILED:
+            continue
+        offset = problem.offset(problem.measured - on_grid)
+        try:
+            simulated = simulate_output(record.prepared, params) + offset
+        except MkctlError:
+            continue
+        fit, _, _ = _adequacy_at(record, params, simulated, offset, rule)
+        say(f"  the tie judged with {' and '.join(rivals)}: {fit.text()}")
+        if best is None or (fit.adequate, -fit.ratio) > (best[1].adequate, -best[1].ratio):
+            best = (rivals, fit)
+    return best
 
 
 def _result(record: _Record, state: "_Search", final: _Final, offset_before: float, rule: Rule,
@@ -1511,14 +1572,15 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     for step, value in zip(state.steps, steps_rmse[1:]):
         step["rmse"] = value
     before = record.full_before + offset_before
-    floor = record.input_floor(final.params, final.simulated - final.offset)
-    noise = _final_noise(record, final)
+    fit, noise, floor = _adequacy_at(record, final.params, final.simulated, final.offset, rule)
     sigma = math.hypot(noise.sigma, floor)
-    fit = adequacy(m.output - final.simulated, sigma, noise.correlation, rule)
     noise_text = f"estimated output noise {noise.sigma * to_file:.2g} {m.output_unit}" + (
         f", correlated {noise.correlation:.2f} between samples" if noise.correlation else "") + (
         f", and {floor * to_file:.2g} {m.output_unit} of the measured inputs' noise through the model" if floor else "")
-    verdict, note = verdict_of(final.added, state.undecided, fit, noise_text)
+    # a tie is judged on the best of the tied explanations, not on the model with neither (issue 21)
+    tied = _tied_rivals(record, state, rule, say) if state.undecided and not fit.adequate else None
+    undecided = [{**u, "explains": tied[1].adequate} if tied else dict(u) for u in state.undecided]
+    verdict, note = verdict_of(final.added, undecided, fit, noise_text, tied)
     notes = list(record.notes)
     if note:
         notes.append(note)
@@ -1537,7 +1599,7 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, final.simulated * to_file),
         fit_percent_before=fit_percent(y, before * to_file),
         fit_percent_after=fit_percent(y, final.simulated * to_file),
-        steps=state.steps, stopped=state.stopped, undecided=state.undecided, notes=notes,
+        steps=state.steps, stopped=state.stopped, undecided=undecided, notes=notes,
         offset=final.offset * to_file if record.fit_offset else None,
         adequacy={"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "worst_window": worst,
                   "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text()},

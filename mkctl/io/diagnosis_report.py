@@ -366,7 +366,9 @@ def summary(result) -> list[str]:
     if result.stopped and not result.stopped["candidates"]:
         lines.append(f"stop: {result.stopped['reason']}")
     for item in result.undecided:
-        lines.append(f"undecided: this record cannot tell {' from '.join(item['effects'])}; "
+        neither = item.get("explains") is False  # the best of them still leaves more than the noise
+        lines.append(f"{'tie' if neither else 'undecided'}: this record cannot tell {' from '.join(item['effects'])}"
+                     f"{', and neither explains it' if neither else ''}; "
                      f"to separate them: {item['experiment']}")
     if result.missing:
         lines.append("missing: " + ", ".join(result.missing))
@@ -377,8 +379,10 @@ def summary(result) -> list[str]:
             error = result.uncertainty.get(name)
             plus = f" +- {error:.2g}" if error is not None else ""
             lines.append(f"  {name} = {value:.4g}{plus} {UNITS[name]}")
-    elif result.undecided:
+    elif result.undecided and result.verdict == "undecided":
         lines.append("missing: undecided (see above)")
+    elif result.undecided:
+        lines.append("missing: none of the candidates (the tied ones leave more than the noise: see the note)")
     else:
         lines.append("missing: nothing (no candidate effect is supported by the data)")
     if result.offset is not None:
