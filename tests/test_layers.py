@@ -21,8 +21,6 @@ PACKAGE = ROOT / "mkctl"
 KNOWN = {
     # the native FMUs repeat the pythonfmu FMUs' interface and FMI units, which live in the fmu layer
     ("mkctl.native.fmu", "mkctl.fmu"): "native.fmu reads the pythonfmu slaves' interface and FMI units",
-    # the scenarios parse their arguments with the CLI's one-line parser
-    ("mkctl.scenarios.common", "mkctl.cli"): "scenarios.common uses cli.options' parser and error reporting",
 }
 
 
