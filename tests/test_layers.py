@@ -16,14 +16,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "mkctl"
 
-#: Imports that still point the wrong way, each with who removes it. A strict xfail: once fixed, the test
-#: passes and pytest says so, and the entry goes.
-KNOWN = {
-    # the native FMUs repeat the pythonfmu FMUs' interface and FMI units, which live in the fmu layer
-    ("mkctl.native.fmu", "mkctl.fmu"): "native.fmu reads the pythonfmu slaves' interface and FMI units",
-}
-
-
 def layer_order() -> list[str]:
     """The layers in the order the README's Layout section lists them, bottom first ("base": results, errors)."""
     text = (ROOT / "README.md").read_text()
@@ -92,19 +84,9 @@ def test_the_readme_orders_every_layer_of_the_package():
     assert layers <= set(order), f"layers missing from the README's layout: {sorted(layers - set(order))}"
 
 
-def _cases():
-    order = layer_order()
-    cases = []
-    for path in sources():
-        bad = wrong_way(path, order)
-        known = {pair for pair in bad if pair in KNOWN}
-        marks = [pytest.mark.xfail(strict=True, reason="; ".join(KNOWN[p] for p in sorted(known)))] if known else []
-        cases.append(pytest.param(path, marks=marks, id=module_name(path)))
-    return cases
-
-
-@pytest.mark.parametrize("path", _cases())
+@pytest.mark.parametrize("path", [pytest.param(path, id=module_name(path)) for path in sources()])
 def test_every_import_points_down_the_layers(path):
+    """No exception: every module of every layer, the FMUs' and the scenarios' included."""
     bad = wrong_way(path, layer_order())
     assert not bad, f"{module_name(path)} imports from a layer above it: {sorted(t for _, t in bad)}"
 
