@@ -163,3 +163,26 @@ def test_the_checker_sees_a_wrong_way_import(tmp_path):
         assert wrong_way(fake, layer_order()) == {("mkctl.physics._layers_probe", "mkctl.analysis")}
     finally:
         fake.unlink()
+
+
+def test_the_fmus_interface_lies_below_both_fmu_kinds(run_python):
+    """The FMUs' interface (mkctl.fmi) is read without the pythonfmu layer: importing it and the native build
+    loads neither pythonfmu nor fmpy nor mkctl.fmu."""
+    loaded = run_python("import json, sys\nimport mkctl.fmi.interface, mkctl.native.fmu\n"
+                        "print(json.dumps(sorted(sys.modules)))")
+    assert not [m for m in loaded if m.split(".")[0] in ("pythonfmu", "fmpy") or m.startswith("mkctl.fmu")], loaded
+
+
+@pytest.mark.parametrize("model", ["McKibbenKnee", "McKibbenActuator"])
+def test_the_pythonfmu_slave_registers_the_declared_interface(model):
+    """What the slave registers with pythonfmu is the declaration, variable by variable and value reference by value
+    reference (the native build writes the declaration itself)."""
+    from mkctl.fmi.interface import MODELS
+    from mkctl.fmu import models
+    slave = getattr(models, model)(instance_name="layers-test")
+    registered = [(vr, v.name, type(v).__name__, v.causality.name, v.variability.name, v.description)
+                  for vr, v in slave.vars.items()]
+    declared = [(v.vr, v.name, v.type, v.causality, v.variability, v.description) for v in MODELS[model].variables()]
+    assert registered == declared
+    assert len(declared) > 20 and {"Real", "Integer"} <= {v[2] for v in declared}
+    assert slave.modelName == model and type(slave).description == MODELS[model].description
