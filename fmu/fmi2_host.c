@@ -10,35 +10,21 @@
  * exit runs every library's exit handlers (see docs/fmu.md, "Exit").
  *
  * Build: gcc -I <fmpy>/c-code -o fmi2_host fmi2_host.c -ldl
+ *   (host_common.h, beside this file, finds and loads the FMU's binary; fmi2_host.c and fmi3_host.c share it)
  * Windows (binaries/win64/<model>.dll), cross-compiled and run under Wine as tests/test_win64.py does:
  *   x86_64-w64-mingw32-gcc -D__USE_MINGW_ANSI_STDIO=1 -I <fmpy>/c-code -o fmi2_host.exe fmi2_host.c
  * Run (pythonfmu FMUs need libpython in the process, and Python's own modules):
  *   LD_PRELOAD=<LIBDIR>/<INSTSONAME> PYTHONHOME=<sys.base_prefix> PYTHONPATH=<site-packages> ./fmi2_host ...
  */
-#include <dirent.h>
-#include <limits.h>
 #include <stdarg.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
 #include "fmi2Functions.h"
 
-#ifdef _WIN32 /* the few calls that differ on Windows */
-#include <windows.h>
+#ifdef _WIN32
 #define BINARY_FOLDER "win64"
-#define BINARY_SUFFIX ".dll"
-static void *dlopen(const char *path, int flags) { (void)flags; return (void *)LoadLibraryA(path); }
-static void *dlsym(void *library, const char *name) { return (void *)GetProcAddress((HMODULE)library, name); }
-static const char *dlerror(void) { return "LoadLibrary failed"; }
-static char *realpath(const char *path, char *resolved) { return _fullpath(resolved, path, PATH_MAX); }
-#define RTLD_NOW 0
-#define RTLD_LOCAL 0
 #else
-#include <dlfcn.h>
 #define BINARY_FOLDER "linux64"
-#define BINARY_SUFFIX ".so"
 #endif
+#include "host_common.h" /* finding and loading the binary, on Linux and Windows */
 
 static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status, fmi2String category,
                    fmi2String message, ...)
@@ -52,37 +38,6 @@ static void logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status
     fputc('\n', stderr);
 }
 
-static void *symbol(void *library, const char *name)
-{
-    void *address = dlsym(library, name);
-    if (address == NULL) {
-        fprintf(stderr, "missing FMI function %s\n", name);
-        exit(2);
-    }
-    return address;
-}
-
-/* the first *.so in FMU_DIR/binaries/linux64 (*.dll in binaries/win64 on Windows) */
-static int find_library(const char *fmu_dir, char *path, size_t size)
-{
-    char folder[PATH_MAX + 32];
-    struct dirent *entry;
-    DIR *dir;
-    snprintf(folder, sizeof folder, "%s/binaries/" BINARY_FOLDER, fmu_dir);
-    dir = opendir(folder);
-    if (dir == NULL) return -1;
-    while ((entry = readdir(dir)) != NULL) {
-        size_t n = strlen(entry->d_name);
-        if (n > strlen(BINARY_SUFFIX) && strcmp(entry->d_name + n - strlen(BINARY_SUFFIX), BINARY_SUFFIX) == 0) {
-            snprintf(path, size, "%s/%s", folder, entry->d_name);
-            closedir(dir);
-            return 0;
-        }
-    }
-    closedir(dir);
-    return -1;
-}
-
 #define CHECK(call)                                                            \
     do {                                                                       \
         fmi2Status status_ = (call);                                           \
@@ -94,7 +49,7 @@ static int find_library(const char *fmu_dir, char *path, size_t size)
 
 int main(int argc, char *argv[])
 {
-    char library_path[PATH_MAX + 64], resources[PATH_MAX + 64], real_dir[PATH_MAX];
+    char resources[PATH_MAX + 64], real_dir[PATH_MAX];
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
     double stop, step, time = 0.0, value;
     long k, steps;
@@ -110,15 +65,8 @@ int main(int argc, char *argv[])
     stop = atof(argv[3]);
     step = atof(argv[4]);
     out_vr = (fmi2ValueReference)strtoul(argv[5], NULL, 10);
-    if (realpath(argv[1], real_dir) == NULL || find_library(real_dir, library_path, sizeof library_path) != 0) {
-        fprintf(stderr, "no binaries/" BINARY_FOLDER "/*" BINARY_SUFFIX " in %s\n", argv[1]);
-        return 2;
-    }
-    library = dlopen(library_path, RTLD_NOW | RTLD_LOCAL);
-    if (library == NULL) {
-        fprintf(stderr, "dlopen failed: %s\n", dlerror());
-        return 2;
-    }
+    library = load_fmu_binary(argv[1], real_dir);
+    if (library == NULL) return 2;
     fmi2InstantiateTYPE *instantiate = (fmi2InstantiateTYPE *)symbol(library, "fmi2Instantiate");
     fmi2SetupExperimentTYPE *setup = (fmi2SetupExperimentTYPE *)symbol(library, "fmi2SetupExperiment");
     fmi2EnterInitializationModeTYPE *enter = (fmi2EnterInitializationModeTYPE *)symbol(library, "fmi2EnterInitializationMode");

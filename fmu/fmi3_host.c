@@ -9,67 +9,22 @@
  * returned fmi3OK and the run reached STOP (fmi3DoStep asking to terminate is a failure too).
  *
  * Build: gcc -I <fmpy>/c-code -o fmi3_host fmi3_host.c -ldl
+ *   (host_common.h, beside this file, finds and loads the FMU's binary; fmi2_host.c and fmi3_host.c share it)
  * Windows: x86_64-w64-mingw32-gcc -D__USE_MINGW_ANSI_STDIO=1 -I <fmpy>/c-code -o fmi3_host.exe fmi3_host.c
  */
-#include <dirent.h>
-#include <limits.h>
-#include <stdio.h>
-#include <stdlib.h>
-#include <string.h>
-
 #include "fmi3Functions.h"
 
-#ifdef _WIN32 /* the few calls that differ on Windows */
-#include <windows.h>
+#ifdef _WIN32
 #define BINARY_FOLDER "x86_64-windows"
-#define BINARY_SUFFIX ".dll"
-static void *dlopen(const char *path, int flags) { (void)flags; return (void *)LoadLibraryA(path); }
-static void *dlsym(void *library, const char *name) { return (void *)GetProcAddress((HMODULE)library, name); }
-static const char *dlerror(void) { return "LoadLibrary failed"; }
-static char *realpath(const char *path, char *resolved) { return _fullpath(resolved, path, PATH_MAX); }
-#define RTLD_NOW 0
-#define RTLD_LOCAL 0
 #else
-#include <dlfcn.h>
 #define BINARY_FOLDER "x86_64-linux"
-#define BINARY_SUFFIX ".so"
 #endif
+#include "host_common.h" /* finding and loading the binary, on Linux and Windows */
 
 static void logger(fmi3InstanceEnvironment env, fmi3Status status, fmi3String category, fmi3String message)
 {
     (void)env;
     fprintf(stderr, "[host] status %d %s: %s\n", (int)status, category, message);
-}
-
-static void *symbol(void *library, const char *name)
-{
-    void *address = dlsym(library, name);
-    if (address == NULL) {
-        fprintf(stderr, "missing FMI function %s\n", name);
-        exit(2);
-    }
-    return address;
-}
-
-/* the first *.so in FMU_DIR/binaries/x86_64-linux (*.dll in binaries/x86_64-windows on Windows) */
-static int find_library(const char *fmu_dir, char *path, size_t size)
-{
-    char folder[PATH_MAX + 32];
-    struct dirent *entry;
-    DIR *dir;
-    snprintf(folder, sizeof folder, "%s/binaries/" BINARY_FOLDER, fmu_dir);
-    dir = opendir(folder);
-    if (dir == NULL) return -1;
-    while ((entry = readdir(dir)) != NULL) {
-        size_t n = strlen(entry->d_name);
-        if (n > strlen(BINARY_SUFFIX) && strcmp(entry->d_name + n - strlen(BINARY_SUFFIX), BINARY_SUFFIX) == 0) {
-            snprintf(path, size, "%s/%s", folder, entry->d_name);
-            closedir(dir);
-            return 0;
-        }
-    }
-    closedir(dir);
-    return -1;
 }
 
 #define CHECK(call)                                                            \
@@ -83,7 +38,7 @@ static int find_library(const char *fmu_dir, char *path, size_t size)
 
 int main(int argc, char *argv[])
 {
-    char library_path[PATH_MAX + 64], resources[PATH_MAX + 64], real_dir[PATH_MAX];
+    char resources[PATH_MAX + 64], real_dir[PATH_MAX];
     double stop, step, time = 0.0, value, last;
     fmi3Boolean event, terminate_run, early;
     long k, steps;
@@ -99,15 +54,8 @@ int main(int argc, char *argv[])
     stop = atof(argv[3]);
     step = atof(argv[4]);
     out_vr = (fmi3ValueReference)strtoul(argv[5], NULL, 10);
-    if (realpath(argv[1], real_dir) == NULL || find_library(real_dir, library_path, sizeof library_path) != 0) {
-        fprintf(stderr, "no binaries/" BINARY_FOLDER "/*" BINARY_SUFFIX " in %s\n", argv[1]);
-        return 2;
-    }
-    library = dlopen(library_path, RTLD_NOW | RTLD_LOCAL);
-    if (library == NULL) {
-        fprintf(stderr, "dlopen failed: %s\n", dlerror());
-        return 2;
-    }
+    library = load_fmu_binary(argv[1], real_dir);
+    if (library == NULL) return 2;
     fmi3InstantiateCoSimulationTYPE *instantiate =
         (fmi3InstantiateCoSimulationTYPE *)symbol(library, "fmi3InstantiateCoSimulation");
     fmi3EnterInitializationModeTYPE *enter = (fmi3EnterInitializationModeTYPE *)symbol(library, "fmi3EnterInitializationMode");

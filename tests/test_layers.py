@@ -16,16 +16,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / "mkctl"
 
-#: Imports that still point the wrong way, each with who removes it. A strict xfail: once fixed, the test
-#: passes and pytest says so, and the entry goes.
-KNOWN = {
-    # the native FMUs repeat the pythonfmu FMUs' interface and FMI units, which live in the fmu layer
-    ("mkctl.native.fmu", "mkctl.fmu"): "native.fmu reads the pythonfmu slaves' interface and FMI units",
-    # the scenarios parse their arguments with the CLI's one-line parser
-    ("mkctl.scenarios.common", "mkctl.cli"): "scenarios.common uses cli.options' parser and error reporting",
-}
-
-
 def layer_order() -> list[str]:
     """The layers in the order the README's Layout section lists them, bottom first ("base": results, errors)."""
     text = (ROOT / "README.md").read_text()
@@ -94,19 +84,9 @@ def test_the_readme_orders_every_layer_of_the_package():
     assert layers <= set(order), f"layers missing from the README's layout: {sorted(layers - set(order))}"
 
 
-def _cases():
-    order = layer_order()
-    cases = []
-    for path in sources():
-        bad = wrong_way(path, order)
-        known = {pair for pair in bad if pair in KNOWN}
-        marks = [pytest.mark.xfail(strict=True, reason="; ".join(KNOWN[p] for p in sorted(known)))] if known else []
-        cases.append(pytest.param(path, marks=marks, id=module_name(path)))
-    return cases
-
-
-@pytest.mark.parametrize("path", _cases())
+@pytest.mark.parametrize("path", [pytest.param(path, id=module_name(path)) for path in sources()])
 def test_every_import_points_down_the_layers(path):
+    """No exception: every module of every layer, the FMUs' and the scenarios' included."""
     bad = wrong_way(path, layer_order())
     assert not bad, f"{module_name(path)} imports from a layer above it: {sorted(t for _, t in bad)}"
 
@@ -183,3 +163,26 @@ def test_the_checker_sees_a_wrong_way_import(tmp_path):
         assert wrong_way(fake, layer_order()) == {("mkctl.physics._layers_probe", "mkctl.analysis")}
     finally:
         fake.unlink()
+
+
+def test_the_fmus_interface_lies_below_both_fmu_kinds(run_python):
+    """The FMUs' interface (mkctl.fmi) is read without the pythonfmu layer: importing it and the native build
+    loads neither pythonfmu nor fmpy nor mkctl.fmu."""
+    loaded = run_python("import json, sys\nimport mkctl.fmi.interface, mkctl.native.fmu\n"
+                        "print(json.dumps(sorted(sys.modules)))")
+    assert not [m for m in loaded if m.split(".")[0] in ("pythonfmu", "fmpy") or m.startswith("mkctl.fmu")], loaded
+
+
+@pytest.mark.parametrize("model", ["McKibbenKnee", "McKibbenActuator"])
+def test_the_pythonfmu_slave_registers_the_declared_interface(model):
+    """What the slave registers with pythonfmu is the declaration, variable by variable and value reference by value
+    reference (the native build writes the declaration itself)."""
+    from mkctl.fmi.interface import MODELS
+    from mkctl.fmu import models
+    slave = getattr(models, model)(instance_name="layers-test")
+    registered = [(vr, v.name, type(v).__name__, v.causality.name, v.variability.name, v.description)
+                  for vr, v in slave.vars.items()]
+    declared = [(v.vr, v.name, v.type, v.causality, v.variability, v.description) for v in MODELS[model].variables()]
+    assert registered == declared
+    assert len(declared) > 20 and {"Real", "Integer"} <= {v[2] for v in declared}
+    assert slave.modelName == model and type(slave).description == MODELS[model].description

@@ -9,8 +9,9 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..io.command_line import OneLineParser, run_reporting_errors
 from . import batch, calibrate, control, measure, paper, run
-from .options import OneLineParser, run_command, run_reporting_errors
+from .options import run_command
 
 #: Subcommand modules, in the order ``mkctl --help`` lists them. Each is light to import: what a command needs
 #: (scipy, matplotlib, python-control, fmpy, Dask) is imported when the command runs, and its options (whose

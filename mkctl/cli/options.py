@@ -1,26 +1,14 @@
-"""Command-line helpers shared by the subcommands and the scenario scripts: parameter assignments, output
-paths, and reporting a user's mistake as one line."""
+"""Command-line helpers shared by the subcommands: parameter assignments, output paths, a muscle file and effect
+files as options. :class:`UsageError` (the subcommands import it from here), the one-line parser and the one-line
+report of a user's mistake live in :mod:`mkctl.io.command_line`: the scenario scripts use them too."""
 from __future__ import annotations
 
-import argparse
 import os
-import sys
-import tempfile
 from pathlib import Path
 
-from ..errors import MkctlError, ParameterError
+from ..errors import ParameterError
+from ..io.command_line import UsageError, folder_problem
 from ..physics.params import PARAMETER_NAMES
-
-
-class UsageError(MkctlError, ValueError):
-    """A command-line value that cannot be used (a bad option value, an output path that cannot be written)."""
-
-
-class OneLineParser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line (the usage hint stays available with --help)."""
-
-    def error(self, message):
-        self.exit(2, f"{self.prog}: error: {message}\n")
 
 
 def split_items(items) -> list[str]:
@@ -50,29 +38,6 @@ def parse_assignments(items, option: str = "--set") -> dict[str, float]:
 
 
 # --- output paths: checked before the work, so that a typo does not cost a long run ---------------
-
-def _writable_folder(folder: Path) -> bool:
-    """Whether a file can be created in the existing folder (tried, not guessed: root passes os.access)."""
-    try:
-        with tempfile.TemporaryFile(dir=folder):
-            return True
-    except OSError:
-        return False
-
-
-def folder_problem(folder: Path) -> str | None:
-    """Why files cannot be written into ``folder`` (made if missing), or None if they can."""
-    existing = folder
-    while not existing.exists():
-        if existing.is_symlink():  # a dangling link: it can be neither followed nor created
-            return f"{existing} is a broken link"
-        existing = existing.parent
-    if not existing.is_dir():
-        return f"{existing} is a file, not a folder"
-    if not os.access(existing, os.W_OK | os.X_OK) or not _writable_folder(existing):
-        return f"cannot write into the folder {existing}"
-    return None
-
 
 def output_folder(path, option: str) -> Path:
     """Check that ``path`` is (or can become) a folder we can write into; return it as a Path.
@@ -106,30 +71,6 @@ def output_file(path, option: str) -> Path:
     if path.exists() and not os.access(path, os.W_OK):
         raise UsageError(f"{option} {path}: the file exists and cannot be overwritten")
     return path
-
-
-def run_reporting_errors(prog: str, run, *args) -> int:
-    """``run(*args)``, with a user's mistake reported as one line on stderr instead of a traceback.
-
-    Returns run's exit status (None counts as 0); 2 after a :class:`MkctlError` or an OSError (a path that
-    cannot be read or written), 130 after an interrupt. Used by ``mkctl`` and by the scenario scripts.
-    """
-    try:
-        return int(run(*args) or 0)
-    except MkctlError as error:
-        print(f"{prog}: error: {error}", file=sys.stderr)
-        return 2
-    except OSError as error:
-        where = f" {error.filename}" if error.filename else ""
-        print(f"{prog}: error: cannot use{where}: {error.strerror or error}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
-        return 130
-    except MemoryError:  # the up-front checks (mkctl.errors.check_memory) missed a case: still one line
-        print(f"{prog}: error: out of memory (the job needs more than this machine has: make it smaller)",
-              file=sys.stderr)
-        return 2
 
 
 # --- parameters: a muscle file first, then NAME=VALUE items on top -----------------------------------

@@ -45,7 +45,7 @@ from xml.etree import ElementTree as ET
 
 from ..errors import MkctlError
 from ..physics.params import DEFAULT, Params
-from .units import fmi_unit, unit_definitions
+from ..fmi.units import fmi_unit, unit_definitions
 
 SCRIPTS = Path(__file__).resolve().parent / "scripts"
 #: The slave script of each FMU, by model name (a one-line import of the slave class, see mkctl/fmu/scripts).
@@ -160,7 +160,7 @@ def _stage_starts(dest: Path, slave_class, params: Params) -> Path:
     """Write the start values of params for one slave class (the file the slave reads at instantiation)."""
     from .slave import START_FILE
     try:
-        values = slave_class.start_values(params)
+        values = slave_class.interface.start_values(params)
     except MkctlError as error:
         raise BuildError(f"no start values for {slave_class.__name__} with these parameters: {error}") from None
     dest.mkdir(parents=True)
@@ -303,7 +303,7 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
             raw = FmuBuilder.build_FMU(script, dest=temp / f"{name}.fmu", project_files=[package, starts, *([packed] if packed else [])],
                                        canGetAndSetFMUstate=True, canSerializeFMUstate=True)
             target = out / f"{name}.fmu"
-            _complete_fmu(Path(raw), target, slave_class.units, fix_exit=_fix_exit)
+            _complete_fmu(Path(raw), target, slave_class.interface.units, fix_exit=_fix_exit)
             _validate(target)
             built[name] = target
     if run:

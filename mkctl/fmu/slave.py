@@ -1,7 +1,8 @@
 """The machinery both FMU slaves share: :class:`McKibbenSlave`, a pythonfmu ``Fmi2Slave`` around an mkctl simulator.
 
-The slaves of :mod:`mkctl.fmu.models` declare their interface (inputs, parameters, outputs, descriptions, units) and say how to build and step their simulator; everything else lives here once:
-variable registration, start values, the ``n`` default, start and error handling, doStep's refusals, the rated
+The slaves of :mod:`mkctl.fmu.models` name their interface (:mod:`mkctl.fmi.interface`: inputs, parameters,
+outputs, descriptions, units, start values) and say how to build and step their simulator; everything else lives
+here once: variable registration, the ``n`` default, start and error handling, doStep's refusals, the rated
 pressure warning, the cached outputs and FMU state. No equation lives here either: the simulators of
 :mod:`mkctl.physics.simulate` do the physics.
 
@@ -54,41 +55,14 @@ from pythonfmu.enums import Fmi2Status
 
 from ..analysis.effect_files import register_effect_files
 from ..errors import MkctlError
-from ..physics.params import DEFAULT, INTEGER_PARAMETERS, RATED_PRESSURE, Params
+from ..fmi.interface import Model, negative_pressure_message, non_finite_output_message
+from ..physics.params import DEFAULT, INTEGER_PARAMETERS, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
 #: Folder, in the FMU's resources, of the user's effect files the FMU was built with (model-spec section 4c),
 #: named ``NN_<file>.py`` so that they register in the build's order (the parameters' value references follow it).
 EFFECTS_FOLDER = "mkctl_effects"
-#: Description of the parameter ``n``, common to both FMUs.
-N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
-                 "sqrt(b^2 - L0^2) / (pi D0)")
-#: Description of the parameter ``model``, common to both FMUs.
-MODEL_DESCRIPTION = ("tension model: 1 = Eq. 7 (pressure only), 2 = Eq. 13 (plus Mooney-Rivlin elasticity); "
-                     "no unit")
-#: Description of the parameter ``slack``, common to both FMUs.
-SLACK_DESCRIPTION = "1 = a muscle cannot push: the tension is max(f, 0) (model-spec section 4); 0 = off; no unit"
-#: Description of the parameter ``P_rated``, common to both FMUs.
-P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
-                       "excursion); the model itself has no limit")
-_INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
-
-
-def negative_pressure_message(name: str, value: str) -> str:
-    """Why a pressure input below 0 is refused: pressures are gauge pressures (model-spec section 1), and the model
-    has no vacuum regime; the CLI refuses them the same way. ``value`` is the number as written (repr). The native
-    FMUs' C carries the same text (mkctl.native.fmu)."""
-    return (f"input {name} = {value} Pa is below 0: pressures are gauge pressures, and a McKibben muscle below "
-            "atmospheric pressure does not pull (the model has no vacuum)")
-
-
-def non_finite_output_message(name: str, value: str, unit: str) -> str:
-    """Why an output that is not a finite number is refused (``value`` as written, repr). The native FMUs' C carries
-    the same text (mkctl.native.fmu)."""
-    return f"output {name} = {value} {unit} is not a finite number"
-
-
 #: One entry per run of an FMU script (see :func:`keep_namespace`).
 _KEPT: list = []
 
@@ -121,31 +95,13 @@ def register_packed_effects(resources) -> list:
 class McKibbenSlave(Fmi2Slave):
     """A co-simulation slave around a simulator of :mod:`mkctl.physics.simulate`.
 
-    A subclass declares, as class attributes (value references follow this order):
-
-    - ``inputs``: names of the continuous Real inputs, handed to the simulator's ``outputs`` in this order;
-    - ``parameters``: names of the Real parameters that are fields of :class:`~mkctl.physics.params.Params`;
-      the Integer parameters :data:`INTEGER_PARAMETERS` follow them;
-    - ``extra_parameters``: names of further Real parameters after those (``P_rated`` and the subclass's own);
-    - ``outputs``: output names; those in ``boolean_outputs`` are discrete Booleans, the rest continuous Reals;
-    - ``pressure_outputs``: {output name: muscle name} of the pressures checked against ``P_rated``;
-    - ``descriptions``: a description for every variable; ``units``: the unit of every Real variable;
-    - ``undefined_outputs``: the start of the message reported when the outputs cannot be computed;
-
-    and implements :meth:`_derived_starts`, :meth:`_new_simulator` and :meth:`_advance`.
+    A subclass names its interface (``interface``, a :class:`mkctl.fmi.interface.Model` whose ``name`` is the
+    class's: its variables are registered in that order, the inputs handed to the simulator's ``outputs`` in
+    theirs), shows pythonfmu its model data as class attributes (``description``, ``author``,
+    ``default_experiment``), and implements :meth:`_new_simulator` and :meth:`_advance`.
     """
 
-    author = "mkctl"
-
-    inputs: tuple[str, ...] = ()
-    parameters: tuple[str, ...] = ()
-    extra_parameters: tuple[str, ...] = ("P_rated",)
-    outputs: tuple[str, ...] = ()
-    boolean_outputs: frozenset[str] = frozenset()
-    pressure_outputs: dict[str, str] = {}
-    descriptions: dict[str, str] = {}
-    units: dict[str, str] = {}
-    undefined_outputs = "outputs undefined"
+    interface: Model
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -153,28 +109,18 @@ class McKibbenSlave(Fmi2Slave):
         register_packed_effects(kwargs.get("resources"))  # before the parameters: theirs are among them
         #: the start value of every settable variable (the build's Params, or DEFAULT)
         self._starts = self._read_starts(kwargs.get("resources"))
-        for name in self.inputs:
-            setattr(self, name, self._starts[name])
-            self.register_variable(Real(name, causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
-                                        description=self.descriptions[name]))
-        for name in self.parameters:
-            setattr(self, name, self._starts[name])
-            self._register_parameter(Real, name)
-        for name in INTEGER_PARAMETERS:
-            setattr(self, name, self._starts[name])
-            self._register_parameter(Integer, name)
-        for name in self.extra_parameters:
-            setattr(self, name, self._starts[name])
-            self._register_parameter(Real, name)
-        for name in self.outputs:
-            boolean = name in self.boolean_outputs
-            self.register_variable((Boolean if boolean else Real)(
-                name, causality=Fmi2Causality.output,
-                variability=Fmi2Variability.discrete if boolean else Fmi2Variability.continuous,
-                description=self.descriptions[name], getter=lambda name=name: self._outputs()[name]))
+        kinds = {"Real": Real, "Integer": Integer, "Boolean": Boolean}
+        for variable in self.interface.variables():  # in the order of the value references
+            output = variable.causality == "output"
+            if not output:
+                setattr(self, variable.name, self._starts[variable.name])
+            self.register_variable(kinds[variable.type](
+                variable.name, causality=Fmi2Causality[variable.causality],
+                variability=Fmi2Variability[variable.variability], description=variable.description,
+                getter=(lambda name=variable.name: self._outputs()[name]) if output else None))
         self._output_names = {vr: v.name for vr, v in self.vars.items() if v.causality == Fmi2Causality.output}
         #: every variable a host can set, saved and restored with the FMU state
-        self._settable = (*self.inputs, *self.parameters, *INTEGER_PARAMETERS, *self.extra_parameters)
+        self._settable = self.interface.settable()
         self._sim = None
         self._error: str | None = None
         self._stage = "invalid parameters"  # what went wrong if building the simulator fails now
@@ -186,31 +132,14 @@ class McKibbenSlave(Fmi2Slave):
 
     # --- start values ---
     @classmethod
-    def start_values(cls, params: Params = DEFAULT) -> dict:
-        """The start value of every settable variable of an FMU built for params (JSON-ready)."""
-        values = {name: getattr(params, name) for name in (*cls.parameters, *INTEGER_PARAMETERS)}
-        values["P_rated"] = RATED_PRESSURE
-        values.update(cls._derived_starts(params))
-        return values
-
-    @classmethod
     def _read_starts(cls, resources) -> dict:
+        """The start values the build wrote (:data:`START_FILE`), or those of :data:`DEFAULT`."""
         path = Path(resources) / START_FILE if resources else None
         if path is not None and path.is_file():
             return json.loads(path.read_text())
-        return cls.start_values(DEFAULT)
-
-    def _register_parameter(self, kind, name: str) -> None:
-        self.register_variable(kind(name, causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
-                                    description=self.descriptions.get(name) or _INTEGER_DESCRIPTIONS.get(name)
-                                    or P_RATED_DESCRIPTION))
+        return cls.interface.start_values(DEFAULT)
 
     # --- what a subclass provides ---
-    @classmethod
-    @abstractmethod
-    def _derived_starts(cls, params: Params) -> dict:
-        """Start values of the inputs and of the extra parameters other than P_rated, for params."""
-
     @abstractmethod
     def _new_simulator(self, params: Params):
         """The simulator for params and the present inputs; may set ``self._stage`` to name a later failure."""
@@ -233,11 +162,11 @@ class McKibbenSlave(Fmi2Slave):
             if self._sim is None:
                 return self._refuse(f"doStep at t = {current_time:g} s refused: {self._error}")
             pressures = self._pressure_inputs()
-            for name in self.inputs:
+            for name in self.interface.inputs:
                 value = getattr(self, name)
                 if not math.isfinite(value):
                     return self._refuse(f"doStep at t = {current_time:g} s: input {name} = {value!r} "
-                                        f"{self.units[name]} is not a finite number")
+                                        f"{self.interface.units[name]} is not a finite number")
                 if name in pressures and value < 0:
                     return self._refuse(f"doStep at t = {current_time:g} s: "
                                         f"{negative_pressure_message(name, repr(value))}")
@@ -274,7 +203,7 @@ class McKibbenSlave(Fmi2Slave):
 
     # --- helpers ---
     def _params(self) -> Params:
-        values = {name: getattr(self, name) for name in (*self.parameters, *INTEGER_PARAMETERS)}
+        values = {name: getattr(self, name) for name in (*self.interface.parameters, *INTEGER_PARAMETERS)}
         geometry = ("b", "L0", "D0")
         if values["n"] == self._starts["n"] and any(values[k] != self._starts[k] for k in geometry):
             values["n"] = None  # derived from the changed b, L0, D0 (model-spec section 2)
@@ -312,7 +241,7 @@ class McKibbenSlave(Fmi2Slave):
         outputs = self._outputs()
         if self._last_valid is None or outputs is not self._last_valid:
             return
-        for name, muscle in self.pressure_outputs.items():
+        for name, muscle in self.interface.pressure_outputs.items():
             pressure = outputs[name]
             if pressure > self.P_rated and muscle not in self._over_rating:
                 self._over_rating.add(muscle)
@@ -339,19 +268,19 @@ class McKibbenSlave(Fmi2Slave):
         return False  # pythonfmu answers fmi2Discard
 
     def _input_values(self) -> tuple:
-        return tuple(getattr(self, name) for name in self.inputs)
+        return tuple(getattr(self, name) for name in self.interface.inputs)
 
     def _pressure_inputs(self) -> tuple[str, ...]:
         """The inputs that are (gauge) pressures: refused below 0."""
-        return tuple(name for name in self.inputs if self.units[name] == "Pa")
+        return tuple(name for name in self.interface.inputs if self.interface.units[name] == "Pa")
 
     def _computed_outputs(self) -> dict:
         """The simulator's outputs at the present state and inputs; raises :class:`MkctlError` if one of them is
         not a finite number (the simulator raises its own for a state or input outside the model's domain)."""
         outputs = self._sim.outputs(*self._input_values())
         for name, value in outputs.items():
-            if name not in self.boolean_outputs and not math.isfinite(value):
-                raise MkctlError(non_finite_output_message(name, repr(float(value)), self.units[name]))
+            if name not in self.interface.boolean_outputs and not math.isfinite(value):
+                raise MkctlError(non_finite_output_message(name, repr(float(value)), self.interface.units[name]))
         return outputs
 
     def _outputs(self) -> dict:
@@ -365,15 +294,16 @@ class McKibbenSlave(Fmi2Slave):
                 self._cache = self._computed_outputs()
                 self._last_valid = self._cache
             except Exception as error:  # reported, and the next doStep is refused: never a silent NaN
-                self._report(f"{self.undefined_outputs}: {error}; the outputs keep their last valid values",
-                             Fmi2Status.error)
+                self._report(f"{self.interface.undefined_outputs}: {error}; the outputs keep their last valid "
+                             "values", Fmi2Status.error)
                 self._cache = self._last_valid if self._last_valid is not None else self._undefined_outputs()
             self._cache_key = (self._version, *self._input_values())
         return self._cache
 
     def _undefined_outputs(self) -> dict:
         """Outputs before any could be computed (invalid parameters, read in initialization mode)."""
-        return {name: (False if name in self.boolean_outputs else math.nan) for name in self.outputs}
+        return {name: (False if name in self.interface.boolean_outputs else math.nan)
+                for name in self.interface.outputs}
 
     # --- FMU state: every settable variable plus the simulator's snapshot, as JSON-ready values ---
     def _get_fmu_state(self) -> dict:

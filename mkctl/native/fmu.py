@@ -5,9 +5,8 @@ interfaces, Co-Simulation and Model Exchange, in one binary and one modelDescrip
 
 :func:`build_native` writes FMUs with the same model names, variables (names, value references, causality,
 variability, units, descriptions, start values) and default experiments as the pythonfmu FMUs of ``build_fmu.py``,
-because it reads them from the same declaration: it instantiates the pythonfmu slave classes of
-:mod:`mkctl.fmu.models` and walks their registered variables (start values for a Params from their
-``start_values``). The model code is
+because it reads them from the same declaration, the one the pythonfmu slaves register: :mod:`mkctl.fmi.interface`
+(start values for a Params from its ``start_values``). The model code is
 the compiled core of :mod:`mkctl.native` (C generated from mkctl's equations); around it sit the FMI wrapper
 (``fmu_c/fmi2_wrapper.c``, shared) and the model's part (``fmu_c/knee_fmu.c``, ``fmu_c/actuator_fmu.c``).
 
@@ -56,7 +55,8 @@ from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
 from ..errors import MkctlError, ParameterError
-from ..fmu.units import fmi_unit, unit_definitions
+from ..fmi.interface import MODELS
+from ..fmi.units import fmi_unit, unit_definitions
 from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
 HERE = Path(__file__).resolve().parent
@@ -118,7 +118,7 @@ class NativeBuildError(MkctlError):
 
 @dataclasses.dataclass(frozen=True)
 class Variable:
-    """One FMU variable, as the pythonfmu slave declares it."""
+    """One FMU variable, as the pythonfmu slave declares it (:class:`mkctl.fmi.interface.Variable`, FMI unit)."""
 
     name: str
     vr: int
@@ -146,40 +146,22 @@ class Interface:
         return {v.name: v for v in self.variables}
 
 
-def _load_slave_class(model_name: str):
-    """The pythonfmu slave class of a model (:mod:`mkctl.fmu.models`)."""
-    from ..fmu import models
-    return getattr(models, model_name)
-
-
 def slave_interface(model_name: str, params: Params | None = None) -> Interface:
-    """The interface of a model's pythonfmu slave, start values taken from params (default: the slave's own).
+    """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
+    start values taken from params (default: :data:`~mkctl.physics.params.DEFAULT`, the slave's own).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
-    cls = _load_slave_class(model_name)
-    slave = cls(instance_name="mkctl-native-build")
-    starts = {} if params is None else cls.start_values(params)  # the slave's own start values for a Params
-    variables = []
-    for vr, var in slave.vars.items():
-        kind = type(var).__name__
-        causality = var.causality.name
-        start = None
-        if causality != "output":
-            start = starts.get(var.name, getattr(slave, var.name))
-            start = int(start) if kind == "Integer" else float(start)
-        unit = fmi_unit(slave.units[var.name]) if kind == "Real" else None
-        variables.append(Variable(var.name, vr, kind, causality, var.variability.name, var.description, unit,
-                                  start))
-    experiment = cls.default_experiment
-    default_experiment = {key: str(value) for key, value in (("startTime", experiment.start_time),
-                                                             ("stopTime", experiment.stop_time),
-                                                             ("stepSize", experiment.step_size),
-                                                             ("tolerance", experiment.tolerance))
-                          if value is not None}
-    return Interface(model_name, cls.description, cls.author, default_experiment, tuple(variables),
-                     cls.undefined_outputs, dict(getattr(cls, "pressure_outputs", {})))
+    model = MODELS[model_name]
+    variables = tuple(Variable(v.name, v.vr, v.type, v.causality, v.variability, v.description,
+                               fmi_unit(v.unit) if v.type == "Real" else None, v.start)
+                      for v in model.variables(DEFAULT if params is None else params))
+    experiment = {"startTime": "start_time", "stopTime": "stop_time", "stepSize": "step_size", "tolerance": "tolerance"}
+    default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
+                          if model.default_experiment.get(field) is not None}
+    return Interface(model_name, model.description, model.author, default_experiment, variables,
+                     model.undefined_outputs, dict(model.pressure_outputs))
 
 
 def parameter_rule(name: str) -> str:
@@ -372,7 +354,7 @@ def variables_header(interface: Interface, guid: str) -> str:
 def variables_source(interface: Interface) -> str:
     """model_variables.c: the table of variables (start values exact to the last bit), check order, inputs, the
     Model Exchange states, and the slaves' messages for a negative pressure and a non-finite output."""
-    from ..fmu.slave import negative_pressure_message, non_finite_output_message
+    from ..fmi.interface import negative_pressure_message, non_finite_output_message
     types = {"Real": "MK_REAL", "Integer": "MK_INTEGER", "Boolean": "MK_BOOLEAN"}
     causalities = {"input": "MK_INPUT", "parameter": "MK_PARAMETER", "output": "MK_OUTPUT", "local": "MK_LOCAL"}
     rules = {"any": "MK_ANY", "positive": "MK_POSITIVE", "not_negative": "MK_NOT_NEGATIVE"}

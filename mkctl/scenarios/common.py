@@ -29,8 +29,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..cli.options import OneLineParser, UsageError, folder_problem, run_reporting_errors  # one check for both
 from ..errors import MkctlError
+from ..io.command_line import OneLineParser, UsageError, folder_problem, run_reporting_errors  # as mkctl's
 from ..physics.params import Params
 
 # the scenarios show the FMUs' messages themselves (one line, see FMULog): the FMUs need not echo them on stderr

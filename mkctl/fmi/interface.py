@@ -1,0 +1,229 @@
+"""The interface of the two FMUs (model-spec section 7), declared once: :data:`KNEE` and :data:`ACTUATOR`.
+
+Both FMU kinds show a host exactly this. The pythonfmu slaves (:mod:`mkctl.fmu.models`) register these variables,
+in this order; the native FMUs (:mod:`mkctl.native.fmu`, and their FMI 3.0 twins) write them into their
+modelDescription.xml and generated C. No equation lives here: the start values that follow the parameters come
+from :mod:`mkctl.physics.simulate`.
+
+A :class:`Model` lists its variables in the order of their value references (0, 1, ...,
+:meth:`Model.variables`): the Real inputs; the Real parameters that are fields of
+:class:`~mkctl.physics.params.Params`; the Integer parameters (:data:`~mkctl.physics.params.INTEGER_PARAMETERS`,
+the effects' switches); further Real parameters (``X0`` of the knee, ``P_rated``); the outputs (Booleans are
+discrete, the rest continuous Reals). Inputs are continuous, parameters fixed. The parameters follow the effect
+registry: an effect registered at run time (a user's effect file) adds its parameters.
+
+Defaults that follow other parameters (the FMUs apply them, :mod:`mkctl.fmu.slave`): ``n`` left at its start value
+while b, L0 or D0 change is derived from them (as :class:`~mkctl.physics.params.Params` does), and the knee's
+``X0`` left at its start value is the hip height at alpha = 60 deg of the actual geometry.
+"""
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable, Mapping, Sequence
+
+from ..physics import effects
+from ..physics.params import (DEFAULT, EFFECTS_TABLE, INTEGER_PARAMETERS, RATED_PRESSURE, TABLE_I, TABLE_II, UNITS,
+                              LiveMapping, LiveSequence, Params)
+from ..physics.simulate import KNEE_OUTPUTS, default_commands, default_hip_height
+
+#: Description of the parameter ``n``, common to both FMUs.
+N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
+                 "sqrt(b^2 - L0^2) / (pi D0)")
+#: Description of the parameter ``model``, common to both FMUs.
+MODEL_DESCRIPTION = ("tension model: 1 = Eq. 7 (pressure only), 2 = Eq. 13 (plus Mooney-Rivlin elasticity); "
+                     "no unit")
+#: Description of the parameter ``slack``, common to both FMUs (when its effect gives none).
+SLACK_DESCRIPTION = "1 = a muscle cannot push: the tension is max(f, 0) (model-spec section 4); 0 = off; no unit"
+#: Description of the parameter ``P_rated``, common to both FMUs.
+P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
+                       "excursion); the model itself has no limit")
+#: Descriptions of the Integer parameters that a model's own descriptions leave out.
+INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
+
+
+def negative_pressure_message(name: str, value: str) -> str:
+    """Why a pressure input below 0 is refused: pressures are gauge pressures (model-spec section 1), and the model
+    has no vacuum regime; the CLI refuses them the same way. ``value`` is the number as written (repr). Both FMU
+    kinds give it (the native ones' C carries it as a format, :mod:`mkctl.native.fmu`)."""
+    return (f"input {name} = {value} Pa is below 0: pressures are gauge pressures, and a McKibben muscle below "
+            "atmospheric pressure does not pull (the model has no vacuum)")
+
+
+def non_finite_output_message(name: str, value: str, unit: str) -> str:
+    """Why an output that is not a finite number is refused (``value`` as written, repr). Both FMU kinds give it."""
+    return f"output {name} = {value} {unit} is not a finite number"
+
+
+@dataclasses.dataclass(frozen=True)
+class Variable:
+    """One variable of an FMU, as a host sees it."""
+
+    name: str
+    vr: int  #: value reference: its position in :meth:`Model.variables`
+    type: str  #: "Real", "Integer" or "Boolean"
+    causality: str  #: "input", "parameter" or "output"
+    variability: str  #: "continuous", "fixed" or "discrete"
+    description: str
+    unit: str | None  #: mkctl's unit string (Real variables only; :func:`mkctl.fmi.units.fmi_unit` names it in FMI)
+    start: float | int | None  #: None for outputs (and when no parameter set was given)
+
+
+@dataclasses.dataclass(frozen=True)
+class Model:
+    """The interface of one FMU: its model data and its variables, by kind (see the module docstring)."""
+
+    name: str  #: the model name (and the pythonfmu slave class's name)
+    description: str
+    default_experiment: Mapping[str, float]  #: start_time, stop_time, step_size [s]
+    inputs: Sequence[str]  #: the continuous Real inputs, in the order the simulator takes them
+    parameters: Sequence[str]  #: the Real parameters that are fields of Params (follows the registry)
+    extra_parameters: Sequence[str]  #: further Real parameters after the Integer ones
+    outputs: Sequence[str]
+    boolean_outputs: frozenset[str]
+    pressure_outputs: Mapping[str, str]  #: {output: muscle} of the pressures checked against P_rated
+    descriptions: Mapping[str, str]  #: every variable's but P_rated's and some Integer parameters'
+    units: Mapping[str, str]  #: mkctl's unit string of every Real variable
+    undefined_outputs: str  #: the start of the message reported when the outputs cannot be computed
+    derived_starts: Callable[[Params], dict]  #: start values of the inputs and of the extra parameters but P_rated
+    author: str = "mkctl"
+
+    def start_values(self, params: Params = DEFAULT) -> dict:
+        """The start value of every settable variable of an FMU built for params (JSON-ready)."""
+        values = {name: getattr(params, name) for name in (*self.parameters, *INTEGER_PARAMETERS)}
+        values["P_rated"] = RATED_PRESSURE
+        values.update(self.derived_starts(params))
+        return values
+
+    def description_of(self, name: str) -> str:
+        """A variable's description (a parameter without one of its own: the Integer ones', else P_rated's)."""
+        if name in (*self.inputs, *self.outputs):
+            return self.descriptions[name]
+        return self.descriptions.get(name) or INTEGER_DESCRIPTIONS.get(name) or P_RATED_DESCRIPTION
+
+    def variables(self, params: Params | None = None) -> tuple[Variable, ...]:
+        """Every variable, in the order of the value references, with the start values of an FMU built for params
+        (:meth:`start_values`; without params, no start values: None)."""
+        starts = None if params is None else self.start_values(params)
+        kinds = ([(name, "Real", "input", "continuous") for name in self.inputs]
+                 + [(name, "Real", "parameter", "fixed") for name in self.parameters]
+                 + [(name, "Integer", "parameter", "fixed") for name in INTEGER_PARAMETERS]
+                 + [(name, "Real", "parameter", "fixed") for name in self.extra_parameters]
+                 + [(name, "Boolean", "output", "discrete") if name in self.boolean_outputs
+                    else (name, "Real", "output", "continuous") for name in self.outputs])
+        variables = []
+        for vr, (name, kind, causality, variability) in enumerate(kinds):
+            start = None
+            if causality != "output" and starts is not None:
+                start = int(starts[name]) if kind == "Integer" else float(starts[name])
+            variables.append(Variable(name, vr, kind, causality, variability, self.description_of(name),
+                                      self.units[name] if kind == "Real" else None, start))
+        return tuple(variables)
+
+    def settable(self) -> tuple[str, ...]:
+        """The names of the variables a host can set (inputs and parameters), in the order of the value references."""
+        return (*self.inputs, *self.parameters, *INTEGER_PARAMETERS, *self.extra_parameters)
+
+
+def _effect_reals() -> list[str]:
+    """The Real parameters of every registered effect, in the registry's order (switches are Integers)."""
+    return [q.name for q in effects.parameters() if not q.switch]
+
+
+#: The actuator's Real parameters of Table I, n second (model-spec section 7).
+_MUSCLE = ("b", "n", "L0", "D0", "C1", "C2", "t0")
+
+# --- the knee ---------------------------------------------------------------------------------------------------
+#: Real parameters in the order of model-spec section 7 (the Integer ones, X0 and P_rated follow them): Table I,
+#: Table II, then every registered effect's.
+KNEE_PARAMETERS = LiveSequence(lambda: [*_MUSCLE, *TABLE_II, *_effect_reals()])
+_KNEE_DESCRIPTIONS = LiveMapping(lambda: {
+    **{name: q.description for name, q in {**TABLE_I, **TABLE_II, **EFFECTS_TABLE}.items()},
+    "n": N_DESCRIPTION,
+    "X0": "initial hip height, the leg at rest; left at its start value it is alpha = 60 deg of the geometry",
+    "pe_cmd": "commanded extensor gauge pressure",
+    "pf_cmd": "commanded flexor gauge pressure",
+    "X": "hip height", "V": "hip velocity (up is positive)", "alpha": "kneecap angle",
+    "beta": "interior knee angle (pi = straight)", "Le": "extensor actuator length", "Lf": "flexor actuator length",
+    "fe": "extensor tension (positive pulls)", "ff": "flexor tension (positive pulls)",
+    "Pe": "extensor gauge pressure", "Pf": "flexor gauge pressure", "F": "ground force of Eq. 14",
+    "a1": "Eq. 18 coefficient a1 = (dF/dV)/m at the present state (end stops excluded)",
+    "a2": "Eq. 18 coefficient a2 = (dF/dX)/m at the present state (end stops excluded)",
+    "stable": "Routh-Hurwitz verdict at the present state: a1 < 0 and a2 < 0; no unit",
+})
+
+#: Unit of every Real variable of the knee.
+KNEE_UNITS = LiveMapping(lambda: {
+    **{name: UNITS[name] for name in KNEE_PARAMETERS}, "X0": "m", "P_rated": "Pa", "pe_cmd": "Pa", "pf_cmd": "Pa",
+    **{name: unit for name, unit in KNEE_OUTPUTS.items() if name != "stable"},
+})
+
+
+def _knee_starts(params: Params) -> dict:
+    """The knee's commands and X0 hold the leg of params at rest at alpha = 60 deg."""
+    pe, pf = default_commands(params)
+    return {"pe_cmd": pe, "pf_cmd": pf, "X0": default_hip_height(params)}
+
+
+#: The knee FMU, over :class:`~mkctl.physics.simulate.KneeSimulator`: inputs pe_cmd, pf_cmd; every parameter of
+#: sections 2-4, the Integer parameters, X0 and P_rated; the outputs of :data:`~mkctl.physics.simulate.KNEE_OUTPUTS`.
+KNEE = Model(
+    name="McKibbenKnee",
+    description=("Knee driven by an antagonistic pair of McKibben muscles (Eq. 14-17 of the seed paper, "
+                 "model-spec sections 3-4 and 7), with mechanical end stops"),
+    default_experiment={"start_time": 0.0, "stop_time": 2.0, "step_size": 1e-3},
+    inputs=("pe_cmd", "pf_cmd"),
+    parameters=KNEE_PARAMETERS,
+    extra_parameters=("X0", "P_rated"),
+    outputs=tuple(KNEE_OUTPUTS),
+    boolean_outputs=frozenset({"stable"}),
+    pressure_outputs={"Pe": "extensor", "Pf": "flexor"},
+    descriptions=_KNEE_DESCRIPTIONS,
+    units=KNEE_UNITS,
+    undefined_outputs="outputs that depend on the pressures are undefined",
+    derived_starts=_knee_starts,
+)
+
+# --- one actuator -----------------------------------------------------------------------------------------------
+#: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them): Table I, then every
+#: registered effect's.
+ACTUATOR_PARAMETERS = LiveSequence(lambda: [*_MUSCLE, *_effect_reals()])
+ACTUATOR_INPUTS = {"p_cmd": ("Pa", "commanded gauge pressure"),
+                   "L": ("m", "actuator length, 0 < L < b"),
+                   "Ldot": ("m/s", "lengthening rate (positive when the actuator lengthens)")}
+ACTUATOR_OUTPUTS = {"f": ("N", "tension (positive pulls): model 1 or 2 plus damping and friction"),
+                    "P": ("Pa", "gauge pressure in the bladder (the lag state, or p_cmd without a lag)")}
+_ACTUATOR_DESCRIPTIONS = LiveMapping(lambda: {
+    **{name: q.description for name, q in {**TABLE_I, **EFFECTS_TABLE}.items()},
+    "n": N_DESCRIPTION,
+    **{name: text for name, (_, text) in {**ACTUATOR_INPUTS, **ACTUATOR_OUTPUTS}.items()},
+})
+#: Start values of the inputs: 300 kPa at L = 0.18 m, a row of model-spec section 2's reference table.
+ACTUATOR_INPUT_START = {"p_cmd": 300e3, "L": 0.18, "Ldot": 0.0}
+
+#: Unit of every Real variable of the actuator.
+ACTUATOR_UNITS = LiveMapping(lambda: {**{name: UNITS[name] for name in ACTUATOR_PARAMETERS}, "P_rated": "Pa",
+                                        **{name: unit for name, (unit, _) in {**ACTUATOR_INPUTS,
+                                                                              **ACTUATOR_OUTPUTS}.items()}})
+
+#: The actuator FMU, over :class:`~mkctl.physics.simulate.ActuatorSimulator`: the pressure lag is the only state
+#: (solved exactly over each step, so the step size does not matter); the tension follows from the inputs L, Ldot
+#: and the present pressure.
+ACTUATOR = Model(
+    name="McKibbenActuator",
+    description=("One McKibben pneumatic muscle: tension from pressure (Eq. 7), Mooney-Rivlin rubber "
+                 "(Eq. 13), damping, friction and a pressure lag (model-spec sections 2, 4 and 7)"),
+    default_experiment={"start_time": 0.0, "stop_time": 1.0, "step_size": 1e-2},
+    inputs=tuple(ACTUATOR_INPUTS),
+    parameters=ACTUATOR_PARAMETERS,
+    extra_parameters=("P_rated",),
+    outputs=tuple(ACTUATOR_OUTPUTS),
+    boolean_outputs=frozenset(),
+    pressure_outputs={"P": "muscle"},
+    descriptions=_ACTUATOR_DESCRIPTIONS,
+    units=ACTUATOR_UNITS,
+    undefined_outputs="outputs undefined",
+    derived_starts=lambda params: dict(ACTUATOR_INPUT_START),
+)
+
+#: Both FMUs, by model name.
+MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
