@@ -95,10 +95,12 @@ class Model:
         return values
 
     def description_of(self, name: str) -> str:
-        """A variable's description (a parameter without one of its own: the Integer ones', else P_rated's)."""
+        """A variable's description (P_rated's and some Integer parameters' are declared here, not in a model)."""
         if name in (*self.inputs, *self.outputs):
             return self.descriptions[name]
-        return self.descriptions.get(name) or INTEGER_DESCRIPTIONS.get(name) or P_RATED_DESCRIPTION
+        if name == "P_rated":
+            return P_RATED_DESCRIPTION
+        return self.descriptions.get(name) or INTEGER_DESCRIPTIONS.get(name) or ""
 
     def variables(self, params: Params | None = None) -> tuple[Variable, ...]:
         """Every variable, in the order of the value references, with the start values of an FMU built for params
