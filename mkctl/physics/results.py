@@ -71,7 +71,7 @@ class SimulationResult(Result):
         if compute is None or name not in _DEFERRED:
             raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
         self.__dict__.update({key: value for key, value in compute().items() if key in _DEFERRED})
-        del self.__dict__["_compute"]
+        self.__dict__.pop("_compute", None)  # (another thread may have computed them too)
         return self.__dict__[name]
 
     def __getstate__(self) -> dict:
