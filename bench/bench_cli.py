@@ -7,12 +7,12 @@ Each figure is the best of ``--repeat`` runs, each in a fresh process (what a us
 CPU time (the steadier figure on a loaded machine). The diagnose split is measured inside the process that runs
 ``mkctl.cli.main`` with the diagnosis and the pictures timed:
 
-- start-up: the interpreter and ``mkctl.cli`` (the wall time of the run minus what the process measured itself,
-  plus importing the command line);
+- start-up: the interpreter, ``mkctl.cli`` and the exit (the wall time of the run minus what the process measured
+  itself, plus importing the command line);
 - imports: the modules the command needs (the diagnosis, scipy, matplotlib);
 - work: reading the file and the diagnosis;
 - pictures: the four PNGs;
-- rest: the summary, the JSON report and exiting.
+- rest: the summary and the JSON report.
 """
 from __future__ import annotations
 
@@ -49,7 +49,7 @@ def timed(name, function):
 d.diagnose, d.save_pictures = timed("diagnose", d.diagnose), timed("pictures", d.save_pictures)
 import io, contextlib
 with contextlib.redirect_stdout(io.StringIO()):
-    status = main(sys.argv[1:])
+    status = main()  # as the mkctl program runs it (its own command line)
 t_end = clock()
 print(json.dumps({"status": status, **{key: [b - a for a, b in zip(start, end)] for key, start, end in
                   (("cli", t0, t_cli), ("imports", t_cli, t_imports), ("inside", t0, t_end))},
