@@ -5,7 +5,9 @@ Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``, or only 
 
 0. Work-precision table (``--precision``; ``--quick`` for rtol 1e-3, 1e-6, 1e-9 only, well under a minute): the
    default 6 s record of 1 solved by solve_ivp RK45, DOP853, LSODA, Radau and BDF at rtol 1e-3 ... 1e-10
-   (atol = 1e-3 rtol), by simulate_knee and by knee_states (compiled core, mkctl's rtol 1e-10); each row gives
+   (atol = 1e-3 rtol), by simulate_knee (its X, V, Pe, Pf; the other outputs are computed when first read), by
+   simulate_knee with every output read (the one vectorized pass after the states included) and by knee_states
+   (compiled core, mkctl's rtol 1e-10); each row gives
    wall time and CPU time (time.process_time), best of a few runs, and max |X - X_ref| against a tight
    reference (solve_ivp DOP853, rtol 1e-12, atol 1e-15). The ratio: the fastest solve_ivp run at least as
    accurate as mkctl, over mkctl's time (wall and CPU, measured side by side in one run).
@@ -15,7 +17,8 @@ Run on demand: ``PYTHONPATH=. python bench/bench_speed.py [--python]``, or only 
    - the reference: ``scipy.integrate.solve_ivp`` (LSODA, a Python right-hand side calling
      :func:`mkctl.physics.knee.knee_derivatives`, commands held from sample to sample, output at every
      sample), at scipy's default tolerances and at mkctl's (rtol 1e-10);
-   - :func:`mkctl.physics.simulate.simulate_knee` with the compiled core (every output of the knee);
+   - :func:`mkctl.physics.simulate.simulate_knee` with the compiled core (X, V, Pe, Pf; the other outputs are
+     computed when first read), and the same with every output of the knee read;
    - :func:`mkctl.physics.simulate.knee_states` with the compiled core: X and V at every sample, the work the
      reference does (it computes no other output);
    - the same with the Python path (``MKCTL_NATIVE=0``), for scale.
@@ -52,7 +55,7 @@ from mkctl.native.variants import ALL_VARIANTS
 from mkctl.physics import knee, stability
 from mkctl.physics.params import Params
 from mkctl.physics.isotonic import simulate_isotonic
-from mkctl.physics.simulate import knee_states, simulate_knee
+from mkctl.physics.simulate import KNEE_OUTPUTS, knee_states, simulate_knee
 
 SAMPLES, RATE = 6000, 1000.0
 SPEED_TARGET = 100.0
@@ -77,6 +80,14 @@ def best_of_both(function, repeat: int) -> tuple[float, float, object]:
         wall = min(wall, time.perf_counter() - start_wall)
         cpu = min(cpu, time.process_time() - start_cpu)
     return wall, cpu, result
+
+
+def simulate_every_output(t, pe, pf, params, X0):
+    """simulate_knee with every output read: the states, then the outputs in their one pass."""
+    run = simulate_knee(t, pe, pf, params, X0=X0)
+    for name in KNEE_OUTPUTS:
+        run[name]
+    return run
 
 
 def reference(t, pe, pf, params, X0, method: str = "LSODA", **tolerances):
@@ -109,10 +120,12 @@ def time_record(t, pe, pf, params, X0, repeat: int, tight: bool = True) -> tuple
         rows.append(("solve_ivp LSODA, mkctl's tolerances (rtol 1e-10)", tight_time, tight_X))
     simulate_knee(t, pe, pf, params, X0=X0)  # load the library
     native_time, native = best_of(lambda: simulate_knee(t, pe, pf, params, X0=X0), repeat * 4)
+    every_time, every = best_of(lambda: simulate_every_output(t, pe, pf, params, X0), repeat * 4)
     states_time, (states_X, _) = best_of(lambda: knee_states(t, pe, pf, params, X0=X0), repeat * 4)
     python_time, python = best_of(lambda: python_path(lambda: simulate_knee(t, pe, pf, params, X0=X0)), 1)
     rows += [("simulate_knee, Python path", python_time, python["X"]),
-             ("simulate_knee, compiled (every output)", native_time, native["X"]),
+             ("simulate_knee, compiled (outputs when read)", native_time, native["X"]),
+             ("simulate_knee, compiled, every output read", every_time, every["X"]),
              ("knee_states, compiled (X and V only)", states_time, states_X)]
     print(f"   {'':<50} {'time [ms]':>10} {'reference/this':>15} {'max |X - compiled X| [m]':>25}")
     for label, seconds, X in rows:
@@ -120,7 +133,8 @@ def time_record(t, pe, pf, params, X0, repeat: int, tight: bool = True) -> tuple
               f"{np.max(np.abs(X - native['X'])):>25.2e}")
     speedup = ref_time / native_time
     print(f"   compiled simulate_knee vs reference: {speedup:.0f}x (target >= {SPEED_TARGET:g}x) "
-          f"{'OK' if speedup >= SPEED_TARGET else '<-- below target'}; knee_states: {ref_time / states_time:.0f}x; "
+          f"{'OK' if speedup >= SPEED_TARGET else '<-- below target'}; with every output read: "
+          f"{ref_time / every_time:.0f}x; knee_states: {ref_time / states_time:.0f}x; "
           f"simulate_knee vs the Python path: {python_time / native_time:.0f}x")
     return ref_time, speedup
 
@@ -154,12 +168,14 @@ def work_precision(t, pe, pf, params, X0, quick: bool) -> dict[str, float]:
     simulate_knee(t, pe, pf, params, X0=X0)  # load the library
     wall, cpu, run = best_of_both(lambda: simulate_knee(t, pe, pf, params, X0=X0), mk_repeat)
     rows.append(("mkctl simulate_knee, compiled (rtol 1e-10)", True, wall, cpu, np.max(np.abs(run["X"] - X_ref))))
+    wall, cpu, run = best_of_both(lambda: simulate_every_output(t, pe, pf, params, X0), mk_repeat)
+    rows.append(("mkctl simulate_knee + every output read", True, wall, cpu, np.max(np.abs(run["X"] - X_ref))))
     wall, cpu, (X, _) = best_of_both(lambda: knee_states(t, pe, pf, params, X0=X0), mk_repeat)
     rows.append(("mkctl knee_states, compiled (rtol 1e-10)", True, wall, cpu, np.max(np.abs(X - X_ref))))
 
-    print(f"   {'':<44} {'wall [ms]':>10} {'CPU [ms]':>10} {'max |X - X_ref| [m]':>20}")
+    print(f"   {'':<46} {'wall [ms]':>10} {'CPU [ms]':>10} {'max |X - X_ref| [m]':>20}")
     for label, _, wall, cpu, error in rows:
-        print(f"   {label:<44} {1e3 * wall:>10.2f} {1e3 * cpu:>10.2f} {error:>20.2e}")
+        print(f"   {label:<46} {1e3 * wall:>10.2f} {1e3 * cpu:>10.2f} {error:>20.2e}")
     for line in failed:
         print(f"   failed: {line}")
     ratios = {}

@@ -412,14 +412,14 @@ class NoiseModel:
 
     def realisation(self, n: int) -> np.ndarray:
         """n samples of the noise: ``e_k = phi e_(k-1) + sigma sqrt(1 - phi^2) z_k``, e_0 = sigma z_0."""
-        from scipy.signal import lfilter
+        from .filters import ar1_filter
 
         z = np.random.default_rng(self.seed).standard_normal(n) * self.sigma
         phi = self.correlation
         if phi <= 0:
             return z
         z[1:] *= math.sqrt(1.0 - phi * phi)
-        return lfilter([1.0], [1.0, -phi], z)
+        return ar1_filter(z, phi)
 
     def null_output(self, problem: "_Problem", fit: "_Fit", renoised: Measurement | None = None) -> np.ndarray:
         """The output a record would hold if the fitted model were the truth: its simulation (driven by the
@@ -445,7 +445,7 @@ def _robust_variance(x) -> float:
 
 def _residual_filter(window: int) -> np.ndarray:
     """Impulse response of "signal minus its local cubic" (Savitzky-Golay, centre point) over ``window``."""
-    from scipy.signal import savgol_coeffs
+    from .filters import savgol_coeffs
 
     h = -savgol_coeffs(window, 3)
     h[window // 2] += 1.0
@@ -497,12 +497,12 @@ def _ar1_estimate(x: np.ndarray, window: int) -> tuple[float, float] | None:
     """(sigma, phi) of :func:`noise_model` from the residual of a local cubic over ``window`` samples, or None
     (too short a record, no spread)."""
     from scipy.optimize import brentq
-    from scipy.signal import lfilter
+    from .filters import fir_valid
 
     if x.size < NOISE_WINDOWS_NEEDED * window:
         return None
     h = _residual_filter(window)
-    e = lfilter(h, [1.0], x)[h.size - 1:]
+    e = fir_valid(h, x)
     plus, minus = _robust_variance(e[1:] + e[:-1]), _robust_variance(e[1:] - e[:-1])
     if not plus + minus > 0:
         return None
@@ -541,7 +541,7 @@ def smooth_input(signal, sigma: float, window: int = INPUT_SMOOTHING_SAMPLES) ->
     (its dead band ignores the wiggles the model passed on), and biased a real one by 0.034 N per kPa.
     """
     from scipy.ndimage import median_filter
-    from scipy.signal import savgol_filter
+    from .filters import savgol_filter
 
     x = np.asarray(signal, dtype=float)
     d = np.diff(x)
@@ -555,7 +555,7 @@ def smooth_input(signal, sigma: float, window: int = INPUT_SMOOTHING_SAMPLES) ->
             continue
         w = min(window, length if length % 2 else length - 1)
         if w >= 5:
-            out[a:b] = savgol_filter(x[a:b], w, 2, mode="interp")
+            out[a:b] = savgol_filter(x[a:b], w, 2)
     return out
 
 

@@ -378,10 +378,10 @@ def noise_limit(n_effective: float, rule: Rule = RULE, tests: int = 1) -> float:
     rule's ``adequate_factor`` (2) stands instead, because sigma is itself an estimate whose systematic error
     (a signal's kinks, a smoothed input's residue) no chi-square knows of.
     """
-    from scipy.stats import chi2
+    from scipy.special import gammaincinv  # chi2.ppf(q, m) = 2 gammaincinv(m / 2, q), without scipy.stats
 
     m = max(float(n_effective), 1.0)
-    return max(rule.adequate_factor, math.sqrt(float(chi2.ppf(1.0 - rule.adequacy_level / tests, m)) / m))
+    return max(rule.adequate_factor, math.sqrt(float(2.0 * gammaincinv(m / 2, 1.0 - rule.adequacy_level / tests)) / m))
 
 
 @dataclass(frozen=True)

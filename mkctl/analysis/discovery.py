@@ -251,7 +251,7 @@ def acceleration_kernels(window: int, dt: float, order: int = 3):
     and the force smoothed by a plain (deriv 0) filter differ wherever the force jumps (a pressure step),
     and the difference looked like a dead time of about 7 ms on every record with a step.
     """
-    from scipy.signal import savgol_coeffs
+    from .filters import savgol_coeffs
 
     k2 = savgol_coeffs(window, order, deriv=2, delta=dt)
     g = np.cumsum(np.cumsum(k2)) * dt * dt
@@ -262,7 +262,7 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delay
     """Eq. 17's equation error of the knee and each term's share of it, smoothed alike (see
     :func:`acceleration_kernels`): ``m (k2 * X + g) - g * (F + F_stop)``, with F at the measured X, the smoothed
     V and the model's pressures as they are (commands held, or measured). Returns (error [N], {label: column}, edge)."""
-    from scipy.signal import savgol_filter
+    from .filters import savgol_filter
 
     from .equation_error import KNEE_SMOOTHING_S
 

@@ -26,7 +26,7 @@ def missing_force(measurement: Measurement, params: Params):
     themselves compare simulations with the data, never differentiated data.
     Returns (missing force, states) with states a dict of the smoothed signals (SI).
     """
-    from scipy.signal import savgol_filter
+    from .filters import savgol_filter
 
     m = measurement
     if m.experiment == "isometric":  # nothing moves: the measured tension against the model's, point by point

@@ -7,6 +7,7 @@ parameter the model cannot represent) ends with one line on stderr and exit stat
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
 
 from ..io.command_line import OneLineParser, run_reporting_errors
@@ -44,6 +45,8 @@ def requested_command(argv: list[str]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the command line ``argv`` (default: this process's own, as the ``mkctl`` program); returns the exit status."""
+    program = argv is None
     argv = sys.argv[1:] if argv is None else list(argv)
     try:
         parser = build_parser(requested_command(argv))
@@ -54,7 +57,10 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "func", None):
         parser.print_help()
         return 2
-    return run_reporting_errors(f"mkctl {args.command}", run_command, args)
+    status = run_reporting_errors(f"mkctl {args.command}", run_command, args)
+    if program:  # the process ends now: spare its objects the last collection (a quarter of a second of exit once
+        gc.freeze()  # scipy and matplotlib are loaded); files are closed and atexit runs as ever
+    return status
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ from ..physics import effects
 from ..physics.actuator import lagged_pressure
 from ..physics.isometric import isometric_tension
 from ..physics.params import INTEGER_PARAMETERS, UNITS, LiveMapping
-from .plotting import new_figure, plain_log_ticks, save_png
+from .plotting import fixed_layout, new_figure, plain_log_ticks, save_png
 
 #: How the signature pictures label their x axis: each effect's own regressor (the registry's
 #: ``signature_axis``; see :func:`mkctl.analysis.diagnose.signatures`; the lag's is drawn here from its fitted
@@ -99,7 +99,7 @@ def plot_overlay(measurement, curves: dict, path, title: str = "") -> Path:
     spaced), so that a curve running through them stays visible and so do they."""
     panels = input_panels(measurement)
     fig, axes = new_figure(1 + len(panels), 1, figsize=(9, 5.2 + 1.3 * len(panels)), sharex=True,
-                           height_ratios=(3.2,) + (1,) * len(panels), squeeze=False)
+                           height_ratios=(3.2,) + (1,) * len(panels), squeeze=False, layout="none")
     top = axes[0, 0]
     colours = iter(["tab:blue", "tab:orange", "tab:green", "tab:purple"])
     for label, values in curves.items():
@@ -120,13 +120,14 @@ def plot_overlay(measurement, curves: dict, path, title: str = "") -> Path:
         if len(lines) > 1:
             ax.legend(loc="best", fontsize=7)
     axes[-1, 0].set_xlabel("time [s]")
+    fixed_layout(fig, left=0.85, bottom=0.55, hgap=0.15)
     return save_png(fig, path)
 
 
 def plot_residuals(measurement, residuals: dict, path, title: str = "") -> Path:
     """Residuals (label -> array in file units) over time, one panel each, with their RMSE."""
     fig, axes = new_figure(len(residuals), 1, figsize=(9, 2.2 * len(residuals) + 0.6), sharex=True,
-                           squeeze=False)
+                           squeeze=False, layout="none")
     for ax, (label, residual) in zip(axes[:, 0], residuals.items()):
         ax.plot(measurement.time, residual, lw=0.8)
         ax.axhline(0, color="k", lw=0.5)
@@ -136,6 +137,7 @@ def plot_residuals(measurement, residuals: dict, path, title: str = "") -> Path:
     axes[-1, 0].set_xlabel("time [s]")
     if title:
         fig.suptitle(title)
+    fixed_layout(fig, left=0.85, bottom=0.55, top=0.75 if title else 0.35, hgap=0.4)
     return save_png(fig, path)
 
 
@@ -254,7 +256,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     paths = {}
 
     labels, values, colours = error_bars(result)
-    fig, ax = new_figure(figsize=(max(4.5, 1.6 * len(labels) + 2), 3.8))
+    fig, ax = new_figure(figsize=(max(4.5, 1.6 * len(labels) + 2), 3.8), layout="none")
     bars = ax.bar(range(len(values)), values, color=colours)
     ax.plot(range(len(values)), values, "k.-", lw=0.8)
     for bar, value in zip(bars, values):
@@ -264,6 +266,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     plain_log_ticks(ax.yaxis)
     ax.set_ylabel(f"RMSE [{unit}] (log)")
     ax.set_title("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
+    fixed_layout(fig, left=0.8, bottom=0.55)
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
 
     after_label = "baseline + " + ", ".join(result.missing) if result.missing else "baseline (nothing added)"
@@ -286,7 +289,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     sigs = result.signatures
     names = [name for name in result.signature_order if name in sigs]
     if names:
-        fig, axes = new_figure(1, len(names), figsize=(3.7 * len(names), 3.6), squeeze=False)
+        fig, axes = new_figure(1, len(names), figsize=(3.7 * len(names), 3.6), squeeze=False, layout="none")
         for ax, name in zip(axes[0], names):
             sig = sigs[name]
             x, label = sig["x"], SIGNATURE_AXIS.get((measurement.experiment, name), SIGNATURE_AXIS[name])
@@ -312,6 +315,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
         fig.suptitle("signatures: the force the baseline lacks (at the smoothed measured states) against what "
                      "each effect acts through" if len(names) > 2 else
                      "signatures: the force the baseline lacks\nagainst what each effect acts through", fontsize=9)
+        fixed_layout(fig, left=0.65, bottom=0.5, top=0.55 if len(names) > 2 else 0.7, wgap=0.55)
         paths["signatures"] = save_png(fig, folder / f"{stem}_signatures.png")
     result.pictures = {k: str(v) for k, v in paths.items()}
     return result.pictures

@@ -42,6 +42,24 @@ def new_figure(*args, **kwargs):
     return fig, fig.subplots(*args, **grid)
 
 
+def fixed_layout(fig, left: float = 0.8, right: float = 0.15, top: float = 0.4, bottom: float = 0.55,
+                 hgap: float = 0.3, wgap: float = 0.6) -> None:
+    """Place fig's grid of axes with fixed margins and gaps [inches] instead of a layout engine.
+
+    A constrained layout makes ``savefig`` draw the figure twice (once to measure every label, once to render):
+    about a third of a picture's time. Pictures drawn in great numbers (the diagnosis's) use this instead, with
+    margins that hold their labels: left for the y tick labels and label, bottom for the x ones, top for the title,
+    hgap and wgap between rows and columns (a row's title, a column's y tick labels).
+    """
+    width, height = fig.get_size_inches()
+    fig.set_layout_engine("none")
+    rows, columns = fig.axes[0].get_subplotspec().get_gridspec().get_geometry()
+    axes_width = (width - left - right - wgap * (columns - 1)) / columns
+    axes_height = (height - top - bottom - hgap * (rows - 1)) / rows
+    fig.subplots_adjust(left=left / width, right=1 - right / width, bottom=bottom / height, top=1 - top / height,
+                        wspace=wgap / axes_width, hspace=hgap / axes_height)
+
+
 def plain_log_ticks(axis) -> None:
     """Label a log axis's decades as plain numbers (0.01, 0.1, 1, 10) and leave its minor ticks unlabelled:
     matplotlib's default writes them as math text, whose first parse costs a third of a second in a fresh process."""
@@ -51,9 +69,13 @@ def plain_log_ticks(axis) -> None:
     axis.set_minor_formatter(NullFormatter())
 
 
+#: zlib level of the saved PNGs: 3 encodes in two thirds of the default's (6) time, for files about a tenth larger.
+PNG_COMPRESS_LEVEL = 3
+
+
 def save_png(fig, path, dpi: int = 120) -> Path:
     """Save fig as a PNG at path (folders created) and return the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=dpi)
+    fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return path

@@ -54,6 +54,9 @@ class Core:
         lib.mk_knee_outputs.restype = ctypes.c_int
         lib.mk_knee_outputs.argtypes = [_DOUBLE_P, _DOUBLE_P, ctypes.c_double, ctypes.c_double, _DOUBLE_P,
                                         ctypes.POINTER(Fault)]
+        lib.mk_knee_outputs_many.restype = ctypes.c_int
+        lib.mk_knee_outputs_many.argtypes = [_DOUBLE_P, ctypes.c_long, _DOUBLE_P, _DOUBLE_P, _DOUBLE_P, _DOUBLE_P,
+                                             ctypes.POINTER(Fault)]
         for name in ("mk_actuator_tension", "mk_actuator_lagged_pressure"):
             function = getattr(lib, name)
             function.restype = ctypes.c_int
@@ -88,6 +91,21 @@ class Core:
         p, y = parameter_vector(params), np.array(state, dtype=float)
         out, fault = np.empty(len(KNEE_OUTPUTS)), Fault()
         rc = self.lib.mk_knee_outputs(_pointer(p), _pointer(y), pe_cmd, pf_cmd, _pointer(out), ctypes.byref(fault))
+        return None if rc else out
+
+    def knee_outputs_many(self, params: Params, states, pe_cmd, pf_cmd):
+        """The knee outputs (n x outputs, KNEE_OUTPUTS order, stable as 1/0) at the n rows of ``states`` (n x
+        nstate) with the commands pe_cmd, pf_cmd [Pa] (n each), in one C call; None after a failed check (the
+        Python path then raises its own error)."""
+        from ..physics.simulate import KNEE_OUTPUTS
+        p = parameter_vector(params)
+        states = np.ascontiguousarray(states, dtype=float)
+        pe_cmd = np.ascontiguousarray(pe_cmd, dtype=float)
+        pf_cmd = np.ascontiguousarray(pf_cmd, dtype=float)
+        n = states.shape[0]
+        out, fault = np.empty((n, len(KNEE_OUTPUTS))), Fault()
+        rc = self.lib.mk_knee_outputs_many(_pointer(p), n, _pointer(states), _pointer(pe_cmd), _pointer(pf_cmd),
+                                           _pointer(out), ctypes.byref(fault))
         return None if rc else out
 
     def actuator(self, name: str, params: Params, *args) -> float | None:

@@ -331,6 +331,34 @@ int mk_knee_record(const double *p, const double *stops, long n, const double *t
     return 0;
 }
 
+/* The knee outputs (as mk_knee_outputs) at n states after a record has run, in one pass: states n * nstate
+ * (row-major, as mk_knee_record fills them), the commands pe_cmd[j], pf_cmd[j] at each (the pressures when
+ * there is no lag); out: n * MK_KNEE_NOUT. What simulate_knee computes when an output is first read. On a
+ * fault, fault->sample is the failing sample. */
+int mk_knee_outputs_many(const double *p, long n, const double *states, const double *pe_cmd,
+                         const double *pf_cmd, double *out, mk_fault *fault)
+{
+    const int variant = mk_variant(p);
+    double ko[MK_MAX_CONSTANTS];
+    int nstate, lag, rc;
+    long j;
+    if (variant < 0)
+        return mk_fault_code(fault, MK_FAULT_VARIANT);
+    nstate = mk_variant_nstate(variant);
+    lag = nstate == 4;
+    mk_knee_outputs_constants_variant(variant, p, NULL, ko);
+    for (j = 0; j < n; j++) {
+        const double *x = states + j * nstate;
+        if (fault)
+            fault->sample = j;
+        rc = mk_knee_outputs_variant(variant, p, NULL, ko, x[0], x[1], lag ? x[2] : pe_cmd[j],
+                                     lag ? x[3] : pf_cmd[j], out + j * MK_KNEE_NOUT, fault);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
 /* ---- the damped isotonic test: the algorithm of mkctl/physics/isotonic.py, written in C ------------ */
 
 #define MK_FAULT_NO_ROOT 5    /* no length in the domain carries the load (and saturate is off) */

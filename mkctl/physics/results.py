@@ -34,6 +34,10 @@ class SimulationResult(Result):
     ``a2`` [1/s^2] of Eq. 18 (end stops excluded); ``stable`` the Routh-Hurwitz verdict a1 < 0 and a2 < 0 (bool).
 
     ``result[name]`` is ``getattr(result, name)`` for these names (a KeyError for others).
+
+    :func:`mkctl.physics.simulate.simulate_knee` fills ``time``, ``X``, ``V``, ``Pe`` and ``Pf`` from the run's
+    states and commands and computes the other outputs when one of them is first read, all of them in one
+    vectorized pass (:meth:`deferred`): a fit that reads only X pays for no geometry, tension or stability.
     """
 
     time: np.ndarray
@@ -51,6 +55,30 @@ class SimulationResult(Result):
     a1: np.ndarray
     a2: np.ndarray
     stable: np.ndarray
+
+    # --- outputs computed when first read ----------------------------------------------------------
+    @classmethod
+    def deferred(cls, time, X, V, Pe, Pf, compute) -> "SimulationResult":
+        """A result holding time, X, V, Pe, Pf whose other outputs come from ``compute()`` (a dict of arrays
+        by name) when the first of them is read; compute runs at most once."""
+        run = cls.__new__(cls)
+        run.__dict__.update(time=time, X=X, V=V, Pe=Pe, Pf=Pf, _compute=compute)
+        return run
+
+    def __getattr__(self, name: str):
+        # called only for an attribute not set yet: an output of a deferred result, computed now
+        compute = self.__dict__.get("_compute")
+        if compute is None or name not in _DEFERRED:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        self.__dict__.update({key: value for key, value in compute().items() if key in _DEFERRED})
+        self.__dict__.pop("_compute", None)  # (another thread may have computed them too)
+        return self.__dict__[name]
+
+    def __getstate__(self) -> dict:
+        """Every output computed (a pickle or copy carries arrays, not the way to compute them)."""
+        for name in _DEFERRED:
+            getattr(self, name)
+        return dict(self.__dict__)
 
     # --- read like the dict of arrays it replaces -------------------------------------------------
     def keys(self) -> list[str]:
@@ -97,3 +125,7 @@ class SimulationResult(Result):
     def table(self) -> dict[str, np.ndarray]:
         """One column per array, ``time`` first."""
         return dict(self.items())
+
+
+#: The outputs a deferred :class:`SimulationResult` computes when the first of them is read.
+_DEFERRED = frozenset(f.name for f in fields(SimulationResult)) - {"time", "X", "V", "Pe", "Pf"}

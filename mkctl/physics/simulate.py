@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from ..errors import MkctlError
 from . import actuator, backend, effects, knee, stability
 from .integrate import integrate
 from .params import DEFAULT, Params
@@ -233,19 +234,63 @@ def rest_independent() -> tuple[str, ...]:
     command at rest), and no final limit. The rest posture of a record does not depend on them."""
     key = effects.generation()
     if _rest_independent[0] != key:
-        import sympy
-        L, P = sympy.symbols("L P", real=True)
         names = []
         for effect in effects.all_effects():
-            if effect.final is not None:
-                continue
-            sp = actuator.SymbolicParams()
-            with actuator.tracing_domain_checks():
-                term = 0 if effect.tension is None else effect.tension(L, 0.0, P, sp, actuator.math_for(L))
-            if sympy.sympify(term) == 0:
+            if effect.final is None and _tension_vanishes_at_rest(effect):
                 names += effect.parameter_names
         _rest_independent[:] = [key, tuple(names)]
     return _rest_independent[1]
+
+
+#: Where :func:`_tension_vanishes_at_rest` reads a built-in effect's term: lengths (shares of L0) and pressures [Pa].
+REST_PROBE_LENGTHS = (0.7, 0.8, 0.9, 0.97, 1.0, 1.05)
+REST_PROBE_PRESSURES = (-5e4, 0.0, 1e5, 4e5, 1e6, 2e6)
+
+
+def _tension_vanishes_at_rest(effect) -> bool:
+    """Whether effect's tension term is 0 at Ldot = 0 for every length and pressure (True without a term).
+
+    A built-in effect's term is read at Ldot = 0 on a grid of lengths and pressures (:data:`REST_PROBE_LENGTHS`,
+    :data:`REST_PROBE_PRESSURES`) with its parameters at typical values, in floats: no sympy to import, which
+    is a third of a second of a command's start (a test checks the grid's answer against the symbolic one for
+    every built-in effect). Another effect (a user's, model-spec 4c), or a built-in one the grid cannot read,
+    is traced with sympy: its term must simplify to 0.
+    """
+    if effect.tension is None:
+        return True
+    on_grid = _rest_term_vanishes_on_grid(effect) if effect.builtin else None
+    return _rest_term_vanishes_symbolically(effect) if on_grid is None else on_grid
+
+
+def _rest_term_vanishes_on_grid(effect) -> bool | None:
+    """Whether effect's tension term is 0.0 at Ldot = 0 at every point of the probe grid (its parameters at
+    :func:`_probe_value`); None when the grid cannot be read (a domain check, an error)."""
+    try:
+        probe = DEFAULT.replace(**{q.name: _probe_value(q) for q in effect.parameters})
+        return all(effect.tension(DEFAULT.L0 * share, 0.0, P, probe, actuator.math_for(0.0)) == 0.0
+                   for share in REST_PROBE_LENGTHS for P in REST_PROBE_PRESSURES)
+    except Exception:  # a term the grid cannot read: the caller traces it
+        return None
+
+
+def _rest_term_vanishes_symbolically(effect) -> bool:
+    """Whether effect's tension term, traced on sympy symbols at Ldot = 0, simplifies to 0."""
+    import sympy
+    L, P = sympy.symbols("L P", real=True)
+    sp = actuator.SymbolicParams()
+    with actuator.tracing_domain_checks():
+        term = effect.tension(L, 0.0, P, sp, actuator.math_for(L))
+    return sympy.sympify(term) == 0
+
+
+def _probe_value(q) -> float:
+    """A value of parameter q at which its effect is on: its typical value, a switch's other value, else its scale
+    (kept in its bounds)."""
+    if q.typical is not None:
+        return float(q.typical)
+    if q.switch:
+        return float(q.upper if q.off == q.lower else q.lower)
+    return float(min(max(q.off + q.scale, q.lower), q.upper))
 
 
 _rest_independent = [None, ()]
@@ -307,14 +352,16 @@ def delayed_commands(time, pe_cmd, pf_cmd, delay: float):
     return grid, pe_cmd[given], pf_cmd[given], at
 
 
-def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_outputs, delayed=False):
+def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=False):
     """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each sample to
     the next, one integration per run of held commands (:func:`held_command_runs`), the states at the samples
     with stop_at[k] (stop_at None: every sample) and at each run's end read off the integrator's dense output.
 
     The compiled core runs it in one call when available; the Python loop below is the fallback, and it
     also resumes after a fault of the compiled run (at the start of the failing run) to raise its own error.
-    Returns the states (n x nstate, filled at sample 0 and every stop) and the outputs (n x outputs) or None.
+    Returns the states (n x nstate, filled at sample 0 and every stop) and the commands the actuators see at
+    each sample, pe_seen and pf_seen [Pa] (the given ones, or with a dead time those given a delay earlier):
+    what the outputs at the samples are computed from (:func:`record_outputs`).
     """
     delay = 0.0 if delayed else float(actuator.command_delay(params))
     if delay > 0 and time.size > 1:  # a dead time: the same record on a grid cut where the late commands arrive
@@ -325,23 +372,19 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
             mask[at[stop_at]] = True
         if X0 is None:
             X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
-        states, outputs = _run_record(grid, pe_seen, pf_seen, params, X0, stops, rtol, mask, with_outputs,
-                                      delayed=True)
-        return states[at], None if outputs is None else outputs[at]
+        states, pe_seen, pf_seen = _run_record(grid, pe_seen, pf_seen, params, X0, stops, rtol, mask, delayed=True)
+        return states[at], pe_seen[at], pf_seen[at]
     n = time.size
     if X0 is None:
         X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
     sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol, delay_commands=False)
     states = np.empty((n, sim.state.size))
-    outputs = np.empty((n, len(KNEE_OUTPUTS))) if with_outputs else None
     resume = 0
     core = backend.compiled_core(params) if n > 0 else None
     if core is not None:
-        resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, outputs)
+        resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, None)
     if resume == 0 and n > 0:
         states[0] = sim.state
-        if with_outputs:
-            outputs[0] = list(state_outputs(sim.state, pe_cmd[0], pf_cmd[0], params).values())
     for first, last in (held_command_runs(pe_cmd, pf_cmd) if resume < n - 1 else ()):
         if first < resume:
             continue
@@ -350,10 +393,40 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, with_out
             wanted = wanted[stop_at[first + 1:last + 1] | (wanted == last)]
         states[wanted] = sim.advance(time[wanted] - time[first], pe_cmd[first], pf_cmd[first],
                                      time[first + 1] - time[first])
-        if with_outputs:
-            for k in wanted:
-                outputs[k] = list(state_outputs(states[k], pe_cmd[k], pf_cmd[k], params).values())
-    return states, outputs
+    return states, pe_cmd, pf_cmd
+
+
+def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT, core=None) -> dict[str, np.ndarray]:
+    """Every output of :data:`KNEE_OUTPUTS` at a record's states (n x nstate: X, V and with a lag Pe, Pf) with
+    the commands the actuators see, pe_seen and pf_seen [Pa] (n each; the pressures when there is no lag), in
+    one pass over the samples: the compiled core's when ``core`` is given, else :func:`knee_outputs` on numpy
+    arrays. The same values as :func:`state_outputs` at each sample; a failed domain check raises its error as
+    :func:`state_outputs` does at the first failing sample."""
+    states = np.asarray(states, dtype=float)
+    n = states.shape[0]
+    if core is not None and n > 0:
+        out = core.knee_outputs_many(params, states, pe_seen, pf_seen)
+        if out is not None:
+            columns = {name: out[:, i] for i, name in enumerate(KNEE_OUTPUTS)}
+            columns["stable"] = columns["stable"] != 0
+            return columns
+    lag = states.shape[1] == 4
+    X, V = states[:, 0], states[:, 1]
+    Pe, Pf = (states[:, 2], states[:, 3]) if lag else (np.asarray(pe_seen, float), np.asarray(pf_seen, float))
+    if n == 0:
+        columns = {name: np.empty(0) for name in KNEE_OUTPUTS}
+        columns["stable"] = np.empty(0, dtype=bool)
+        return columns
+    try:
+        values = knee_outputs(X, V, Pe, Pf, params)
+    except MkctlError:  # name the first failing sample's error, as the sample-by-sample path does
+        for k in range(n):
+            state_outputs(states[k], pe_seen[k], pf_seen[k], params)
+        raise
+    columns = {name: np.array(np.broadcast_to(np.asarray(values[name], dtype=float), (n,)))
+               for name in KNEE_OUTPUTS if name != "stable"}
+    columns["stable"] = (columns["a1"] < 0) & (columns["a2"] < 0)
+    return columns
 
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
@@ -363,15 +436,20 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
     Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
     the initial hip height, or None to start at rest in the stable equilibrium of the first commands.
     Returns a :class:`mkctl.physics.results.SimulationResult`: "time" and every name of :data:`KNEE_OUTPUTS` as
-    named arrays (``run.X``, or ``run["X"]`` as before).
+    named arrays (``run.X``, or ``run["X"]`` as before). X, V, Pe and Pf are the run's states (and commands);
+    the other outputs are computed from them when the first of them is read, in one pass
+    (:func:`record_outputs`).
     Runs in the compiled core (:mod:`mkctl.native`) when it is available, else in Python: same results.
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
-    _, outputs = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None, True)
-    return SimulationResult(time=time, **{name: outputs[:, i] if name != "stable" else outputs[:, i] != 0
-                                          for i, name in enumerate(KNEE_OUTPUTS)})
+    states, pe_seen, pf_seen = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None)
+    core = backend.compiled_core(params) if time.size > 0 else None
+    lag = states.shape[1] == 4
+    Pe, Pf = (states[:, 2].copy(), states[:, 3].copy()) if lag else (np.array(pe_seen), np.array(pf_seen))
+    return SimulationResult.deferred(time, states[:, 0].copy(), states[:, 1].copy(), Pe, Pf,
+                                     lambda: record_outputs(states, pe_seen, pf_seen, params, core))
 
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
@@ -387,12 +465,12 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
     if at is None:
-        states, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None, False)
+        states, _, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None)
         return states[:, 0], states[:, 1]
     at = np.asarray(at, dtype=int)
     stop_at = np.zeros(time.size, dtype=bool)
     stop_at[at] = True
-    states, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, False)
+    states, _, _ = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at)
     return states[at, 0], states[at, 1]
 
 
