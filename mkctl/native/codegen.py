@@ -13,7 +13,10 @@ C function                              traced Python function
 ``knee_rhs_<variant>``                  :func:`mkctl.physics.knee.knee_derivatives` (Eq. 17, effects, end stops)
 ``knee_outputs_<variant>``              :func:`mkctl.physics.simulate.knee_outputs` (a1, a2 from the partials)
 ``actuator_tension_<variant>``          :func:`mkctl.physics.actuator.tension`
-``actuator_lagged_pressure_<variant>``  :func:`mkctl.physics.actuator.lagged_pressure`
+``actuator_lagged_pressure_<variant>``  :func:`mkctl.physics.actuator.pressure_after` (an exact step)
+``actuator_pressure_rate_<variant>``    :func:`mkctl.physics.actuator.pressure_derivative`, where no exact step
+                                        covers the variant's pressure dynamics: ``mk_pressure_integrate``
+                                        integrates it over dt, as ``pressure_after`` does
 ``mk_stop_positions``                   :func:`mkctl.physics.knee.X_from_alpha` at the stop angles
 ``mk_step_checks``                      :func:`mkctl.physics.actuator.check_pressure` of the two commands
 domain checks (every function)          the checks those functions make (``check_length``, ``check_pressure``,
@@ -22,7 +25,8 @@ domain checks (every function)          the checks those functions make (``check
 ======================================  ========================================================================
 
 The integrator itself (:file:`core_template.c`) is the algorithm of :func:`mkctl.physics.integrate.integrate`
-written in C; it holds no equation of the model.
+written in C; it holds no equation of the model. So is ``mk_pressure_integrate`` (:data:`PRESSURE_INTEGRATOR`, one
+actuator pressure), emitted only when a variant needs it.
 
 Nothing here names an effect either: the effects come from the registry (:mod:`mkctl.physics.effects`), and
 their terms are traced like every other equation. Branches on the parameter structure (the registry's
@@ -255,6 +259,112 @@ def _static_tension_and_slope(L, P, params):
             actuator.play_half_width(P, params), actuator.viscous_coefficient(params))
 
 
+#: The C arguments of ``actuator_pressure_rate_<variant>`` after p, stops, k: dP/dt [Pa/s] of one actuator.
+PRESSURE_RATE_ARGUMENTS = "double P, double P_cmd, double *out, mk_fault *fault"
+
+
+def integrates_pressure(variant: Variant) -> bool:
+    """Whether the variant has pressure dynamics that no effect's exact step covers (a user effect with only a
+    ``pressure_rate``): its pressure step is then the traced rate integrated in C (``mk_pressure_integrate``)."""
+    return variant.lag and actuator.exact_pressure_step(SymbolicParams(variant)) is None
+
+
+def _integrated_pressure_step(v: str) -> str:
+    """``actuator_lagged_pressure_<v>`` (its three forms) for a variant without an exact step: its rate
+    ``actuator_pressure_rate_<v>`` integrated over dt by ``mk_pressure_integrate`` (:data:`PRESSURE_INTEGRATOR`),
+    with the rate's per-record constants."""
+    arguments, call = KINDS["actuator_lagged_pressure"]
+    name, rate = f"actuator_lagged_pressure_{v}", f"actuator_pressure_rate_{v}"
+    return "\n".join([
+        f"static void {name}_constants(const double *p, const double *stops, double *k)", "{",
+        f"    {rate}_constants(p, stops, k);", "}", "",
+        "/* the pressure after dt with the command held (actuator.pressure_after): no exact step covers this",
+        " * variant's pressure dynamics, so its rate is integrated as the Python path integrates it */",
+        f"static int {name}(const double *p, const double *stops, const double *k, {arguments})", "{",
+        f"    return mk_pressure_integrate({rate}, p, stops, k, P, P_cmd, dt, out, fault);", "}", "",
+        f"static int {name}_once(const double *p, const double *stops, {arguments})", "{",
+        "    double k[MK_MAX_CONSTANTS];", f"    {name}_constants(p, stops, k);",
+        f"    return {name}(p, stops, k, {call});", "}", ""])
+
+
+#: Declared before the generated functions when a variant integrates its pressure (defined after the tableau).
+PRESSURE_INTEGRATOR_DECLARATION = """\
+/* dP/dt [Pa/s] of one actuator: a generated actuator_pressure_rate_<variant> */
+typedef int (*mk_pressure_rate)(const double *p, const double *stops, const double *k, double P, double P_cmd,
+                                double *out, mk_fault *fault);
+static int mk_pressure_integrate(mk_pressure_rate rate, const double *p, const double *stops, const double *k,
+                                 double P, double P_cmd, double dt, double *out, mk_fault *fault);
+"""
+
+#: The pressure step of a variant without an exact one: the algorithm of mkctl.physics.integrate.integrate for one
+#: state, called as actuator.pressure_after calls it (first step dt, its tolerances, no dense output).
+PRESSURE_INTEGRATOR = """\
+#define MK_PRESSURE_ATOL (@ATOL@)
+#define MK_PRESSURE_RTOL (@RTOL@)
+
+/* The pressure [Pa] after dt [s] with the command P_cmd held, from P: dP/dt = rate(P, P_cmd) integrated over dt
+ * as actuator.pressure_after integrates it (mkctl.physics.integrate.integrate, line by line, for one state: the
+ * first step dt, absolute tolerance MK_PRESSURE_ATOL, relative MK_PRESSURE_RTOL); P itself unless dt > 0. */
+static int mk_pressure_integrate(mk_pressure_rate rate, const double *p, const double *stops, const double *k,
+                                 double P, double P_cmd, double dt, double *out, mk_fault *fault)
+{
+    double stages[7], y = P, yi = P, t = 0.0, h = dt;
+    long steps = 0;
+    int s, j, rc, domain_failed = 0;
+    if (!(dt > 0)) {
+        out[0] = P;
+        return 0;
+    }
+    rc = rate(p, stops, k, y, P_cmd, stages, fault);
+    if (rc)
+        return rc;
+    while (t < dt) {
+        const int last = h >= dt - t;
+        const double h_try = last ? dt - t : h;
+        double err;
+        rc = 0;
+        for (s = 1; s < 7 && !rc; s++) {
+            double acc = 0.0;
+            for (j = 0; j < s; j++)
+                acc += MK_A[s][j] * stages[j];
+            yi = y + h_try * acc;
+            rc = rate(p, stops, k, yi, P_cmd, stages + s, fault);
+        }
+        if (rc == MK_FAULT_DOMAIN) {  /* a trial stage outside the domain: reject the step, as too large */
+            domain_failed = 1;
+            err = INFINITY;
+        } else if (rc) {
+            return rc;
+        } else {
+            double e = 0.0, scale;
+            for (j = 0; j < 7; j++)
+                e += MK_E[j] * stages[j];
+            e *= h_try;
+            scale = MK_PRESSURE_ATOL + MK_PRESSURE_RTOL * MK_PY_MAX(fabs(y), fabs(yi));
+            err = sqrt((e / scale) * (e / scale));
+        }
+        if (err <= 1.0) {  /* yi: the 5th-order solution, where the 7th stage was evaluated */
+            const double factor = err == 0 ? MK_MAX_GROWTH
+                                           : MK_PY_MIN(MK_MAX_GROWTH, MK_SAFETY * pow(err, MK_ACCEPT_EXPONENT));
+            t = last ? dt : t + h_try;
+            y = yi;
+            stages[0] = stages[6];
+            steps += 1;
+            h = last ? MK_PY_MAX(MK_PY_MAX(h, dt), h_try * factor) : h_try * factor;
+        } else {
+            h = h_try * MK_PY_MAX(MK_MAX_SHRINK, MK_SAFETY * pow(err, MK_REJECT_EXPONENT));
+            if (h < MK_COLLAPSE * MK_PY_MAX(MK_PY_MAX(1.0, dt), t))
+                return domain_failed ? MK_FAULT_DOMAIN : mk_fault_code(fault, MK_FAULT_COLLAPSE);
+        }
+        if (steps > MK_MAX_STEPS)
+            return mk_fault_code(fault, MK_FAULT_STEPS);
+    }
+    out[0] = y;
+    return 0;
+}
+"""
+
+
 def variant_functions(variant: Variant, checks: CheckTable) -> str:
     """The C of every variant-dependent function for one variant."""
     sp = SymbolicParams(variant)
@@ -285,8 +395,14 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
                       (f"    out[{stable}] = (out[{a1}] < 0 && out[{a2}] < 0) ? 1.0 : 0.0;",)))
     parts.append(emit("actuator_tension", {**parameters, "L": "L", "P": "P", "Ldot": "Ldot"}, constant,
                       trace(actuator.tension, L_, P_, Ldot_, sp)))
-    parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"}, constant,
-                      trace(actuator.pressure_after, P_, P_cmd_, dt_, sp)))
+    if integrates_pressure(variant):  # no exact step: the traced rate, integrated in C as pressure_after does
+        parts.append(emit_function(f"actuator_pressure_rate_{v}", PRESSURE_RATE_ARGUMENTS, "P, P_cmd, out, fault",
+                                   {**parameters, "P": "P", "P_cmd": "P_cmd"}, constant,
+                                   trace(actuator.pressure_derivative, P_, P_cmd_, sp), "out", checks))
+        parts.append(_integrated_pressure_step(v))
+    else:
+        parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"},
+                          constant, trace(actuator.pressure_after, P_, P_cmd_, dt_, sp)))
     parts.append(emit("actuator_static", {**parameters, "L": "L", "P": "P"}, constant,
                       trace(_static_tension_and_slope, L_, P_, sp)))
     return "\n".join(parts)
@@ -412,6 +528,11 @@ def generate_source(variants=None) -> tuple[str, list[str]]:
     variants = all_variants() if variants is None else tuple(variants)
     checks = CheckTable()
     generated = [common_functions(checks)] + [variant_functions(v, checks) for v in variants]
+    integrator = ""
+    if any(integrates_pressure(v) for v in variants):  # only then: the other sources stay as they were
+        generated.insert(0, PRESSURE_INTEGRATOR_DECLARATION)
+        integrator = "\n\n" + PRESSURE_INTEGRATOR.replace("@ATOL@", _c_number(actuator.PRESSURE_STEP_ATOL)).replace(
+            "@RTOL@", _c_number(actuator.PRESSURE_STEP_RTOL))
     table = ["/* domain checks, by the number a fault reports: */",
              "const char *const mk_check_what[] = {"]
     table += [f"    \"{text}\"," for text in checks.entries]
@@ -419,7 +540,7 @@ def generate_source(variants=None) -> tuple[str, list[str]]:
     source = TEMPLATE.read_text()
     for key, text in {"@PARAMETER_MACROS@": _parameter_macros(),
                       "@GENERATED@": "\n".join(table) + "\n\n" + "\n".join(generated),
-                      "@DISPATCH@": _dispatch(variants), "@TABLEAU@": _tableau(),
+                      "@DISPATCH@": _dispatch(variants), "@TABLEAU@": _tableau() + integrator,
                       "@VARIANT_NAMES@": ", ".join(v.name for v in variants)}.items():
         source = source.replace(key, text)
     return source, checks.entries

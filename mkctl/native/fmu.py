@@ -618,7 +618,8 @@ def model_exchange_functions(emitted: dict, table, variants) -> str:
       (:func:`switching_functions`) of the knee's right-hand side ``knee_rhs_<variant>``, ``MK_FMU_KNEE_NZ`` values
       (a variant with fewer pads with 1.0, which never changes sign);
     - ``mk_fmu_actuator_pressure_rate(p, P, P_cmd, out, fault)``: dP/dt of the actuator, the derivative at dt = 0
-      of the core's exact lag ``actuator_lagged_pressure_<variant>`` (sympy.diff; 0 without a lag);
+      of the core's exact lag ``actuator_lagged_pressure_<variant>`` (sympy.diff; 0 without a lag), or where no
+      exact step covers the variant's pressure dynamics, the core's traced rate ``actuator_pressure_rate_<variant>``;
     - ``mk_fmu_actuator_event_indicators(p, P, P_cmd, out, fault)``: the switching functions of that rate.
     """
     import re
@@ -667,13 +668,20 @@ def model_exchange_functions(emitted: dict, table, variants) -> str:
     # the actuator: dP/dt from the exact lag, and its switching functions
     rate_cases, switch_cases, actuator_counts = [], [], []
     for k, variant in enumerate(names):
-        arguments, call, bindings, constant, traced = generated("actuator_lagged_pressure", variant)
-        if arguments != _ME_LAG_ARGUMENTS:
-            raise NativeBuildError(f"actuator_lagged_pressure takes ({arguments}); Model Exchange expects "
-                                   f"({_ME_LAG_ARGUMENTS})")
-        dt = sympy.Symbol("dt", real=True)
-        rate = sympy.diff(traced.outputs[0], dt).subs(dt, 0)
-        call_at_0 = re.sub(r"\bdt\b", "0.0", call)
+        if f"actuator_pressure_rate_{variant}" in emitted:  # no exact step: the core integrates this rate itself
+            arguments, call, bindings, constant, traced = generated("actuator_pressure_rate", variant)
+            if arguments != codegen.PRESSURE_RATE_ARGUMENTS:
+                raise NativeBuildError(f"actuator_pressure_rate takes ({arguments}); Model Exchange expects "
+                                       f"({codegen.PRESSURE_RATE_ARGUMENTS})")
+            rate, call_at_0 = traced.outputs[0], call
+        else:
+            arguments, call, bindings, constant, traced = generated("actuator_lagged_pressure", variant)
+            if arguments != _ME_LAG_ARGUMENTS:
+                raise NativeBuildError(f"actuator_lagged_pressure takes ({arguments}); Model Exchange expects "
+                                       f"({_ME_LAG_ARGUMENTS})")
+            dt = sympy.Symbol("dt", real=True)
+            rate = sympy.diff(traced.outputs[0], dt).subs(dt, 0)
+            call_at_0 = re.sub(r"\bdt\b", "0.0", call)
         name = f"fmu_actuator_rate_{variant}"
         parts.append(codegen.emit_function(name, arguments, call, bindings, constant, codegen.Traced([rate], []),
                                            "out", table))

@@ -542,23 +542,41 @@ def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
     return float(dP), float(dPcmd)
 
 
-def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
-    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: an effect's exact solution
-    when it covers every pressure effect on (its own and those it requires: the lag,
-    ``P_cmd + (P - P_cmd) exp(-dt/tau)``; the asymmetric lag), else the pressure dynamics integrated; the command
-    itself when no effect has pressure dynamics."""
-    P, P_cmd = as_values(P), as_values(P_cmd)
+#: The tolerances :func:`pressure_after` integrates the pressure dynamics with where no exact step covers them:
+#: absolute [Pa] and relative (the compiled core's generated step uses the same ones).
+PRESSURE_STEP_ATOL = 1e-3
+PRESSURE_STEP_RTOL = 1e-10
+
+
+def exact_pressure_step(params):
+    """The registered effect whose exact pressure step (``pressure_step``) covers every pressure effect params
+    switch on (its own and those it requires), or None: no effect with pressure dynamics is on, or none of those on
+    has a step covering the others (a user effect with a ``pressure_rate`` only)."""
     dynamic = [e for e in active_effects(params) if e.pressure_rate is not None]
-    if not dynamic:
-        return P_cmd + 0.0 * P
     for effect in reversed(dynamic):
         if effect.pressure_step is not None and all(e is effect or e.name in effect.requires for e in dynamic):
-            return effect.pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
+            return effect
+    return None
+
+
+def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
+    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: an effect's exact solution
+    when it covers every pressure effect on (:func:`exact_pressure_step`; the lag,
+    ``P_cmd + (P - P_cmd) exp(-dt/tau)``; the asymmetric lag), else :func:`pressure_derivative` integrated over dt
+    (Dormand-Prince 5(4), :data:`PRESSURE_STEP_ATOL`, :data:`PRESSURE_STEP_RTOL`, first step dt); the command
+    itself when no effect has pressure dynamics."""
+    P, P_cmd = as_values(P), as_values(P_cmd)
+    if not has_pressure_states(params):
+        return P_cmd + 0.0 * P
+    effect = exact_pressure_step(params)
+    if effect is not None:
+        return effect.pressure_step(P, P_cmd, dt, params, math_for_all(P, P_cmd, as_values(dt)))
     from .integrate import integrate
     if not dt > 0:
         return P
     state, _, _ = integrate(lambda y: np.array([float(pressure_derivative(float(y[0]), P_cmd, params))]),
-                            np.array([float(P)]), float(dt), float(dt), np.array([1e-3]), 1e-10)
+                            np.array([float(P)]), float(dt), float(dt), np.array([PRESSURE_STEP_ATOL]),
+                            PRESSURE_STEP_RTOL)
     return float(state[0])
 
 
