@@ -20,8 +20,11 @@ print(json.dumps({"status": status, "loaded": [m for m in %r if m in sys.modules
 
 def test_a_knee_diagnosis_with_its_pictures_imports_neither_sympy_nor_scipy_signal_nor_stats(tmp_path):
     path, _ = write_synthetic(tmp_path / "knee.csv", synthesize("knee", {"c": 45.0}, seed=0, samples=1500))
-    done = subprocess.run([sys.executable, "-c", PROBE, str(path), str(tmp_path / "out")], capture_output=True,
-                          text=True, cwd=tmp_path, timeout=300)
+    # The first diagnosis on a machine may generate and build the compiled core (codegen traces with sympy): the
+    # claim is about every later one, so the probe runs twice and the second is judged.
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", PROBE, str(path), str(tmp_path / "out")], capture_output=True,
+                              text=True, cwd=tmp_path, timeout=300)
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert result["status"] == 0
