@@ -39,7 +39,8 @@ PRESETS = {
         ["mkctl/physics/actuator.py", "mkctl/physics/knee.py", "mkctl/physics/stability.py"],
         ["tests/test_actuator.py", "tests/test_knee.py", "tests/test_stability.py", "tests/test_pinned.py",
          "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py",
-         "tests/test_effects.py", "tests/test_rig_effects.py"],  # the registry: generated partials, 4b terms
+         "tests/test_effects.py", "tests/test_rig_effects.py",  # the registry: generated partials, 4b terms
+         "tests/test_physics_pins.py"],  # the derivative machinery from empty caches, the domain checks' texts
     ),
     "diagnosis": (  # the acceptance rule, apart from the loop that fits (mkctl.analysis.diagnosis_rule)
         ["mkctl/analysis/diagnosis_rule.py"],
@@ -64,7 +65,9 @@ def prepare(work: Path, targets: list[str], tests: list[str], pytest_args: list[
         elif source.is_file():
             shutil.copy2(source, work / extra)
     (work / "tests").mkdir()
-    shutil.copy2(ROOT / "tests" / "conftest.py", work / "tests" / "conftest.py")
+    for helper in sorted((ROOT / "tests").glob("*.py")):  # conftest.py and the modules tests import (compiled_check)
+        if not helper.name.startswith("test_"):
+            shutil.copy2(helper, work / "tests" / helper.name)
     for test in tests:
         shutil.copy2(ROOT / test, work / test)
     config = {
