@@ -40,7 +40,7 @@ PRESETS = {
         ["tests/test_actuator.py", "tests/test_knee.py", "tests/test_stability.py", "tests/test_pinned.py",
          "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py",
          "tests/test_effects.py", "tests/test_rig_effects.py",  # the registry: generated partials, 4b terms
-         "tests/test_physics_pins.py"],  # the derivative machinery from empty caches, the domain checks' texts
+         "tests/test_physics_pins.py", "tests/test_knee_pins.py"],  # from empty caches; exact error texts
     ),
     "diagnosis": (  # the acceptance rule, apart from the loop that fits (mkctl.analysis.diagnosis_rule)
         ["mkctl/analysis/diagnosis_rule.py"],

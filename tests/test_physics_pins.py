@@ -311,3 +311,28 @@ def test_the_small_helpers_on_every_kind_of_value():
     array = actuator.slack_factor(np.array([-1.0, 0.0, 2.0]), 1)
     assert array.dtype == float and list(array) == [0.0, 0.0, 1.0]
     assert actuator.command_delay(Params(delay=0.03)) == 0.03 and actuator.command_delay(DEFAULT) == 0.0
+
+
+def test_exact_pressure_steps_keep_the_kind_of_value_they_are_given():
+    lag, asym = Params(tau=0.05), Params(tau=0.05, tau_exhaust=0.125)
+    for p, tau in ((lag, 0.05), (asym, 0.125)):
+        P = actuator.pressure_after(3e5, 1e5, 0.05, p)  # exhausting: tau_exhaust where it is on
+        assert type(P) is float and P == pytest.approx(1e5 + 2e5 * math.exp(-0.05 / tau), rel=1e-13)
+    assert type(actuator.lagged_pressure(1e5, 3e5, 0.05, 0.1)) is float
+    x = sympy.Symbol("x", real=True)
+    for value, tau in ((1e5, 0.125), (5e5, 0.05)):  # the command below or above the pressure: the branch follows
+        stepped = actuator.pressure_after(3e5, x, 0.05, asym)
+        assert float(stepped.subs(x, value)) == pytest.approx(value + (3e5 - value) * math.exp(-0.05 / tau), rel=1e-13)
+    arrays = actuator.pressure_after(np.array([3e5, 1e5]), 2e5, 0.05, asym)
+    np.testing.assert_allclose(arrays, [2e5 + 1e5 * math.exp(-0.4), 2e5 - 1e5 * math.exp(-1.0)], rtol=1e-13)
+
+
+def test_slack_on_every_kind_of_value():
+    assert math.copysign(1.0, actuator.slack_tension(-0.0, 1)) == 1.0  # a slack muscle carries +0, not -0
+    assert actuator.slack_tension(-3.0, 1) == 0.0 and actuator.slack_tension(2.0, 1) == 2.0
+    assert actuator.slack_tension(-3.0, 0) == -3.0
+    f = sympy.Symbol("f", real=True)
+    limited = actuator.slack_tension(f, 1)
+    assert [limited.subs(f, v) for v in (-1.0, 2.0)] == [0.0, 2.0]
+    np.testing.assert_array_equal(actuator.slack_tension(np.array([-1.0, 2.0]), 1), [0.0, 2.0])
+    assert type(actuator.viscous_coefficient(DEFAULT)) is float and actuator.viscous_coefficient(Params(c=7.0)) == 7.0
