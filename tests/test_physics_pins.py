@@ -168,13 +168,29 @@ def _play_term(L, Ldot, P, p, xp):
     return p.k_play * xp.abs(P) * (1.0 + xp.tanh(Ldot / p.vs))
 
 
+def _switch_term(L, Ldot, P, p, xp):
+    """(1 - sw) 1e-3 P [N]: a switch whose "on" value is its lower bound 0 (off = upper = 1)."""
+    return (1 - p.sw) * 1e-3 * P
+
+
+def _signed_term(L, Ldot, P, p, xp):
+    """k_signed 1e-6 P [N]: an effect whose value may be negative (not a positive symbol when traced)."""
+    return p.k_signed * 1e-6 * P
+
+
 @pytest.fixture
 def abs_effects():
     made = [effects.register(effects.Effect(
-        "abs_test", "k_abs (|L - 0.2| |P| 1e-3 + |Ldot|); dP/dt += r_abs (|P_cmd| - |P|)",
-        parameters=(effects.Parameter("k_abs", "N s/m", off=0.0, lower=0.0, upper=1e3, typical=1.0),
-                    effects.Parameter("r_abs", "1/s", off=20.0, lower=0.0, upper=1e3)),
-        tension=_abs_term, pressure_rate=_abs_rate)),
+        "switch_test", "(1 - sw) 1e-3 P", tension=_switch_term,
+        parameters=(effects.Parameter("sw", "1", off=1, lower=0, upper=1, switch=True),))),
+        effects.register(effects.Effect(
+            "signed_test", "k_signed 1e-6 P", tension=_signed_term,
+            parameters=(effects.Parameter("k_signed", "N/Pa", off=0.0, lower=-1.0, upper=1.0),))),
+        effects.register(effects.Effect(
+            "abs_test", "k_abs (|L - 0.2| |P| 1e-3 + |Ldot|); dP/dt += r_abs (|P_cmd| - |P|)",
+            parameters=(effects.Parameter("k_abs", "N s/m", off=0.0, lower=0.0, upper=1e3, typical=1.0),
+                        effects.Parameter("r_abs", "1/s", off=20.0, lower=0.0, upper=1e3)),
+            tension=_abs_term, pressure_rate=_abs_rate)),
         effects.register(effects.Effect(
             "play_test", "k_play |P| (1 + tanh(Ldot / vs)); quasi-static: a play band of half-width k_play |P|",
             parameters=(effects.Parameter("k_play", "N/Pa", off=0.0, lower=0.0, upper=1.0, typical=1e-5),),
@@ -336,3 +352,46 @@ def test_slack_on_every_kind_of_value():
     assert [limited.subs(f, v) for v in (-1.0, 2.0)] == [0.0, 2.0]
     np.testing.assert_array_equal(actuator.slack_tension(np.array([-1.0, 2.0]), 1), [0.0, 2.0])
     assert type(actuator.viscous_coefficient(DEFAULT)) is float and actuator.viscous_coefficient(Params(c=7.0)) == 7.0
+
+
+def test_traced_parameters_follow_the_switches_and_signs_the_effects_declare(abs_effects):
+    every, none = actuator.SymbolicParams(), actuator.SymbolicParams(on=())
+    assert (every.sw, none.sw) == (0, 1)  # on: the switch's other value, here its lower bound
+    assert (every.model, none.model, every.slack, none.slack) == (2, 1, 1, 0)
+    assert every.k_abs.is_positive and every.c.is_positive and none.k_abs == 0.0
+    assert every.k_signed.is_positive is None and every.k_signed.is_real  # lower bound -1: any sign
+    assert every.r_abs.is_positive is None and every.vs.is_positive is None  # not switches: plain real symbols
+    assert actuator.SymbolicParams(fixed={"b": 0.25}).b == 0.25
+    like = actuator.SymbolicParams.like(Params(sw=0, c=3.0))
+    assert like.sw == 0 and like.c.is_positive and like.Fc == 0.0 and like.slack == 0
+
+
+def test_the_structure_is_remembered_and_follows_the_registry(abs_effects):
+    p = Params(k_abs=1.0, c=3.0)
+    first = actuator.structure(p)
+    assert actuator.structure(p) is first  # remembered on the parameter set
+    assert [e.name for e in first.active] == ["elasticity", "viscous_damping", "abs_test"] and first.lag
+    assert [e.name for e, _ in first.tension] == ["elasticity", "viscous_damping", "abs_test"]
+    effects.unregister("play_test")  # any change of the registry: computed again
+    effects.unregister("abs_test")
+    again = actuator.structure(p)
+    assert [e.name for e in again.active] == ["elasticity", "viscous_damping"] and not again.lag
+    assert actuator.structure(p) is again
+
+
+def test_the_float_shortcuts_agree_with_the_general_path(abs_effects, fresh):
+    p = Params(k_abs=1.0, k_play=2e-5, c=30.0, Fc=3.0, vs=0.02, slack=1)
+    L, P, Ldot = 0.19, np.array([2.5e5, 1e5]), np.array([-0.02, 0.01])
+    np.testing.assert_allclose(actuator.compose_tension(L, P, 0.01, p),
+                               [actuator.compose_tension(L, float(x), 0.01, p) for x in P], rtol=1e-13)
+    partials = actuator.tension_partials(L, P, Ldot, p)  # one float among arrays: the numpy version
+    for k in range(2):
+        np.testing.assert_allclose([v[k] for v in partials],
+                                   actuator.tension_partials(L, float(P[k]), float(Ldot[k]), p), rtol=1e-12)
+    static = actuator.static_tension(np.array([L, 0.2]), P, p)  # the play term is left out on arrays too
+    np.testing.assert_allclose(static, [actuator.static_tension(x, float(y), p) for x, y in zip((L, 0.2), P)],
+                               rtol=1e-13)
+    # the braid: D = D0 at the rest length (the spec fixes n so), and the slope of the pressure gain
+    assert float(actuator.braid_diameter(DEFAULT.L0, DEFAULT.b, DEFAULT.n)) == pytest.approx(DEFAULT.D0, rel=1e-12)
+    gain = lambda x: actuator.pressure_gain(x, 0.25, 3.1)  # noqa: E731
+    assert actuator.pressure_gain_slope(0.2, 0.25, 3.1) == pytest.approx(_central(gain, 0.2, 1e-6), rel=1e-8)
