@@ -12,6 +12,10 @@ temporary copy of the package (mkctl/, docs/, README.md and the chosen tests), s
 and PYTHONPATH cannot point the tests at the unmutated code. It prints the counts, the kill rate and every
 survivor with its diff (``--show``), and returns 0 (a survivor is a finding, not an error).
 
+mutmut 3 runs the tests once, then forks every mutant's test run from that process: whatever the package caches
+(the lambdified derivatives, the sympy namespace, a parameter set's structure) arrives already built, so a mutant in
+the code that builds it is never run unless a test empties the cache first (``fresh`` in tests/test_physics_pins.py).
+
 Kill rate = killed / (killed + survived + timeout + suspicious): the share of the mutants the tests reach that they
 catch. Mutants in code no selected test runs ("no tests") are counted apart and in the strict rate, killed / all.
 Run on demand, like every benchmark (not part of the test suite); ~10 mutants per second on two cores.
