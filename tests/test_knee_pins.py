@@ -99,3 +99,27 @@ def test_the_geometry_without_derivatives_leaves_out_only_the_three_it_says():
             assert getattr(lean, name) == getattr(full, name), name
     lean_X = knee.geometry_at_X(0.8, OTHER, derivatives=False)
     assert lean_X.dGe_dbeta is None and lean_X.X == pytest.approx(0.8, rel=1e-13)
+
+
+def test_the_knee_rest_of_a_full_run():
+    from mkctl.errors import ParameterError
+    for given in ({}, {"alpha": 1.0, "X": 0.8}):
+        with pytest.raises(ParameterError) as error:
+            knee.posture(params=OTHER, **given)
+        assert str(error.value) == "give exactly one of the kneecap angle alpha and the hip height X"
+    low, high = knee.stop_positions(OTHER)
+    assert knee.end_stop_force(low, 30.0, OTHER) == 0.0 and knee.end_stop_force(high, -30.0, OTHER) == 0.0
+    X = np.array([low - 1e-3, 0.5 * (low + high), high + 1e-3])
+    d = 2 * math.sqrt(knee.STOP_STIFFNESS * OTHER.m)
+    np.testing.assert_allclose(knee.end_stop_force(X, 0.0, OTHER), [200.0, 0.0, -200.0], rtol=1e-12)
+    np.testing.assert_allclose(knee.end_stop_force(X, np.full(3, -0.1), OTHER), [200.0 + 0.1 * d, 0.0, 0.0])  # never pulling
+    assert knee.linearization_state_names(OTHER) == ("X", "V")
+    assert knee.linearization_state_names(Params(tau=0.05)) == ("X", "V", "Pe", "Pf")
+    assert knee.linearization_state_names(Params(delay=0.03)) == ("X", "V", "pe_pade", "pf_pade")
+    import sympy
+
+    from mkctl.physics import actuator
+    beta = sympy.Symbol("beta", real=True)
+    with actuator.tracing_domain_checks() as trace:
+        knee.knee_geometry(beta, OTHER, derivatives=False)
+    assert trace[0][1:3] == (0.0, math.pi)

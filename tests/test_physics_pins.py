@@ -395,3 +395,71 @@ def test_the_float_shortcuts_agree_with_the_general_path(abs_effects, fresh):
     assert float(actuator.braid_diameter(DEFAULT.L0, DEFAULT.b, DEFAULT.n)) == pytest.approx(DEFAULT.D0, rel=1e-12)
     gain = lambda x: actuator.pressure_gain(x, 0.25, 3.1)  # noqa: E731
     assert actuator.pressure_gain_slope(0.2, 0.25, 3.1) == pytest.approx(_central(gain, 0.2, 1e-6), rel=1e-8)
+
+
+# --- the rest of a full (unsampled) run's survivors: mixed kinds of value, boundaries, defaults ---------------------
+
+def test_one_symbol_among_numbers_takes_the_symbolic_path(fresh):
+    p = Params(tau=0.05, tau_exhaust=0.125, slack=1)
+    x = sympy.Symbol("x", real=True)
+    dP, dPcmd = actuator.pressure_derivative_partials(x, 1e5, p)  # P above the command: exhausting
+    assert (float(dP.subs(x, 3e5)), float(dPcmd.subs(x, 3e5))) == (pytest.approx(-8.0), pytest.approx(8.0))
+    dP, dPcmd = actuator.pressure_derivative_partials(3e5, x, p)
+    assert (float(dP.subs(x, 5e5)), float(dPcmd.subs(x, 5e5))) == (pytest.approx(-20.0), pytest.approx(20.0))
+    slope = actuator.static_tension_dL(0.19, x, p)
+    assert float(slope.subs(x, 2e5)) == pytest.approx(actuator.static_tension_dL(0.19, 2e5, p), rel=1e-12)
+    stepped = actuator.pressure_after(1e5, 3e5, x, Params(tau=0.05))  # a symbolic step length (generated code)
+    assert float(stepped.subs(x, 0.05)) == pytest.approx(3e5 - 2e5 * math.exp(-1.0), rel=1e-13)
+    assert actuator.pressure_after(1e5, 2e5, 0.1, DEFAULT) == 2e5  # no dynamics: the command, whatever P was
+
+
+def test_arrays_with_one_float_take_the_array_path(fresh):
+    p = Params(c=30.0, Fc=3.0, vs=0.02, P0=4e4)
+    L, P = np.array([0.19, 0.2]), np.array([2.5e5, 1e5])
+    partials = actuator.tension_partials(L, P, 0.01, p)  # what does not depend on L or P stays one number
+    for k in range(2):
+        np.testing.assert_allclose([np.broadcast_to(v, (2,))[k] for v in partials],
+                                   actuator.tension_partials(float(L[k]), float(P[k]), 0.01, p), rtol=1e-12)
+    np.testing.assert_allclose(actuator.static_tension_dL(0.19, P, p),
+                               [actuator.static_tension_dL(0.19, float(y), p) for y in P], rtol=1e-12)
+    asym = Params(tau=0.05, tau_exhaust=0.125)
+    np.testing.assert_allclose(actuator.pressure_derivative([1e5, 3e5], 2e5, asym), [2e6, -8e5], rtol=1e-13)
+    # the general path keeps the static share unlimited (slack leaves a negative static tension as it is)
+    static = actuator.static_tension(np.array([0.15]), np.array([0.0]), Params(slack=1))
+    assert static[0] < 0 and static[0] == actuator.tension_before_limits(0.15, 0.0, 0.0, Params(slack=1))
+    assert actuator.compose_tension(0.2, 2e5, params=p) == actuator.compose_tension(0.2, 2e5, 0.0, p)  # Ldot = 0
+    with pytest.raises(DomainError) as error:
+        actuator.compose_tension(0.0, 2e5, 0.0)
+    assert str(error.value) == length_text(0.0)
+
+
+def test_floats_in_floats_out_and_the_steps_at_zero(abs_effects):
+    p = Params(k_play=2e-5, c=30.0, Fc=3.0, vs=0.02)
+    assert type(actuator.play_half_width(-2e5, p)) is float
+    assert type(actuator.braid_diameter(0.2, 0.25, 3.1)) is float
+    assert type(actuator.velocity_tension_dLdot(0.01, p)) is float
+    assert type(actuator.slack_factor(2.0, 1)) is float and actuator.slack_factor(-2.0, 1) == 0.0
+    assert [actuator._ScalarMath.sign(v) for v in (0.5, -0.5)] == [1.0, -1.0]
+    x = sympy.Symbol("x", real=True)
+    assert actuator._heaviside_as_step(sympy.Heaviside(x)).subs(x, 0.5) == 1.0
+    assert actuator.slack_factor(x, 1).subs(x, 0.5) == 1.0
+    rubber = actuator.elastic_tension(np.array([0.18, 0.2]), Params(model=1))
+    assert (rubber == 0.0).all() and rubber.shape == (2,)
+
+
+def _cap_limit(f, p, xp):
+    """min(f, f_cap) [N]: a test limit that reads its parameter (not a physical claim)."""
+    return xp.minimum(f, p.f_cap)
+
+
+def test_a_final_limit_reads_its_parameters_and_is_differentiated(fresh):
+    effects.register(effects.Effect("cap_test", "min(f, f_cap)", final=_cap_limit,
+                                    parameters=(effects.Parameter("f_cap", "N", off=0.0, lower=0.0, upper=1e4),)))
+    try:
+        p = Params(f_cap=50.0)
+        assert actuator.apply_limits(80.0, p) == 50.0 and actuator.apply_limits(20.0, p) == 20.0
+        assert actuator.tension(0.18, 300e3, 0.0, p) == 50.0  # 75.2 N uncapped (the spec's table)
+        assert actuator.tension_partials(0.18, 300e3, 0.0, p)[4] == 0.0  # capped: no slope
+        assert actuator.tension_partials(0.18, 100e3, 0.0, p)[4] == 1.0
+    finally:
+        effects.unregister("cap_test")
