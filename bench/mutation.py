@@ -12,6 +12,10 @@ temporary copy of the package (mkctl/, docs/, README.md and the chosen tests), s
 and PYTHONPATH cannot point the tests at the unmutated code. It prints the counts, the kill rate and every
 survivor with its diff (``--show``), and returns 0 (a survivor is a finding, not an error).
 
+mutmut 3 runs the tests once, then forks every mutant's test run from that process: whatever the package caches
+(the lambdified derivatives, the sympy namespace, a parameter set's structure) arrives already built, so a mutant in
+the code that builds it is never run unless a test empties the cache first (``fresh`` in tests/test_physics_pins.py).
+
 Kill rate = killed / (killed + survived + timeout + suspicious): the share of the mutants the tests reach that they
 catch. Mutants in code no selected test runs ("no tests") are counted apart and in the strict rate, killed / all.
 Run on demand, like every benchmark (not part of the test suite); ~10 mutants per second on two cores.
@@ -39,7 +43,8 @@ PRESETS = {
         ["mkctl/physics/actuator.py", "mkctl/physics/knee.py", "mkctl/physics/stability.py"],
         ["tests/test_actuator.py", "tests/test_knee.py", "tests/test_stability.py", "tests/test_pinned.py",
          "tests/test_params.py", "tests/test_slack.py", "tests/test_physics_params.py",
-         "tests/test_effects.py", "tests/test_rig_effects.py"],  # the registry: generated partials, 4b terms
+         "tests/test_effects.py", "tests/test_rig_effects.py",  # the registry: generated partials, 4b terms
+         "tests/test_physics_pins.py", "tests/test_knee_pins.py"],  # from empty caches; exact error texts
     ),
     "diagnosis": (  # the acceptance rule, apart from the loop that fits (mkctl.analysis.diagnosis_rule)
         ["mkctl/analysis/diagnosis_rule.py"],
@@ -64,7 +69,9 @@ def prepare(work: Path, targets: list[str], tests: list[str], pytest_args: list[
         elif source.is_file():
             shutil.copy2(source, work / extra)
     (work / "tests").mkdir()
-    shutil.copy2(ROOT / "tests" / "conftest.py", work / "tests" / "conftest.py")
+    for helper in sorted((ROOT / "tests").glob("*.py")):  # conftest.py and the modules tests import (compiled_check)
+        if not helper.name.startswith("test_"):
+            shutil.copy2(helper, work / "tests" / helper.name)
     for test in tests:
         shutil.copy2(ROOT / test, work / test)
     config = {

@@ -86,7 +86,7 @@ def _symbolic_math():
             "hypot": lambda a, b: sympy.sqrt(a * a + b * b),
             "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True)),
         }.items():
-            setattr(_SymbolicMath, name, function if name == "pi" else staticmethod(function))
+            setattr(_SymbolicMath, name, function)  # read on the class, never an instance: no staticmethod needed
     return _SymbolicMath
 
 
@@ -423,7 +423,7 @@ def compose_tension(L, P, Ldot=0.0, params: Params = DEFAULT, quasi_static: bool
 
 def static_tension(L, P, params: Params = DEFAULT):
     """The quasi-static tension [N]: Eq. 7 plus the effects whose limit is static (model 2's rubber), no limits."""
-    return compose_tension(L, P, 0.0, params, quasi_static=True)
+    return compose_tension(L, P, params=params, quasi_static=True)
 
 
 def play_half_width(P, params: Params = DEFAULT):
@@ -453,11 +453,11 @@ def _symbol_arguments(expressions, leading):
     return sorted({s.name for e in expressions for s in e.free_symbols if s not in set(leading)})
 
 
-def _derivative_function(kind: str, params, build, scalar: bool = False):
+def _derivative_function(params, build, scalar: bool = False):
     """A lambdified function of (inputs..., parameter values...) for the structure of params, made once per
     structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns (function, parameter names).
     scalar: the version for Python floats (the math module: much cheaper than numpy on one value)."""
-    key = (kind, _effects.generation(), tuple(e.name for e in active_effects(params)))
+    key = (build, _effects.generation(), tuple(e.name for e in active_effects(params)))
     entry = _DERIVATIVES.get(key)
     if entry is None:
         import sympy
@@ -481,7 +481,7 @@ def _heaviside_as_step(expr):
 
 def _tension_expressions(sp):
     import sympy
-    L, Ldot, P, f = (sympy.Dummy(n, real=True) for n in ("L", "Ldot", "P", "f"))
+    L, Ldot, P, f = (sympy.Dummy(real=True) for _ in range(4))
     g = tension_before_limits(L, P, Ldot, sp)
     limit = apply_limits(f, sp)
     return (L, Ldot, P, f), [g, *(_heaviside_as_step(sympy.diff(g, x)) for x in (L, Ldot, P)),
@@ -501,10 +501,10 @@ def tension_partials(L, P, Ldot, params: Params = DEFAULT):
         l, ld, pp, f = sp_inputs
         g = tension_before_limits(L, P, Ldot, params)
         values = {l: L, ld: Ldot, pp: P}
-        return (g, *(sympy.sympify(e).subs(values, simultaneous=True) for e in expressions[1:4]),
+        return (g, *(sympy.sympify(e).subs(values) for e in expressions[1:4]),  # fresh dummies: no clash
                 sympy.sympify(expressions[4]).subs(f, g))
     scalar = type(L) is float and type(P) is float and type(Ldot) is float
-    function, names = _derivative_function("tension", params, _tension_expressions, scalar)
+    function, names = _derivative_function(params, _tension_expressions, scalar)
     g = tension_before_limits(L, P, Ldot, params)
     _, dL, dLdot, dP, factor = function(L, Ldot, P, g, *[getattr(params, n) for n in names])
     return g, dL, dLdot, dP, factor
@@ -524,7 +524,7 @@ def pressure_derivative(P, P_cmd, params: Params = DEFAULT):
 
 def _pressure_expressions(sp):
     import sympy
-    P, P_cmd = sympy.Dummy("P", real=True), sympy.Dummy("P_cmd", real=True)
+    P, P_cmd = sympy.Dummy(real=True), sympy.Dummy(real=True)
     rate = sympy.sympify(pressure_derivative(P, P_cmd, sp))
     return (P, P_cmd), [rate, _heaviside_as_step(sympy.diff(rate, P)), _heaviside_as_step(sympy.diff(rate, P_cmd))]
 
@@ -535,9 +535,9 @@ def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
     if is_symbolic(P) or is_symbolic(P_cmd):
         import sympy
         (p, pc), expressions = _pressure_expressions(params)
-        return tuple(sympy.sympify(e).subs({p: P, pc: P_cmd}, simultaneous=True) for e in expressions[1:])
-    scalar = type(P) is float and type(P_cmd) is float
-    function, names = _derivative_function("pressure", params, _pressure_expressions, scalar)
+        return tuple(sympy.sympify(e).subs({p: P, pc: P_cmd}) for e in expressions[1:])  # fresh dummies: no clash
+    # the result is two floats whatever P is: the math module's version (cheaper on one value) always
+    function, names = _derivative_function(params, _pressure_expressions, scalar=True)
     _, dP, dPcmd = function(P, P_cmd, *[getattr(params, n) for n in names])
     return float(dP), float(dPcmd)
 
@@ -586,18 +586,17 @@ def static_tension_dL(L, P, params: Params = DEFAULT):
     check_length(L, params.b)
     check_pressure(P)
     if is_symbolic(L) or is_symbolic(P):
-        import sympy
-        x = sympy.Symbol("L_", real=True)
-        return _heaviside_as_step(sympy.diff(tension_before_limits(x, P, 0.0, params, quasi_static=True), x)).subs(x, L)
-    function, names = _derivative_function("static", params, _static_expressions,
-                                           type(L) is float and type(P) is float)
+        (l, p), expressions = _static_expressions(params)
+        return expressions[1].subs({l: L, p: P})  # fresh dummies: no clash
+    function, names = _derivative_function(params, _static_expressions, type(L) is float and type(P) is float)
     return function(L, P, *[getattr(params, n) for n in names])[1]
 
 
 def _static_expressions(sp):
     import sympy
-    L, P = sympy.Dummy("L", real=True), sympy.Dummy("P", real=True)
-    f = tension_before_limits(L, P, 0.0, sp, quasi_static=True)
+    L, P = sympy.Dummy(real=True), sympy.Dummy(real=True)
+    with tracing_domain_checks():  # the checks on these dummies are no caller's (generated code traces its own)
+        f = sympy.sympify(static_tension(L, P, sp))
     return (L, P), [f, _heaviside_as_step(sympy.diff(f, L))]
 
 
