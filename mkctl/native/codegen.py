@@ -138,6 +138,11 @@ def _split_constants(exprs, constant: set, prefix: str):
     every evaluation. Sums and products keep their variable terms and gather their constant ones.
     """
     table: dict = {}
+    # Both memos only save time (a traced function repeats its subexpressions many times, and sympy recomputes
+    # free_symbols and re-evaluates Max/Min on every rebuild): a second visit of an expression returns what the
+    # first did, since name_of gives an expression the same symbol every time.
+    constant_memo: dict = {}
+    visited: dict = {}
 
     def name_of(expr):
         if expr not in table:
@@ -145,11 +150,18 @@ def _split_constants(exprs, constant: set, prefix: str):
         return table[expr]
 
     def is_constant(expr):
-        return bool(expr.free_symbols) and expr.free_symbols <= constant
+        if expr not in constant_memo:
+            constant_memo[expr] = bool(expr.free_symbols) and expr.free_symbols <= constant
+        return constant_memo[expr]
 
     def visit(expr):
         if expr.is_Atom:
             return expr
+        if expr not in visited:
+            visited[expr] = rebuilt(expr)
+        return visited[expr]
+
+    def rebuilt(expr):
         if isinstance(expr, ExprCondPair):  # a Piecewise's (value, condition): the condition stays a condition
             cond = expr.cond
             return ExprCondPair(visit(expr.expr), cond.func(*[visit(a) for a in cond.args]) if cond.args else cond)
@@ -163,6 +175,8 @@ def _split_constants(exprs, constant: set, prefix: str):
             if fixed:
                 rest.append(name_of(expr.func(*fixed)))
             return expr.func(*rest, evaluate=False)
+        if isinstance(expr, (sympy.Max, sympy.Min)):  # already evaluated once; evaluating again costs the most
+            return expr.func(*[visit(a) for a in expr.args], evaluate=False)
         return expr.func(*[visit(a) for a in expr.args])
 
     return [visit(e) for e in exprs], [(symbol, expr) for expr, symbol in table.items()]
