@@ -174,16 +174,31 @@ def compiler_identity(compiler: list[str]) -> str:
     return f"{' '.join(compiler)} ({version})"
 
 
+#: codegen.generate's results in this process, by input_key: the compiled core and the native FMUs' core are
+#: generated from the same traced equations, and tracing them takes seconds (tens with a user effect).
+_GENERATED: dict[str, tuple] = {}
+
+
+def generation(variants) -> tuple:
+    """:func:`mkctl.native.codegen.generate` for the variants: the C source and its CheckTable, generated once per
+    process and set of inputs. Callers must not change the table (``table.copy()`` numbers on from it)."""
+    key = input_key(variants)
+    if key not in _GENERATED:
+        try:
+            from . import codegen
+        except ImportError as error:
+            raise BuildUnavailable(f"cannot generate the C: {error}") from None
+        _GENERATED.clear()  # only the newest: an effect registered for one test must not pin its traces
+        _GENERATED[key] = codegen.generate(variants)
+    return _GENERATED[key]
+
+
 def generated_source(variants) -> Path:
     """The generated C source for the variants, from the cache (verified against its record) or generated now."""
     key = input_key(variants)
     path = cache_dir() / f"gen-{key}.c"
     if not (path.exists() and _verified(path, {"inputs": key})):
-        try:
-            from . import codegen
-        except ImportError as error:
-            raise BuildUnavailable(f"cannot generate the C: {error}") from None
-        source, _ = codegen.generate_source(variants)
+        source, _ = generation(variants)
         data = source.encode()
         _write_atomic(path, data)
         _write_record(path, {"inputs": key, "sha256": _digest(data)})

@@ -95,15 +95,25 @@ def trace(function, *args, **kwargs) -> Traced:
 
 
 class CheckTable:
-    """Every domain check of a generated source, numbered: the C reports a failure by this number."""
+    """Every domain check of a generated source, numbered: the C reports a failure by this number. It also keeps
+    what the native FMUs generate more C from: each check as traced, and each emitted function's arguments."""
 
     def __init__(self):
         self.entries: list[str] = []  # what is checked, in words
+        self.checks: list = []  # the checks themselves (value, low, high, ..., what), in the same order
+        self.emitted: dict = {}  # name -> (arguments, call, bindings, constant, traced), as emit_function got them
 
     def add(self, check) -> int:
         _, low, _, _, what = check
         self.entries.append(f"{what} must be finite" if low is None else f"{what} is out of range")
+        self.checks.append(check)
         return len(self.entries) - 1
+
+    def copy(self) -> "CheckTable":
+        """A table numbering on from this one, which can grow without changing it."""
+        table = CheckTable()
+        table.entries, table.checks, table.emitted = list(self.entries), list(self.checks), dict(self.emitted)
+        return table
 
 
 def _c_number(x) -> str:
@@ -191,6 +201,7 @@ def emit_function(name: str, arguments: str, call: str, bindings: dict, constant
     """C for one traced function: ``<name>_constants(p, stops, k)`` computes the subexpressions that depend on
     the parameters (and stops) only, once per record; ``<name>(p, stops, k, <arguments>)`` binds the inputs,
     computes the CSE'd expressions, tests the domain checks in the order Python makes them, stores out[i]."""
+    checks.emitted[name] = (arguments, call, bindings, constant, traced)
     exprs = list(traced.outputs)
     layout = []
     for value, low, high, _, _ in traced.checks:
@@ -539,6 +550,13 @@ def _parameter_macros() -> str:
 
 def generate_source(variants=None) -> tuple[str, list[str]]:
     """The C source of the core for the given variants, and its table of domain checks (in words)."""
+    source, checks = generate(variants)
+    return source, checks.entries
+
+
+def generate(variants=None) -> tuple[str, CheckTable]:
+    """The C source of the core for the given variants, and its :class:`CheckTable` (the checks in words and as
+    traced, and every emitted function)."""
     variants = all_variants() if variants is None else tuple(variants)
     checks = CheckTable()
     generated = [common_functions(checks)] + [variant_functions(v, checks) for v in variants]
@@ -557,5 +575,5 @@ def generate_source(variants=None) -> tuple[str, list[str]]:
                       "@DISPATCH@": _dispatch(variants), "@TABLEAU@": _tableau() + integrator,
                       "@VARIANT_NAMES@": ", ".join(v.name for v in variants)}.items():
         source = source.replace(key, text)
-    return source, checks.entries
+    return source, checks
 

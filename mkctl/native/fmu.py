@@ -502,62 +502,39 @@ def generate_core_source() -> str:
     from ..physics.params import PARAMETER_NAMES
     from ..physics.simulate import KneeSimulator
     from ..physics.stability import DEFAULT_ALPHA
-    from . import codegen
+    from . import build, codegen
     from .variants import all_variants
 
-    collected = []  # every check, in the order the CheckTable numbers them
-    original = codegen.CheckTable.add
-    emitted = {}  # the core's generated functions: name -> emit_function's arguments (Model Exchange reads them)
-    original_emit = codegen.emit_function
+    source, core_table = build.generation(all_variants())
+    table = core_table.copy()  # the additions' checks number on from the core's
+    sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
+    bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+    alpha, X = sympy.Symbol("alpha", real=True), sympy.Symbol("X", real=True)
 
-    def add(self, check):
-        collected.append(check)
-        return original(self, check)
+    def posture(X, params):
+        geo = knee.geometry_at_X(X, params, derivatives=False)
+        return [geo.alpha, geo.beta, geo.Le, geo.Lf]
 
-    def emit_function(name, arguments, call, bindings_, constant, traced, *rest, **kwargs):
-        emitted[name] = (arguments, call, bindings_, constant, traced)
-        return original_emit(name, arguments, call, bindings_, constant, traced, *rest, **kwargs)
+    def emit(name, arguments, call, bindings_, traced):
+        # codegen's form: static <name>(p, stops, k, ...) and <name>_once(p, stops, ...); parameters constant
+        return codegen.emit_function(name, arguments, call, bindings_, set(bindings), traced, "out", table)
 
-    codegen.CheckTable.add = add
-    codegen.emit_function = emit_function
-    try:
-        source, entries = codegen.generate_source(all_variants())
-        codegen.emit_function = original_emit
-        table = codegen.CheckTable()
-        table.entries = list(entries)
-        sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
-        bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
-        alpha, X = sympy.Symbol("alpha", real=True), sympy.Symbol("X", real=True)
-
-        def posture(X, params):
-            geo = knee.geometry_at_X(X, params, derivatives=False)
-            return [geo.alpha, geo.beta, geo.Le, geo.Lf]
-
-        def emit(name, arguments, call, bindings_, traced):
-            # codegen's form: static <name>(p, stops, k, ...) and <name>_once(p, stops, ...); parameters constant
-            return codegen.emit_function(name, arguments, call, bindings_, set(bindings), traced, "out", table)
-
-        extra = [
-            emit("fmu_X_from_alpha", "double alpha, double *out, mk_fault *fault", "alpha, out, fault",
-                 {**bindings, "alpha": "alpha"},
-                 codegen.trace(lambda a, params: [knee.X_from_alpha(a, params)], alpha, sp)),
-            emit("fmu_posture", "double X, double *out, mk_fault *fault", "X, out, fault", {**bindings, "X": "X"},
-                 codegen.trace(posture, X, sp)),
-            "int mk_fmu_X_from_alpha(const double *p, double alpha, double *out, mk_fault *fault)",
-            "{", "    return fmu_X_from_alpha_once(p, NULL, alpha, out, fault);", "}", "",
-            "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
-            "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
-            model_exchange_functions(emitted, table, all_variants())]
-    finally:
-        codegen.CheckTable.add = original
-        codegen.emit_function = original_emit
-    if len(collected) != len(table.entries):
-        raise NativeBuildError("the core's domain checks could not be collected in order")
+    extra = [
+        emit("fmu_X_from_alpha", "double alpha, double *out, mk_fault *fault", "alpha, out, fault",
+             {**bindings, "alpha": "alpha"},
+             codegen.trace(lambda a, params: [knee.X_from_alpha(a, params)], alpha, sp)),
+        emit("fmu_posture", "double X, double *out, mk_fault *fault", "X, out, fault", {**bindings, "X": "X"},
+             codegen.trace(posture, X, sp)),
+        "int mk_fmu_X_from_alpha(const double *p, double alpha, double *out, mk_fault *fault)",
+        "{", "    return fmu_X_from_alpha_once(p, NULL, alpha, out, fault);", "}", "",
+        "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
+        "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
+        model_exchange_functions(core_table.emitted, table, all_variants())]
     sim = KneeSimulator(Params(tau=1.0))
     lines = ["", "/* ---- added for the native FMUs by mkctl/native/fmu.py (generated too) ---- */", *extra,
              "const char *const mk_fmu_fault_templates[] = {",
-             *[f"    {_c_template(_fault_template(check))}," for check in collected], "};",
-             f"const int mk_fmu_fault_count = {len(collected)};",
+             *[f"    {_c_template(_fault_template(check))}," for check in table.checks], "};",
+             f"const int mk_fmu_fault_count = {len(table.checks)};",
              f"const char MK_FMU_COLLAPSE_MESSAGE[] = {_c_string(integrate.COLLAPSE_MESSAGE)};",
              f"const char MK_FMU_TOO_MANY_STEPS_MESSAGE[] = {_c_string(integrate.TOO_MANY_STEPS_MESSAGE)};",
              f"const double MK_FMU_DEFAULT_ALPHA = {_c_double(DEFAULT_ALPHA)};",
