@@ -79,10 +79,19 @@ class _SymbolicMath:
 def _symbolic_math():
     if not hasattr(_SymbolicMath, "sqrt"):
         import sympy
+
+        # Max and Min are built unevaluated: sympy's own evaluation compares the arguments (whether the tension can
+        # be negative, say) and took a third of the compiled core's generation; the generated C is the same.
+        def maximum(a, b):
+            return sympy.Max(a, b, evaluate=False)
+
+        def minimum(a, b):
+            return sympy.Min(a, b, evaluate=False)
+
         for name, function in {
             "sqrt": sympy.sqrt, "sin": sympy.sin, "cos": sympy.cos, "tanh": sympy.tanh, "arctan2": sympy.atan2,
-            "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": sympy.Max, "pi": sympy.pi,
-            "minimum": sympy.Min, "abs": sympy.Abs, "sign": sympy.sign, "log": sympy.log,
+            "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": maximum, "pi": sympy.pi,
+            "minimum": minimum, "abs": sympy.Abs, "sign": sympy.sign, "log": sympy.log,
             "hypot": lambda a, b: sympy.sqrt(a * a + b * b),
             "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True)),
         }.items():
