@@ -482,6 +482,19 @@ def _derivative_function(params, build, scalar: bool = False):
     return (entry[1] if scalar else entry[0]), entry[2]
 
 
+def _traced_expressions(params, build):
+    """``build(params)`` for a :class:`SymbolicParams`, made once per registry and set of symbols, cached: the
+    compiled core's generator asks for the same terms' derivatives for both muscles and for every output of a
+    variant, and tracing and differentiating them is most of its time. Anything else is built afresh."""
+    if not isinstance(params, SymbolicParams):
+        return build(params)
+    key = (build, _effects.generation(), tuple(getattr(params, name) for name in PARAMETER_NAMES))
+    entry = _DERIVATIVES.get(key)
+    if entry is None:
+        entry = _DERIVATIVES[key] = build(params)
+    return entry
+
+
 def _heaviside_as_step(expr):
     """Replace sympy's Heaviside(x) (the derivative of Max(x, 0)) by 1 for x > 0, else 0 (Python's branch)."""
     import sympy
@@ -506,7 +519,7 @@ def tension_partials(L, P, Ldot, params: Params = DEFAULT):
     """
     if any(is_symbolic(x) for x in (L, P, Ldot)):
         import sympy
-        sp_inputs, expressions = _tension_expressions(params)
+        sp_inputs, expressions = _traced_expressions(params, _tension_expressions)
         l, ld, pp, f = sp_inputs
         g = tension_before_limits(L, P, Ldot, params)
         values = {l: L, ld: Ldot, pp: P}
@@ -543,7 +556,7 @@ def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
     linearization's pressure block (lag: -1/tau and 1/tau)."""
     if is_symbolic(P) or is_symbolic(P_cmd):
         import sympy
-        (p, pc), expressions = _pressure_expressions(params)
+        (p, pc), expressions = _traced_expressions(params, _pressure_expressions)
         return tuple(sympy.sympify(e).subs({p: P, pc: P_cmd}) for e in expressions[1:])  # fresh dummies: no clash
     # the result is two floats whatever P is: the math module's version (cheaper on one value) always
     function, names = _derivative_function(params, _pressure_expressions, scalar=True)
