@@ -141,6 +141,9 @@ def ccode(expr) -> str:
     return _Printer().doprint(expr)
 
 
+_BASIC_FREE_SYMBOLS = sympy.Basic.free_symbols  # the plain union of the arguments' free symbols
+
+
 def _split_constants(exprs, constant: set, prefix: str):
     """Replace every largest subexpression of exprs made of constant symbols only by a new symbol.
 
@@ -159,9 +162,20 @@ def _split_constants(exprs, constant: set, prefix: str):
             table[expr] = sympy.Symbol(f"{prefix}[{len(table)}]", real=True)
         return table[expr]
 
+    symbols_memo: dict = {}
+
+    def symbols_of(expr):  # expr.free_symbols, from the arguments' (sympy walks the whole tree at every call)
+        if expr not in symbols_memo:
+            if expr.is_Atom or type(expr).free_symbols is not _BASIC_FREE_SYMBOLS:  # bound variables: sympy's
+                symbols_memo[expr] = frozenset(expr.free_symbols)
+            else:
+                symbols_memo[expr] = frozenset().union(*(symbols_of(a) for a in expr.args))
+        return symbols_memo[expr]
+
     def is_constant(expr):
         if expr not in constant_memo:
-            constant_memo[expr] = bool(expr.free_symbols) and expr.free_symbols <= constant
+            symbols = symbols_of(expr)
+            constant_memo[expr] = bool(symbols) and symbols <= constant
         return constant_memo[expr]
 
     def visit(expr):

@@ -523,8 +523,9 @@ def tension_partials(L, P, Ldot, params: Params = DEFAULT):
         l, ld, pp, f = sp_inputs
         g = tension_before_limits(L, P, Ldot, params)
         values = {l: L, ld: Ldot, pp: P}
-        return (g, *(sympy.sympify(e).subs(values) for e in expressions[1:4]),  # fresh dummies: no clash
-                sympy.sympify(expressions[4]).subs(f, g))
+        # xreplace, not subs: the dummies are atoms, replaced exactly, without subs' search for patterns
+        return (g, *(sympy.sympify(e).xreplace(values) for e in expressions[1:4]),  # fresh dummies: no clash
+                sympy.sympify(expressions[4]).xreplace({f: g}))
     scalar = type(L) is float and type(P) is float and type(Ldot) is float
     function, names = _derivative_function(params, _tension_expressions, scalar)
     g = tension_before_limits(L, P, Ldot, params)
