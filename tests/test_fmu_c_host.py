@@ -124,7 +124,10 @@ def test_valgrind_sees_the_invalid_exit_access_in_pythonfmus_binary_and_not_in_o
     runs = {}
     for kind, fmus in (("unfixed", unfixed_fmus), ("fixed", built_fmus)):
         folder = _unzip(fmus["knee"], tmp_path / kind)
-        runs[kind] = subprocess.Popen(["valgrind", "--error-exitcode=99", *_command(host, fmus["knee"], folder, 0.002)],
+        # the exit bug is a read of freed memory: an addressability error, which memcheck reports without
+        # tracking undefined values (a third of its cost)
+        memcheck = ["valgrind", "--error-exitcode=99", "--undef-value-errors=no"]
+        runs[kind] = subprocess.Popen([*memcheck, *_command(host, fmus["knee"], folder, 0.002)],
                                       stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
     reports = {kind: run.communicate(timeout=600)[1] for kind, run in runs.items()}
 
