@@ -465,7 +465,8 @@ def _symbol_arguments(expressions, leading):
 def _derivative_function(params, build, scalar: bool = False):
     """A lambdified function of (inputs..., parameter values...) for the structure of params, made once per
     structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns (function, parameter names).
-    scalar: the version for Python floats (the math module: much cheaper than numpy on one value)."""
+    scalar: the version for Python floats (the math module: much cheaper than numpy on one value). Each version
+    is made when first asked for: most structures are only ever evaluated on floats or only on arrays."""
     key = (build, _effects.generation(), tuple(e.name for e in active_effects(params)))
     entry = _DERIVATIVES.get(key)
     if entry is None:
@@ -477,9 +478,12 @@ def _derivative_function(params, build, scalar: bool = False):
         names = _symbol_arguments(expressions, inputs)
         symbols = {s.name: s for e in expressions for s in e.free_symbols if s not in set(inputs)}
         arguments = [*inputs, *(symbols[n] for n in names)]
-        entry = _DERIVATIVES[key] = (sympy.lambdify(arguments, expressions, modules="numpy", cse=True),
-                                     sympy.lambdify(arguments, expressions, modules="math", cse=True), tuple(names))
-    return (entry[1] if scalar else entry[0]), entry[2]
+        entry = _DERIVATIVES[key] = {"arguments": arguments, "expressions": expressions, "names": tuple(names)}
+    module = "math" if scalar else "numpy"
+    if module not in entry:
+        import sympy
+        entry[module] = sympy.lambdify(entry["arguments"], entry["expressions"], modules=module, cse=True)
+    return entry[module], entry["names"]
 
 
 def _traced_expressions(params, build):
