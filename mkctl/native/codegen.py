@@ -137,8 +137,11 @@ class _Printer(C99CodePrinter):
         return super()._print_Pow(expr)
 
 
+_PRINTER = _Printer()  # one for every expression: doprint starts afresh each time, and making one costs
+
+
 def ccode(expr) -> str:
-    return _Printer().doprint(expr)
+    return _PRINTER.doprint(expr)
 
 
 _BASIC_FREE_SYMBOLS = sympy.Basic.free_symbols  # the plain union of the arguments' free symbols
