@@ -12,6 +12,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -454,3 +455,23 @@ def test_every_parameter_is_a_run_time_input_and_every_branch_a_variant():
                 L, Ldot = rng.uniform(0.16, 0.22), rng.normal(0, 0.01)
                 assert core.actuator("tension", params, L, pe_cmd, Ldot) == pytest.approx(
                     float(actuator.tension(L, pe_cmd, Ldot, params)), rel=1e-11, abs=1e-9)
+
+
+_RACE = """
+import sys, time
+from mkctl.native import build, compiled
+from mkctl.physics.params import Params
+time.sleep(max(0.0, float(sys.argv[1]) - time.time()))  # both start at the same moment
+build.generated_source((compiled.Variant.of(Params()),))
+print("generated" if build._GENERATED else "read")
+"""
+
+
+def test_processes_starting_together_on_an_empty_cache_generate_the_source_once(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT), build.ENV_CACHE: str(tmp_path / "cache")}
+    start = f"{time.time() + 3.0:.3f}"
+    runs = [subprocess.Popen([sys.executable, "-c", _RACE, start], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True, env=env) for _ in range(2)]
+    outputs = [run.communicate(timeout=300) for run in runs]
+    assert all(run.returncode == 0 for run in runs), [err[-2000:] for _, err in outputs]
+    assert sorted(out.strip() for out, _ in outputs) == ["generated", "read"]

@@ -27,6 +27,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 
@@ -193,15 +194,35 @@ def generation(variants) -> tuple:
     return _GENERATED[key]
 
 
+@contextmanager
+def cache_lock(path: Path):
+    """Hold an exclusive lock (``<path>.lock``) while ``path`` is made: processes that start together on an empty
+    cache (Dask's workers, pytest-xdist's) make it once, the others wait for it and read it. Where there are no
+    POSIX locks, or the cache cannot be written, each makes its own (as before: the writes are atomic)."""
+    try:
+        import fcntl
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(path.with_name(path.name + ".lock"), "a")
+    except (ImportError, OSError):
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+
+
 def generated_source(variants) -> Path:
     """The generated C source for the variants, from the cache (verified against its record) or generated now."""
     key = input_key(variants)
     path = cache_dir() / f"gen-{key}.c"
-    if not (path.exists() and _verified(path, {"inputs": key})):
-        source, _ = generation(variants)
-        data = source.encode()
-        _write_atomic(path, data)
-        _write_record(path, {"inputs": key, "sha256": _digest(data)})
+    if path.exists() and _verified(path, {"inputs": key}):
+        return path
+    with cache_lock(path):
+        if not (path.exists() and _verified(path, {"inputs": key})):  # another process may have made it meanwhile
+            source, _ = generation(variants)
+            data = source.encode()
+            _write_atomic(path, data)
+            _write_record(path, {"inputs": key, "sha256": _digest(data)})
     return path
 
 
@@ -218,6 +239,13 @@ def build_library(variants) -> Path:
     expected = {"source_sha256": _digest(source), "compiler": compiler_identity(compiler), "cflags": list(CFLAGS)}
     if library.exists() and _verified(library, expected):
         return library
+    with cache_lock(library):
+        if library.exists() and _verified(library, expected):  # another process built it meanwhile
+            return library
+        return _compile_library(compiler, source_path, library, expected)
+
+
+def _compile_library(compiler: list[str], source_path: Path, library: Path, expected: dict) -> Path:
     handle, temporary = tempfile.mkstemp(dir=library.parent, prefix=library.name + ".", suffix=".tmp")
     os.close(handle)
     command = [*compiler, *CFLAGS, "-o", temporary, str(source_path), "-lm"]

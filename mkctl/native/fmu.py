@@ -479,14 +479,15 @@ def core_source() -> str:
     if key in _CORE_SOURCES:
         return _CORE_SOURCES[key]
     path = build.cache_dir() / f"fmu-core-{key}.c"
-    if path.is_file():
-        text = path.read_text()
-    else:
-        text = generate_core_source()
-        try:
-            build._write_atomic(path, text.encode())
-        except OSError:  # a read-only cache only costs time
-            pass
+    with build.cache_lock(path):  # processes starting together generate it once
+        if path.is_file():
+            text = path.read_text()
+        else:
+            text = generate_core_source()
+            try:
+                build._write_atomic(path, text.encode())
+            except OSError:  # a read-only cache only costs time
+                pass
     _CORE_SOURCES[key] = text
     return text
 
@@ -734,12 +735,15 @@ def _core_object(sources: Path, compiler: list[str]) -> Path:
     source = (sources / "mkctl_core.c").read_bytes()
     key = hashlib.sha256(source + " ".join([*compiler, *_compiler_flags()]).encode()).hexdigest()[:20]
     target = build.cache_dir() / f"fmu-core-{key}.o"
-    if not target.is_file():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        temporary = target.with_name(f"{target.name}.{os.getpid()}.tmp")
-        _run_compiler([*compiler, *_compiler_flags(), "-c", "-o", str(temporary), str(sources / "mkctl_core.c")],
-                      "mkctl_core.c")
-        os.replace(temporary, target)
+    if target.is_file():
+        return target
+    with build.cache_lock(target):  # processes starting together compile it once
+        if not target.is_file():
+            target.parent.mkdir(parents=True, exist_ok=True)
+            temporary = target.with_name(f"{target.name}.{os.getpid()}.tmp")
+            _run_compiler([*compiler, *_compiler_flags(), "-c", "-o", str(temporary),
+                           str(sources / "mkctl_core.c")], "mkctl_core.c")
+            os.replace(temporary, target)
     return target
 
 
