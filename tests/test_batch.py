@@ -163,9 +163,10 @@ def dask_cluster(tmp_path):
                 time.sleep(0.5)
         yield address, [p.pid for p in processes[1:]]
     finally:
+        # one at a time, the workers before the scheduler: a worker whose scheduler went away while it closed
+        # hung in its close for the whole timeout (20 s of every run)
         for process in reversed(processes):
             os.kill(process.pid, 15)
-        for process in processes:
             try:
                 process.wait(timeout=20)
             except subprocess.TimeoutExpired:
