@@ -197,16 +197,22 @@ def test_a_dask_cluster_of_separate_processes_runs_a_batch_and_a_sweep(dask_clus
     assert list(remote.verdict) == list(here.verdict)
 
 
-def test_an_unreachable_scheduler_is_one_clear_error():
+def test_an_unreachable_scheduler_is_one_clear_error(monkeypatch):
+    from mkctl.analysis import batch
+    assert batch.CONNECT_TIMEOUT_S <= 10  # a short connect timeout, not the default minute(s)
+    monkeypatch.setattr(batch, "CONNECT_TIMEOUT_S", 1.0)  # the wait below, shortened
     port = _free_port()  # nothing listens there
     start = time.monotonic()
     with pytest.raises(BatchError, match=f"cannot reach the Dask scheduler at tcp://127.0.0.1:{port}"):
         run_batch(abs, [1], scheduler=f"tcp://127.0.0.1:{port}", progress=False)
-    assert time.monotonic() - start < 30  # a short connect timeout, not the default minute(s)
+    assert time.monotonic() - start < 10  # the timeout is what it waits
 
 
-def test_a_scheduler_without_workers_is_one_clear_error():
+def test_a_scheduler_without_workers_is_one_clear_error(monkeypatch):
     from distributed import LocalCluster
+
+    from mkctl.analysis import batch
+    monkeypatch.setattr(batch, "CONNECT_TIMEOUT_S", 1.0)  # how long it waits for a worker, shortened
 
     with LocalCluster(n_workers=0, processes=False, dashboard_address=":0") as empty:
         with pytest.raises(BatchError, match="has no workers"):
