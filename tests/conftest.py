@@ -46,7 +46,7 @@ def run_python(tmp_path_factory):
 
 
 def pytest_collection_modifyitems(config, items):
-    """Tests marked ``slow`` (end-to-end runs of a minute or more) run only with ``MKCTL_SLOW=1``, as in ``.ci/run``:
+    """Tests marked ``slow`` (end-to-end runs of the docs' commands) run only with ``MKCTL_SLOW=1``, as in ``.ci/run``:
     the README's test command stays quick on a user's machine, and CI still runs everything."""
     if os.environ.get("MKCTL_SLOW", "").strip() not in ("", "0"):
         return

@@ -282,6 +282,7 @@ def test_a_good_effect_file_loads_and_traces(tmp_path):
 
 # --- the diagnosis runs it when incomplete, and --suggest writes the file ---------------------------------
 
+@pytest.mark.slow  # every command of the page, FMU builds included: runs in CI (MKCTL_SLOW=1)
 def test_the_tutorial_runs_as_docs_effects_md_shows_it(tmp_path):
     """docs/effects.md steps 1-3: the record, the incomplete diagnosis with its discovery, the suggested file."""
     import re
