@@ -207,7 +207,10 @@ def cache_lock(path: Path):
         yield
         return
     with handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        except OSError:  # a file system without locks (some network ones): as without the lock
+            pass
         yield
 
 
