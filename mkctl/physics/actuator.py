@@ -454,6 +454,8 @@ def viscous_coefficient(params: Params = DEFAULT) -> float:
 
 # --- exact derivatives: sympy.diff of the traced terms ------------------------------------------------------------
 
+#: Both kinds of derivative cache, emptied together (the pin tests do, see bench/mutation.py): lambdified functions
+#: by effect structure (:func:`_derivative_function`), traced expressions by symbols (:func:`_traced_expressions`).
 _DERIVATIVES: dict = {}
 
 
@@ -562,7 +564,7 @@ def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
     if is_symbolic(P) or is_symbolic(P_cmd):
         import sympy
         (p, pc), expressions = _traced_expressions(params, _pressure_expressions)
-        return tuple(sympy.sympify(e).subs({p: P, pc: P_cmd}) for e in expressions[1:])  # fresh dummies: no clash
+        return tuple(sympy.sympify(e).xreplace({p: P, pc: P_cmd}) for e in expressions[1:])  # as tension_partials
     # the result is two floats whatever P is: the math module's version (cheaper on one value) always
     function, names = _derivative_function(params, _pressure_expressions, scalar=True)
     _, dP, dPcmd = function(P, P_cmd, *[getattr(params, n) for n in names])
