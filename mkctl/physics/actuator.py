@@ -615,8 +615,8 @@ def static_tension_dL(L, P, params: Params = DEFAULT):
     check_length(L, params.b)
     check_pressure(P)
     if is_symbolic(L) or is_symbolic(P):
-        (l, p), expressions = _static_expressions(params)
-        return expressions[1].subs({l: L, p: P})  # fresh dummies: no clash
+        (l, p), expressions = _traced_expressions(params, _static_expressions)
+        return expressions[1].xreplace({l: L, p: P})  # fresh dummies: no clash; as tension_partials
     function, names = _derivative_function(params, _static_expressions, type(L) is float and type(P) is float)
     return function(L, P, *[getattr(params, n) for n in names])[1]
 
