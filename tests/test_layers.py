@@ -186,3 +186,65 @@ def test_the_pythonfmu_slave_registers_the_declared_interface(model):
     assert registered == declared
     assert len(declared) > 20 and {"Real", "Integer"} <= {v[2] for v in declared}
     assert slave.modelName == model and type(slave).description == MODELS[model].description
+
+
+def module_level_writes_into_other_modules(path: Path) -> list[str]:
+    """Statements at a module's top level that fill another module's state at import time: an assignment to an
+    attribute or an item of an imported name (``effects.PHYSICS["actuator"] = ...``, ``effects.NAMES[:] = ...``).
+    Such a back-reference hides an import circle from :func:`imports_of` (the module written into never imports
+    the writer) and makes the written module depend on what happened to be imported before it."""
+    tree = ast.parse(path.read_text(), str(path))
+    imported = set()
+    for node in tree.body:
+        if isinstance(node, (ast.Import, ast.ImportFrom)):
+            imported |= {(alias.asname or alias.name).split(".")[0] for alias in node.names}
+    found = []
+    for node in tree.body:
+        targets = node.targets if isinstance(node, ast.Assign) else \
+            [node.target] if isinstance(node, (ast.AugAssign, ast.AnnAssign)) else []
+        for target in targets:
+            base = target
+            while isinstance(base, (ast.Attribute, ast.Subscript)):
+                base = base.value
+            if base is not target and isinstance(base, ast.Name) and base.id in imported:
+                found.append(f"line {node.lineno}: {ast.unparse(target)}")
+    return found
+
+
+@pytest.mark.parametrize("path", [pytest.param(path, id=module_name(path)) for path in sources()])
+def test_no_module_fills_another_at_import_time(path):
+    found = module_level_writes_into_other_modules(path)
+    assert not found, f"{module_name(path)} writes into another module when imported: {found}"
+
+
+def test_the_back_reference_check_sees_one(tmp_path):
+    """The check itself can fail: the two back-references round 3 had (a registry's slot, a list filled in)."""
+    fake = tmp_path / "probe.py"
+    fake.write_text("import sys\nfrom . import effects\nNAMES = ('a',)\neffects.NAMES[:] = NAMES\n"
+                    "effects.PHYSICS['actuator'] = sys.modules[__name__]\nlocal = {}\nlocal['x'] = 1\n")
+    assert module_level_writes_into_other_modules(fake) == [
+        "line 4: effects.NAMES[:]", "line 5: effects.PHYSICS['actuator']"]
+
+
+#: A new effect registered right after one physics module is imported alone, then used by that parameter set.
+_REGISTER_AFTER = """
+import importlib, json, sys
+importlib.import_module(sys.argv[1])
+from mkctl.physics import effects
+effects.register(effects.Effect(
+    "layers_probe", "f += k_probe (L - L0)",
+    parameters=(effects.Parameter("k_probe", "N/m", off=0.0, lower=0.0, upper=1e6, typical=10.0),),
+    tension=lambda L, Ldot, P, p, xp: p.k_probe * (L - p.L0)))
+from mkctl.physics.actuator import compose_tension
+from mkctl.physics.params import Params
+p = Params(k_probe=100.0)
+print(json.dumps([list(p.effects), compose_tension(0.2, 1e5, 0.0, p) - compose_tension(0.2, 1e5, 0.0, Params())]))
+"""
+
+
+@pytest.mark.parametrize("module", sorted(module_name(p) for p in (PACKAGE / "physics").glob("*.py")
+                                          if p.name != "__init__.py"))
+def test_each_physics_module_imports_alone_and_an_effect_registers_right_after(module, run_python):
+    on, change = run_python(_REGISTER_AFTER, module)
+    assert on == ["elasticity", "layers_probe"]
+    assert change == pytest.approx(100.0 * (0.2 - 0.208), rel=1e-12)

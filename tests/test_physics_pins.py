@@ -17,7 +17,7 @@ import pytest
 import sympy
 
 from mkctl.errors import DomainError
-from mkctl.physics import actuator, effects
+from mkctl.physics import actuator, effects, xp
 from mkctl.physics.params import DEFAULT, Params
 
 B = DEFAULT.b  # 0.241 m
@@ -33,7 +33,7 @@ def length_text(L, b=B) -> str:
 def fresh(monkeypatch):
     """Empty caches for the test: the derivative functions and the sympy namespace are built again inside it."""
     monkeypatch.setattr(actuator, "_DERIVATIVES", {})
-    monkeypatch.setattr(actuator, "_SymbolicMath", type("_SymbolicMath", (), {}))
+    monkeypatch.setattr(xp, "_SymbolicMath", type("_SymbolicMath", (), {}))
 
 
 # --- the math namespaces ---------------------------------------------------------------------------------------
@@ -47,17 +47,17 @@ def test_the_sympy_namespace_computes_what_numpy_and_the_float_one_do(fresh):
     symbolic = actuator.symbolic_math()
     for name, args in CASES.items():
         want = float(getattr(np, name)(*args))
-        assert getattr(actuator._ScalarMath, name)(*args) == pytest.approx(want, rel=1e-15), name
+        assert getattr(xp._ScalarMath, name)(*args) == pytest.approx(want, rel=1e-15), name
         got = getattr(symbolic, name)(*(sympy.Float(a) for a in args))
         assert float(got) == pytest.approx(want, rel=1e-14), name
-    assert float(symbolic.pi) == actuator._ScalarMath.pi == math.pi
+    assert float(symbolic.pi) == xp._ScalarMath.pi == math.pi
     x = sympy.Symbol("x", real=True)
     where = symbolic.where(x > 0, 1.0, 2.0)
     assert [where.subs(x, v) for v in (0.5, 0.0, -0.5)] == [1.0, 2.0, 2.0]
-    assert [actuator._ScalarMath.where(c, 1.0, 2.0) for c in (True, False)] == [1.0, 2.0]
-    assert [actuator._ScalarMath.sign(v) for v in (2.0, 0.0, -2.0)] == [1.0, 0.0, -1.0]
+    assert [xp._ScalarMath.where(c, 1.0, 2.0) for c in (True, False)] == [1.0, 2.0]
+    assert [xp._ScalarMath.sign(v) for v in (2.0, 0.0, -2.0)] == [1.0, 0.0, -1.0]
     for name in actuator.MATH_FUNCTIONS:  # what an effect's term may use, every way
-        assert hasattr(symbolic, name) and hasattr(actuator._ScalarMath, name) and hasattr(np, name), name
+        assert hasattr(symbolic, name) and hasattr(xp._ScalarMath, name) and hasattr(np, name), name
     assert actuator.math_for(x) is symbolic and actuator.math_for_all(0.5, x) is symbolic
 
 
@@ -70,8 +70,8 @@ def test_the_sympy_namespace_is_filled_once(fresh):
 
 def test_the_namespace_follows_the_values():
     x = sympy.Symbol("x")
-    assert actuator.math_for(0.5) is actuator._ScalarMath and actuator.math_for(np.ones(2)) is np
-    assert actuator.math_for_all(0.5, 1.0) is actuator._ScalarMath
+    assert actuator.math_for(0.5) is xp._ScalarMath and actuator.math_for(np.ones(2)) is np
+    assert actuator.math_for_all(0.5, 1.0) is xp._ScalarMath
     assert actuator.math_for_all(0.5, np.ones(2)) is np and actuator.math_for_all(np.ones(2), 0.5) is np
     assert actuator.math_for_all(np.ones(2), x) is actuator.symbolic_math()
     assert actuator.is_symbolic(x) and not actuator.is_symbolic(0.5) and not actuator.is_symbolic(np.ones(2))
@@ -439,7 +439,7 @@ def test_floats_in_floats_out_and_the_steps_at_zero(abs_effects):
     assert type(actuator.braid_diameter(0.2, 0.25, 3.1)) is float
     assert type(actuator.velocity_tension_dLdot(0.01, p)) is float
     assert type(actuator.slack_factor(2.0, 1)) is float and actuator.slack_factor(-2.0, 1) == 0.0
-    assert [actuator._ScalarMath.sign(v) for v in (0.5, -0.5)] == [1.0, -1.0]
+    assert [xp._ScalarMath.sign(v) for v in (0.5, -0.5)] == [1.0, -1.0]
     x = sympy.Symbol("x", real=True)
     assert actuator._heaviside_as_step(sympy.Heaviside(x)).subs(x, 0.5) == 1.0
     assert actuator.slack_factor(x, 1).subs(x, 0.5) == 1.0

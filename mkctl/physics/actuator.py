@@ -16,7 +16,6 @@ Example
 from __future__ import annotations
 
 import math
-import sys
 from contextlib import contextmanager
 from typing import NamedTuple
 
@@ -24,139 +23,12 @@ import numpy as np
 
 from . import effects as _effects
 from ..errors import DomainError
-from .params import DEFAULT, PARAMETER_NAMES, Params, rubber_volume
-
-
-def is_symbolic(x) -> bool:
-    """True for a sympy expression: :mod:`mkctl.native` evaluates these equations on symbols to generate C.
-
-    sympy is looked up, not imported: if nothing imported it, no value can be symbolic.
-    """
-    sympy = sys.modules.get("sympy")
-    return sympy is not None and isinstance(x, sympy.Basic)
-
-
-def as_values(x):
-    """Scalars become Python floats (scalar arithmetic is fast), sympy expressions pass through as they are,
-    anything else becomes a float numpy array."""
-    if type(x) is float:
-        return x
-    if isinstance(x, (int, np.floating, np.integer)) and not isinstance(x, bool):
-        return float(x)
-    if is_symbolic(x):
-        return x
-    return np.asarray(x, dtype=float)
-
-
-class _ScalarMath:
-    """The few numpy functions the models use, for Python floats (much cheaper than numpy on scalars)."""
-
-    sqrt, sin, cos, tanh, arctan2, arcsin, arccos, hypot, exp = (math.sqrt, math.sin, math.cos, math.tanh,
-                                                                 math.atan2, math.asin, math.acos, math.hypot,
-                                                                 math.exp)
-    maximum, minimum, abs = staticmethod(max), staticmethod(min), staticmethod(abs)
-    log = staticmethod(math.log)
-    pi = math.pi
-
-    @staticmethod
-    def sign(x):
-        return 1.0 if x > 0 else (-1.0 if x < 0 else 0.0)
-
-    @staticmethod
-    def where(condition, a, b):
-        return a if condition else b
-
-
-#: What every math namespace offers besides arithmetic (floats, numpy, sympy): the functions an effect's terms may
-#: use (model-spec section 4c; :mod:`mkctl.analysis.effect_files`).
-MATH_FUNCTIONS = ("sqrt", "exp", "log", "sin", "cos", "tanh", "abs", "sign", "maximum", "minimum", "where", "pi")
-
-
-class _SymbolicMath:
-    """The same functions for sympy expressions (filled in on first use: sympy is imported only then)."""
-
-
-def _symbolic_math():
-    if not hasattr(_SymbolicMath, "sqrt"):
-        import sympy
-
-        # Max and Min are built unevaluated: sympy's own evaluation compares the arguments (whether the tension can
-        # be negative, say) and took a third of the compiled core's generation; the generated C is the same.
-        def maximum(a, b):
-            return sympy.Max(a, b, evaluate=False)
-
-        def minimum(a, b):
-            return sympy.Min(a, b, evaluate=False)
-
-        for name, function in {
-            "sqrt": sympy.sqrt, "sin": sympy.sin, "cos": sympy.cos, "tanh": sympy.tanh, "arctan2": sympy.atan2,
-            "arcsin": sympy.asin, "arccos": sympy.acos, "exp": sympy.exp, "maximum": maximum, "pi": sympy.pi,
-            "minimum": minimum, "abs": sympy.Abs, "sign": sympy.sign, "log": sympy.log,
-            "hypot": lambda a, b: sympy.sqrt(a * a + b * b),
-            "where": lambda condition, a, b: sympy.Piecewise((a, condition), (b, True)),
-        }.items():
-            setattr(_SymbolicMath, name, function)  # read on the class, never an instance: no staticmethod needed
-    return _SymbolicMath
-
-
-def symbolic_math():
-    """The math namespace for sympy expressions (numpy's names, :data:`MATH_FUNCTIONS` among them): what effect
-    terms are traced with, by the compiled core's generator and by the effect-file checks alike."""
-    return _symbolic_math()
-
-
-def math_for(x):
-    """The math namespace for x: scalar functions for a float, numpy for an array, sympy for a symbolic
-    expression. Same equations, every way."""
-    if type(x) is float:
-        return _ScalarMath
-    return _symbolic_math() if is_symbolic(x) else np
-
-
-def math_for_all(*values):
-    """The one namespace for several values: sympy if any is symbolic, numpy if any is an array, else floats."""
-    for x in values:
-        if type(x) is not float:
-            break
-    else:
-        return _ScalarMath
-    if any(is_symbolic(x) for x in values):
-        return _symbolic_math()
-    return np
-
-
-class SymbolicParams:
-    """A stand-in for :class:`~mkctl.physics.params.Params` whose values are sympy symbols named after the
-    parameters: what the equations are traced on (generated C, exact derivatives).
-
-    ``on``: the names of the effects to trace as switched on (default: every effect). An effect traced off has
-    its switch parameter at its off value; one traced on has it as a symbol (positive when its off value is the
-    lower bound 0), except a whole-number switch (model, slack), which holds its "on" value. ``fixed``: further
-    names held at the given numbers.
-    """
-
-    def __init__(self, on=None, fixed: dict | None = None):
-        import sympy
-        for name in PARAMETER_NAMES:
-            self.__dict__[name] = sympy.Symbol(name, real=True)
-        for effect in _effects.all_effects():
-            q = effect.switch_parameter
-            if on is not None and effect.name not in on:
-                self.__dict__[q.name] = q.off
-            elif q.switch:
-                self.__dict__[q.name] = q.upper if q.off == q.lower else q.lower
-            elif q.off == 0 and q.lower == 0:
-                self.__dict__[q.name] = sympy.Symbol(q.name, positive=True)
-        self.__dict__.update(fixed or {})
-
-    @classmethod
-    def like(cls, params) -> "SymbolicParams":
-        """Symbols for every value, with the effects switched on that are on in params."""
-        return cls(on={e.name for e in active_effects(params)})
-
-    @property
-    def V_r(self):
-        return rubber_volume(self.t0, self.D0, self.L0)
+from .braid import (bladder_volume, braid_diameter, pressure_gain, pressure_gain_slope,  # noqa: F401 (re-exported)
+                    strain_energy_curvature, strain_energy_density, strain_energy_gradient)
+from .effects import SymbolicParams  # noqa: F401 (re-exported: what the equations are traced on)
+from .params import DEFAULT, PARAMETER_NAMES, Params
+from .xp import (MATH_FUNCTIONS, _symbolic_math, as_values, is_symbolic,  # noqa: F401 (re-exported)
+                 math_for, math_for_all, symbolic_math)
 
 
 class Structure(NamedTuple):
@@ -271,36 +143,6 @@ def check_pressure(P):
         raise DomainError(_PRESSURE_MESSAGE)
 
 
-# --- Braid geometry (Eq. 5-6) -------------------------------------------------------------------
-
-def braid_diameter(L, b: float, n: float):
-    """Bladder diameter ``D = sqrt(b^2 - L^2) / (n pi)`` [m], Eq. 5.
-
-    Parameters: L actuator length [m], b braid length [m], n turns of a thread [-].
-    """
-    return math_for(L).sqrt(b * b - L * L) / (n * np.pi)
-
-
-def bladder_volume(L, b: float, n: float):
-    """Bladder volume ``V_b = (b^2 L - L^3) / (4 pi n^2)`` [m^3], Eq. 6."""
-    return (b * b * L - L * L * L) / (4 * np.pi * n * n)
-
-
-# --- Model 1: pressure only (Eq. 7) -------------------------------------------------------------
-
-def pressure_gain(L, b: float, n: float):
-    """Tension per unit pressure ``-dV_b/dL = (3 L^2 - b^2) / (4 pi n^2)`` [N/Pa = m^2], Eq. 7.
-
-    It is also df1/dP, the derivative of model 1 (and model 2) with respect to the pressure.
-    """
-    return (3 * L * L - b * b) / (4 * np.pi * n * n)
-
-
-def pressure_gain_slope(L, b: float, n: float):
-    """``d/dL (3 L^2 - b^2) / (4 pi n^2) = 6 L / (4 pi n^2)`` [m]."""
-    return 6 * L / (4 * np.pi * n * n)
-
-
 def tension_model1(L, P, params: Params = DEFAULT):
     """Model 1, Eq. 7: ``f1 = P (3 L^2 - b^2) / (4 pi n^2)`` [N].
 
@@ -313,51 +155,6 @@ def tension_model1(L, P, params: Params = DEFAULT):
 
 
 # --- Model 2: plus Mooney-Rivlin rubber (Eq. 10-13) ---------------------------------------------
-
-def _stretch_constant(params: Params) -> float:
-    """``q = D0^2 n^2 pi^2`` [m^2], so that lambda_2^2 = (b^2 - L^2) / q (Eq. 11)."""
-    return (params.D0 * params.n * np.pi) ** 2
-
-
-def strain_energy_density(L, params: Params = DEFAULT):
-    """Mooney-Rivlin strain energy density W(L) [J/m^3 = Pa], Eq. 10-12.
-
-    With ``lambda_1 = L / L0``, ``lambda_2 = sqrt(b^2 - L^2) / (D0 n pi)``, ``lambda_3 = 1/(lambda_1 lambda_2)``:
-    ``W = C1 (l1^2 + l2^2 + l3^2 - 3) + C2 (1/l1^2 + 1/l2^2 + 1/l3^2 - 3)``.
-    Parameters: L [m]; params supplies b, L0, D0 [m], n [-], C1, C2 [Pa].
-    """
-    L = as_values(L)
-    q, s, L0 = _stretch_constant(params), params.b**2 - L * L, params.L0
-    l1sq, l2sq = (L / L0) ** 2, s / q
-    l3sq = 1.0 / (l1sq * l2sq)
-    return params.C1 * (l1sq + l2sq + l3sq - 3) + params.C2 * (1 / l1sq + 1 / l2sq + 1 / l3sq - 3)
-
-
-def strain_energy_gradient(L, params: Params = DEFAULT):
-    """dW/dL [Pa/m], the bracket of Eq. 13.
-
-    ``C1 (2L/L0^2 - 2L/q - 2 L0^2 q (b^2 - 2L^2) / (L^3 (b^2 - L^2)^2))
-    + C2 (-2 L0^2/L^3 + 2 q L/(b^2 - L^2)^2 + (2 L b^2 - 4 L^3)/(L0^2 q))`` with ``q = D0^2 n^2 pi^2``.
-    """
-    L = as_values(L)
-    q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
-    L3 = L * L * L  # products, not powers: several times faster on scalars
-    c1 = 2 * L / L0sq - 2 * L / q - 2 * L0sq * q * (b2 - 2 * L * L) / (L3 * s * s)
-    c2 = -2 * L0sq / L3 + 2 * q * L / (s * s) + (2 * L * b2 - 4 * L3) / (L0sq * q)
-    return params.C1 * c1 + params.C2 * c2
-
-
-def strain_energy_curvature(L, params: Params = DEFAULT):
-    """d^2W/dL^2 [Pa/m^2], the derivative of :func:`strain_energy_gradient` (needed by Eq. 23)."""
-    L = as_values(L)
-    q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
-    u = b2 - 2 * L * L
-    L2, L4, s2, s3 = L * L, L * L * L * L, s * s, s * s * s
-    dg = -4 / (L2 * s2) - 3 * u / (L4 * s2) + 4 * u / (L2 * s3)
-    c1 = 2 / L0sq - 2 / q - 2 * L0sq * q * dg
-    c2 = 6 * L0sq / L4 + 2 * q / s2 + 8 * q * L2 / s3 + (2 * b2 - 12 * L2) / (L0sq * q)
-    return params.C1 * c1 + params.C2 * c2
-
 
 def elastic_tension(L, params: Params = DEFAULT):
     """The rubber's share of the tension, ``V_r dW/dL`` [N] (zero for model 1)."""
@@ -714,5 +511,3 @@ def lagged_pressure(P, P_cmd, tau: float, dt: float):
     decay = -dt / tau
     return P_cmd + (P - P_cmd) * (_symbolic_math().exp(decay) if is_symbolic(decay) else math.exp(decay))
 
-
-_effects.PHYSICS["actuator"] = sys.modules[__name__]  # what the built-in effect terms call

@@ -42,6 +42,9 @@ from types import MappingProxyType
 from typing import Callable, Mapping
 
 from ..errors import ParameterError
+from .braid import pressure_gain, strain_energy_gradient
+from .tables import BASE_NAMES, TABLE_I, TABLE_II, derived_turns, rubber_volume
+from .xp import math_for
 
 #: The quasi-static limits an effect can have (see the module docstring).
 QUASI_STATIC_KINDS = ("static", "play", "viscous", None)
@@ -54,9 +57,6 @@ def outside_domain_message(name: str, value_text: str, low: float, high: float, 
     return f"parameter {name} = {value_text}{unit} is outside the model's domain [{low:g}, {high:g}]{unit}"
 
 
-#: The parameter names of the paper's tables and the derived ones (handed in by :mod:`mkctl.physics.params`,
-#: which defines them and imports this module): an effect may not take them.
-BASE_NAMES: list = []
 
 
 class EffectError(ParameterError):
@@ -244,37 +244,49 @@ def _check_effect(effect: Effect) -> None:
             raise EffectError(f"effect {effect.name!r}: search bounds for {experiment} must be positive and ordered")
 
 
+def _probe_values(effect: Effect) -> dict:
+    """Numbers to evaluate an effect's terms at: Table I and II, every registered parameter at its start value,
+    and the effect's own at a value where it is on (its typical value, else a bound)."""
+    values = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}
+    values["n"] = derived_turns(values["b"], values["L0"], values["D0"])
+    values.update({q.name: q.start for q in parameters()})
+    values.update({q.name: q.typical if q.typical is not None else (q.upper if math.isfinite(q.upper) else
+                                                                    q.lower + 1.0)
+                   for q in effect.parameters})
+    return values
+
+
+class _ProbeParams:
+    """Plain numbers by attribute, as a parameter set reads (V_r derived): what a new term is tried on."""
+
+    def __init__(self, values: dict):
+        self.__dict__.update(values)
+
+    @property
+    def V_r(self) -> float:
+        return rubber_volume(self.t0, self.D0, self.L0)
+
+
 def _check_term(effect: Effect) -> None:
     """Evaluate the effect's terms once on floats and once on sympy symbols: a term that fails either way
     (a name mkctl's math namespace lacks, a Python branch on a symbol) is refused here, in one line."""
-    actuator = PHYSICS.get("actuator")
-    if actuator is None:  # only mkctl.physics.effects imported: the physics that traces a term is not loaded
-        raise EffectError(f"effect {effect.name!r}: import mkctl (or mkctl.effects) before registering an effect")
-    p = actuator.DEFAULT
-    probes = {q.name: q.typical if q.typical is not None else (q.upper if math.isfinite(q.upper) else q.lower + 1.0)
-              for q in effect.parameters}
-    try:
-        p = p.replace(**probes) if all(n in p.as_dict() for n in probes) else p
-    except ParameterError:
-        pass
-    for label, xp in (("on floats", actuator.math_for(0.5)), ("on symbols", None)):
+    for label in ("on floats", "on symbols"):
         try:
-            if xp is None:
+            if label == "on symbols":
                 import sympy
                 L, Ldot, P, f = sympy.symbols("L Ldot P f", real=True)
-                xp = actuator.math_for(L)
-                sp = actuator.SymbolicParams()
+                p = SymbolicParams()
             else:
-                L, Ldot, P, f, sp = 0.19, 0.01, 2e5, 10.0, p
-            with actuator.tracing_domain_checks():
-                if effect.tension is not None:
-                    effect.tension(L, Ldot, P, sp, xp)
-                if effect.pressure_rate is not None:
-                    effect.pressure_rate(P, P * 1.1, sp, xp)
-                if effect.final is not None:
-                    effect.final(f, sp, xp)
-                if effect.command_delay is not None:
-                    effect.command_delay(sp)
+                L, Ldot, P, f, p = 0.19, 0.01, 2e5, 10.0, _ProbeParams(_probe_values(effect))
+            xp = math_for(L)
+            if effect.tension is not None:
+                effect.tension(L, Ldot, P, p, xp)
+            if effect.pressure_rate is not None:
+                effect.pressure_rate(P, P * 1.1, p, xp)
+            if effect.final is not None:
+                effect.final(f, p, xp)
+            if effect.command_delay is not None:
+                effect.command_delay(p)
         except Exception as error:  # any failure of user code: say which effect and why, in one line
             raise EffectError(f"effect {effect.name!r}: its terms cannot be evaluated {label} "
                               f"({type(error).__name__}: {error})") from None
@@ -355,17 +367,50 @@ def separating_experiment(a: str, b: str) -> str:
     return get(a).separation.get(b) or get(b).separation.get(a, "") if a in _REGISTRY and b in _REGISTRY else ""
 
 
+def parameter_names() -> tuple[str, ...]:
+    """Every parameter name of a parameter set: the tables', then each registered effect's, in order."""
+    return (*BASE_NAMES, *(q.name for q in parameters()))
+
+
+class SymbolicParams:
+    """A stand-in for :class:`~mkctl.physics.params.Params` whose values are sympy symbols named after the
+    parameters: what the equations are traced on (generated C, exact derivatives).
+
+    ``on``: the names of the effects to trace as switched on (default: every effect). An effect traced off has
+    its switch parameter at its off value; one traced on has it as a symbol (positive when its off value is the
+    lower bound 0), except a whole-number switch (model, slack), which holds its "on" value. ``fixed``: further
+    names held at the given numbers.
+    """
+
+    def __init__(self, on=None, fixed: dict | None = None):
+        import sympy
+        for name in parameter_names():
+            self.__dict__[name] = sympy.Symbol(name, real=True)
+        for effect in all_effects():
+            q = effect.switch_parameter
+            if on is not None and effect.name not in on:
+                self.__dict__[q.name] = q.off
+            elif q.switch:
+                self.__dict__[q.name] = q.upper if q.off == q.lower else q.lower
+            elif q.off == 0 and q.lower == 0:
+                self.__dict__[q.name] = sympy.Symbol(q.name, positive=True)
+        self.__dict__.update(fixed or {})
+
+    @classmethod
+    def like(cls, params) -> "SymbolicParams":
+        """Symbols for every value, with the effects switched on that are on in params."""
+        return cls(on={e.name for e in all_effects() if e.is_on(params)})
+
+    @property
+    def V_r(self):
+        return rubber_volume(self.t0, self.D0, self.L0)
+
+
 # --- the built-in effects (model-spec section 4) --------------------------------------------------------------
-
-#: The physics modules the built-in terms call and a new effect's terms are traced with (filled by
-#: :mod:`mkctl.physics.actuator` when it is imported: it imports this module, so this one does not import it; the
-#: layer above hands it in, as it hands the compiled core to the physics).
-PHYSICS: dict = {}
-
 
 def _elastic_term(L, Ldot, P, p, xp):
     """Model 2's rubber share ``V_r dW/dL`` [N] (Eq. 13)."""
-    return p.V_r * PHYSICS["actuator"].strain_energy_gradient(L, p)
+    return p.V_r * strain_energy_gradient(L, p)
 
 
 def _viscous_term(L, Ldot, P, p, xp):
@@ -392,7 +437,7 @@ def _threshold_term(L, Ldot, P, p, xp):
     """The pressure threshold: Eq. 7's pressure term with ``P_eff = P - P0 (1 - exp(-P / P0))`` for P > 0 instead
     of P, written as the term it adds, ``-P0 (1 - exp(-max(P, 0) / P0)) (3 L^2 - b^2) / (4 pi n^2)`` [N]
     (``max(P, 0)``: P_eff = P for P <= 0, and no overflow there)."""
-    return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * PHYSICS["actuator"].pressure_gain(L, p.b, p.n)
+    return -p.P0 * (1 - xp.exp(-xp.maximum(P, 0.0) / p.P0)) * pressure_gain(L, p.b, p.n)
 
 
 def _exhaust_rate(P, P_cmd, p, xp):
@@ -634,3 +679,7 @@ WHY = {
 def why(name: str) -> str:
     """What an effect changes, in a few words (its description unless WHY holds a shorter text)."""
     return WHY.get(name) or get(name).description
+
+
+for _effect in BUILTIN:  # the registry starts with the built-ins, in the spec's order
+    register(_effect, _builtin=True)

@@ -27,47 +27,10 @@ from typing import NamedTuple
 from . import effects
 from .effects import outside_domain_message  # noqa: F401  (re-exported: the native FMUs write it into C)
 from ..errors import ParameterError
+from .tables import (BASE_NAMES, RATED_PRESSURE, TABLE_I, TABLE_II, Quantity,  # noqa: F401 (re-exported)
+                     derived_turns, rubber_volume)
 
 
-class Quantity(NamedTuple):
-    """A parameter's default value with its unit and meaning."""
-
-    value: float
-    unit: str
-    description: str
-
-
-#: Table I of the paper: the McKibben muscle. Row "h = 0.241 m" is the braid length b (spec section 2).
-TABLE_I = MappingProxyType({
-    "b": Quantity(0.241, "m", "braid (thread) length"),
-    "L0": Quantity(0.208, "m", "actuator length at rest"),
-    "D0": Quantity(0.013, "m", "actuator outer diameter at rest"),
-    "C1": Quantity(192e3, "Pa", "Mooney-Rivlin constant C1"),
-    "C2": Quantity(1.3e3, "Pa", "Mooney-Rivlin constant C2"),
-    "t0": Quantity(0.0015, "m", "bladder wall thickness"),
-})
-
-#: Table II of the paper: the knee of Fig. 6. The unnamed last row (0.059 m) is r (spec section 3).
-TABLE_II = MappingProxyType({
-    "m": Quantity(10.0, "kg", "hip mass"),
-    "L1": Quantity(0.55, "m", "knee to extensor thigh anchor"),
-    "L2": Quantity(0.08, "m", "knee to extensor shank anchor"),
-    "L5": Quantity(0.21, "m", "knee to flexor thigh anchor"),
-    "L6": Quantity(0.05, "m", "knee to flexor shank anchor"),
-    "Lo": Quantity(0.44, "m", "thigh length (knee to hip)"),
-    "Lu": Quantity(0.43, "m", "shank length (knee to ankle)"),
-    "Lec": Quantity(0.52, "m", "fixed, non-actuator part of the extensor line"),
-    "Lfc": Quantity(0.05, "m", "fixed, non-actuator part of the flexor line"),
-    "r": Quantity(0.059, "m", "knee to kneecap tip (lever length)"),
-    "g": Quantity(9.81, "m/s^2", "gravitational acceleration"),
-})
-
-#: Typical rated gauge pressure of a real McKibben muscle [Pa]; the model itself has no limit (spec section 3
-#: note). Used only to tell users when the model asks for more than a real muscle takes.
-RATED_PRESSURE = 600e3
-
-#: The parameters of the paper's tables (and the derived n), in Params' order; the effects' follow them.
-BASE_NAMES = (*TABLE_I, "n", *TABLE_II)
 #: Table parameters that must be positive, and those that must not be negative (the effects' own bounds are in
 #: their definitions, :mod:`mkctl.physics.effects`).
 _POSITIVE = ("b", "L0", "D0", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "r", "g")
@@ -160,22 +123,6 @@ INTEGER_PARAMETERS = LiveSequence(lambda: [q.name for q in effects.parameters() 
 #: Every parameter name accepted by :meth:`Params.replace`, a measurement file and the FMUs: the tables', then
 #: each registered effect's, in the registry's order.
 PARAMETER_NAMES = LiveSequence(lambda: [*BASE_NAMES, *(q.name for q in effects.parameters())])
-
-
-def derived_turns(b: float, L0: float, D0: float) -> float:
-    """Turns of a thread ``n = sqrt(b^2 - L0^2) / (pi D0)`` (spec section 2, from Eq. 5 at rest).
-
-    Parameters: b braid length [m], L0 rest length [m], D0 rest diameter [m]. Returns n [-].
-    """
-    return math.sqrt(b * b - L0 * L0) / (math.pi * D0)
-
-
-def rubber_volume(t0: float, D0: float, L0: float) -> float:
-    """Rubber volume ``V_r = pi t0 (D0 - t0) L0`` [m^3] (spec section 2; Eq. 8-9 of the paper).
-
-    Parameters: t0 wall thickness [m], D0 outer diameter [m], L0 rest length [m].
-    """
-    return math.pi * t0 * (D0 - t0) * L0
 
 
 class Params:
@@ -348,10 +295,6 @@ def check_domain(values) -> None:
 
 
 _BASE_DEFAULTS = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}
-
-effects.BASE_NAMES[:] = BASE_NAMES  # the registry refuses an effect that takes one of these names
-for _effect in effects.BUILTIN:
-    effects.register(_effect, _builtin=True)
 
 #: The parameter set of the paper: Table I, Table II, model 2, no further effects.
 DEFAULT = Params()
