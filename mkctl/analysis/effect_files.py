@@ -68,23 +68,19 @@ from ..physics import effects as registry
 from ..physics.actuator import MATH_FUNCTIONS, symbolic_math
 from ..physics.params import BASE_NAMES, DEFAULT, PARAMETER_NAMES, Params
 
-#: The built-in effects of spec section 4b, reserved even where the registry does not have them yet.
-SPEC_4B_EFFECTS = ("dead_time", "asymmetric_lag", "pressure_friction", "pressure_threshold")
-#: Their parameters (spec 4b), reserved likewise.
-SPEC_4B_PARAMETERS = ("delay", "tau_exhaust", "Fc_p", "P0")
 #: What ``xp`` offers, besides arithmetic (the one list of :mod:`mkctl.physics.actuator`).
 XP_FUNCTIONS = MATH_FUNCTIONS
 
 
 def built_in_effects() -> tuple:
-    """Names a user effect may not take: the built-in effects (spec sections 4 and 4b)."""
-    return tuple(dict.fromkeys((*(e.name for e in registry.all_effects() if e.builtin), *SPEC_4B_EFFECTS)))
+    """Names a user effect may not take: the built-in effects (spec sections 4, 4b and 4d)."""
+    return tuple(e.name for e in registry.all_effects() if e.builtin)
 
 
 def reserved_parameters() -> tuple:
     """Parameter names a user effect may not take: the tables', the derived ones and the built-in effects'."""
     own = (q.name for e in registry.all_effects() if e.builtin for q in e.parameters)
-    return tuple(dict.fromkeys((*BASE_NAMES, *own, *SPEC_4B_PARAMETERS)))
+    return tuple(dict.fromkeys((*BASE_NAMES, *own)))
 
 
 class EffectFileError(MkctlError, ValueError):

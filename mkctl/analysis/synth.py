@@ -179,9 +179,10 @@ def _check_ranges(experiment, seed, samples, rate, noise, noise_factor, output_k
 def hidden_values(hidden) -> dict:
     """Turn a list of ``name`` or ``name=value`` items (effect or parameter names) into parameter values.
 
-    ``viscous_damping`` alone means c = 45 N s/m (see :data:`DEFAULT_EFFECT_VALUES`); ``elasticity``
-    means model 2 with the parameter set's C1, C2. Returns {parameter: value} with ``model`` = 2 when
-    elasticity is hidden.
+    An effect named alone takes its on values (:attr:`~mkctl.physics.effects.Effect.on_values`):
+    ``viscous_damping`` means c = 45 N s/m (see :data:`DEFAULT_EFFECT_VALUES`), ``elasticity`` model 2 with the
+    parameter set's C1, C2, ``slack`` slack = 1. A table value that only an effect reads (C1, C2) switches that
+    effect on too. Returns {parameter: value}.
     """
     values: dict = {}
     for item in hidden or ():
@@ -195,21 +196,20 @@ def hidden_values(hidden) -> dict:
                 raise ParameterError(f"hidden value of {name!r} is not a number: {text!r}") from None
         else:
             name, value = item.strip(), None
-        if name in DEFAULT_EFFECT_VALUES:
+        if name in effects.names() and (value is None or name not in PARAMETER_NAMES):
             if value is not None:
                 raise ParameterError(f"give the effect {name!r} without a value, or its parameter "
                                      f"({', '.join(EFFECT_PARAMETERS[name])}) with one")
-            values.update(DEFAULT_EFFECT_VALUES[name])
-            if name == "elasticity":
-                values["model"] = 2
+            values.update(effects.get(name).on_values)
         elif name == "model":
             raise ParameterError("hide the rubber's elasticity with 'elasticity' and a model1 baseline")
         elif name in PARAMETER_NAMES:
             if value is None:
                 raise ParameterError(f"hidden parameter {name!r} needs a value ({name}=VALUE)")
             values[name] = value
-            if name in EFFECT_PARAMETERS["elasticity"]:
-                values["model"] = 2
+            owner = effects.effect_of(name)
+            if owner is not None and name in owner.uses:  # a table value only that effect reads (C1, C2)
+                values.update({k: v for k, v in owner.on_values.items() if k not in values})
         else:
             raise ParameterError(f"unknown effect or parameter {name!r} to hide (effects: "
                                  f"{', '.join(DEFAULT_EFFECT_VALUES)}; or any parameter NAME=VALUE)")
@@ -243,8 +243,8 @@ class SyntheticRecord:
     @property
     def hidden_effects(self) -> list[str]:
         # hidden static parameters (a calibration's b, n) belong to the muscle, not to an effect
-        effect_parameters = {p for e, ps in EFFECT_PARAMETERS.items() if e != "elasticity" for p in ps}
-        muscle = {k: v for k, v in self.hidden.items() if k not in effect_parameters and k != "model"}
+        effect_parameters = {q.name for e in effects.all_effects() for q in e.parameters}
+        muscle = {k: v for k, v in self.hidden.items() if k not in effect_parameters}
         baseline = Params().replace(model=BASELINES[self.baseline], **self.known, **muscle)
         return [e for e in self.truth.effects if e not in baseline.effects]
 
@@ -527,9 +527,7 @@ def synthesize_isometric(hidden=None, known: dict | None = None, noise: float = 
         hidden = dict(hidden)
     else:
         items = list(hidden or ())
-        hidden = hidden_values([i for i in items if i != "slack"])
-        if "slack" in items:
-            hidden["slack"] = 1
+        hidden = hidden_values(items)
     truth = Params().replace(**{"model": BASELINES[baseline], **known, **hidden})
     time, length, pressure, branch = isometric_inputs(samples, lengths, params=truth)
     time, rounded = as_written("isometric", time, {"length": length, "pressure": pressure})

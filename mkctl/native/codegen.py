@@ -47,7 +47,7 @@ from sympy.functions.elementary.piecewise import ExprCondPair
 from sympy.printing.c import C99CodePrinter
 
 from ..physics import actuator, integrate, isotonic, knee, simulate
-from ..physics.params import PARAMETER_NAMES, rubber_volume
+from ..physics.params import DEFAULT, PARAMETER_NAMES, rubber_volume
 from . import TEMPLATE
 from .variants import Variant, all_variants
 
@@ -452,7 +452,7 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
 
 def common_functions(checks: CheckTable) -> str:
     """The C of the functions that do not depend on the variant: the commands' checks, the stop positions."""
-    sp = SymbolicParams(Variant(("elasticity",)))
+    sp = SymbolicParams(Variant.of(DEFAULT))  # the paper's structure: these checks and stops depend on no effect
     parameters = _parameter_bindings()
     pe_cmd, pf_cmd = _real("pe_cmd"), _real("pf_cmd")
 

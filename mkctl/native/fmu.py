@@ -293,13 +293,6 @@ def _c_double(value: float) -> str:
     return repr(float(value))
 
 
-def _core_has_slack() -> bool:
-    """Whether the compiled core tells slack = 1 from slack = 0: its variants follow every structural effect of
-    the registry, slack included."""
-    from .variants import structural_effects
-    return any(e.name == "slack" for e in structural_effects())
-
-
 def c_identifier(name: str) -> str:
     """The C name of a variable in ``VR_<name>``: ``der(X)`` becomes ``der_X``."""
     text = name.replace("(", "_").replace(")", "")
@@ -342,7 +335,6 @@ def variables_header(interface: Interface, guid: str) -> str:
              f"#define MK_UNDEFINED_OUTPUTS {_c_string(interface.undefined_outputs)}",
              f"#define NV {len(variables)}",
              f"#define MK_NPARAM {len(PARAMETER_NAMES)} /* the core's parameter vector */",
-             f"#define MK_CORE_HAS_SLACK {int(_core_has_slack())} /* the core generates slack = 1 variants */",
              f"#define MK_ME_NX {len(ME_STATES[interface.model_name])} /* Model Exchange: continuous states */",
              f"#define MK_ME_NZ {nz} /* Model Exchange: event indicators */", ""]
     for v in variables:

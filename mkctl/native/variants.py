@@ -34,18 +34,9 @@ class Variant(NamedTuple):
         return "v" + "".join("1" if e.name in self.on else "0" for e in structural_effects())
 
     @property
-    def model(self) -> int:
-        """1: pressure only, 2: with rubber elasticity."""
-        return 2 if "elasticity" in self.on else 1
-
-    @property
     def lag(self) -> bool:
         """Whether an effect with pressure dynamics is on (the knee then has the pressures as states)."""
         return any(effects.get(name).pressure_rate is not None for name in self.on)
-
-    @property
-    def slack(self) -> bool:
-        return "slack" in self.on
 
     @property
     def nstate(self) -> int:

@@ -94,6 +94,12 @@ class Parameter:
         """The value a parameter set has unless told otherwise."""
         return self.off if self.default is None else self.default
 
+    @property
+    def on_value(self) -> float:
+        """The value a whole-number switch takes when its effect is on: the other one of its two values
+        (``model``: 2, ``slack``: 1)."""
+        return self.upper if self.off == self.lower else self.lower
+
     def check(self, value) -> None:
         """Raise :class:`ParameterError` unless value lies within this parameter's bounds."""
         if self.switch:
@@ -178,6 +184,13 @@ class Effect:
     def typical_values(self) -> dict[str, float]:
         """The values ``synth`` hides it at when it is named alone (parameters with a typical value)."""
         return {q.name: q.typical for q in self.parameters if q.typical is not None}
+
+    @property
+    def on_values(self) -> dict[str, float]:
+        """The values that switch it on when it is named alone: its typical values, and a whole-number switch
+        without one at its on value (elasticity: ``model = 2``, slack: ``slack = 1``)."""
+        q = self.switch_parameter
+        return {**({q.name: q.on_value} if q.switch else {}), **self.typical_values}
 
 
 _REGISTRY: dict[str, Effect] = {}
@@ -391,7 +404,7 @@ class SymbolicParams:
             if on is not None and effect.name not in on:
                 self.__dict__[q.name] = q.off
             elif q.switch:
-                self.__dict__[q.name] = q.upper if q.off == q.lower else q.lower
+                self.__dict__[q.name] = q.on_value
             elif q.off == 0 and q.lower == 0:
                 self.__dict__[q.name] = sympy.Symbol(q.name, positive=True)
         self.__dict__.update(fixed or {})

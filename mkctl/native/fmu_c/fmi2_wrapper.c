@@ -181,13 +181,6 @@ static int check_parameters(const mk_data *d, char *msg, size_t size)
             return 1;
         }
     }
-#if defined(VR_slack) && !MK_CORE_HAS_SLACK
-    if (d->v[VR_slack] != 0) {
-        snprintf(msg, size, "parameter slack = %d is not supported by the compiled core of this build (only 0)",
-                 (int)d->v[VR_slack]);
-        return 1;
-    }
-#endif
     if (d->v[VR_L0] >= d->v[VR_b]) {
         snprintf(msg, size, "rest length L0 = %s m must be shorter than the braid b = %s m",
                  mk_repr(d->v[VR_L0], a, sizeof a), mk_repr(d->v[VR_b], b, sizeof b));
