@@ -567,6 +567,22 @@ _SEPARATIONS = {
     ("dead_time", "slack"):
         "settled readings at a short length from zero pressure up: slack reads zero until the tension turns "
         "positive, a dead time only delays each reading",
+    ("pressure_friction", "coulomb_friction"):
+        "a blocked-force test stepped up and back down at several pressures: "
+        "constant friction keeps the branches 2 Fc apart at every pressure, "
+        "pressure friction opens them in proportion to the pressure",
+    ("pressure_threshold", "elasticity"):
+        "a blocked-force test at two lengths from zero pressure up: the threshold bends "
+        "the force-pressure curve at low pressure at every length, elasticity shifts it "
+        "by a length-dependent constant",
+    ("asymmetric_lag", "pressure_lag"):
+        "pressure steps up and down of the same size (best with measured bladder "
+        "pressures): a symmetric lag follows both at the same rate, an asymmetric "
+        "one fills and exhausts at different rates",
+    ("dead_time", "pressure_lag"):
+        "a step of the command with the bladder pressure measured: a dead time "
+        "leaves it flat for the delay and then moves at once, a lag starts at once "
+        "and approaches exponentially",
 }
 
 
@@ -635,9 +651,7 @@ BUILTIN = (
         experiments={"isotonic": (1e-8, 1e-4), "knee": (1e-8, 1e-4)},  # 1e-4: 100 N at 1 MPa, as Fc's 100 N
         regressor="the friction force per N/Pa (the gauge pressure) at the measured direction of motion",
         signature_axis="gauge pressure times the direction of motion tanh(v / vs) [kPa]",
-        separation={**_separations("pressure_friction"), "coulomb_friction": "a blocked-force test stepped up and back down at several pressures: "
-                                        "constant friction keeps the branches 2 Fc apart at every pressure, "
-                                        "pressure friction opens them in proportion to the pressure"},
+        separation=_separations("pressure_friction"),
         calibrate=True),
     Effect(
         "pressure_threshold", "the pressure term of Eq. 7 uses P_eff = P - P0 (1 - exp(-P / P0)) for P > 0 (P_eff = P "
@@ -649,9 +663,7 @@ BUILTIN = (
         experiments={"isotonic": (1e3, 3.9e5), "knee": (1e3, 3.9e5)},  # below the domain's 4e5: 10**log10 rounds up
         regressor="the tension a threshold of 1 Pa takes away at the measured pressure and length",
         signature_axis="gauge pressure [kPa]",
-        separation={**_separations("pressure_threshold"), "elasticity": "a blocked-force test at two lengths from zero pressure up: the threshold bends "
-                                  "the force-pressure curve at low pressure at every length, elasticity shifts it "
-                                  "by a length-dependent constant"},
+        separation=_separations("pressure_threshold"),
         calibrate=True),
     Effect(
         "asymmetric_lag", "needs pressure_lag: tau dP/dt = P_cmd - P while filling (P_cmd >= P), "
@@ -662,9 +674,7 @@ BUILTIN = (
         fitted="tau_exhaust", experiments={"knee": (1e-3, 2.0)},
         regressor="the force an exhausting lag of 1 s takes away where the command falls below the pressure",
         signature_axis="extensor pressure rate while exhausting (smoothed) [kPa/s]",
-        separation={**_separations("asymmetric_lag"), "pressure_lag": "pressure steps up and down of the same size (best with measured bladder "
-                                    "pressures): a symmetric lag follows both at the same rate, an asymmetric "
-                                    "one fills and exhausts at different rates"}),
+        separation=_separations("asymmetric_lag")),
     Effect(
         "dead_time", "each actuator sees its command delay late: P_cmd(t - delay), the first command held for "
         "t < t0 + delay; it acts before the lag (valve and line transport); linearized by a first-order Pade "
@@ -674,9 +684,7 @@ BUILTIN = (
         command_delay=lambda p: p.delay, structural=False, fitted="delay", experiments={"knee": (1e-3, 0.5)},
         regressor="the force the command's change over 1 s of delay takes away (first order: -delay dP_cmd/dt)",
         signature_axis="extensor command rate (smoothed) [kPa/s]",
-        separation={**_separations("dead_time"), "pressure_lag": "a step of the command with the bladder pressure measured: a dead time "
-                                    "leaves it flat for the delay and then moves at once, a lag starts at once "
-                                    "and approaches exponentially"}),
+        separation=_separations("dead_time")),
 )
 
 #: Why each built-in changes the model, in the diagnosis' words (its report's "why" column).
