@@ -58,6 +58,8 @@ import numpy as np
 from ..errors import MkctlError
 from ..io.measurements import Measurement
 from ..physics import actuator, knee
+from ..physics import effects as registry
+from ..physics.effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
 
 #: Contiguous blocks the samples are cut into; even blocks fit, odd blocks check.
@@ -77,32 +79,11 @@ MAX_TERMS = 3
 RIVAL_FACTOR = 1.25
 #: An isotonic input that changes by more than this share of its range from one sample to the next is a step.
 STEP_FRACTION = 0.05
-#: Delays of the delayed-pressure terms [s] (dead times of real regulators: 20-40 ms).
-DELAYS = (0.01, 0.02, 0.04)
-#: Time constants of the lagged-pressure terms [s] (regulators: 43-131 ms; mkctl's bench: 50 ms).
-LAGS = (0.01, 0.03, 0.1)
-#: Threshold pressures of the threshold terms [Pa].
-THRESHOLDS = (50e3, 150e3, 400e3)
+#: The longest delay a column of the library reads [s]: the knee's first samples that far are left out.
+EDGE_DELAY = max(DISCOVERY_DELAYS)
 #: The smoothed sign of the velocity: tanh(Ldot / v) with v the larger of the model's vs and this share of
 #: the velocity's RMS (a sign of differentiated, noisy data flips at rest).
 SIGN_SCALE = 0.01
-
-# Which registered effect's form each library term is. This table should come from the effect registry's
-# signatures (mkctl.physics.effects, being written beside this): until it is merged it is kept here, in one place.
-# Built-ins today: viscous_damping, coulomb_friction, pressure_lag, elasticity, slack; spec 4b adds
-# pressure_friction, dead_time, pressure_threshold (asymmetric_lag has no term of its own here).
-TERM_MATCHES = {
-    "Ldot": "viscous_damping",
-    "sign(Ldot)": "coulomb_friction",
-    "P * sign(Ldot)": "pressure_friction",
-    "-df/dP * dP/dt": "pressure_lag",
-    "rubber per C1": "elasticity",
-    "-min(f, 0)": "slack",
-    **{f"f(P(t - {d * 1e3:g} ms)) - f(P(t))": "dead_time" for d in DELAYS},
-    **{f"f(P lagged {tau * 1e3:g} ms) - f(P)": "pressure_lag" for tau in LAGS},
-    **{f"threshold(P0 = {P0 / 1e3:g} kPa)": "pressure_threshold" for P0 in THRESHOLDS},
-}
-
 
 #: How each tension term is written in an effect file (spec 4c, :mod:`mkctl.analysis.effect_files`): the effect's
 #: name, its parameter's name and the term as Python with ``p.{k}`` for the parameter. Terms that change the
@@ -122,7 +103,7 @@ WRITABLE = {
         "threshold_pressure", "P0_found",
         "-(3 * L ** 2 - p.b ** 2) / (4 * xp.pi * p.n ** 2) * p.{k}"
         " * (1 - xp.exp(-xp.maximum(P, 0.0) / (p.{k} + 1e-9)))")
-       for P0 in THRESHOLDS},
+       for P0 in DISCOVERY_THRESHOLDS},
 }
 
 
@@ -140,11 +121,11 @@ class Term:
     unit: str
     tension: Callable[[dict], np.ndarray]
     commands_only: bool = False
-    effect: str | None = None  #: the effect whose own term this is (a user effect's), else see TERM_MATCHES
+    effect: str | None = None  #: the registered or user effect whose own form this term is
 
     @property
     def matches(self) -> str | None:
-        return self.effect or TERM_MATCHES.get(self.label)
+        return self.effect
 
 
 def effect_term(effect) -> Term:
@@ -160,38 +141,24 @@ def effect_term(effect) -> Term:
                 lambda a: effect.tension(a["L"], a["Ldot"], a["P"], {q.name: q.typical}) / scale, effect=effect.name)
 
 
-def _threshold_term(P0: float, params: Params):
-    gain = lambda a: actuator.static_tension_dP(a["L"], params)  # noqa: E731  (3 L^2 - b^2) / (4 pi n^2)
-    # per unit P0: P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
-    return lambda a: -gain(a) * np.where(a["P"] > 0, 1.0 - np.exp(-np.maximum(a["P"], 0.0) / P0), 0.0)
-
-
-def library(params: Params, delays=DELAYS, effects=()) -> list[Term]:
-    """The terms the missing force is regressed on (module docstring), per unit coefficient; the terms of the
-    user ``effects`` (:func:`effect_term`) come first, so that a term equal to one of theirs is named by it."""
-    base = params.replace(slack=0)
-    terms = [
+def library(params: Params, effects=()) -> list[Term]:
+    """The terms the missing force is regressed on (module docstring), per unit coefficient: the terms of the
+    user ``effects`` (:func:`effect_term`) first, so that a term equal to one of theirs is named by it; then each
+    registered effect's own columns (its definition's ``discovery``: a new effect brings its own); then the forms
+    no effect has (drag, offsets, springs, a pressure gain)."""
+    registered = [Term(column.label, column.unit, column.tension, column.commands_only, effect.name)
+                  for effect in registry.all_effects() if effect.discovery is not None
+                  for column in effect.discovery(params)]
+    return [
         *[effect_term(e) for e in effects],
-        Term("Ldot", "N s/m", lambda a: a["Ldot"]),
+        *registered,
         Term("Ldot * |Ldot|", "N s^2/m^2", lambda a: a["Ldot"] * np.abs(a["Ldot"])),
         Term("Ldot * P", "N s/(m Pa)", lambda a: a["Ldot"] * a["P"]),
-        Term("sign(Ldot)", "N", lambda a: a["sign"]),
-        Term("P * sign(Ldot)", "N/Pa", lambda a: a["P"] * a["sign"]),
-        Term("-df/dP * dP/dt", "s", lambda a: -a["gain"] * a["rate"], commands_only=True),
-        *[Term(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1",
-               (lambda d: lambda a: a["gain"] * (a["delayed"][d] - a["P"]))(d), commands_only=True) for d in delays],
-        *[Term(f"f(P lagged {tau * 1e3:g} ms) - f(P)", "1",
-               (lambda tau: lambda a: a["gain"] * (a["lagged"][tau] - a["P"]))(tau), commands_only=True)
-          for tau in LAGS],
         Term("1", "N", lambda a: np.ones_like(a["L"])),
         Term("L - L0", "N/m", lambda a: a["L"] - params.L0),
         Term("(L - L0)^2", "N/m^2", lambda a: (a["L"] - params.L0) ** 2),
         Term("P", "N/Pa", lambda a: a["P"]),
-        *[Term(f"threshold(P0 = {P0 / 1e3:g} kPa)", "Pa", _threshold_term(P0, params)) for P0 in THRESHOLDS],
-        Term("rubber per C1", "Pa", lambda a: actuator.elastic_tension(a["L"], base.replace(model=2, C1=1.0, C2=0.0))),
-        Term("-min(f, 0)", "1", lambda a: -np.minimum(a["static"], 0.0)),
     ]
-    return terms
 
 
 # --- The states each term is evaluated at ------------------------------------------------------------------
@@ -201,11 +168,17 @@ def _smoothed_sign(Ldot, params: Params):
     return np.tanh(Ldot / scale)
 
 
-def _actuator_states(L, Ldot, P, params: Params, rate=None, delayed=None, lagged=None) -> dict:
+def _no_commands(_):
+    raise MkctlError("a delayed or lagged pressure needs the knee's commands")
+
+
+def _actuator_states(L, Ldot, P, params: Params, rate=None, delayed=_no_commands, lagged=_no_commands) -> dict:
+    """An actuator's states at the samples, as the library's terms read them (see
+    :class:`mkctl.physics.effects.DiscoveryColumn`)."""
     gain = actuator.static_tension_dP(L, params)
     return {"L": L, "Ldot": Ldot, "P": P, "sign": _smoothed_sign(Ldot, params), "gain": gain,
-            "rate": np.zeros_like(L) if rate is None else rate, "delayed": delayed or {}, "lagged": lagged or {},
-            "static": actuator.static_tension(L, P, params.replace(slack=0))}
+            "rate": np.zeros_like(L) if rate is None else rate, "delayed": delayed, "lagged": lagged,
+            "static": actuator.static_tension(L, P, params)}
 
 
 def _delayed(time, values, delay: float):
@@ -258,7 +231,7 @@ def acceleration_kernels(window: int, dt: float, order: int = 3):
     return k2, g[:window - 2]  # the last two entries are zero: the kernel is centred on window - 2 samples
 
 
-def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delays=DELAYS):
+def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
     """Eq. 17's equation error of the knee and each term's share of it, smoothed alike (see
     :func:`acceleration_kernels`): ``m (k2 * X + g) - g * (F + F_stop)``, with F at the measured X, the smoothed
     V and the model's pressures as they are (commands held, or measured). Returns (error [N], {label: column}, edge)."""
@@ -289,22 +262,29 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term], delay
     error = params.m * (A + params.g) - smooth(force)
     commands = not ("pe" in m.inputs and "pf" in m.inputs)
     late, slow = {}, {}
-    if commands and any(t.commands_only for t in terms):
-        for d in delays:  # the commands d late, through the model's lag if it has one
+
+    def late_pressures(d):  # the commands d late, through the model's lag if it has one
+        if d not in late:
             shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": _delayed(m.time, m.inputs["pe_cmd"], d),
                                                      "pf_cmd": _delayed(m.time, m.inputs["pf_cmd"], d)})
             late[d] = _knee_pressures(shifted, params)
-        held = _knee_pressures(m, params, held_average=False)
-        for tau in LAGS:  # the model's pressures through a further lag tau
-            slow[tau] = tuple(_lag(m.time, p, tau) for p in held)
+        return late[d]
+
+    def slow_pressures(tau):  # the model's pressures (commands held as they are) through a further lag tau
+        if "held" not in slow:
+            slow["held"] = _knee_pressures(m, params, held_average=False)
+        if tau not in slow:
+            slow[tau] = tuple(_lag(m.time, p, tau) for p in slow["held"])
+        return slow[tau]
+
     rates = (np.gradient(Pe, m.time), np.gradient(Pf, m.time))
-    extensor = _actuator_states(geo.Le, -geo.G_e * V, Pe, params, rates[0], {d: v[0] for d, v in late.items()},
-                                {tau: v[0] for tau, v in slow.items()})
-    flexor = _actuator_states(geo.Lf, geo.G_f * V, Pf, params, rates[1], {d: v[1] for d, v in late.items()},
-                              {tau: v[1] for tau, v in slow.items()})
+    extensor = _actuator_states(geo.Le, -geo.G_e * V, Pe, params, rates[0], lambda d: late_pressures(d)[0],
+                                lambda tau: slow_pressures(tau)[0])
+    flexor = _actuator_states(geo.Lf, geo.G_f * V, Pf, params, rates[1], lambda d: late_pressures(d)[1],
+                              lambda tau: slow_pressures(tau)[1])
     columns = {t.label: smooth(geo.G_e * t.tension(extensor) - geo.G_f * t.tension(flexor))
                for t in terms if commands or not t.commands_only}
-    edge = window // 2 + int(round(max(delays) / dt)) + 1
+    edge = window // 2 + int(round(EDGE_DELAY / dt)) + 1  # the samples a delayed column reads before the start
     return error, columns, edge
 
 

@@ -39,7 +39,9 @@ from __future__ import annotations
 import dataclasses
 import math
 from types import MappingProxyType
-from typing import Callable, Mapping
+from typing import Callable, Mapping, NamedTuple
+
+import numpy as np
 
 from ..errors import ParameterError
 from .braid import pressure_gain, strain_energy_gradient
@@ -121,6 +123,23 @@ class Parameter:
                                  f"{self.smallest_on:g} {self.unit}")
 
 
+class DiscoveryColumn(NamedTuple):
+    """One column of the discovery's library that is an effect's own form (model-spec section 6b): a term added
+    to each actuator's tension, per unit of its coefficient.
+
+    ``tension(a)`` [N per unit coefficient] reads an actuator's states ``a`` at the record's samples (a mapping:
+    ``L``, ``Ldot``, ``P`` [SI], ``sign`` (the smoothed direction of motion), ``rate`` (dP/dt), ``gain`` (df/dP),
+    ``static`` (the model's quasi-static tension), and two functions: ``delayed(d)``, the pressure d late, and
+    ``lagged(tau)``, the pressure through a further lag tau). ``commands_only``: offered only where a knee is
+    driven by its commands (with measured pressures a lag or dead time before them is not in the force).
+    """
+
+    label: str
+    unit: str
+    tension: Callable
+    commands_only: bool = False
+
+
 @dataclasses.dataclass(frozen=True)
 class Effect:
     """One physical effect (see the module docstring for every field's meaning)."""
@@ -147,6 +166,7 @@ class Effect:
     signature_axis: str = ""  #: what the signature picture's x axis shows
     separation: Mapping[str, str] = dataclasses.field(default_factory=dict)  #: other effect -> experiment
     calibrate: bool = False  #: a candidate of ``mkctl calibrate`` (blocked-force records)
+    discovery: Callable | None = None  #: (params) -> its :class:`DiscoveryColumn` s of the discovery's library
     builtin: bool = False
 
     @property
@@ -472,6 +492,43 @@ def _slack_limit(f, p, xp):
     return xp.maximum(f, 0.0)
 
 
+# --- their columns in the discovery's library (model-spec section 6b) ------------------------------------------
+# Where an effect's parameter enters nonlinearly (a delay, a time constant, a threshold), the library offers its
+# form at a few values of it; the coefficient then says how much of that form the record holds.
+
+#: Delays of the dead time's columns [s] (dead times of real regulators: 20-40 ms).
+DISCOVERY_DELAYS = (0.01, 0.02, 0.04)
+#: Time constants of the pressure lag's further-lag columns [s] (regulators: 43-131 ms; mkctl's bench: 50 ms).
+DISCOVERY_LAGS = (0.01, 0.03, 0.1)
+#: Threshold pressures of the threshold's columns [Pa].
+DISCOVERY_THRESHOLDS = (50e3, 150e3, 400e3)
+
+
+def _rubber_columns(p) -> tuple:
+    unit_rubber = p.replace(model=2, C1=1.0, C2=0.0)  # the Mooney-Rivlin term per unit C1
+    return (DiscoveryColumn("rubber per C1", "Pa",
+                            lambda a: unit_rubber.V_r * strain_energy_gradient(a["L"], unit_rubber)),)
+
+
+def _lag_columns(p) -> tuple:
+    first_order = DiscoveryColumn("-df/dP * dP/dt", "s", lambda a: -a["gain"] * a["rate"], commands_only=True)
+    return (first_order, *(DiscoveryColumn(f"f(P lagged {tau * 1e3:g} ms) - f(P)", "1",
+                                           (lambda tau: lambda a: a["gain"] * (a["lagged"](tau) - a["P"]))(tau),
+                                           commands_only=True) for tau in DISCOVERY_LAGS))
+
+
+def _delay_columns(p) -> tuple:
+    return tuple(DiscoveryColumn(f"f(P(t - {d * 1e3:g} ms)) - f(P(t))", "1",
+                                 (lambda d: lambda a: a["gain"] * (a["delayed"](d) - a["P"]))(d), commands_only=True)
+                 for d in DISCOVERY_DELAYS)
+
+
+def _threshold_column(P0: float) -> DiscoveryColumn:
+    # per unit P0 (the coefficient estimates P0): P_eff - P = -P0 (1 - exp(-P / P0)) for P > 0
+    return DiscoveryColumn(f"threshold(P0 = {P0 / 1e3:g} kPa)", "Pa", lambda a: -a["gain"] * np.where(
+        a["P"] > 0, 1.0 - np.exp(-np.maximum(a["P"], 0.0) / P0), 0.0))
+
+
 _SEPARATIONS = {
     ("viscous_damping", "pressure_lag"):
         "a pressure step with the leg clamped (a lag delays the force even without motion, damping needs "
@@ -597,7 +654,7 @@ BUILTIN = (
         parameters=(Parameter("model", "1", off=1, lower=1, upper=2, default=2, switch=True, fitted=False,
                               values_text="1 or 2",
                               description="1: pressure only (Eq. 7), 2: with rubber elasticity (Eq. 13)"),),
-        uses=("C1", "C2"), switched_by="model", tension=_elastic_term, quasi_static="static", fitted="C1",
+        uses=("C1", "C2"), switched_by="model", tension=_elastic_term, quasi_static="static", fitted="C1", discovery=_rubber_columns,
         experiments={"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)}, reference=None,
         regressor="the rubber's tension (model 2 minus model 1) at the measured length",
         signature_axis="rubber tension of the model's C1, C2 [N]", separation=_separations("elasticity")),
@@ -606,6 +663,7 @@ BUILTIN = (
         parameters=(Parameter("c", "N s/m", off=0.0, lower=0.0, upper=1e6, smallest_on=1e-9, typical=45.0, scale=10.0,
                               description="viscous damping of each actuator: f += c Ldot"),),
         tension=_viscous_term, quasi_static="viscous", viscous=lambda p: p.c, structural=False, fitted="c",
+        discovery=lambda p: (DiscoveryColumn("Ldot", "N s/m", lambda a: a["Ldot"]),),
         experiments={"isotonic": (1e-2, 1e5), "knee": (1e-2, 1e4)},
         regressor="the damping force per N s/m at the measured velocity",
         signature_axis="velocity [mm/s] (damping: c times it)",
@@ -618,6 +676,7 @@ BUILTIN = (
                               fitted=False, scale=1e-3,
                               description="velocity scale of the smoothed Coulomb friction (not fitted)")),
         switched_by="Fc", tension=_friction_term, quasi_static="play", play=lambda P, p, xp: p.Fc,
+        discovery=lambda p: (DiscoveryColumn("sign(Ldot)", "N", lambda a: a["sign"]),),
         structural=False, fitted="Fc",
         experiments={"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0), "isometric": (1e-3, 100.0)},
         regressor="the friction force per N at the measured direction of motion",
@@ -627,14 +686,15 @@ BUILTIN = (
         "pressure_lag", "tau dP/dt = P_cmd - P for each actuator; P(0) = P_cmd(0)",
         parameters=(Parameter("tau", "s", off=0.0, lower=0.0, upper=100.0, smallest_on=1e-6, typical=0.05, scale=0.01,
                               description="pressure lag time constant: tau dP/dt = P_cmd - P"),),
-        pressure_rate=_lag_rate, pressure_step=_lag_step, fitted="tau", experiments={"knee": (1e-3, 2.0)},
+        pressure_rate=_lag_rate, pressure_step=_lag_step, fitted="tau", discovery=_lag_columns, experiments={"knee": (1e-3, 2.0)},
         regressor="the force a lag of 1 s takes away at the measured pressure-command rate",
         signature_axis="extensor pressure rate (smoothed) [kPa/s]", separation=_separations("pressure_lag")),
     Effect(
         "slack", "f = max(f, 0) applied last, to the whole tension: a braided muscle cannot push",
         parameters=(Parameter("slack", "1", off=0, lower=0, upper=1, switch=True, values_text="0 (off) or 1 (on)",
                               description="1: a braided muscle cannot push, f = max(f, 0) (a switch, not fitted)"),),
-        final=_slack_limit, fitted="slack", experiments={"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
+        final=_slack_limit, fitted="slack",
+        discovery=lambda p: (DiscoveryColumn("-min(f, 0)", "1", lambda a: -np.minimum(a["static"], 0.0)),), experiments={"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
         regressor="the model's tension, where it is negative (a slack muscle carries nothing there)",
         signature_axis="the smaller muscle tension of the model [N] (slack acts below 0)",
         separation=_separations("slack"),
@@ -648,6 +708,7 @@ BUILTIN = (
                                           "f += Fc_p P tanh(Ldot / vs)"),),
         tension=lambda L, Ldot, P, p, xp: p.Fc_p * P * xp.tanh(Ldot / p.vs), quasi_static="play",
         play=lambda P, p, xp: p.Fc_p * P, structural=False, fitted="Fc_p",
+        discovery=lambda p: (DiscoveryColumn("P * sign(Ldot)", "N/Pa", lambda a: a["P"] * a["sign"]),),
         experiments={"isotonic": (1e-8, 1e-4), "knee": (1e-8, 1e-4)},  # 1e-4: 100 N at 1 MPa, as Fc's 100 N
         regressor="the friction force per N/Pa (the gauge pressure) at the measured direction of motion",
         signature_axis="gauge pressure times the direction of motion tanh(v / vs) [kPa]",
@@ -660,6 +721,7 @@ BUILTIN = (
                               description="threshold pressure the braid takes up gradually: "
                                           "P_eff = P - P0 (1 - exp(-P / P0))"),),
         tension=_threshold_term, fitted="P0",
+        discovery=lambda p: tuple(_threshold_column(P0) for P0 in DISCOVERY_THRESHOLDS),
         experiments={"isotonic": (1e3, 3.9e5), "knee": (1e3, 3.9e5)},  # below the domain's 4e5: 10**log10 rounds up
         regressor="the tension a threshold of 1 Pa takes away at the measured pressure and length",
         signature_axis="gauge pressure [kPa]",
@@ -681,7 +743,7 @@ BUILTIN = (
         "approximation",
         parameters=(Parameter("delay", "s", off=0.0, lower=0.0, typical=0.03, scale=0.01,
                               description="transport dead time of the pressure commands: P_cmd(t - delay)"),),
-        command_delay=lambda p: p.delay, structural=False, fitted="delay", experiments={"knee": (1e-3, 0.5)},
+        command_delay=lambda p: p.delay, structural=False, fitted="delay", discovery=_delay_columns, experiments={"knee": (1e-3, 0.5)},
         regressor="the force the command's change over 1 s of delay takes away (first order: -delay dP_cmd/dt)",
         signature_axis="extensor command rate (smoothed) [kPa/s]",
         separation=_separations("dead_time")),
