@@ -27,7 +27,7 @@ Example
 -------
 >>> from mkctl.physics import pneumatics
 >>> round(float(pneumatics.air_volume(0.208, 0.241, 2.980484828, 5e-6)) * 1e6, 3)  # cm^3
-32.498
+32.608
 """
 from __future__ import annotations
 
