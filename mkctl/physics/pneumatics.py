@@ -414,7 +414,8 @@ def regulator_time_constant(P, V, band, C_fill, C_exhaust, P_supply, b_cr, m_sub
 
     Parameters
     ----------
-    P : operating gauge pressure [Pa]
+    P : operating gauge pressure [Pa], > 0 (at P = 0 nothing is left to exhaust: tau_exhaust is
+        infinite, a ZeroDivisionError on floats and inf on arrays)
     V : air volume [m^3]
     band : proportional band [Pa]
     C_fill, C_exhaust : sonic conductances [m^3/(s Pa)] (C_exhaust 0: the same as C_fill)
