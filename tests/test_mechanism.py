@@ -352,3 +352,24 @@ def test_no_equilibrium_between_the_stops_is_one_line():
     with pytest.raises(ParameterError, match="got 1 pressure"):
         mm.equilibrium(mm.PULLEY_JOINT, (3e5,))
     assert math.isfinite(mm.equilibrium(mm.HANGING_MASS, 3e5))
+
+
+def test_muscle_damping_gives_the_spec_a1_for_every_mechanism():
+    """Damping c in the muscles: a1 = -c sum_i (dL_i/dq)^2 / M (the knee's -c (G_e^2 + G_f^2) / m, spec section 4)."""
+    params = DEFAULT.replace(c=40.0)
+    assert mm.stability_coefficients(mm.PULLEY_JOINT, 0.1, (3e5, 3e5), params)[0] == pytest.approx(
+        -40.0 * 2 * 0.02**2 / 0.015, rel=1e-12)
+    assert mm.stability_coefficients(mm.HANGING_MASS, 0.19, 3e5, params)[0] == pytest.approx(-4.0, rel=1e-12)
+    X = 0.85
+    geo = knee.geometry_at_X(X)
+    assert mm.stability_coefficients(mm.KNEE, X, (1.8e6, 1e5), params)[0] == pytest.approx(
+        -40.0 * (geo.G_e**2 + geo.G_f**2) / DEFAULT.m, rel=1e-12)
+
+
+def test_the_docs_example_file_is_the_one_the_page_shows():
+    """docs/mechanisms.md shows docs/examples/cam_lever.py whole; the file loads and is the test's lever."""
+    root = Path(__file__).resolve().parents[1]
+    example = root / "docs" / "examples" / "cam_lever.py"
+    assert example.read_text() in (root / "docs" / "mechanisms.md").read_text()
+    lever = load_mechanism_file(example)
+    assert lever.defaults == {k: float(v) for k, v in CAM.items()}
