@@ -1,6 +1,7 @@
-"""Mechanisms as values (model-spec section 3b): the knee as a mechanism against today's knee, the built-ins and a
-user's mechanism file against an independent simulator (tests/independent_mechanisms.py), exact derivatives against
-finite differences, and bad mechanism files as one-line errors."""
+"""Mechanisms as values (model-spec section 3b): the knee as a mechanism against today's knee, the
+built-ins and a user's mechanism file against an independent simulator
+(tests/independent_mechanisms.py), exact derivatives against finite differences, and bad mechanism
+files as one-line errors."""
 from __future__ import annotations
 
 import math
@@ -13,22 +14,24 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
 import independent_mechanisms as ind  # noqa: E402
-from mkctl.analysis.mechanism_files import MechanismFileError, load_mechanism_file, mechanism  # noqa: E402
+from mkctl.analysis.mechanism_files import (  # noqa: E402
+    MechanismFileError, load_mechanism_file, mechanism)
 from mkctl.errors import MkctlError, ParameterError  # noqa: E402
 from mkctl.physics import actuator, knee, stability  # noqa: E402
 from mkctl.physics import mechanism as mm  # noqa: E402
 from mkctl.physics.params import DEFAULT  # noqa: E402
 from mkctl.physics.simulate import simulate_knee  # noqa: E402
 
-KNEE_PARAMS = [DEFAULT, DEFAULT.replace(c=30.0, Fc=4.0), DEFAULT.replace(slack=1), DEFAULT.replace(tau=0.04, c=10.0)]
+KNEE_PARAMS = [DEFAULT, DEFAULT.replace(c=30.0, Fc=4.0), DEFAULT.replace(slack=1),
+               DEFAULT.replace(tau=0.04, c=10.0)]
 
 
-# --- the knee as a mechanism ---------------------------------------------------------------------------------------
+# --- the knee as a mechanism ----------------------------------------------------------------------
 
 @pytest.mark.parametrize("params", KNEE_PARAMS, ids=["default", "damping+friction", "slack", "lag"])
 def test_the_knee_mechanism_has_the_knees_accelerations(params):
-    """mechanism_derivatives(KNEE) = knee_derivatives on a grid of states and pressures, the end stops included
-    (heights beyond both stops), to 1e-12 of the acceleration's scale."""
+    """mechanism_derivatives(KNEE) = knee_derivatives on a grid of states and pressures, the end
+    stops included (heights beyond both stops), to 1e-12 of the acceleration's scale."""
     p = mm.KNEE.bind(params)
     stops = knee.stop_positions(params)
     assert mm.KNEE.stop_positions(p) == stops
@@ -39,7 +42,8 @@ def test_the_knee_mechanism_has_the_knees_accelerations(params):
             for Pe, Pf in ((1.2e6, 0.0), (1.75e6, 1e5), (2.2e6, 4e5)):
                 state = [X, V, 0.9 * Pe, 1.1 * Pf] if lag else [X, V]
                 want = knee.knee_derivatives(state, Pe, Pf, params, stops)
-                got = mm.mechanism_derivatives(state, (Pe, Pf), mm.KNEE, p, mm.KNEE.stop_positions(p))
+                got = mm.mechanism_derivatives(state, (Pe, Pf), mm.KNEE, p,
+                                               mm.KNEE.stop_positions(p))
                 assert got.shape == want.shape
                 scale = np.abs(want) + params.g
                 worst = max(worst, float(np.max(np.abs(got - want) / scale)))
@@ -47,7 +51,8 @@ def test_the_knee_mechanism_has_the_knees_accelerations(params):
 
 
 def test_the_knee_moment_arms_are_the_papers_gains():
-    """-dLe/dX = G_e (Eq. 15) and dLf/dX = G_f (Eq. 16): the traced derivatives against the knee's closed forms."""
+    """-dLe/dX = G_e (Eq. 15) and dLf/dX = G_f (Eq. 16): the traced derivatives against the knee's
+    closed forms."""
     X = np.linspace(*knee.stop_positions(DEFAULT), 7)
     geo = knee.geometry_at_X(X)
     kin = mm.kinematics(mm.KNEE, X, mm.KNEE.bind())
@@ -56,7 +61,8 @@ def test_the_knee_moment_arms_are_the_papers_gains():
     np.testing.assert_allclose(kin.L[0], geo.Le, rtol=1e-14)
 
 
-@pytest.mark.parametrize("params", [DEFAULT, DEFAULT.replace(c=30.0), DEFAULT.replace(tau=0.05, delay=0.02)],
+@pytest.mark.parametrize("params", [DEFAULT, DEFAULT.replace(c=30.0),
+                                    DEFAULT.replace(tau=0.05, delay=0.02)],
                          ids=["default", "damping", "lag+dead-time"])
 def test_simulating_the_knee_mechanism_is_simulate_knee(params):
     t = np.linspace(0.0, 1.2, 1201)
@@ -87,12 +93,13 @@ def test_the_knee_mechanisms_equilibrium_and_stability_are_the_knees():
         np.testing.assert_allclose(B, B0, rtol=1e-9)
 
 
-# --- built-ins against the independent simulator ------------------------------------------------------------------
+# --- built-ins against the independent simulator --------------------------------------------------
 
 MECHANISM_PARAMS = [DEFAULT, DEFAULT.replace(c=20.0), DEFAULT.replace(c=20.0, Fc=2.0, tau=0.03)]
+MECHANISM_IDS = ["default", "damping", "damping+friction+lag"]
 
 
-@pytest.mark.parametrize("params", MECHANISM_PARAMS, ids=["default", "damping", "damping+friction+lag"])
+@pytest.mark.parametrize("params", MECHANISM_PARAMS, ids=MECHANISM_IDS)
 def test_the_pulley_joint_follows_the_independent_simulator(params):
     t = np.linspace(0.0, 1.0, 1001)
     p1 = np.where(t < 0.2, 3e5, 4e5)
@@ -108,7 +115,7 @@ def test_the_pulley_joint_follows_the_independent_simulator(params):
     np.testing.assert_allclose(run.f[:, 0], f1, rtol=1e-12)
 
 
-@pytest.mark.parametrize("params", MECHANISM_PARAMS, ids=["default", "damping", "damping+friction+lag"])
+@pytest.mark.parametrize("params", MECHANISM_PARAMS, ids=MECHANISM_IDS)
 def test_the_hanging_mass_follows_the_independent_simulator(params):
     t = np.linspace(0.0, 1.0, 1001)
     p = np.where(t < 0.2, 3e5, np.where(t < 0.6, 4.5e5, 2.5e5))
@@ -121,7 +128,8 @@ def test_the_hanging_mass_follows_the_independent_simulator(params):
 
 
 def test_the_hanging_mass_lands_on_its_end_stop_as_the_independent_one():
-    """Pressure off under 20 kg: the muscle stretches onto its upper stop (0.97 b), the contact of the knee's law."""
+    """Pressure off under 20 kg: the muscle stretches onto its upper stop (0.97 b), the contact of
+    the knee's law."""
     params = DEFAULT.replace(m=20.0)
     t = np.linspace(0.0, 0.8, 801)
     p = np.where(t < 0.2, 3e5, 0.0)
@@ -131,12 +139,12 @@ def test_the_hanging_mass_lands_on_its_end_stop_as_the_independent_one():
     np.testing.assert_allclose(run.q, q, rtol=0, atol=1e-7)
 
 
-# --- exact derivatives against finite differences ---------------------------------------------------------------
+# --- exact derivatives against finite differences -------------------------------------------------
 
 CAM = {"L_top": 0.2, "r0": 0.02, "k_cam": 0.01, "J_lever": 0.15, "m_lever": 3.0, "l_lever": 0.2,
        "c_joint": 0.05, "q_low": -0.3, "q_high": 1.2}
 
-CAM_FILE = '''"""A lever lifted by one muscle over a cam: its moment arm r0 + k_cam q grows with the angle."""
+CAM_FILE = '''"""A lever lifted by one muscle over a cam: its moment arm r0 + k_cam q grows."""
 
 
 def lengths(q, p, xp):
@@ -167,7 +175,8 @@ MECHANISM = {
         {"name": "J_lever", "unit": "kg m^2", "default": %(J_lever)r, "lower": 1e-5, "upper": 10.0},
         {"name": "m_lever", "unit": "kg", "default": %(m_lever)r, "lower": 0.0, "upper": 100.0},
         {"name": "l_lever", "unit": "m", "default": %(l_lever)r, "lower": 0.0, "upper": 2.0},
-        {"name": "c_joint", "unit": "N m s/rad", "default": %(c_joint)r, "lower": 0.0, "upper": 10.0},
+        {"name": "c_joint", "unit": "N m s/rad", "default": %(c_joint)r, "lower": 0.0,
+         "upper": 10.0},
         {"name": "q_low", "unit": "rad", "default": %(q_low)r, "lower": -3.0, "upper": 3.0},
         {"name": "q_high", "unit": "rad", "default": %(q_high)r, "lower": -3.0, "upper": 3.0},
     ],
@@ -184,8 +193,9 @@ def cam_lever(tmp_path_factory):
 
 
 def hand_cam(params):
-    return ind.cam_lever(params, CAM["L_top"], CAM["r0"], CAM["k_cam"], CAM["J_lever"], CAM["m_lever"],
-                         CAM["l_lever"], CAM["c_joint"], CAM["q_low"], CAM["q_high"])
+    return ind.cam_lever(params, CAM["L_top"], CAM["r0"], CAM["k_cam"], CAM["J_lever"],
+                         CAM["m_lever"], CAM["l_lever"], CAM["c_joint"], CAM["q_low"],
+                         CAM["q_high"])
 
 
 def _builtins_and_cam(cam_lever):
@@ -193,7 +203,8 @@ def _builtins_and_cam(cam_lever):
 
 
 def test_moment_arms_are_the_derivatives_of_the_lengths(cam_lever):
-    """dL_i/dq of the trace against central differences of the mechanism's own length functions on floats."""
+    """dL_i/dq of the trace against central differences of the mechanism's own length functions on
+    floats."""
     h = 1e-6
     for mech in _builtins_and_cam(cam_lever):
         p = mech.bind()
@@ -208,11 +219,13 @@ def test_moment_arms_are_the_derivatives_of_the_lengths(cam_lever):
 
 @pytest.mark.parametrize("name", ["hanging_mass", "pulley_joint", "cam_lever"])
 def test_a1_a2_and_the_inputs_are_the_finite_differences_of_the_independent_force(name, cam_lever):
-    """The linearization's entries against central differences of the independent generalized force, at the
-    equilibrium and with velocity effects on (damping and friction), so that a1 != 0."""
+    """The linearization's entries against central differences of the independent generalized force,
+    at the equilibrium and with velocity effects on (damping and friction), so that a1 != 0."""
     params = DEFAULT.replace(c=20.0, Fc=2.0, vs=0.05)
-    mech = {"hanging_mass": mm.HANGING_MASS, "pulley_joint": mm.PULLEY_JOINT, "cam_lever": cam_lever}[name]
-    hand = {"hanging_mass": ind.hanging_mass, "pulley_joint": ind.pulley_joint, "cam_lever": hand_cam}[name](params)
+    mech = {"hanging_mass": mm.HANGING_MASS, "pulley_joint": mm.PULLEY_JOINT,
+            "cam_lever": cam_lever}[name]
+    hand = {"hanging_mass": ind.hanging_mass, "pulley_joint": ind.pulley_joint,
+            "cam_lever": hand_cam}[name](params)
     pressures = (3e5, 2.5e5)[: len(mech.muscles)]
     q = mm.equilibrium(mech, pressures, params)
     assert ind.generalized_force(hand, q, 0.0, pressures, params) == pytest.approx(0.0, abs=1e-9)
@@ -251,7 +264,7 @@ def test_the_linear_system_of_a_lagged_pulley_has_the_pressure_states():
     assert list(system.state_labels) == ["theta", "theta_dot", "P_muscle1", "P_muscle2"]
 
 
-# --- a user's mechanism file ------------------------------------------------------------------------------------
+# --- a user's mechanism file ----------------------------------------------------------------------
 
 def test_a_cam_lever_file_simulates_as_the_independent_simulator(cam_lever):
     params = DEFAULT.replace(c=10.0)
@@ -263,11 +276,13 @@ def test_a_cam_lever_file_simulates_as_the_independent_simulator(cam_lever):
     np.testing.assert_allclose(run.q, q, rtol=0, atol=1e-7)
     np.testing.assert_allclose(run.qdot, qdot, rtol=0, atol=1e-5)
     assert cam_lever.coordinate == "phi" and cam_lever.muscles == ("muscle",)
-    assert list(run.to_dataframe().columns) == ["time", "phi", "phi_dot", "L_muscle", "f_muscle", "P_muscle"]
+    assert list(run.to_dataframe().columns) == ["time", "phi", "phi_dot", "L_muscle", "f_muscle",
+                                                "P_muscle"]
 
 
 def test_a_cam_lever_files_parameters_are_its_own(cam_lever):
-    """Own values change the motion (a heavier lever rests lower); they are checked against the file's bounds."""
+    """Own values change the motion (a heavier lever rests lower); they are checked against the
+    file's bounds."""
     light = mm.equilibrium(cam_lever, (3e5,))
     heavy = mm.equilibrium(cam_lever, (3e5,), cam_lever.bind(m_lever=4.0))
     assert heavy < light
@@ -301,26 +316,31 @@ def test_mechanisms_are_found_by_name_or_path(cam_lever, tmp_path):
         mechanism("elbow")
 
 
-# --- bad mechanism files, each one line -----------------------------------------------------------------------
+# --- bad mechanism files, each one line -----------------------------------------------------------
 
 BAD_FILES = {
-    "untraceable": (CAM_FILE.replace("    return (p.L_top - p.r0 * q", "    if q > 0.5:\n        return (p.L_top,)\n"
-                                     "    return (p.L_top - p.r0 * q"), "cannot be traced with sympy"),
-    "too_long": (CAM_FILE.replace('"default": %(L_top)r, "lower": 0.05', '"default": 0.25, "lower": 0.05'),
-                 "outside 0 < L < b"),
+    "untraceable": (CAM_FILE.replace("    return (p.L_top - p.r0 * q",
+                                     "    if q > 0.5:\n        return (p.L_top,)\n"
+                                     "    return (p.L_top - p.r0 * q"),
+                    "cannot be traced with sympy"),
+    "too_long": (CAM_FILE.replace('"default": %(L_top)r, "lower": 0.05',
+                                  '"default": 0.25, "lower": 0.05'), "outside 0 < L < b"),
     "clash": (CAM_FILE.replace('"name": "m_lever"', '"name": "m"').replace("p.m_lever", "p.m"),
               "parameter 'm' is an mkctl parameter's name"),
-    "twice": (CAM_FILE.replace('"name": "l_lever"', '"name": "r0"'), "parameter 'r0' is named twice"),
-    "bounds": (CAM_FILE.replace('"default": %(J_lever)r, "lower": 1e-5', '"default": %(J_lever)r, "lower": 0.5'),
-               "exclude its default"),
+    "twice": (CAM_FILE.replace('"name": "l_lever"', '"name": "r0"'),
+              "parameter 'r0' is named twice"),
+    "bounds": (CAM_FILE.replace('"default": %(J_lever)r, "lower": 1e-5',
+                                '"default": %(J_lever)r, "lower": 0.5'), "exclude its default"),
     "unknown_xp": (CAM_FILE.replace("p.J_lever\n", "p.J_lever * xp.erf(q)\n"), "cannot be traced"),
     "syntax": (CAM_FILE.replace("def stops(p):", "def stops(p)"), "not valid Python"),
     "no_mechanism": ("X = 1\n", "defines no MECHANISM"),
     "three_muscles": (CAM_FILE.replace('["muscle"]', '["a", "b", "c"]'), "one or two names"),
     "lengths_count": (CAM_FILE.replace('"muscles": ["muscle"]', '"muscles": ["a", "b"]'),
                       "gives 1 lengths for 2 muscles"),
-    "builtin_name": (CAM_FILE.replace('"name": "cam_lever"', '"name": "knee"'), "name of a built-in mechanism"),
-    "bad_signature": (CAM_FILE.replace("def stops(p):", "def stops(p, xp):"), "'stops' takes 2 arguments"),
+    "builtin_name": (CAM_FILE.replace('"name": "cam_lever"', '"name": "knee"'),
+                     "name of a built-in mechanism"),
+    "bad_signature": (CAM_FILE.replace("def stops(p):", "def stops(p, xp):"),
+                      "'stops' takes 2 arguments"),
 }
 
 
@@ -342,7 +362,8 @@ def test_a_bad_mechanism_file_is_one_line(case, tmp_path):
 def test_a_length_outside_the_domain_names_where(tmp_path):
     path = tmp_path / "lever.py"
     path.write_text(CAM_FILE % {**CAM, "L_top": 0.25})
-    with pytest.raises(MechanismFileError, match=r"muscle 'muscle' has length L = 0\.2555\d* m at phi = -0\.3 rad"):
+    where = r"muscle 'muscle' has length L = 0\.2555\d* m at phi = -0\.3 rad"
+    with pytest.raises(MechanismFileError, match=where):
         load_mechanism_file(path)
 
 
@@ -355,11 +376,13 @@ def test_no_equilibrium_between_the_stops_is_one_line():
 
 
 def test_muscle_damping_gives_the_spec_a1_for_every_mechanism():
-    """Damping c in the muscles: a1 = -c sum_i (dL_i/dq)^2 / M (the knee's -c (G_e^2 + G_f^2) / m, spec section 4)."""
+    """Damping c in the muscles: a1 = -c sum_i (dL_i/dq)^2 / M (the knee's -c (G_e^2 + G_f^2) / m,
+    spec section 4)."""
     params = DEFAULT.replace(c=40.0)
     assert mm.stability_coefficients(mm.PULLEY_JOINT, 0.1, (3e5, 3e5), params)[0] == pytest.approx(
         -40.0 * 2 * 0.02**2 / 0.015, rel=1e-12)
-    assert mm.stability_coefficients(mm.HANGING_MASS, 0.19, 3e5, params)[0] == pytest.approx(-4.0, rel=1e-12)
+    a1 = mm.stability_coefficients(mm.HANGING_MASS, 0.19, 3e5, params)[0]
+    assert a1 == pytest.approx(-4.0, rel=1e-12)
     X = 0.85
     geo = knee.geometry_at_X(X)
     assert mm.stability_coefficients(mm.KNEE, X, (1.8e6, 1e5), params)[0] == pytest.approx(
@@ -367,7 +390,8 @@ def test_muscle_damping_gives_the_spec_a1_for_every_mechanism():
 
 
 def test_the_docs_example_file_is_the_one_the_page_shows():
-    """docs/mechanisms.md shows docs/examples/cam_lever.py whole; the file loads and is the test's lever."""
+    """docs/mechanisms.md shows docs/examples/cam_lever.py whole; the file loads and is the test's
+    lever."""
     root = Path(__file__).resolve().parents[1]
     example = root / "docs" / "examples" / "cam_lever.py"
     assert example.read_text() in (root / "docs" / "mechanisms.md").read_text()

@@ -1,8 +1,9 @@
-"""A lever lifted by one muscle over a cam (a mechanism file, model-spec section 3b; docs/mechanisms.md).
+"""A lever lifted by one muscle over a cam: a mechanism file (model-spec 3b, docs/mechanisms.md).
 
-The muscle's lower end wraps a cam on the lever's axle whose radius grows with the angle, so the length is
-L = L_top - r0 phi - k_cam phi^2 / 2 and the moment arm -dL/dphi = r0 + k_cam phi (mkctl differentiates it).
-The lever (3 kg, centre of mass 0.2 m from the axle) hangs down at phi = 0; gravity pulls it back.
+The muscle's lower end wraps a cam on the lever's axle whose radius grows with the angle, so the
+length is L = L_top - r0 phi - k_cam phi^2 / 2 and the moment arm -dL/dphi = r0 + k_cam phi (mkctl
+differentiates it). The lever (3 kg, centre of mass 0.2 m from the axle) hangs down at phi = 0;
+gravity pulls it back.
 """
 
 

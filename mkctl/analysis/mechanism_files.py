@@ -1,11 +1,12 @@
-"""Mechanism files (model-spec section 3b): a user's own mechanism in a Python file, loaded and checked.
+"""Mechanism files (model-spec section 3b): a user's own mechanism in a Python file, loaded and
+checked.
 
 The format
 ----------
 A mechanism file is a Python file that defines ``MECHANISM``, one dict::
 
     def lengths(q, p, xp):
-        \"\"\"Each muscle's length [m] at the lever angle q [rad]: a cam, moment arm r0 + k_cam q.\"\"\"
+        \"\"\"The muscle's length [m] at the lever angle q [rad]: a cam.\"\"\"
         return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)
 
     def inertia(q, p, xp):
@@ -18,7 +19,7 @@ A mechanism file is a Python file that defines ``MECHANISM``, one dict::
         return (p.q_low, p.q_high)                        # [rad]
 
     MECHANISM = {
-        "name": "cam_lever",                              # a Python identifier, not a built-in's name
+        "name": "cam_lever",                              # an identifier, not a built-in's name
         "description": "a lever lifted by one muscle over a cam",   # optional
         "coordinate": {"name": "phi", "unit": "rad"},     # unit "m" or "rad"
         "muscles": ["muscle"],                            # one or two names (identifiers)
@@ -30,20 +31,22 @@ A mechanism file is a Python file that defines ``MECHANISM``, one dict::
         "lengths": lengths, "inertia": inertia, "load": load, "stops": stops,
     }
 
-``p.NAME`` is one of the mechanism's own parameters or any mkctl parameter (``p.g``, ``p.b``: SI, as in
-:class:`mkctl.physics.params.Params`); ``xp`` is the math namespace mkctl hands in (floats, numpy or sympy, numpy's
-names: ``xp.sqrt exp log sin cos tanh abs sign maximum minimum where pi``), so that the same functions run in Python
-and are traced and differentiated exactly (moment arms, the linearization). No ``if`` on q.
+``p.NAME`` is one of the mechanism's own parameters or any mkctl parameter (``p.g``, ``p.b``: SI, as
+in :class:`mkctl.physics.params.Params`); ``xp`` is the math namespace mkctl hands in (floats, numpy
+or sympy, numpy's names: ``xp.sqrt exp log sin cos tanh abs sign maximum minimum where pi``), so
+that the same functions run in Python and are traced and differentiated exactly (moment arms, the
+linearization). No ``if`` on q.
 
-:func:`load_mechanism_file` reads a file and checks it: the functions trace on sympy symbols and depend on nothing
-but q, qdot and parameters; the lengths stay inside ``0 < L < b`` between the stops (sampled); the inertia is
-positive there; parameter names are distinct and none is mkctl's; each default lies in its bounds. Each problem
-ends in a one-line :class:`MechanismFileError` naming the file, the mechanism and the problem. :func:`mechanism`
-finds a built-in by name or reads a file by path.
+:func:`load_mechanism_file` reads a file and checks it: the functions trace on sympy symbols and
+depend on nothing but q, qdot and parameters; the lengths stay inside ``0 < L < b`` between the
+stops (sampled); the inertia is positive there; parameter names are distinct and none is mkctl's;
+each default lies in its bounds. Each problem ends in a one-line :class:`MechanismFileError` naming
+the file, the mechanism and the problem. :func:`mechanism` finds a built-in by name or reads a file
+by path.
 
-Reading the file reuses the effect files' rules (:mod:`mkctl.analysis.effect_files`: the reserved parameter names
-and the symbolic namespace); running the file is the few lines of :func:`_run_file`, as
-:func:`mkctl.analysis.effect_files.load_effect_file` does inline.
+Reading the file reuses the effect files' rules (:mod:`mkctl.analysis.effect_files`: the reserved
+parameter names and the symbolic namespace); running the file is the few lines of :func:`_run_file`,
+as :func:`mkctl.analysis.effect_files.load_effect_file` does inline.
 """
 from __future__ import annotations
 
@@ -62,10 +65,12 @@ from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
 from .effect_files import reserved_parameters
 
 #: The keys of MECHANISM, and which are required.
-KEYS = ("name", "description", "coordinate", "muscles", "parameters", "lengths", "inertia", "load", "stops")
+KEYS = ("name", "description", "coordinate", "muscles", "parameters", "lengths", "inertia", "load",
+        "stops")
 REQUIRED = ("name", "coordinate", "muscles", "lengths", "inertia", "load", "stops")
 #: Each function's arguments.
-SIGNATURES = {"lengths": "(q, p, xp)", "inertia": "(q, p, xp)", "load": "(q, qdot, p, xp)", "stops": "(p)"}
+SIGNATURES = {"lengths": "(q, p, xp)", "inertia": "(q, p, xp)", "load": "(q, qdot, p, xp)",
+              "stops": "(p)"}
 #: Points sampled between the stops to check the lengths and the inertia.
 SAMPLES = 201
 UNITS = ("m", "rad")
@@ -82,15 +87,18 @@ def _run_file(path: Path, where: str) -> dict:
     try:
         return runpy.run_path(str(path))
     except SyntaxError as error:
-        raise MechanismFileError(f"{where} line {error.lineno}: not valid Python: {error.msg}") from None
+        raise MechanismFileError(f"{where} line {error.lineno}: not valid Python: "
+                                 f"{error.msg}") from None
     except Exception as error:  # the user's code: any failure is theirs, in one line
-        raise MechanismFileError(f"{where}: running it failed: {type(error).__name__}: {error}") from None
+        raise MechanismFileError(f"{where}: running it failed: {type(error).__name__}: "
+                                 f"{error}") from None
 
 
 def load_mechanism_file(path, params: Params = DEFAULT) -> Mechanism:
-    """Read a mechanism file (module docstring) and check it; returns the :class:`~mkctl.physics.mechanism.Mechanism`
-    (picklable: a pickle reads the file again). Raises :class:`MechanismFileError` naming the file, the mechanism and
-    the problem, in one line. ``params``: the muscle whose domain ``0 < L < b`` the lengths are checked against."""
+    """Read a mechanism file (module docstring) and check it; returns the
+    :class:`~mkctl.physics.mechanism.Mechanism` (picklable: a pickle reads the file again). Raises
+    :class:`MechanismFileError` naming the file, the mechanism and the problem, in one line.
+    ``params``: the muscle whose domain ``0 < L < b`` the lengths are checked against."""
     path = Path(path)
     where = f"mechanism file {path.name}"
     entry = _run_file(path, where).get("MECHANISM")
@@ -98,7 +106,8 @@ def load_mechanism_file(path, params: Params = DEFAULT) -> Mechanism:
         raise MechanismFileError(f"{where}: defines no MECHANISM dict (see docs/mechanisms.md)")
     name = entry.get("name")
     if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
-        raise MechanismFileError(f"{where}: MECHANISM has no valid name (a Python identifier), got {name!r}")
+        raise MechanismFileError(f"{where}: MECHANISM has no valid name (a Python identifier), "
+                                 f"got {name!r}")
 
     def fail(text):
         return MechanismFileError(f"{where}: mechanism '{name}': {text}")
@@ -117,8 +126,9 @@ def load_mechanism_file(path, params: Params = DEFAULT) -> Mechanism:
         _check_function(entry[key], key, signature, fail)
     parameters = _parameters(entry.get("parameters", []), fail)
     try:
-        mechanism = Mechanism(name, coordinate, unit, muscles, parameters, entry["lengths"], entry["inertia"],
-                              entry["load"], entry["stops"], str(entry.get("description", "")), where,
+        mechanism = Mechanism(name, coordinate, unit, muscles, parameters, entry["lengths"],
+                              entry["inertia"], entry["load"], entry["stops"],
+                              str(entry.get("description", "")), where,
                               reload=(load_mechanism_file, str(path.resolve())))
     except MkctlError as error:
         raise fail(str(error)) from None
@@ -128,8 +138,9 @@ def load_mechanism_file(path, params: Params = DEFAULT) -> Mechanism:
 
 
 def mechanism(name_or_path, params: Params = DEFAULT) -> Mechanism:
-    """A built-in mechanism by name (``knee``, ``hanging_mass``, ``pulley_joint``) or one read from a file
-    (:func:`load_mechanism_file`); a one-line :class:`MechanismFileError` for anything else."""
+    """A built-in mechanism by name (``knee``, ``hanging_mass``, ``pulley_joint``) or one read from
+    a file (:func:`load_mechanism_file`); a one-line :class:`MechanismFileError` for anything
+    else."""
     if isinstance(name_or_path, Mechanism):
         return name_or_path
     text = str(name_or_path)
@@ -137,7 +148,8 @@ def mechanism(name_or_path, params: Params = DEFAULT) -> Mechanism:
         return BUILTIN[text]
     if text.endswith(".py") or Path(text).is_file():
         return load_mechanism_file(text, params)
-    raise MechanismFileError(f"unknown mechanism {text!r} (built-in: {', '.join(BUILTIN)}; or a FILE.py)")
+    known = ", ".join(BUILTIN)
+    raise MechanismFileError(f"unknown mechanism {text!r} (built-in: {known}; or a FILE.py)")
 
 
 def _coordinate(raw, fail) -> tuple[str, str]:
@@ -177,7 +189,8 @@ def _check_function(function, key: str, signature: str, fail) -> None:
 def _parameters(raw, fail) -> tuple:
     if not isinstance(raw, (list, tuple)):
         raise fail("'parameters' must be a list of dicts (name, unit, default, lower, upper)")
-    out, names, reserved = [], set(), set(reserved_parameters()) | set(PARAMETER_NAMES) | {"q", "qdot"}
+    out, names = [], set()
+    reserved = set(reserved_parameters()) | set(PARAMETER_NAMES) | {"q", "qdot"}
     for item in raw:
         if not isinstance(item, dict):
             raise fail(f"a parameter is not a dict: {item!r}")
@@ -195,22 +208,25 @@ def _parameters(raw, fail) -> tuple:
         values = {}
         for key in ("default", "lower", "upper"):
             value = item[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if not (number and math.isfinite(value)):
                 raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
             values[key] = float(value)
         if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper "
-                       f"{values['upper']:g}")
+            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the "
+                       f"upper {values['upper']:g}")
         if not values["lower"] <= values["default"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its "
-                       f"default {values['default']:g}")
-        out.append(Parameter(pname, str(item["unit"]), values["default"], values["lower"], values["upper"],
-                             default=values["default"], description="parameter of a user mechanism"))
+            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] "
+                       f"exclude its default {values['default']:g}")
+        out.append(Parameter(pname, str(item["unit"]), values["default"], values["lower"],
+                             values["upper"], default=values["default"],
+                             description="parameter of a user mechanism"))
     return tuple(out)
 
 
 def _check_traceable(mechanism: Mechanism, fail) -> None:
-    """The functions trace on sympy symbols, differentiate, and depend only on q, qdot and parameters."""
+    """The functions trace on sympy symbols, differentiate, and depend only on q, qdot and
+    parameters."""
     import sympy
 
     try:
@@ -219,47 +235,53 @@ def _check_traceable(mechanism: Mechanism, fail) -> None:
     except MkctlError as error:
         raise fail(str(error)) from None
     except Exception as error:
-        raise fail(f"cannot be traced with sympy symbols ({type(error).__name__}: {error}); write it with xp "
-                   f"functions and arithmetic only, no if on q") from None
+        raise fail(f"cannot be traced with sympy symbols ({type(error).__name__}: {error}); write "
+                   f"it with xp functions and arithmetic only, no if on q") from None
     known = set(mechanism.parameter_names) | set(PARAMETER_NAMES)
     for what, expressions in (("lengths", lengths), ("inertia", (inertia,)), ("load", (load,))):
         for expression in expressions:
             stray = sorted(s.name for s in expression.free_symbols
                            if s not in (traced.q, traced.qdot) and s.name not in known)
             if stray:
-                raise fail(f"{what} depends on {stray[0]}, which is neither an argument nor a parameter")
+                raise fail(f"{what} depends on {stray[0]}, which is neither an argument nor a "
+                           f"parameter")
     if any(not isinstance(e, sympy.Expr) for e in (*lengths, inertia, load)):
-        raise fail("lengths, inertia and load must be numbers (expressions), not conditions or lists")
+        raise fail("lengths, inertia and load must be numbers (expressions), not conditions or "
+                   "lists")
 
 
 def _check_range(mechanism: Mechanism, params: Params, fail) -> None:
-    """At the defaults: stops an interval, every length inside 0 < L < b and the inertia positive between them."""
+    """At the defaults: stops an interval, every length inside 0 < L < b and the inertia positive
+    between them."""
     p = mechanism.bind(params)
     try:
         low, high = mechanism.stop_positions(p)
     except MkctlError as error:
         raise fail(str(error)) from None
     except Exception as error:
-        raise fail(f"stops(p) failed ({type(error).__name__}: {error}); it returns (q_min, q_max)") from None
+        raise fail(f"stops(p) failed ({type(error).__name__}: {error}); it returns "
+                   f"(q_min, q_max)") from None
     q = np.linspace(low, high, SAMPLES)
     try:
         lengths, arms, M, Q = kinematics(mechanism, q, p)
     except Exception as error:
-        raise fail(f"lengths or inertia fail with numpy arrays ({type(error).__name__}: {error})") from None
+        raise fail(f"lengths or inertia fail with numpy arrays ({type(error).__name__}: "
+                   f"{error})") from None
     b = p.b
     for muscle, L, arm in zip(mechanism.muscles, lengths, arms):
         outside = ~((L > 0) & (L < b))
         if outside.any():
             i = int(np.argmax(outside))
-            raise fail(f"muscle '{muscle}' has length L = {L[i]:.6g} m at {mechanism.coordinate} = {q[i]:.6g} "
-                       f"{mechanism.unit}, outside 0 < L < b = {b:g} m between the stops ({low:g}, {high:g})")
+            at = f"{mechanism.coordinate} = {q[i]:.6g} {mechanism.unit}"
+            raise fail(f"muscle '{muscle}' has length L = {L[i]:.6g} m at {at}, outside "
+                       f"0 < L < b = {b:g} m between the stops ({low:g}, {high:g})")
         if not np.isfinite(arm).all():
-            raise fail(f"muscle '{muscle}': its moment arm dL/d{mechanism.coordinate} is not finite between "
-                       f"the stops")
+            raise fail(f"muscle '{muscle}': its moment arm dL/d{mechanism.coordinate} is not "
+                       f"finite between the stops")
     if not np.isfinite(Q).all():
         raise fail("load is not finite between the stops at rest")
     bad = ~(np.isfinite(M) & (M > 0))
     if bad.any():
         i = int(np.argmax(bad))
-        raise fail(f"inertia is {M[i]:.6g} at {mechanism.coordinate} = {q[i]:.6g} {mechanism.unit}: it must be "
-                   f"positive between the stops")
+        raise fail(f"inertia is {M[i]:.6g} at {mechanism.coordinate} = {q[i]:.6g} "
+                   f"{mechanism.unit}: it must be positive between the stops")
