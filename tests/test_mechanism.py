@@ -397,3 +397,23 @@ def test_the_docs_example_file_is_the_one_the_page_shows():
     assert example.read_text() in (root / "docs" / "mechanisms.md").read_text()
     lever = load_mechanism_file(example)
     assert lever.defaults == {k: float(v) for k, v in CAM.items()}
+
+
+@pytest.mark.parametrize("params", [DEFAULT.replace(c=20.0), DEFAULT.replace(tau=0.03, Fc=1.0)],
+                         ids=["damping", "lag+friction"])
+def test_the_equation_of_motion_traces_on_symbols(params):
+    """mechanism_derivatives on sympy symbols (what generated code would trace) gives, at a point, the
+    numbers it gives on floats: the stops' contact and the lag included."""
+    import sympy
+    p = mm.PULLEY_JOINT.bind(params)
+    q, qdot, P1, P2, c1, c2 = sympy.symbols("q qdot P1 P2 c1 c2", real=True)
+    lag = actuator.has_pressure_states(params)
+    state = [q, qdot, P1, P2] if lag else [q, qdot]
+    rates = mm.mechanism_derivatives(state, (c1, c2), mm.PULLEY_JOINT, p, (-0.8, 0.8))
+    for point in ({q: 0.3, qdot: -0.4, P1: 3.1e5, P2: 2.2e5, c1: 3.5e5, c2: 2.0e5},
+                  {q: 0.81, qdot: 0.2, P1: 4e5, P2: 1e5, c1: 4e5, c2: 1e5}):
+        numbers = [point[x] for x in state]
+        want = mm.mechanism_derivatives(numbers, (point[c1], point[c2]), mm.PULLEY_JOINT, p,
+                                        (-0.8, 0.8))
+        got = [float(sympy.sympify(r).subs(point)) for r in rates]
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)

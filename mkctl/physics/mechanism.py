@@ -238,6 +238,7 @@ class Traced(NamedTuple):
     load_dq: object  #: dQ/dq
     load_dqdot: object  #: dQ/dqdot
     names: tuple  #: the parameter names the expressions use, in the lambdified functions' order
+    symbols: tuple  #: their sympy symbols, in the same order
     state: dict  #: {"math" | "numpy": f(q, qdot, *values) -> (L..., dL/dq..., M, Q)}
     partials: dict  #: {"math" | "numpy": f(q, qdot, *values) -> (d2L/dq2..., dQ/dq, dQ/dqdot)}
 
@@ -288,14 +289,24 @@ def _trace(mechanism: Mechanism) -> Traced:
         made[key] = {module: sympy.lambdify(arguments, expressions, modules=module, cse=True)
                      for module in ("math", "numpy")}
     return Traced(q, qdot, lengths, arms, curvatures, inertia, load, load_dq, load_dqdot, names,
-                  made["state"], made["partials"])
+                  tuple(symbols[n] for n in names), made["state"], made["partials"])
 
 
 def _evaluate(mechanism: Mechanism, which: str, q, qdot, p) -> list:
+    """The trace's "state" (L..., dL/dq..., M, Q) or "partials" (d2L/dq2..., dQ/dq, dQ/dqdot) at q,
+    qdot and p: floats, numpy arrays, or on symbols the expressions themselves (generated code)."""
     traced = mechanism.traced
+    values = [getattr(p, n) for n in traced.names]
+    if any(actuator.is_symbolic(x) for x in (q, qdot, *values)):
+        import sympy
+        k = len(mechanism.muscles)
+        expressions = ([*traced.lengths, *traced.arms, traced.inertia, traced.load][:2 * k + 2]
+                       if which == "state" else [*traced.curvatures, traced.load_dq, traced.load_dqdot])
+        values = {traced.q: q, traced.qdot: qdot, **dict(zip(traced.symbols, values))}
+        return [sympy.sympify(e).xreplace(values) for e in expressions]
     scalar = type(q) is float and type(qdot) is float
     function = getattr(traced, which)["math" if scalar else "numpy"]
-    values = function(q, qdot, *(getattr(p, n) for n in traced.names))
+    values = function(q, qdot, *values)
     if scalar:
         return [float(v) for v in values]
     shape = np.broadcast(q, qdot).shape
@@ -434,25 +445,29 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     ``state``: (q, qdot) or, with pressure dynamics, (q, qdot, P_1[, P_2]); ``commands``: each
     muscle's pressure command [Pa] (as the muscles see it: after a dead time); ``stops``: (q_min,
     q_max) of the end stops or None. ``qdd = (F + F_stop) / M`` with F of :func:`mechanism_force`
-    and F_stop :func:`mkctl.physics.knee.end_stop_force`.
+    and F_stop :func:`mkctl.physics.knee.end_stop_force`. Returns a numpy array, or on sympy symbols
+    (generated code) a list of expressions.
     """
     muscle = muscle_params(p)
     k = len(mechanism.muscles)
     lag = actuator.has_pressure_states(muscle)
-    q, qdot = float(state[0]), float(state[1])
-    if lag:
-        pressures = tuple(float(state[2 + i]) for i in range(k))
-    else:
-        pressures = tuple(float(c) for c in commands)
+    q, qdot = _scalar(state[0]), _scalar(state[1])
+    commands = tuple(_scalar(c) for c in commands)
+    pressures = tuple(_scalar(state[2 + i]) for i in range(k)) if lag else commands
     force = mechanism_force(mechanism, q, qdot, pressures, p)
     F = force.F
     if stops is not None:
         F = F + knee.end_stop_force(q, qdot, _Inertia(force.M), stops)
     rates = [qdot, F / force.M]
     if lag:
-        rates += [actuator.pressure_derivative(pressures[i], float(commands[i]), muscle)
+        rates += [actuator.pressure_derivative(pressures[i], commands[i], muscle)
                   for i in range(k)]
-    return np.array(rates, dtype=float)
+    return rates if actuator.is_symbolic(rates[1]) else np.array(rates, dtype=float)
+
+
+def _scalar(x):
+    """A float, or a symbol as it is (generated code)."""
+    return x if actuator.is_symbolic(x) else float(x)
 
 
 # --- Equilibrium and stability --------------------------------------------------------------------
