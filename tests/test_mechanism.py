@@ -402,8 +402,8 @@ def test_the_docs_example_file_is_the_one_the_page_shows():
 @pytest.mark.parametrize("params", [DEFAULT.replace(c=20.0), DEFAULT.replace(tau=0.03, Fc=1.0)],
                          ids=["damping", "lag+friction"])
 def test_the_equation_of_motion_traces_on_symbols(params):
-    """mechanism_derivatives on sympy symbols (what generated code would trace) gives, at a point, the
-    numbers it gives on floats: the stops' contact and the lag included."""
+    """mechanism_derivatives on sympy symbols (what generated code would trace) gives, at a point,
+    the numbers it gives on floats: the stops' contact and the lag included."""
     import sympy
     p = mm.PULLEY_JOINT.bind(params)
     q, qdot, P1, P2, c1, c2 = sympy.symbols("q qdot P1 P2 c1 c2", real=True)

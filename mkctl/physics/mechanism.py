@@ -299,9 +299,10 @@ def _evaluate(mechanism: Mechanism, which: str, q, qdot, p) -> list:
     values = [getattr(p, n) for n in traced.names]
     if any(actuator.is_symbolic(x) for x in (q, qdot, *values)):
         import sympy
-        k = len(mechanism.muscles)
-        expressions = ([*traced.lengths, *traced.arms, traced.inertia, traced.load][:2 * k + 2]
-                       if which == "state" else [*traced.curvatures, traced.load_dq, traced.load_dqdot])
+        if which == "state":
+            expressions = [*traced.lengths, *traced.arms, traced.inertia, traced.load]
+        else:
+            expressions = [*traced.curvatures, traced.load_dq, traced.load_dqdot]
         values = {traced.q: q, traced.qdot: qdot, **dict(zip(traced.symbols, values))}
         return [sympy.sympify(e).xreplace(values) for e in expressions]
     scalar = type(q) is float and type(qdot) is float
