@@ -359,7 +359,7 @@ def kinematics(mechanism: Mechanism, q, p, qdot=0.0) -> Kinematics:
 def mechanism_force(mechanism: Mechanism, q, qdot, pressures, p) -> MechanismForce:
     """The generalized force ``F = sum_i (-dL_i/dq) f_i(L_i, Ldot_i, P_i) + Q(q, qdot)`` (virtual
     work, model-spec section 3b) at coordinate q, rate qdot and muscle pressures [Pa] (one per
-    muscle; floats or arrays, broadcast).
+    muscle; floats or arrays, broadcast; on sympy symbols the expression).
 
     Parameters
     ----------
