@@ -29,16 +29,13 @@ from ..physics.simulate import KNEE_OUTPUTS, default_commands, default_hip_heigh
 #: Description of the parameter ``n``, common to both FMUs.
 N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 change, it follows "
                  "sqrt(b^2 - L0^2) / (pi D0)")
-#: Description of the parameter ``model``, common to both FMUs.
-MODEL_DESCRIPTION = ("tension model: 1 = Eq. 7 (pressure only), 2 = Eq. 13 (plus Mooney-Rivlin elasticity); "
-                     "no unit")
-#: Description of the parameter ``slack``, common to both FMUs (when its effect gives none).
-SLACK_DESCRIPTION = "1 = a muscle cannot push: the tension is max(f, 0) (model-spec section 4); 0 = off; no unit"
 #: Description of the parameter ``P_rated``, common to both FMUs.
 P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
                        "excursion); the model itself has no limit")
-#: Descriptions of the Integer parameters that a model's own descriptions leave out.
-INTEGER_DESCRIPTIONS = {"model": MODEL_DESCRIPTION, "slack": SLACK_DESCRIPTION}
+#: Descriptions of the Integer parameters (the effects' switches, from their definitions) that a model's own
+#: descriptions leave out.
+INTEGER_DESCRIPTIONS = LiveMapping(lambda: {q.name: f"{q.description}; no unit" for q in effects.parameters()
+                                            if q.switch})
 
 
 def negative_pressure_message(name: str, value: str) -> str:

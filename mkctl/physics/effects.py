@@ -653,7 +653,7 @@ BUILTIN = (
         "elasticity", "the Mooney-Rivlin term: model 2 instead of model 1",
         parameters=(Parameter("model", "1", off=1, lower=1, upper=2, default=2, switch=True, fitted=False,
                               values_text="1 or 2",
-                              description="1: pressure only (Eq. 7), 2: with rubber elasticity (Eq. 13)"),),
+                              description="tension model: 1 = Eq. 7 (pressure only), 2 = Eq. 13 (plus Mooney-Rivlin elasticity)"),),
         uses=("C1", "C2"), switched_by="model", tension=_elastic_term, quasi_static="static", fitted="C1", discovery=_rubber_columns,
         experiments={"isotonic": (1e3, 1e7), "knee": (1e3, 1e7), "isometric": (1e3, 1e7)}, reference=None,
         regressor="the rubber's tension (model 2 minus model 1) at the measured length",
@@ -692,7 +692,8 @@ BUILTIN = (
     Effect(
         "slack", "f = max(f, 0) applied last, to the whole tension: a braided muscle cannot push",
         parameters=(Parameter("slack", "1", off=0, lower=0, upper=1, switch=True, values_text="0 (off) or 1 (on)",
-                              description="1: a braided muscle cannot push, f = max(f, 0) (a switch, not fitted)"),),
+                              description="1 = a muscle cannot push: the tension is max(f, 0) (model-spec section 4); "
+                                          "0 = off (a switch, not fitted)"),),
         final=_slack_limit, fitted="slack",
         discovery=lambda p: (DiscoveryColumn("-min(f, 0)", "1", lambda a: -np.minimum(a["static"], 0.0)),), experiments={"isometric": (1.0, 1.0 + 1e-6), "knee": (1.0, 1.0 + 1e-6)},
         regressor="the model's tension, where it is negative (a slack muscle carries nothing there)",
