@@ -1,13 +1,14 @@
-"""The docstrings of the physics and the API: numpydoc sections, and examples that run in a fresh interpreter.
+"""The docstrings of the physics and the API: numpydoc sections; examples in a fresh interpreter.
 
-Issue 27, item 6: our style is pvlib-python's, one function per physical model with a numpydoc docstring (the
-equation, ``Parameters`` with units, ``Returns``, ``References``). The sections are read here by a small parser
-of numpydoc's section headers (a title underlined with dashes of its length), not by ``numpydoc.docscrape``:
-the numpydoc package requires Sphinx, which the project does not otherwise need.
+Issue 27, item 6: our style is pvlib-python's, one function per physical model with a numpydoc
+docstring (the equation, ``Parameters`` with units, ``Returns``, ``References``). The sections are
+read here by a small parser of numpydoc's section headers (a title underlined with dashes of its
+length), not by ``numpydoc.docscrape``: the numpydoc package requires Sphinx, which the project does
+not otherwise need.
 
-Two lists say what is still to do, and each fails once it is stale: :data:`STILL_TO_DO` (modules whose public
-functions do not all have a ``Parameters`` section yet) and :data:`KNOWN_FAILING_EXAMPLES` (modules whose own
-docstring example fails in a fresh interpreter).
+Two lists say what is still to do, and each fails once it is stale: :data:`STILL_TO_DO` (modules
+whose public functions do not all have a ``Parameters`` section yet) and
+:data:`KNOWN_FAILING_EXAMPLES` (modules whose own docstring example fails in a fresh interpreter).
 """
 from __future__ import annotations
 
@@ -27,23 +28,24 @@ import pytest
 
 import mkctl.physics
 
-ROOT = Path(__file__).resolve().parents[1]
-
-#: Modules whose every public function and method has a full numpydoc docstring (checked strictly below).
+#: Modules whose every public function and method has a full numpydoc docstring (checked strictly
+#: below).
 DONE = (
-    "mkctl.physics.backend", "mkctl.physics.integrate", "mkctl.physics.isometric", "mkctl.physics.isotonic",
-    "mkctl.physics.knee", "mkctl.physics.results", "mkctl.physics.simulate", "mkctl.physics.stability",
+    "mkctl.physics.backend", "mkctl.physics.integrate", "mkctl.physics.isometric",
+    "mkctl.physics.isotonic", "mkctl.physics.knee", "mkctl.physics.results",
+    "mkctl.physics.simulate", "mkctl.physics.stability",
     "mkctl.results", "mkctl.errors",
 )
-#: Physics modules still to document (the lead's). A module listed here that has no function left without a
-#: Parameters section fails test_still_to_do_is_not_stale: move it to DONE then.
-STILL_TO_DO = ("mkctl.physics.actuator", "mkctl.physics.braid", "mkctl.physics.effects", "mkctl.physics.params",
-               "mkctl.physics.tables", "mkctl.physics.xp")
+#: Physics modules still to document (the lead's). A module listed here that has no function left
+#: without a Parameters section fails test_still_to_do_is_not_stale: move it to DONE then.
+STILL_TO_DO = ("mkctl.physics.actuator", "mkctl.physics.braid", "mkctl.physics.effects",
+               "mkctl.physics.params", "mkctl.physics.tables", "mkctl.physics.xp")
 
-#: Modules whose own docstring example fails in a fresh interpreter today, with the text its error shows. A
-#: listed module whose examples pass fails test_docstring_examples_run_in_a_fresh_interpreter: drop it here then.
-#: (Empty since 4451e51: mkctl.effects' example, which failed with "import mkctl (or mkctl.effects) before
-#: registering an effect", runs now.) Example: {"mkctl.effects": "before registering an effect"}.
+#: Modules whose own docstring example fails in a fresh interpreter today, with the text its error
+#: shows. A listed module whose examples pass fails
+#: test_docstring_examples_run_in_a_fresh_interpreter: drop it here then. (Empty since 4451e51:
+#: mkctl.effects' example, which failed with "import mkctl (or mkctl.effects) before registering an
+#: effect", runs now.) Example: {"mkctl.effects": "before registering an effect"}.
 KNOWN_FAILING_EXAMPLES: dict[str, str] = {}
 
 
@@ -51,10 +53,10 @@ def physics_modules() -> list[str]:
     return sorted(f"mkctl.physics.{m.name}" for m in pkgutil.iter_modules(mkctl.physics.__path__))
 
 
-# --- numpydoc sections ------------------------------------------------------------------------------
+# --- numpydoc sections ---------------------------------------------------------------------------
 
 def sections(doc: str | None) -> dict[str, list[str]]:
-    """The numpydoc sections of doc: {title: its lines}; a title is a line underlined by dashes of its length."""
+    """The numpydoc sections of doc, {title: its lines}; a title is underlined by dashes as long."""
     lines = inspect.cleandoc(doc or "").splitlines()
     found: dict[str, list[str]] = {}
     current = None
@@ -75,7 +77,7 @@ def sections(doc: str | None) -> dict[str, list[str]]:
 
 
 def documented_parameters(doc: str | None) -> list[str] | None:
-    """The names the Parameters section lists, in order (``Pe, Pf : float`` gives two), or None without one."""
+    """The names the Parameters section lists, in order (``Pe, Pf : float`` gives two), or None."""
     section = sections(doc).get("Parameters")
     if section is None:
         return None
@@ -87,8 +89,10 @@ def documented_parameters(doc: str | None) -> list[str] | None:
 
 
 def public_callables(module_name: str):
-    """(qualified name, the callable, the docstring that documents its parameters) for every public function
-    and method defined in the module: a class's constructor is documented in the class docstring (numpydoc),
+    """(qualified name, the callable, the docstring that documents its parameters) for every public
+    function
+    and method defined in the module: a class's constructor is documented in the class docstring
+    (numpydoc),
     dataclasses and named tuples (whose constructor takes the documented attributes) excepted."""
     module = importlib.import_module(module_name)
     for name, obj in sorted(vars(module).items()):
@@ -141,19 +145,23 @@ def test_the_section_parser_reads_numpydoc():
     assert documented_parameters(doc) == ["X", "Pe", "Pf"]
     assert list(sections(doc)) == ["Parameters", "Returns"]
     assert documented_parameters("Ground force.\n\n    Parameters: X [m].\n") is None
-    assert documented_parameters("Ground force.\n\n    Parameters\n    ---\n    X : float\n") is None
+    assert documented_parameters("Force.\n\n    Parameters\n    ---\n    X : float\n") is None
 
 
 @pytest.mark.parametrize("module_name", DONE)
 def test_every_public_function_has_a_numpydoc_docstring(module_name):
-    """Every public function and method of a documented module: a one-line summary; a Parameters section that
-    lists each parameter of the signature, in order, and no other; a Returns section unless it returns None;
-    a Raises section where its own code raises a user-facing error (an MkctlError subclass)."""
+    """Every public function and method of a documented module: a one-line summary (a blank line
+    after it); a Parameters section that lists each parameter of the signature, in order, and no
+    other; a Returns section unless it returns None; a Raises section where its own code raises a
+    user-facing error (an MkctlError subclass)."""
     problems = []
     for name, func, doc in public_callables(module_name):
-        if not doc or not inspect.cleandoc(doc).splitlines()[0].strip():
+        lines = inspect.cleandoc(doc or "").splitlines()
+        if not lines or not lines[0].strip():
             problems.append(f"{name}: no summary line")
             continue
+        if len(lines) > 1 and lines[1].strip():
+            problems.append(f"{name}: the summary is more than one line")
         wanted, listed = signature_parameters(func), documented_parameters(doc)
         if wanted and listed != wanted:
             problems.append(f"{name}: Parameters lists {listed}, the signature has {wanted}")
@@ -163,7 +171,8 @@ def test_every_public_function_has_a_numpydoc_docstring(module_name):
             problems.append(f"{name}: no Returns section")
         source = textwrap.dedent(inspect.getsource(func))
         raises = {node.exc.func.id for node in ast.walk(ast.parse(source))
-                  if isinstance(node, ast.Raise) and isinstance(getattr(node.exc, "func", None), ast.Name)}
+                  if isinstance(node, ast.Raise)
+                  and isinstance(getattr(node.exc, "func", None), ast.Name)}
         if raises & {"DomainError", "ParameterError", "ResourceError", "MeasurementFileError"}:
             if "Raises" not in sections(doc):
                 problems.append(f"{name}: raises {sorted(raises)} but has no Raises section")
@@ -175,7 +184,8 @@ def test_documented_modules_keep_lines_of_ordinary_length():
     long = []
     for module_name in DONE:
         path = Path(importlib.import_module(module_name).__file__)
-        long += [f"{path.name}:{i}" for i, line in enumerate(path.read_text().splitlines(), 1) if len(line) > 100]
+        long += [f"{path.name}:{i}" for i, line in enumerate(path.read_text().splitlines(), 1)
+                 if len(line) > 100]
     assert not long, f"lines over 100 characters: {long}"
 
 
@@ -187,7 +197,7 @@ def test_every_physics_module_is_listed():
 
 @pytest.mark.parametrize("module_name", STILL_TO_DO)
 def test_still_to_do_is_not_stale(module_name, capsys):
-    """The modules still to document: their functions without a Parameters section, printed for the lead.
+    """The modules still to do: their functions without a Parameters section, printed for the lead.
     Fails once none is left: then move the module to DONE, where the full check applies."""
     missing = missing_parameters_section(module_name)
     with capsys.disabled():
@@ -198,15 +208,15 @@ def test_still_to_do_is_not_stale(module_name, capsys):
 
 # --- examples in a fresh interpreter -------------------------------------------------------------
 
-#: Runs in a fresh interpreter: imports the module alone (nothing of mkctl before it), runs its ``>>>``
-#: examples with doctest, then its literal example blocks (a paragraph ending "Example::" and the indented
-#: block after it), and prints what happened as JSON.
+#: Runs in a fresh interpreter: imports the module alone (nothing of mkctl before it), runs its
+#: ``>>>`` examples with doctest, then its literal example blocks (a paragraph ending "Example::"
+#: and the indented block after it), and prints what happened as JSON.
 FRESH_RUN = r'''
 import doctest, importlib, json, sys, textwrap, traceback
 name = sys.argv[1]
 before = sorted(m for m in sys.modules if m.startswith("mkctl"))
 module = importlib.import_module(name)
-failed, attempted = doctest.testmod(module, optionflags=doctest.ELLIPSIS, verbose=False, report=True)
+failed, attempted = doctest.testmod(module, optionflags=doctest.ELLIPSIS, report=True)
 blocks, errors = 0, []
 lines = (module.__doc__ or "").splitlines()
 for i, line in enumerate(lines):
@@ -225,12 +235,13 @@ print(json.dumps({"before": before, "failed": failed, "attempted": attempted, "b
                   "errors": errors}))
 '''
 
-EXAMPLE_MODULES = sorted({"mkctl", "mkctl.errors", "mkctl.results", "mkctl.effects", *physics_modules()})
+EXAMPLE_MODULES = sorted({"mkctl", "mkctl.errors", "mkctl.results", "mkctl.effects",
+                          *physics_modules()})
 
 
 def run_examples_fresh(module_name: str, workdir: Path) -> dict:
-    done = subprocess.run([sys.executable, "-c", FRESH_RUN, module_name], capture_output=True, text=True,
-                          cwd=workdir, timeout=180)
+    done = subprocess.run([sys.executable, "-c", FRESH_RUN, module_name], capture_output=True,
+                          text=True, cwd=workdir, timeout=180)
     assert done.returncode == 0, done.stderr[-3000:]
     result = json.loads(done.stdout.strip().splitlines()[-1])
     result["output"] = done.stdout[-3000:]
@@ -239,25 +250,29 @@ def run_examples_fresh(module_name: str, workdir: Path) -> dict:
 
 @pytest.mark.parametrize("module_name", EXAMPLE_MODULES)
 def test_docstring_examples_run_in_a_fresh_interpreter(module_name, tmp_path):
-    """Each module's docstring examples (``>>>`` anywhere in the module, and a module's literal example block)
-    run in an interpreter that imported nothing of mkctl before the module: what a user who copies them gets.
+    """Each module's docstring examples (``>>>`` anywhere in the module, and a module's literal
+    example block)
+    run in an interpreter that imported nothing of mkctl before the module: what a user who copies
+    them gets.
     A module of KNOWN_FAILING_EXAMPLES must still fail, with its known error."""
     result = run_examples_fresh(module_name, tmp_path)
     assert result["before"] == [], result["before"]
     failures = result["failed"] + len(result["errors"])
     if module_name in KNOWN_FAILING_EXAMPLES:
         assert failures, f"{module_name}'s examples pass now: remove it from KNOWN_FAILING_EXAMPLES"
-        assert any(KNOWN_FAILING_EXAMPLES[module_name] in error for error in result["errors"]), result
+        known = KNOWN_FAILING_EXAMPLES[module_name]
+        assert any(known in error for error in result["errors"]), result
     else:
         assert failures == 0, f"{module_name}: {result['errors']}\n{result['output']}"
 
 
 def test_the_fresh_run_sees_a_failing_example(tmp_path):
-    """The fresh-interpreter runner reports a wrong ``>>>`` output and a failing literal block (it can fail)."""
+    """The fresh-interpreter runner reports a wrong ``>>>`` output and a failing literal block."""
     package = tmp_path / "broken_examples.py"
-    package.write_text('"""Broken.\n\n>>> 1 + 1\n3\n\nExample::\n\n    raise ValueError("no")\n"""\n')
-    done = subprocess.run([sys.executable, "-c", FRESH_RUN.replace('"mkctl"', '"broken"'), "broken_examples"],
-                          capture_output=True, text=True, cwd=tmp_path, timeout=60)
+    package.write_text('"""Broken.\n\n>>> 1 + 1\n3\n\n'
+                       'Example::\n\n    raise ValueError("no")\n"""\n')
+    done = subprocess.run([sys.executable, "-c", FRESH_RUN, "broken_examples"], capture_output=True,
+                          text=True, cwd=tmp_path, timeout=60)
     result = json.loads(done.stdout.strip().splitlines()[-1])
     assert (result["failed"], result["attempted"], result["blocks"]) == (1, 1, 1)
     assert result["errors"] == ["ValueError: no"]

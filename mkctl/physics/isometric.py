@@ -119,7 +119,7 @@ def isometric_tension(L, P, branch=UP, params: Params = DEFAULT):
     branch : float or array_like
         +1 while the pressure rises (``up``), -1 while it falls (``down``).
     params : Params
-        b, L0, D0, t0 [m], n [-], C1, C2 [Pa], model, Fc [N], slack.
+        The actuator: b, L0, D0, t0 [m], n [-], C1, C2 [Pa], model, Fc [N], slack.
 
     Returns
     -------

@@ -91,8 +91,8 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
     Returns
     -------
     KneeGeometry
-        beta, alpha [rad]; X, Le, Lf [m]; G_e, G_f [-]; their derivatives along beta [-], [m/rad],
-        [1/rad]. Arrays broadcast like beta.
+        The angles beta, alpha [rad]; X, Le, Lf [m]; G_e, G_f [-]; their derivatives along beta
+        [-], [m/rad], [1/rad]. Arrays broadcast like beta.
 
     Raises
     ------

@@ -302,11 +302,10 @@ class KneeSimulator:
         return self.state
 
     def advance(self, times, pe_cmd: float, pf_cmd: float, first_step: float) -> np.ndarray:
-        """Advance to ``times[-1]`` with the commands held, in one integration: what a record runs
-        between command changes.
+        """Advance to ``times[-1]`` with the commands held, in one integration.
 
-        The integration's steps are not cut at the ``times``: the states there are read off the
-        integrator's continuous extension.
+        What a record runs between command changes. The integration's steps are not cut at the
+        ``times``: the states there are read off the integrator's continuous extension.
 
         Parameters
         ----------
@@ -607,11 +606,12 @@ _rest_heights: dict = {}
 
 
 def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
-    """The hip height a record starts at when X0 is None: at rest in the stable equilibrium of the
-    first commands (:func:`mkctl.physics.stability.equilibrium_hip_height`).
+    """The hip height a record starts at when X0 is None: at rest, the first commands' equilibrium.
 
-    Remembered per (commands, parameters that matter at rest, :func:`rest_independent`): fits run
-    thousands of records from the same posture with other damping or lag.
+    The stable equilibrium of the first commands
+    (:func:`mkctl.physics.stability.equilibrium_hip_height`), remembered per (commands, parameters
+    that matter at rest, :func:`rest_independent`): fits run thousands of records from the same
+    posture with other damping or lag.
 
     Parameters
     ----------
@@ -769,7 +769,7 @@ def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT,
     Parameters
     ----------
     states : array_like
-        n x nstate: X [m], V [m/s], and with a lag Pe, Pf [Pa].
+        States, n x nstate: X [m], V [m/s], and with a lag Pe, Pf [Pa].
     pe_seen, pf_seen : array_like
         The commands the actuators see [Pa], n each (the pressures when there is no lag).
     params : Params
@@ -877,13 +877,12 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
                 stops: bool = True, rtol: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
-    """Hip height and velocity at some samples of a record, cheaply: what fitting many simulations
-    needs.
+    """Hip height and velocity at some samples of a record, cheaply.
 
-    The same run as :func:`simulate_knee` (commands held from each sample to the next; X0 None: at
-    rest in the equilibrium of the first commands), but only the asked samples are read off the
-    integration and no other output is computed. Runs in the compiled core when it is available, in
-    one call.
+    What fitting many simulations needs: the same run as :func:`simulate_knee` (commands held from
+    each sample to the next; X0 None: at rest in the equilibrium of the first commands), but only
+    the asked samples are read off the integration and no other output is computed. Runs in the
+    compiled core when it is available, in one call.
 
     Parameters
     ----------

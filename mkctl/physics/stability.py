@@ -134,7 +134,7 @@ def h_slope(alpha, Pe, Pf, params: Params = DEFAULT, step: float = 1e-5):
     Returns
     -------
     float or array
-        dh/dalpha [N/rad^2].
+        The slope dh/dalpha [N/rad^2].
 
     Raises
     ------
@@ -314,8 +314,8 @@ def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float |
     Returns
     -------
     PostureStability
-        a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s] and the verdict ('stable', 'marginal',
-        'unstable').
+        The posture, its pressures, a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s] and the verdict
+        ('stable', 'marginal', 'unstable').
 
     Raises
     ------
