@@ -12,10 +12,10 @@ with alpha, Eq. 20 is equivalent to ``h(alpha, Pe, Pf) = d/dalpha (G_e f_e - G_f
 Model 2 alone has a1 = 0: the poles sit on the imaginary axis ("marginal"), which is the paper's
 point. Viscous damping gives ``a1 = -c (G_e^2 + G_f^2) / m < 0`` (spec section 4).
 
-The pressures enter h and F affinely, so the equilibrium set (F = m g, V = 0) and the h = 0 surface
-are both closed-form surfaces ``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and
-:func:`h_zero_pressure`. The pressure lag adds the decoupled poles -1/tau and does not change a1,
-a2.
+The pressures enter h and F affinely (not with the pressure threshold of model-spec section 4b), so
+the equilibrium set (F = m g, V = 0) and the h = 0 surface are both closed-form surfaces
+``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and :func:`h_zero_pressure`. The pressure lag
+adds the decoupled poles -1/tau and does not change a1, a2.
 
 References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
 paper), Section VI, Eq. 18-25 and Fig. 7; model-spec sections 3 and 4.
@@ -158,7 +158,10 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
     .. math:: P_e = \\frac{m g - F(\\alpha, V = 0, P_e = 0, P_f)}{\\partial F / \\partial P_e}
 
     With slack (model-spec section 4) the extensor that holds the hip is taut, so its tension stays
-    affine in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``.
+    affine in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``. The pressure
+    threshold (model-spec section 4b, ``P_eff = P - P0 (1 - exp(-P / P0))``) makes F nonlinear in
+    Pe: with P0 > 0 the result does not hold the hip (measured at alpha = 60 deg, Pf = 100 kPa,
+    P0 = 100 kPa: F - m g = -7.6 N there).
 
     Parameters
     ----------
@@ -198,7 +201,10 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
 def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
     """Extensor pressure on the surface h(alpha, Pe, Pf) = 0 of Fig. 7.
 
-    h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``.
+    h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``. Not so
+    with the pressure threshold (model-spec section 4b: P0 > 0), where the result is not on the
+    surface, nor where the extensor is slack at 0 and 1 Pa (slack = 1 with model 2), where the
+    difference is zero: a ZeroDivisionError for floats, inf for arrays.
 
     Parameters
     ----------
