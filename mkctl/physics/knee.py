@@ -75,8 +75,8 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
     ``Lf = lmf - Lfc`` with ``lmf = sqrt(L5^2 + L6^2 - 2 L5 L6 cos(beta))``,
     ``G_e = r sin(alpha) X / (Lo Lu sin(beta))`` (Eq. 15), ``G_f = L5 L6 X / (Lo Lu lmf)`` (Eq. 16).
 
-    The derivatives are analytic (dalpha/dbeta from ``beta = pi/2 + alpha + asin(r sin(alpha) /
-    L1)``).
+    The derivatives are analytic (dalpha/dbeta from
+    ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)``).
 
     Parameters
     ----------
@@ -182,8 +182,9 @@ def _check_range(values, low, high, what, unit, why=""):
 def beta_from_alpha(alpha, params: Params = DEFAULT):
     """Interior knee angle from kneecap angle: ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)``.
 
-    The angles of the triangle knee, kneecap tip, thigh anchor add up to pi, with ``gamma = 3 pi/2 -
-    beta`` at the knee and ``asin(r sin(alpha) / L1)`` at the anchor (law of sines).
+    The angles of the triangle knee, kneecap tip, thigh anchor add up to pi, with
+    ``gamma = 3 pi/2 - beta`` at the knee and ``asin(r sin(alpha) / L1)`` at the anchor (law of
+    sines).
 
     Parameters
     ----------
@@ -520,8 +521,9 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf,
                         params: Params = DEFAULT) -> KneeForcePartials:
     """Exact partial derivatives of :func:`knee_force` with respect to X, V, Pe and Pf.
 
-    ``dF/dX = dG_e/dX f_e + G_e df_e/dX - dG_f/dX f_f - G_f df_f/dX``, ``dF/dV = G_e df_e/dLdot
-    dLe/dX - G_f df_f/dLdot dLf/dX``, ``dF/dPe = G_e df_e/dP``, ``dF/dPf = -G_f df_f/dP``.
+    ``dF/dX = dG_e/dX f_e + G_e df_e/dX - dG_f/dX f_f - G_f df_f/dX``,
+    ``dF/dV = G_e df_e/dLdot dLe/dX - G_f df_f/dLdot dLf/dX``,
+    ``dF/dPe = G_e df_e/dP``, ``dF/dPf = -G_f df_f/dP``.
 
     The tensions' partials (dL, dLdot, dP, and the final limits' slope) are ``sympy.diff`` of the
     traced effect terms (:func:`mkctl.physics.actuator.tension_partials`); the chain rule through
@@ -818,9 +820,9 @@ def pade_delay(A, B, delay: float):
     """(A, B) with each input seen ``delay`` late, by a first-order Pade approximation.
 
     ``exp(-s d) ~ (1 - s d/2) / (1 + s d/2)``: one state per input, w [Pa] with
-    ``dw/dt = (2/d) (u - w)`` and the seen input ``y = 2 w - u``. So ``A' = [[A, 2 B], [0, -(2/d)
-    I]]``, ``B' = [[-B], [(2/d) I]]``; exact at zero frequency, its phase lag ``2 atan(w d/2)``
-    matches the delay's ``w d`` to within 10 % up to w d = 1.
+    ``dw/dt = (2/d) (u - w)`` and the seen input ``y = 2 w - u``. So
+    ``A' = [[A, 2 B], [0, -(2/d) I]]``, ``B' = [[-B], [(2/d) I]]``; exact at zero frequency, its
+    phase lag ``2 atan(w d/2)`` matches the delay's ``w d`` to within 10 % up to w d = 1.
 
     Parameters
     ----------
