@@ -1,8 +1,10 @@
-"""The base of mkctl's result objects, in python-control's manner: named attributes, a readable repr, a table.
+"""The base of mkctl's result objects, in python-control's manner: named attributes, a readable
+repr, a table.
 
-A result is a dataclass. Subclasses say what their repr shows (:meth:`Result.summary_lines`) and what their
-table holds (:meth:`Result.table`: a dict of equal-length columns or a list of row dicts); :meth:`to_dataframe`
-turns that table into a pandas DataFrame (pandas is imported only then).
+A result is a dataclass. Subclasses say what their repr shows (:meth:`Result.summary_lines`)
+and what their table holds (:meth:`Result.table`: a dict of equal-length columns or a list of
+row dicts); :meth:`to_dataframe` turns that table into a pandas DataFrame (pandas is imported
+only then).
 
 Example
 -------
@@ -23,18 +25,42 @@ import math
 
 
 class Result:
-    """Mixin for dataclass results: ``repr`` from :meth:`summary_lines`, ``to_dataframe`` from :meth:`table`."""
+    """Mixin for dataclass results: ``repr`` from :meth:`summary_lines`, ``to_dataframe`` from
+    :meth:`table`."""
 
     def summary_lines(self) -> list[str]:
-        """Lines of a readable summary (the repr); override in a subclass."""
+        """Lines of a readable summary (the repr); override in a subclass.
+
+        Returns
+        -------
+        list of str
+            One line each, without line breaks; empty here (the repr is then ``Name()``).
+        """
         return []
 
     def table(self):
-        """The result as a table: a dict of equal-length columns, or a list of row dicts; override in a subclass."""
+        """The result as a table; override in a subclass.
+
+        Returns
+        -------
+        dict or list of dict
+            A dict of equal-length columns, or a list of row dicts.
+
+        Raises
+        ------
+        NotImplementedError
+            Here, in the base class: a result without a table.
+        """
         raise NotImplementedError(f"{type(self).__name__} has no table")
 
     def to_dataframe(self):
-        """The result's :meth:`table` as a pandas DataFrame."""
+        """The result's :meth:`table` as a pandas DataFrame (pandas is imported only here).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One column per column of the table, or one row per row dict.
+        """
         import pandas as pd
         return pd.DataFrame(self.table())
 
@@ -52,8 +78,20 @@ class Result:
 
 
 def plain(value):
-    """``value`` as plain JSON values: numpy numbers and arrays become Python ones, keys strings, and a NaN or
-    an infinity None (JSON has neither)."""
+    """``value`` as plain JSON values, ready for ``json.dumps``.
+
+    Parameters
+    ----------
+    value : object
+        A dict, list, tuple, numpy array or number, nested to any depth; other values pass
+        unchanged.
+
+    Returns
+    -------
+    object
+        The same structure with numpy numbers and arrays as Python ones, dict keys as strings,
+        tuples as lists, and a NaN or an infinity as None (JSON has neither).
+    """
     import numpy as np
     if isinstance(value, dict):
         return {str(k): plain(v) for k, v in value.items()}

@@ -1,22 +1,28 @@
-"""The isotonic test of Fig. 5: one actuator under a hanging load while its pressure is swept slowly.
+"""The isotonic test of Fig. 5: one actuator under a hanging load, its pressure swept slowly.
 
-The test is quasi-static: the load's inertia is neglected, so at every instant the actuator's tension
-balances the load, ``f(L, P, Ldot) = F_load``. Which length that gives depends on the effects switched on
-(model-spec section 4):
+The test is quasi-static: the load's inertia is neglected, so at every instant the actuator's
+tension balances the load, ``f(L, P, Ldot) = F_load``. Which length that gives depends on the
+effects switched on (model-spec section 4):
 
 - no velocity effect: the static length, the root of ``f_static(L, P) = F_load``;
 - Coulomb friction: its quasi-static limit, a play operator. The length stays put while the static
   tension lies within +-Fc of the load, and otherwise moves to the edge of that band (lengthening:
-  ``f_static = F - Fc``; shortening: ``f_static = F + Fc``). This draws the hysteresis loop of Fig. 5.
-- viscous damping: ``c Ldot = F - f_static - friction``, integrated by backward Euler between samples.
+  ``f_static = F - Fc``; shortening: ``f_static = F + Fc``). This draws the hysteresis loop of Fig.
+  5.
+- viscous damping: ``c Ldot = F - f_static - friction``, integrated by backward Euler between
+samples.
 
 The pressure is the one measured in the bladder, so the pressure lag plays no part here.
 
-Where no length in the domain carries the load, the muscle goes to its limit instead: a load beyond what
-the tension can reach at the braid limit (L -> b, the fibres straight along the axis; for example model 1
-with no pressure under a hanging load) pulls it out to the braid limit, and a load below the tension of
-the fully contracted muscle leaves it at its shortest length (the end stop of the bracket). A record
-simulated that way goes on; :func:`saturation` says at which samples the model could not follow.
+Where no length in the domain carries the load, the muscle goes to its limit instead: a load beyond
+what the tension can reach at the braid limit (L -> b, the fibres straight along the axis; for
+example model 1 with no pressure under a hanging load) pulls it out to the braid limit, and a load
+below the tension of the fully contracted muscle leaves it at its shortest length (the end stop of
+the bracket). A record simulated that way goes on; :func:`saturation` says at which samples the
+model could not follow.
+
+References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
+paper), Eq. 7 and 13, Fig. 5 (the isotonic test); model-spec sections 2, 4 and 5.
 """
 from __future__ import annotations
 
@@ -25,8 +31,8 @@ from . import actuator, backend
 from ..errors import DomainError
 from .params import DEFAULT, Params
 
-#: Most bisection (static_length) or Newton-with-bracket (damped test) steps per length: 60 halvings take the
-#: bracket (0, b) below 1e-18 m. mkctl.native compiles the damped test with the same cap.
+#: Most bisection (static_length) or Newton-with-bracket (damped test) steps per length: 60 halvings
+#: take the bracket (0, b) below 1e-18 m. mkctl.native compiles the damped test with the same cap.
 MAX_ITERATIONS = 60
 
 
@@ -35,13 +41,52 @@ SHORTEST, LONGEST = 1e-3, 1 - 1e-9
 
 
 def length_limits(params: Params = DEFAULT) -> tuple[float, float]:
-    """(shortest, longest) actuator length [m] the quasi-static solution may take: the bracket on (0, b)."""
+    """The shortest and longest actuator length the quasi-static solution may take.
+
+    The bisection's bracket on the domain 0 < L < b: ``(SHORTEST b, LONGEST b)``.
+
+    Parameters
+    ----------
+    params : Params
+        The braid length b [m].
+
+    Returns
+    -------
+    shortest : float
+        Shortest length [m] (the fully contracted muscle: the end stop of the bracket).
+    longest : float
+        Longest length [m] (the braid limit, just short of b).
+
+    References
+    ----------
+    .. [1] model-spec section 2 (the domain 0 < L < b).
+    """
     return params.b * SHORTEST, params.b * LONGEST
 
 
 def saturation(pressure, load, params: Params = DEFAULT) -> np.ndarray:
-    """Where no length carries the load: -1 (held at its shortest length), +1 (pulled to the braid
-    limit), 0 (a length in the domain carries it). Parameters: pressure P [Pa], load F [N], arrays."""
+    """Where no length in the domain carries the load, and which limit the muscle goes to.
+
+    Parameters
+    ----------
+    pressure : float or array_like
+        Gauge pressure P [Pa].
+    load : float or array_like
+        Load F [N]; broadcasts with pressure.
+    params : Params
+        The actuator and its effects.
+
+    Returns
+    -------
+    numpy.ndarray of int
+        -1 (``F < f_static(shortest, P)``: held at its shortest length), +1
+        (``F > f_static(longest, P)``: pulled to the braid limit), 0 (a length in the domain carries
+        it).
+
+    References
+    ----------
+    .. [1] model-spec sections 2 and 5 (the isotonic test).
+    """
     P, F = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
     low, high = length_limits(params)
     out = np.zeros(P.shape, dtype=int)
@@ -51,14 +96,40 @@ def saturation(pressure, load, params: Params = DEFAULT) -> np.ndarray:
 
 
 def static_length(pressure, load, params: Params = DEFAULT, saturate: bool = False):
-    """Length L [m] at which the static tension (model 1 or 2) equals the load: ``f_static(L, P) = F``.
+    """Length at which the static tension (model 1 or 2) equals the load: ``f_static(L, P) = F``.
 
-    Parameters: pressure P [Pa], load F [N] (arrays broadcast); saturate: where no length in the domain
-    carries the load, return the limit the muscle goes to (:func:`length_limits`: the braid limit for a
-    load too heavy, the shortest length for one too light) instead of raising. Solved by bisection on
-    0 < L < b, where the static tension rises with L for P >= 0. Without ``saturate``, raises
-    :class:`DomainError` where no length in the domain carries the load (for example model 1 with no
-    pressure).
+    Solved by bisection on 0 < L < b (:data:`MAX_ITERATIONS` halvings), where the static tension
+    rises with L for P >= 0.
+
+    Parameters
+    ----------
+    pressure : float or array_like
+        Gauge pressure P [Pa].
+    load : float or array_like
+        Load F [N]; broadcasts with pressure.
+    params : Params
+        The actuator and its effects (model 1, Eq. 7, or model 2, Eq. 13).
+    saturate : bool
+        Where no length in the domain carries the load, return the limit the muscle goes to
+        (:func:`length_limits`: the braid limit for a load too heavy, the shortest length for one
+        too light) instead of raising.
+
+    Returns
+    -------
+    L : numpy.ndarray
+        Actuator length [m], shaped like the broadcast of pressure and load.
+
+    Raises
+    ------
+    DomainError
+        For a pressure or load that is not finite, and without ``saturate`` where no length in the
+        domain carries the load (for example model 1 with no pressure).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7 and
+    13.
+    .. [2] model-spec section 2.
     """
     P, F = np.broadcast_arrays(np.asarray(pressure, dtype=float), np.asarray(load, dtype=float))
     actuator.check_pressure(P)
@@ -73,8 +144,9 @@ def static_length(pressure, load, params: Params = DEFAULT, saturate: bool = Fal
         too_heavy, too_light = F > f_high, F < f_low
     elif np.any(unreachable):
         i = np.flatnonzero(unreachable)[0]
-        raise DomainError(f"no actuator length carries the load {F.flat[i]:g} N at pressure {P.flat[i]:g} Pa "
-                          f"(the tension can only range from {f_low.flat[i]:.4g} to {f_high.flat[i]:.4g} N)")
+        raise DomainError(f"no actuator length carries the load {F.flat[i]:g} N at pressure "
+                          f"{P.flat[i]:g} Pa (the tension can only range from {f_low.flat[i]:.4g} "
+                          f"to {f_high.flat[i]:.4g} N)")
     for _ in range(MAX_ITERATIONS):
         mid = 0.5 * (low + high)
         too_long = actuator.static_tension(mid, P, params) > F
@@ -89,7 +161,25 @@ def static_length(pressure, load, params: Params = DEFAULT, saturate: bool = Fal
 def play_operator(start, lower, upper):
     """Backlash (play) operator: ``y_k = clip(y_{k-1}, lower_k, upper_k)`` with ``y_{-1} = start``.
 
-    The output stays put while it lies in the band and is dragged along by the band's edge otherwise.
+    The output stays put while it lies in the band and is dragged along by the band's edge
+    otherwise: Coulomb friction's quasi-static limit, which draws the hysteresis loop of Fig. 5.
+
+    Parameters
+    ----------
+    start : float
+        The output before the first sample (a length [m] in the isotonic test).
+    lower, upper : numpy.ndarray
+        The band's edges at each sample, same length (and unit) as the output.
+
+    Returns
+    -------
+    numpy.ndarray
+        The output at each sample.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Fig. 5.
+    .. [2] model-spec section 4 (coulomb_friction: a play operator in a quasi-static test).
     """
     out = np.empty(len(lower))
     y = float(start)
@@ -101,13 +191,44 @@ def play_operator(start, lower, upper):
 
 def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: float | None = None,
                       saturate: bool = True):
-    """Actuator length L [m] over an isotonic record (quasi-static, see the module docstring).
+    """Actuator length over an isotonic record (quasi-static, see the module docstring).
 
-    Parameters: time [s] (increasing), pressure [Pa] measured in the bladder, load [N] the hanging
-    load's weight, all arrays of one length; L_start the length before the first sample (default: the
-    static length of the first sample, as after a long rest); saturate: where no length carries the
-    load, the muscle goes to its limit (default) instead of raising :class:`DomainError`.
-    Returns L [m] at every sample.
+    ``f(L, P, Ldot) = F_load`` at every sample: the static length without a velocity effect, the
+    play operator between ``f_static = F - Fc`` and ``f_static = F + Fc`` with Coulomb friction,
+    backward Euler on ``c Ldot = F - f_static - friction`` with viscous damping.
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times [s], increasing.
+    pressure : array_like
+        Gauge pressure measured in the bladder [Pa], one per sample.
+    load : array_like
+        The hanging load's weight [N], one per sample.
+    params : Params
+        The actuator and its effects.
+    L_start : float, optional
+        Length before the first sample [m]; default: the static length of the first sample, as after
+        a long rest.
+    saturate : bool
+        Where no length carries the load, the muscle goes to its limit (default) instead of raising.
+
+    Returns
+    -------
+    L : numpy.ndarray
+        Actuator length [m] at every sample.
+
+    Raises
+    ------
+    DomainError
+        For a pressure or load that is not finite, and without ``saturate`` where no length carries
+        the load.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 7, 13 and Fig. 5.
+    .. [2] model-spec sections 4 and 5 (the isotonic experiment).
     """
     time = np.asarray(time, dtype=float)
     P = np.asarray(pressure, dtype=float)
@@ -125,12 +246,12 @@ def simulate_isotonic(time, pressure, load, params: Params = DEFAULT, L_start: f
 
 
 def _damped_isotonic(time, P, F, params: Params, L_start: float, saturate: bool = True):
-    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play limit; c the
-    effects' viscous coefficient, Fc their play half-width).
+    """Backward Euler on ``c Ldot = F - f_static(L, P) - Fc sign(Ldot)`` (friction in its play
+    limit; c the effects' viscous coefficient, Fc their play half-width).
 
     Runs in the compiled core (:mod:`mkctl.native`, the same algorithm in C) when one is installed
-    (:mod:`mkctl.physics.backend`); the loop below is the fallback, and it also runs again after a fault of the
-    compiled run, to raise its own error."""
+    (:mod:`mkctl.physics.backend`); the loop below is the fallback, and it also runs again after a
+    fault of the compiled run, to raise its own error."""
     core = backend.compiled_core(params) if time.size else None
     if core is not None:
         L = core.isotonic_damped(params, time, P, F, L_start, saturate)
@@ -150,21 +271,22 @@ def _damped_isotonic(time, P, F, params: Params, L_start: float, saturate: bool 
             L[k] = previous
         else:
             load = float(F[k]) - np.sign(excess) * width
-            L[k] = _backward_euler_length(previous, pressure, load, actuator.viscous_coefficient(params) / dt[k],
-                                          params, saturate)
+            L[k] = _backward_euler_length(previous, pressure, load,
+                                          actuator.viscous_coefficient(params) / dt[k], params,
+                                          saturate)
         previous = L[k]
     return L
 
 
-def _backward_euler_length(previous: float, pressure: float, load: float, gain: float, params: Params,
-                           saturate: bool = True) -> float:
+def _backward_euler_length(previous: float, pressure: float, load: float, gain: float,
+                           params: Params, saturate: bool = True) -> float:
     """Root of ``g(x) = load - f_static(x, P) - gain (x - previous)`` [m], gain = c / dt [N/m].
 
     Where the root lies beyond the domain, the length stops at the limit (saturate) or raises.
 
     g falls with x (the static tension rises with L for P >= 0), so the root lies on the side of
-    ``previous`` that g(previous) points to. Newton steps with the analytic slope, kept inside a bracket
-    that shrinks with every evaluation (bisection when a step leaves it).
+    ``previous`` that g(previous) points to. Newton steps with the analytic slope, kept inside a
+    bracket that shrinks with every evaluation (bisection when a step leaves it).
     """
     def g(x):
         return load - float(actuator.static_tension(x, pressure, params)) - gain * (x - previous)
@@ -189,7 +311,8 @@ def _backward_euler_length(previous: float, pressure: float, load: float, gain: 
     x = previous
     for _ in range(MAX_ITERATIONS):
         slope = float(actuator.static_tension_dL(x, pressure, params)) + gain
-        step = value / slope if slope > 0 else 2 * (high - low)  # a step that leaves the bracket: bisect
+        # (no slope: a step that leaves the bracket, so bisect)
+        step = value / slope if slope > 0 else 2 * (high - low)
         if abs(step) < 1e-15:  # converged (1 fm): nothing left to gain
             return x + step if low <= x + step <= high else x
         candidate = x + step
@@ -207,5 +330,22 @@ def _backward_euler_length(previous: float, pressure: float, load: float, gain: 
 
 
 def contraction(L, params: Params = DEFAULT):
-    """Contraction ratio ``(L0 - L) / L0`` [-] of Fig. 5 (positive when shorter than at rest)."""
+    """Contraction ratio ``(L0 - L) / L0`` of Fig. 5 (positive when shorter than at rest).
+
+    Parameters
+    ----------
+    L : float or array_like
+        Actuator length [m].
+    params : Params
+        The resting length L0 [m].
+
+    Returns
+    -------
+    float or numpy.ndarray
+        Contraction [-].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Fig. 5.
+    """
     return (params.L0 - np.asarray(L)) / params.L0

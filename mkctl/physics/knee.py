@@ -1,12 +1,12 @@
 """The knee of Fig. 6: geometry, the ground force (Eq. 14-16) and the state equations (Eq. 17).
 
-Geometry (model-spec section 3). The knee is at the origin, the thigh (Lo) goes up to the hip, the shank
-(Lu) down to the ankle, and ``beta`` is the interior knee angle (pi = straight). The hip moves vertically
-above the ankle at height ``X``. A rigid kneecap lever of length ``r``, perpendicular to the shank, carries
-the extensor over its tip; ``alpha`` is the angle at that tip between the lever and the upper extensor
-segment. Angles in rad, lengths in m, pressures in Pa (gauge), forces in N.
+Geometry (model-spec section 3). The knee is at the origin, the thigh (Lo) goes up to the hip, the
+shank (Lu) down to the ankle, and ``beta`` is the interior knee angle (pi = straight). The hip moves
+vertically above the ankle at height ``X``. A rigid kneecap lever of length ``r``, perpendicular to
+the shank, carries the extensor over its tip; ``alpha`` is the angle at that tip between the lever
+and the upper extensor segment. Angles in rad, lengths in m, pressures in Pa (gauge), forces in N.
 
-======================  ======================================================================
+======================  ===============================================================
 hip height (Eq. 15)      X = sqrt(Lo^2 + Lu^2 - 2 Lo Lu cos(beta))
 lever angle              gamma = 3 pi / 2 - beta
 kneecap angle            alpha = atan2(L1 sin(gamma), r - L1 cos(gamma)),
@@ -15,15 +15,20 @@ extensor                 lMo = sqrt(L1^2 + r^2 - 2 L1 r cos(gamma)), lMu = sqrt(
                          Le = lMo + lMu - Lec
 flexor                   lmf = sqrt(L5^2 + L6^2 - 2 L5 L6 cos(beta)), Lf = lmf - Lfc
 Eq. 15                   G_e = r sin(alpha) X / (Lo Lu sin(beta))      (= -dLe/dX)
-Eq. 16                   G_f = L5 L6 X / (Lo Lu lmf)                   (= +dLf/dX; the paper's "L_0" is Lo)
+Eq. 16                   G_f = L5 L6 X / (Lo Lu lmf)                   (= +dLf/dX)
 Eq. 14                   F = G_e f_e(Le, Pe, Le_dot) - G_f f_f(Lf, Pf, Lf_dot)
 Eq. 17                   dX/dt = V,  m dV/dt = F + F_stop - m g,  tau dP/dt = P_cmd - P
-======================  ======================================================================
+======================  ===============================================================
 
-The end stops (``F_stop``) are not in the paper: they stand for the leg's mechanical range, a stiff,
-critically damped, one-sided contact that engages at alpha = ``ALPHA_STOP_LOW`` (deeply bent) and
-alpha = ``ALPHA_STOP_HIGH`` (short of straight), so that saturated pressures drive the leg onto a stop
-instead of out of the model's domain (straight leg, actuator length reaching b).
+The paper's "L_0" in Eq. 16 is Lo. The end stops (``F_stop``) are not in the paper: they stand for
+the leg's mechanical range, a stiff, critically damped, one-sided contact that engages at alpha =
+``ALPHA_STOP_LOW`` (deeply bent) and alpha = ``ALPHA_STOP_HIGH`` (short of straight), so that
+saturated pressures drive the leg onto a stop instead of out of the model's domain (straight leg,
+actuator length reaching b).
+
+References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
+paper), Eq. 14-17 and Fig. 6; model-spec section 3 (the geometry it leaves unstated), 4 (the
+effects), 4b (the dead time's Pade approximation) and 7 (the end stops).
 """
 from __future__ import annotations
 
@@ -35,7 +40,8 @@ from . import actuator
 from ..errors import DomainError, ParameterError
 from .params import DEFAULT, Params
 
-#: The end stops, as kneecap angles [rad]: deeply bent (beta ~ 96 deg) and short of straight (~171 deg).
+#: The end stops, as kneecap angles [rad]: deeply bent (beta ~ 96 deg) and short of straight
+#: (~171 deg).
 ALPHA_STOP_LOW = np.radians(5.0)
 ALPHA_STOP_HIGH = np.radians(75.0)
 #: Contact stiffness of the end stops [N/m]; their damping is critical for the hip mass m.
@@ -61,18 +67,59 @@ class KneeGeometry(NamedTuple):
 
 
 def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> KneeGeometry:
-    """All of the knee's geometry at interior knee angle ``beta`` [rad] (table in the module docstring).
+    """All of the knee's geometry at interior knee angle ``beta`` (table in the module docstring).
 
-    The derivatives are analytic; lengths come from params (L1, L2, L5, L6, Lo, Lu, Lec, Lfc, r [m]).
-    ``derivatives=False`` leaves dalpha_dbeta, dGe_dbeta and dGf_dbeta out (None): the state equations
-    need only lengths and gains, and they run millions of times.
+    ``X = sqrt(Lo^2 + Lu^2 - 2 Lo Lu cos(beta))``, ``gamma = 3 pi / 2 - beta``,
+    ``alpha = atan2(L1 sin(gamma), r - L1 cos(gamma))``,
+    ``Le = sqrt(L1^2 + r^2 - 2 L1 r cos(gamma)) + sqrt(L2^2 + r^2) - Lec``,
+    ``Lf = lmf - Lfc`` with ``lmf = sqrt(L5^2 + L6^2 - 2 L5 L6 cos(beta))``,
+    ``G_e = r sin(alpha) X / (Lo Lu sin(beta))`` (Eq. 15), ``G_f = L5 L6 X / (Lo Lu lmf)`` (Eq. 16).
+
+    The derivatives are analytic (dalpha/dbeta from
+    ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)``).
+
+    Parameters
+    ----------
+    beta : float or array_like
+        Interior knee angle [rad], 0 < beta < pi (pi = straight leg); a sympy expression is traced.
+    params : Params
+        The knee's lengths L1, L2, L5, L6, Lo, Lu, Lec, Lfc, r [m] (Table II).
+    derivatives : bool
+        False leaves dalpha_dbeta, dGe_dbeta and dGf_dbeta out (None): the state equations need only
+        lengths and gains, and they run millions of times.
+
+    Returns
+    -------
+    KneeGeometry
+        The angles beta, alpha [rad]; X, Le, Lf [m]; G_e, G_f [-]; their derivatives along beta
+        [-], [m/rad], [1/rad]. Arrays broadcast like beta.
+
+    Raises
+    ------
+    DomainError
+        Where beta is outside (0, pi) rad (NaN too).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 15-16 and Fig. 6.
+    .. [2] model-spec section 3 (the geometry reconstruction and its reference table).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mkctl.physics.knee import beta_from_alpha, knee_geometry
+    >>> geo = knee_geometry(beta_from_alpha(np.radians(60.0)))  # model-spec section 3's table
+    >>> [round(float(v), 6) for v in (np.degrees(geo.beta), geo.X, geo.Le, geo.G_e, geo.G_f)]
+    [155.330516, 0.84992, 0.156525, 0.549926, 0.184043]
     """
     p = params
     beta = actuator.as_values(beta)
     _check_range(beta, 0.0, np.pi, "knee angle beta", "rad")
     xp = actuator.math_for(beta)
     sin_b, cos_b = xp.sin(beta), xp.cos(beta)
-    gamma = 3 * xp.pi / 2 - beta  # xp.pi: exact for symbols, so sin(gamma) = -cos(beta) in generated code
+    # xp.pi: exact for symbols, so sin(gamma) = -cos(beta) in generated code
+    gamma = 3 * xp.pi / 2 - beta
     sin_g, cos_g = xp.sin(gamma), xp.cos(gamma)
 
     X = xp.sqrt(p.Lo**2 + p.Lu**2 - 2 * p.Lo * p.Lu * cos_b)
@@ -94,7 +141,8 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
     G_e = p.r * sin_a * X / (LoLu * sin_b)
     G_f = p.L5 * p.L6 * X / (LoLu * l_mf)
     if not derivatives:
-        return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, None, dX_dbeta, dLe_dbeta, dLf_dbeta, None, None)
+        return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, None, dX_dbeta, dLe_dbeta, dLf_dbeta,
+                            None, None)
 
     # differentiate beta = pi/2 + alpha + asin(r sin(alpha) / L1)
     s = p.r * sin_a / p.L1
@@ -105,12 +153,12 @@ def knee_geometry(beta, params: Params = DEFAULT, derivatives: bool = True) -> K
                                 - sin_a * X * cos_b / sin_b**2)
     dGf_dbeta = (p.L5 * p.L6 / LoLu) * (dX_dbeta / l_mf - X * dLf_dbeta / l_mf**2)
 
-    return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, dalpha_dbeta, dX_dbeta, dLe_dbeta, dLf_dbeta,
-                        dGe_dbeta, dGf_dbeta)
+    return KneeGeometry(beta, alpha, X, Le, Lf, G_e, G_f, dalpha_dbeta, dX_dbeta, dLe_dbeta,
+                        dLf_dbeta, dGe_dbeta, dGf_dbeta)
 
 
 def _check_range(values, low, high, what, unit, why=""):
-    """Raise :class:`DomainError` unless low < values < high (NaN fails too); symbolic values are traced."""
+    """Raise :class:`DomainError` unless low < values < high (NaN fails too); symbols are traced."""
     def message(bad, low, high):
         return f"{what} = {float(bad)!r} {unit} is outside ({low:g}, {high:g}) {unit}{why}"
 
@@ -132,35 +180,152 @@ def _check_range(values, low, high, what, unit, why=""):
 # --- Posture conversions: alpha <-> beta <-> X ----------------------------------------------------
 
 def beta_from_alpha(alpha, params: Params = DEFAULT):
-    """Interior knee angle ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` [rad] from alpha [rad]."""
+    """Interior knee angle from kneecap angle: ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)``.
+
+    The angles of the triangle knee, kneecap tip, thigh anchor add up to pi, with
+    ``gamma = 3 pi/2 - beta`` at the knee and ``asin(r sin(alpha) / L1)`` at the anchor (law of
+    sines).
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        Kneecap angle [rad], 0 < alpha < pi/2 for a posture of the leg; a sympy expression is
+        traced.
+    params : Params
+        The lever r and the extensor's thigh anchor L1 [m].
+
+    Returns
+    -------
+    beta : float or array
+        Interior knee angle [rad].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Fig. 6.
+    .. [2] model-spec section 3.
+    """
     alpha = actuator.as_values(alpha)
     xp = actuator.math_for(alpha)
     return 0.5 * np.pi + alpha + xp.arcsin(params.r * xp.sin(alpha) / params.L1)
 
 
 def alpha_from_beta(beta, params: Params = DEFAULT):
-    """Kneecap angle alpha [rad] from the interior knee angle beta [rad]."""
+    """Kneecap angle from knee angle: ``alpha = atan2(L1 sin(gamma), r - L1 cos(gamma))``.
+
+    Parameters
+    ----------
+    beta : float or array_like
+        Interior knee angle [rad], 0 < beta < pi, with ``gamma = 3 pi/2 - beta``.
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    alpha : float or array
+        Kneecap angle [rad].
+
+    Raises
+    ------
+    DomainError
+        Where beta is outside (0, pi) rad (:func:`knee_geometry`).
+
+    References
+    ----------
+    .. [1] model-spec section 3.
+    """
     return knee_geometry(beta, params).alpha
 
 
 def hip_height(beta, params: Params = DEFAULT):
-    """Hip height ``X = sqrt(Lo^2 + Lu^2 - 2 Lo Lu cos(beta))`` [m]."""
+    """Hip height ``X = sqrt(Lo^2 + Lu^2 - 2 Lo Lu cos(beta))``.
+
+    Parameters
+    ----------
+    beta : float or array_like
+        Interior knee angle [rad], 0 < beta < pi.
+    params : Params
+        The thigh Lo and the shank Lu [m].
+
+    Returns
+    -------
+    X : float or array
+        Hip height above the ankle [m].
+
+    Raises
+    ------
+    DomainError
+        Where beta is outside (0, pi) rad (:func:`knee_geometry`).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 15 (its
+    X).
+    .. [2] model-spec section 3.
+    """
     return knee_geometry(beta, params).X
 
 
 def beta_from_X(X, params: Params = DEFAULT):
-    """Interior knee angle [rad] from the hip height X [m], |Lo - Lu| < X < Lo + Lu."""
+    """Interior knee angle from the hip height: ``beta = acos((Lo^2 + Lu^2 - X^2) / (2 Lo Lu))``.
+
+    Parameters
+    ----------
+    X : float or array_like
+        Hip height [m], ``|Lo - Lu| < X < Lo + Lu``; a sympy expression is traced.
+    params : Params
+        The thigh Lo and the shank Lu [m].
+
+    Returns
+    -------
+    beta : float or array
+        Interior knee angle [rad], in (0, pi).
+
+    Raises
+    ------
+    DomainError
+        Where X is outside ``(|Lo - Lu|, Lo + Lu)`` (the leg cannot fold flat or stretch past
+        straight).
+
+    References
+    ----------
+    .. [1] model-spec section 3.
+    """
     X = actuator.as_values(X)
     _check_range(X, abs(params.Lo - params.Lu), params.Lo + params.Lu, "hip height X", "m",
                  " (the leg cannot fold flat or stretch past straight)")
-    return actuator.math_for(X).arccos((params.Lo**2 + params.Lu**2 - X * X) / (2 * params.Lo * params.Lu))
+    return actuator.math_for(X).arccos((params.Lo**2 + params.Lu**2 - X * X)
+                                       / (2 * params.Lo * params.Lu))
 
 
 def posture(alpha=None, X=None, params: Params = DEFAULT) -> tuple[float, float]:
-    """(alpha [rad], X [m]) of a posture given by exactly one of the kneecap angle and the hip height.
+    """A posture given by exactly one of the kneecap angle and the hip height, as both.
 
-    Raises :class:`ParameterError` unless exactly one is given, :class:`DomainError` for an alpha outside
-    (0, pi/2) or an impossible X.
+    Parameters
+    ----------
+    alpha : float, optional
+        Kneecap angle [rad], 0 < alpha < pi/2.
+    X : float, optional
+        Hip height [m], ``|Lo - Lu| < X < Lo + Lu``.
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    alpha : float
+        Kneecap angle [rad].
+    X : float
+        Hip height [m].
+
+    Raises
+    ------
+    ParameterError
+        Unless exactly one of alpha and X is given.
+    DomainError
+        For an alpha outside (0, pi/2) or an impossible X.
+
+    References
+    ----------
+    .. [1] model-spec section 3.
     """
     if (alpha is None) == (X is None):
         raise ParameterError("give exactly one of the kneecap angle alpha and the hip height X")
@@ -169,34 +334,126 @@ def posture(alpha=None, X=None, params: Params = DEFAULT) -> tuple[float, float]
     else:
         alpha = float(alpha)
         if not 0 < alpha < np.pi / 2:
-            raise DomainError(f"kneecap angle alpha = {np.degrees(alpha):g} deg is outside (0, 90) deg")
+            raise DomainError(f"kneecap angle alpha = {np.degrees(alpha):g} deg is outside "
+                              f"(0, 90) deg")
     return alpha, float(X_from_alpha(alpha, params))
 
 
 def geometry_at_alpha(alpha, params: Params = DEFAULT) -> KneeGeometry:
-    """:func:`knee_geometry` at kneecap angle alpha [rad]."""
+    """:func:`knee_geometry` at a kneecap angle (through :func:`beta_from_alpha`).
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        Kneecap angle [rad].
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    KneeGeometry
+        The posture's geometry with its derivatives along beta.
+
+    Raises
+    ------
+    DomainError
+        Where the knee angle is outside (0, pi) rad.
+
+    References
+    ----------
+    .. [1] model-spec section 3.
+    """
     return knee_geometry(beta_from_alpha(alpha, params), params)
 
 
 def geometry_at_X(X, params: Params = DEFAULT, derivatives: bool = True) -> KneeGeometry:
-    """:func:`knee_geometry` at hip height X [m]."""
+    """:func:`knee_geometry` at a hip height (through :func:`beta_from_X`).
+
+    Parameters
+    ----------
+    X : float or array_like
+        Hip height [m], ``|Lo - Lu| < X < Lo + Lu``.
+    params : Params
+        The knee's lengths [m] (Table II).
+    derivatives : bool
+        False leaves the derivatives the state equations do not need out (see
+        :func:`knee_geometry`).
+
+    Returns
+    -------
+    KneeGeometry
+        The posture's geometry.
+
+    Raises
+    ------
+    DomainError
+        Where X is outside ``(|Lo - Lu|, Lo + Lu)``.
+
+    References
+    ----------
+    .. [1] model-spec section 3.
+    """
     return knee_geometry(beta_from_X(X, params), params, derivatives)
 
 
 def X_from_alpha(alpha, params: Params = DEFAULT):
-    """Hip height X [m] at kneecap angle alpha [rad]."""
+    """Hip height at a kneecap angle; X grows monotonically with alpha (model-spec section 3).
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        Kneecap angle [rad].
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    X : float or array
+        Hip height [m].
+
+    Raises
+    ------
+    DomainError
+        Where the knee angle is outside (0, pi) rad.
+
+    References
+    ----------
+    .. [1] model-spec section 3.
+    """
     return geometry_at_alpha(alpha, params).X
 
 
 def alpha_from_X(X, params: Params = DEFAULT):
-    """Kneecap angle alpha [rad] at hip height X [m]."""
+    """Kneecap angle at a hip height.
+
+    Parameters
+    ----------
+    X : float or array_like
+        Hip height [m], ``|Lo - Lu| < X < Lo + Lu``.
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    alpha : float or array
+        Kneecap angle [rad].
+
+    Raises
+    ------
+    DomainError
+        Where X is outside ``(|Lo - Lu|, Lo + Lu)``.
+
+    References
+    ----------
+    .. [1] model-spec section 3.
+    """
     return geometry_at_X(X, params).alpha
 
 
-# --- Forces (Eq. 14) --------------------------------------------------------------------------------
+# --- Forces (Eq. 14) ------------------------------------------------------------------------------
 
 class KneeForce(NamedTuple):
-    """The ground force of Eq. 14 at one state, with the two actuators' lengths rates and tensions."""
+    """The ground force of Eq. 14 at one state, with the lengthening rates and the tensions."""
 
     F: np.ndarray  #: ground force G_e f_e - G_f f_f [N]
     fe: np.ndarray  #: extensor tension [N]
@@ -206,12 +463,39 @@ class KneeForce(NamedTuple):
 
 
 def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeForce:
-    """Ground force ``F = G_e f_e - G_f f_f`` (Eq. 14) with the tensions of the model and effects in params.
+    """Ground force ``F = G_e f_e(Le, Pe, Le_dot) - G_f f_f(Lf, Pf, Lf_dot)`` (Eq. 14).
 
-    The actuators move at ``Le_dot = dLe/dX V = -G_e V`` and ``Lf_dot = dLf/dX V = G_f V`` (virtual
-    work), which is where the velocity terms of the effects enter. The tensions are
-    :func:`mkctl.physics.actuator.compose_tension`. Parameters: geo from :func:`knee_geometry`, V hip velocity
-    [m/s], Pe, Pf actuator gauge pressures [Pa].
+    The tensions are the model's and the effects' in params
+    (:func:`mkctl.physics.actuator.compose_tension`). The actuators move at
+    ``Le_dot = dLe/dX V = -G_e V`` and ``Lf_dot = dLf/dX V = G_f V`` (virtual work), which is where
+    the velocity terms of the effects enter.
+
+    Parameters
+    ----------
+    geo : KneeGeometry
+        The posture, from :func:`knee_geometry` (lengths [m], gains G_e, G_f [-]).
+    V : float or array_like
+        Hip velocity [m/s].
+    Pe, Pf : float or array_like
+        Extensor and flexor gauge pressures [Pa].
+    params : Params
+        The model: elasticity model and effects.
+
+    Returns
+    -------
+    KneeForce
+        F [N], the tensions fe, ff [N] (positive when they pull) and the lengthening rates Le_dot,
+        Lf_dot [m/s].
+
+    Raises
+    ------
+    DomainError
+        Where a pressure or an actuator length is outside the model's domain (0 < L < b).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 14.
+    .. [2] model-spec sections 3 (G_e = -dLe/dX, G_f = +dLf/dX) and 4 (the effects).
     """
     p = params
     Pe, Pf, V = actuator.as_values(Pe), actuator.as_values(Pf), actuator.as_values(V)
@@ -222,7 +506,7 @@ def knee_force(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeFo
 
 
 class KneeForcePartials(NamedTuple):
-    """Partial derivatives of the ground force (Eq. 14) with respect to the state and the pressures."""
+    """Partial derivatives of the ground force (Eq. 14) by the state and the pressures."""
 
     F: np.ndarray  #: [N]
     dF_dX: np.ndarray  #: [N/m]
@@ -233,13 +517,46 @@ class KneeForcePartials(NamedTuple):
     ff: np.ndarray  #: flexor tension [N]
 
 
-def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) -> KneeForcePartials:
-    """Exact partial derivatives of :func:`knee_force` at hip velocity V [m/s], pressures Pe, Pf [Pa].
+def knee_force_partials(geo: KneeGeometry, V, Pe, Pf,
+                        params: Params = DEFAULT) -> KneeForcePartials:
+    """Exact partial derivatives of :func:`knee_force` with respect to X, V, Pe and Pf.
 
-    The tensions' partials (dL, dLdot, dP, and the final limits' slope) are ``sympy.diff`` of the traced effect
-    terms (:func:`mkctl.physics.actuator.tension_partials`); the chain rule through the geometry uses
-    ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V) and the analytic geometry
-    derivatives of :func:`knee_geometry`. With slack, a muscle that carries nothing (f <= 0) contributes nothing.
+    ``dF/dX = dG_e/dX f_e + G_e df_e/dX - dG_f/dX f_f - G_f df_f/dX``,
+    ``dF/dV = G_e df_e/dLdot dLe/dX - G_f df_f/dLdot dLf/dX``,
+    ``dF/dPe = G_e df_e/dP``, ``dF/dPf = -G_f df_f/dP``.
+
+    The tensions' partials (dL, dLdot, dP, and the final limits' slope) are ``sympy.diff`` of the
+    traced effect terms (:func:`mkctl.physics.actuator.tension_partials`); the chain rule through
+    the geometry uses ``Le_dot = -G_e V`` and ``Lf_dot = G_f V`` (so d(Le_dot)/dX = -dG_e/dX V) and
+    the analytic geometry derivatives of :func:`knee_geometry`. With slack, a muscle that carries
+    nothing (f <= 0) contributes nothing.
+
+    Parameters
+    ----------
+    geo : KneeGeometry
+        The posture, from :func:`knee_geometry` with its derivatives.
+    V : float or array_like
+        Hip velocity [m/s].
+    Pe, Pf : float or array_like
+        Extensor and flexor gauge pressures [Pa].
+    params : Params
+        The model: elasticity model and effects.
+
+    Returns
+    -------
+    KneeForcePartials
+        F [N], dF_dX [N/m], dF_dV [N s/m], dF_dPe, dF_dPf [N/Pa] and the tensions fe, ff [N].
+
+    Raises
+    ------
+    DomainError
+        Where a pressure or an actuator length is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 14 and the derivatives a1, a2 of Eq. 18.
+    .. [2] model-spec sections 3 and 4.
     """
     p = params
     force = knee_force(geo, V, Pe, Pf, p)
@@ -260,20 +577,96 @@ def knee_force_partials(geo: KneeGeometry, V, Pe, Pf, params: Params = DEFAULT) 
 
 
 def ground_force(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
-    """Eq. 14: ground force F(X, Pe', Pf') [N] at hip height X [m], pressures [Pa], hip velocity V [m/s]."""
+    """Ground force ``F(X, Pe', Pf') = G_e(X) f_e(Le, Pe') - G_f(X) f_f(Lf, Pf')`` (Eq. 14).
+
+    Parameters
+    ----------
+    X : float or array_like
+        Hip height [m].
+    Pe, Pf : float or array_like
+        Extensor and flexor gauge pressures [Pa].
+    V : float or array_like
+        Hip velocity [m/s] (where the velocity terms of the effects enter).
+    params : Params
+        The model.
+
+    Returns
+    -------
+    F : float or array
+        Ground force [N]; the hip is at rest where it equals m g.
+
+    Raises
+    ------
+    DomainError
+        Where X, a pressure or an actuator length is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 14.
+    .. [2] model-spec section 3 (its reference table at Pe = 500 kPa, Pf = 100 kPa).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mkctl.physics.knee import X_from_alpha, ground_force
+    >>> X = X_from_alpha(np.radians(60.0))  # model-spec section 3's table
+    >>> round(float(ground_force(X, 500e3, 100e3)), 5)
+    7.43166
+    """
     return knee_force(geometry_at_X(X, params), V, Pe, Pf, params).F
 
 
 def stop_positions(params: Params = DEFAULT) -> tuple[float, float]:
-    """Hip heights [m] at which the lower (bent) and upper (near straight) end stops engage."""
-    return (float(X_from_alpha(ALPHA_STOP_LOW, params)), float(X_from_alpha(ALPHA_STOP_HIGH, params)))
+    """Hip heights at which the end stops engage (alpha = ALPHA_STOP_LOW and ALPHA_STOP_HIGH).
+
+    Parameters
+    ----------
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    X_low : float
+        Hip height of the lower stop (deeply bent) [m].
+    X_high : float
+        Hip height of the upper stop (short of straight) [m].
+
+    References
+    ----------
+    .. [1] model-spec section 7 (the end stops short of straight and of alpha = 0).
+    """
+    return (float(X_from_alpha(ALPHA_STOP_LOW, params)),
+            float(X_from_alpha(ALPHA_STOP_HIGH, params)))
 
 
 def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | None = None):
-    """Force of the mechanical end stops on the hip [N]: zero between them, a one-sided spring-damper beyond.
+    """Force of the end stops on the hip: zero between them, a one-sided spring-damper beyond.
 
-    ``F_stop = k (X_low - X) - d V`` below X_low (never pulling) and ``-(k (X - X_high) + d V)`` above
-    X_high (never pulling), with k = STOP_STIFFNESS and the critical damping d = 2 sqrt(k m).
+    ``F_stop = max(k (X_low - X) - d V, 0)`` below X_low and ``-max(k (X - X_high) + d V, 0)`` above
+    X_high (a contact pushes the hip back, never pulls it into the stop), with k =
+    ``STOP_STIFFNESS`` and the critical damping ``d = 2 sqrt(k m)``. Not in the paper: the leg's
+    mechanical range, so that saturated pressures drive the leg onto a stop instead of out of the
+    model's domain.
+
+    Parameters
+    ----------
+    X : float or array_like
+        Hip height [m].
+    V : float or array_like
+        Hip velocity [m/s].
+    params : Params
+        The hip mass m [kg] (for the damping) and the knee's lengths [m].
+    stops : tuple of float, optional
+        (X_low, X_high) [m]; None: :func:`stop_positions`.
+
+    Returns
+    -------
+    F_stop : float or array
+        Force on the hip [N], positive upwards.
+
+    References
+    ----------
+    .. [1] model-spec section 7 (a stiff, damped contact, documented).
     """
     low, high = stops if stops is not None else stop_positions(params)
     X, V = actuator.as_values(X), actuator.as_values(V)
@@ -289,10 +682,27 @@ def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | 
     return below - above
 
 
-# --- State equations (Eq. 17) -------------------------------------------------------------------
+# --- State equations (Eq. 17) ---------------------------------------------------------------------
 
 def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
-    """Names of the knee's states: X, V, and Pe, Pf when an effect with pressure dynamics is on (a lag)."""
+    """Names of the knee's states: X, V, and Pe, Pf when an effect has pressure dynamics (a lag).
+
+    Parameters
+    ----------
+    params : Params
+        The model; its effects decide whether the pressures are states.
+
+    Returns
+    -------
+    tuple of str
+        ``("X", "V")`` or ``("X", "V", "Pe", "Pf")``: hip height [m], velocity [m/s], pressures
+        [Pa].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
+    .. [2] model-spec section 4 (pressure_lag).
+    """
     return ("X", "V", "Pe", "Pf") if actuator.has_pressure_states(params) else ("X", "V")
 
 
@@ -301,12 +711,41 @@ def _scalar(x):
     return x if actuator.is_symbolic(x) else float(x)
 
 
-def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tuple[float, float] | None = None):
-    """Right-hand side of Eq. 17 with the effects of the registry [SI units per second].
+def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
+                     stops: tuple[float, float] | None = None):
+    """Right-hand side of Eq. 17 with the effects in params.
 
-    ``state`` is (X, V) or, with pressure dynamics (a lag), (X, V, Pe, Pf); pe_cmd, pf_cmd are the
-    commanded pressures [Pa]. ``stops``: (X_low, X_high) of the end stops, or None for none at all.
-    Returns the time derivative of the state as a numpy array (a list of expressions for symbols).
+    ``dX/dt = V``, ``dV/dt = (F(X, V, Pe, Pf) + F_stop(X, V)) / m - g``, and with pressure dynamics
+    (a lag) ``dP/dt`` of each actuator (:func:`mkctl.physics.actuator.pressure_derivative`, e.g.
+    ``tau dP/dt = P_cmd - P``). Without them the pressures are the commands.
+
+    Parameters
+    ----------
+    state : sequence of float
+        (X [m], V [m/s]) or, with pressure dynamics, (X, V, Pe [Pa], Pf [Pa]); sympy symbols are
+        traced.
+    pe_cmd, pf_cmd : float
+        Commanded extensor and flexor gauge pressures [Pa] (as the actuators see them).
+    params : Params
+        The model.
+    stops : tuple of float, optional
+        (X_low, X_high) [m] of the end stops (:func:`end_stop_force`), or None for none at all.
+
+    Returns
+    -------
+    numpy.ndarray
+        The state's time derivative: dX/dt [m/s], dV/dt [m/s^2], and dPe/dt, dPf/dt [Pa/s]; a list
+        of expressions for symbols.
+
+    Raises
+    ------
+    DomainError
+        Where the state or a pressure is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
+    .. [2] model-spec sections 3 (dynamics), 4 and 4b (the effects), 7 (the end stops).
     """
     p = params
     lag = actuator.has_pressure_states(p)
@@ -318,19 +757,48 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT, stops: tup
     dV = force / p.m - p.g
     rates = [V, dV]
     if lag:
-        rates += [actuator.pressure_derivative(Pe, pe_cmd, p), actuator.pressure_derivative(Pf, pf_cmd, p)]
+        rates += [actuator.pressure_derivative(Pe, pe_cmd, p),
+                  actuator.pressure_derivative(Pf, pf_cmd, p)]
     return rates if actuator.is_symbolic(dV) else np.array(rates, dtype=float)
 
 
 def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
-    """(A, B) of Eq. 17 linearized at rest (V = 0) at hip height X [m], pressures Pe, Pf [Pa] and commands
-    pe_cmd, pf_cmd [Pa], end stops excluded: every entry an exact derivative (the knee-force partials and the
-    pressure block, ``sympy.diff`` of the traced terms). States as :func:`state_names`, inputs (pe_cmd, pf_cmd).
+    """(A, B) of Eq. 17 linearized at rest (V = 0), end stops excluded.
 
-    Without pressure dynamics ``A = [[0, 1], [a2, a1]]``, ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]``; with them
-    the pressure columns move into A and the pressure rows hold d(dP/dt)/dP (lag: -1/tau) and d(dP/dt)/dP_cmd.
+    Without pressure dynamics ``A = [[0, 1], [a2, a1]]`` (Eq. 18) and
+    ``B = [[0, 0], [dF/dPe / m, dF/dPf / m]]``; with them the pressure columns move into A and the
+    pressure rows hold d(dP/dt)/dP (lag: -1/tau) and d(dP/dt)/dP_cmd. Every entry is an exact
+    derivative (the knee-force partials and the pressure block, ``sympy.diff`` of the traced terms).
     A dead time adds the first-order Pade states of the commands (:func:`pade_delay`,
     :func:`linearization_state_names`): the one approximation here, everything else is exact.
+
+    Parameters
+    ----------
+    X : float
+        Hip height [m].
+    Pe, Pf : float
+        Extensor and flexor gauge pressures [Pa].
+    pe_cmd, pf_cmd : float
+        Commanded pressures [Pa] (they matter with pressure dynamics).
+    params : Params
+        The model.
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State matrix, states as :func:`linearization_state_names` ([1/s], [1/s^2], ... in SI units).
+    B : numpy.ndarray
+        Input matrix, inputs (pe_cmd, pf_cmd) [Pa].
+
+    Raises
+    ------
+    DomainError
+        Where X or a pressure is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17-18.
+    .. [2] model-spec sections 4 and 4b (the dead time's Pade approximation).
     """
     p = params
     d = knee_force_partials(geometry_at_X(X, p), 0.0, Pe, Pf, p)
@@ -341,17 +809,41 @@ def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
     else:
         ee, ec = actuator.pressure_derivative_partials(Pe, pe_cmd, p)
         fe, fc = actuator.pressure_derivative_partials(Pf, pf_cmd, p)
-        A = np.array([[0.0, 1.0, 0.0, 0.0], [*row, *gains], [0.0, 0.0, ee, 0.0], [0.0, 0.0, 0.0, fe]])
+        A = np.array([[0.0, 1.0, 0.0, 0.0], [*row, *gains], [0.0, 0.0, ee, 0.0],
+                      [0.0, 0.0, 0.0, fe]])
         B = np.array([[0.0, 0.0], [0.0, 0.0], [ec, 0.0], [0.0, fc]])
     delay = float(actuator.command_delay(p))
     return pade_delay(A, B, delay) if delay > 0 else (A, B)
 
 
 def pade_delay(A, B, delay: float):
-    """(A, B) with each input seen ``delay`` [s] late, by a first-order Pade approximation (model-spec 4b):
-    ``exp(-s d) ~ (1 - s d/2) / (1 + s d/2)``, one state per input, w [Pa] with ``dw/dt = (2/d) (u - w)`` and the
-    seen input ``y = 2 w - u``. So ``A' = [[A, 2 B], [0, -(2/d) I]]``, ``B' = [[-B], [(2/d) I]]``; exact at
-    zero frequency, its phase lag ``2 atan(w d/2)`` matches the delay's ``w d`` to within 10 % up to w d = 1.
+    """(A, B) with each input seen ``delay`` late, by a first-order Pade approximation.
+
+    ``exp(-s d) ~ (1 - s d/2) / (1 + s d/2)``: one state per input, w [Pa] with
+    ``dw/dt = (2/d) (u - w)`` and the seen input ``y = 2 w - u``. So
+    ``A' = [[A, 2 B], [0, -(2/d) I]]``, ``B' = [[-B], [(2/d) I]]``; exact at zero frequency, its
+    phase lag ``2 atan(w d/2)`` matches the delay's ``w d`` to within 10 % up to w d = 1.
+
+    Parameters
+    ----------
+    A : numpy.ndarray
+        State matrix, n x n.
+    B : numpy.ndarray
+        Input matrix, n x m.
+    delay : float
+        Dead time d [s], > 0.
+
+    Returns
+    -------
+    A2 : numpy.ndarray
+        State matrix with the m Pade states appended, (n + m) x (n + m).
+    B2 : numpy.ndarray
+        Input matrix, (n + m) x m.
+
+    References
+    ----------
+    .. [1] model-spec section 4b (dead_time: its linearization uses a first-order Pade
+    approximation).
     """
     n, m = B.shape
     rate = 2.0 / delay
@@ -362,7 +854,21 @@ def pade_delay(A, B, delay: float):
 
 
 def linearization_state_names(params: Params = DEFAULT) -> tuple[str, ...]:
-    """The states of :func:`linearization`: :func:`state_names`, and with a dead time the Pade states of the two
-    commands (``pe_pade``, ``pf_pade`` [Pa])."""
+    """The states of :func:`linearization`: :func:`state_names`, and the Pade states of a dead time.
+
+    Parameters
+    ----------
+    params : Params
+        The model; a dead time adds the Pade states of the two commands.
+
+    Returns
+    -------
+    tuple of str
+        :func:`state_names`, then ``pe_pade``, ``pf_pade`` [Pa] with a dead time.
+
+    References
+    ----------
+    .. [1] model-spec section 4b.
+    """
     names = state_names(params)
     return names + ("pe_pade", "pf_pade") if actuator.command_delay(params) > 0 else names

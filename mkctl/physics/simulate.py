@@ -1,9 +1,13 @@
 """Time simulation of the knee (Eq. 17) and of one actuator, step by step as an FMU runs them.
 
-:class:`KneeSimulator` is what the knee FMU wraps: it holds the state (X, V and, with a pressure lag,
-Pe, Pf), advances it over a communication step with the commanded pressures held constant, and reports
-every output of model-spec section 7. :func:`simulate_knee` runs it over a whole record, the way the
-measurement bench ("knee" experiment) and the control analysis use it.
+:class:`KneeSimulator` is what the knee FMU wraps: it holds the state (X, V and, with a pressure
+lag, Pe, Pf), advances it over a communication step with the commanded pressures held constant, and
+reports every output of model-spec section 7. :func:`simulate_knee` runs it over a whole record, the
+way the measurement bench ("knee" experiment) and the control analysis use it.
+
+References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
+paper), Eq. 14-18; model-spec sections 3, 4, 4b (the dead time), 5 (the knee experiment) and 7 (the
+FMU's outputs).
 
 Example
 -------
@@ -26,7 +30,8 @@ from . import actuator, backend, effects, knee, stability
 from .integrate import integrate
 from .params import DEFAULT, Params
 from .results import SimulationResult
-from .stability import DEFAULT_ALPHA, DEFAULT_PF  # noqa: F401  (the default posture, re-exported here)
+# the default posture, re-exported here
+from .stability import DEFAULT_ALPHA, DEFAULT_PF  # noqa: F401
 
 #: Names of the knee outputs of model-spec section 7, in order, with units.
 KNEE_OUTPUTS = {
@@ -36,41 +41,135 @@ KNEE_OUTPUTS = {
 
 
 def default_commands(params: Params = DEFAULT) -> tuple[float, float]:
-    """(pe_cmd, pf_cmd) [Pa] that hold the leg at rest at the default posture alpha = 60 deg."""
+    """The commands that hold the leg at rest at the default posture alpha = 60 deg.
+
+    The flexor's is :data:`DEFAULT_PF`; the extensor's follows from the equilibrium
+    (:func:`mkctl.physics.stability.equilibrium_pressure`).
+
+    Parameters
+    ----------
+    params : Params
+        The model.
+
+    Returns
+    -------
+    pe_cmd, pf_cmd : float
+        Extensor and flexor gauge pressures [Pa].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 and Fig. 7.
+    .. [2] model-spec section 7 (the default posture).
+    """
     return float(stability.equilibrium_pressure(DEFAULT_ALPHA, DEFAULT_PF, params)), DEFAULT_PF
 
 
 def default_hip_height(params: Params = DEFAULT) -> float:
-    """Hip height X0 [m] at the default posture alpha = 60 deg."""
+    """Hip height at the default posture alpha = 60 deg (:data:`DEFAULT_ALPHA`).
+
+    Parameters
+    ----------
+    params : Params
+        The knee's lengths [m] (Table II).
+
+    Returns
+    -------
+    X0 : float
+        Hip height [m].
+
+    References
+    ----------
+    .. [1] model-spec sections 3 and 7 (X0 at alpha = 60 deg).
+    """
     return float(knee.X_from_alpha(DEFAULT_ALPHA, params))
 
 
 def knee_outputs(X, V, Pe, Pf, params: Params = DEFAULT) -> dict:
-    """The outputs of :data:`KNEE_OUTPUTS` but "stable", at hip height X [m], velocity V [m/s] and actuator
-    pressures Pe, Pf [Pa]: geometry (Eq. 15-16), tensions and force (Eq. 14), and the Routh-Hurwitz
-    coefficients a1 = dF/dV / m [1/s], a2 = dF/dX / m [1/s^2] (Eq. 18, without the end stops)."""
+    """The outputs of :data:`KNEE_OUTPUTS` but "stable", at one state or at arrays of states.
+
+    Geometry (Eq. 15-16), tensions and force (Eq. 14), and the Routh-Hurwitz coefficients
+    ``a1 = dF/dV / m``, ``a2 = dF/dX / m`` (Eq. 18, without the end stops).
+
+    Parameters
+    ----------
+    X : float or array_like
+        Hip height [m].
+    V : float or array_like
+        Hip velocity [m/s].
+    Pe, Pf : float or array_like
+        Actuator gauge pressures [Pa].
+    params : Params
+        The model.
+
+    Returns
+    -------
+    dict
+        By name: X [m], V [m/s], alpha, beta [rad], Le, Lf [m], fe, ff [N], Pe, Pf [Pa], F [N],
+        a1 [1/s], a2 [1/s^2].
+
+    Raises
+    ------
+    DomainError
+        Where the state or a pressure is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 14-18.
+    .. [2] model-spec section 7 (the outputs).
+    """
     p = params
     geo = knee.geometry_at_X(X, p)
     force = knee.knee_force_partials(geo, V, Pe, Pf, p)
-    return {"X": X, "V": V, "alpha": geo.alpha, "beta": geo.beta, "Le": geo.Le, "Lf": geo.Lf, "fe": force.fe,
-            "ff": force.ff, "Pe": Pe, "Pf": Pf, "F": force.F, "a1": force.dF_dV / p.m, "a2": force.dF_dX / p.m}
+    return {"X": X, "V": V, "alpha": geo.alpha, "beta": geo.beta, "Le": geo.Le, "Lf": geo.Lf,
+            "fe": force.fe, "ff": force.ff, "Pe": Pe, "Pf": Pf, "F": force.F,
+            "a1": force.dF_dV / p.m, "a2": force.dF_dX / p.m}
 
 
 class KneeSimulator:
-    """Integrates the knee across communication steps, inputs held constant over each step.
+    """Integrates the knee (Eq. 17) across communication steps, inputs held constant over each step.
 
-    Parameters: params; X0 the initial hip height [m] (default alpha = 60 deg), at rest (V = 0);
-    pe0, pf0 the initial pressures [Pa] (the lag starts at P(0) = P_cmd(0)); stops: whether the end stops
-    act; rtol: relative tolerance of the adaptive integrator.
+    What the knee FMU wraps: an adaptive integrator (:func:`mkctl.physics.integrate.integrate`)
+    whose step-size estimate carries over from one step to the next, so the result does not depend
+    on the communication step.
+
+    Parameters
+    ----------
+    params : Params
+        The model.
+    X0 : float, optional
+        Initial hip height [m], at rest (V = 0); default: the default posture alpha = 60 deg.
+    pe0, pf0 : float
+        Initial pressures [Pa] (the lag starts at P(0) = P_cmd(0); the first command seen through a
+        dead time).
+    stops : bool
+        Whether the end stops act.
+    rtol : float
+        Relative tolerance of the adaptive integrator [-].
+    delay_commands : bool
+        Whether to delay the commands by the dead time in params; False when the caller hands in
+        commands already delayed.
+
+    Raises
+    ------
+    DomainError
+        For an impossible X0.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
+    .. [2] model-spec sections 4b (dead_time) and 7 (the FMU interface).
     """
 
-    def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0, pf0: float = 0.0,
-                 stops: bool = True, rtol: float = 1e-10, delay_commands: bool = True):
+    def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0,
+                 pf0: float = 0.0, stops: bool = True, rtol: float = 1e-10,
+                 delay_commands: bool = True):
         self.params = params
-        #: the commands as the actuators see them, a dead time late (None without one, or when the caller hands
-        #: in commands already delayed: delay_commands False)
+        #: the commands as the actuators see them, a dead time late (None without one, or when the
+        #: caller hands in commands already delayed: delay_commands False)
         delay = float(actuator.command_delay(params))
-        self.schedule = CommandSchedule(delay, (float(pe0), float(pf0))) if delay > 0 and delay_commands else None
+        self.schedule = (CommandSchedule(delay, (float(pe0), float(pf0)))
+                         if delay > 0 and delay_commands else None)
         self.stops = _stop_positions(params) if stops else None
         self.rtol = rtol
         X0 = default_hip_height(params) if X0 is None else float(X0)
@@ -81,41 +180,98 @@ class KneeSimulator:
         # absolute tolerances: 1 nm, 1 nm/s, 1 mPa: far below what any output is read to
         self.atol = np.array([1e-9, 1e-9, 1e-3, 1e-3][: self.state.size])
         self.step_hint = 1e-3
-        # first-same-as-last: the derivative at the end of the last step, reused while nothing changed
+        # first-same-as-last: the derivative at the end of the last step, reused while nothing
+        # changed
         self._fsal_key, self._fsal_k = None, None
 
     # --- state, for FMU get/set state and replay ---
     def get_state(self) -> tuple:
-        """A snapshot of everything that determines the future: time, states, the integrator's step and the
-        commands still on their way (a dead time)."""
+        """A snapshot of everything that determines the future (FMU get state, replay).
+
+        Returns
+        -------
+        tuple
+            (time [s], the state (X [m], V [m/s], and Pe, Pf [Pa] with a lag), the integrator's next
+            step [s], the commands still on their way through a dead time or None).
+        """
         return (self.time, self.state.copy(), self.step_hint,
                 None if self.schedule is None else self.schedule.snapshot())
 
     def set_state(self, snapshot: tuple) -> None:
-        """Return to a snapshot taken by :meth:`get_state`."""
+        """Return to a snapshot taken by :meth:`get_state` (FMU set state).
+
+        Parameters
+        ----------
+        snapshot : tuple
+            What :meth:`get_state` returned.
+        """
         self.time, state, self.step_hint = snapshot[:3]
         self.state = np.array(state, dtype=float)
         if self.schedule is not None and len(snapshot) > 3 and snapshot[3] is not None:
             self.schedule.restore(snapshot[3])
 
     def seen_commands(self, pe_cmd: float, pf_cmd: float) -> tuple[float, float]:
-        """The commands the actuators see now: the given ones, or with a dead time those given delay earlier."""
+        """The commands the actuators see now.
+
+        Parameters
+        ----------
+        pe_cmd, pf_cmd : float
+            The commands given now [Pa].
+
+        Returns
+        -------
+        pe_seen, pf_seen : float
+            The given commands, or with a dead time those given ``delay`` earlier [Pa].
+
+        References
+        ----------
+        .. [1] model-spec section 4b (dead_time).
+        """
         if self.schedule is None:
             return pe_cmd, pf_cmd
         return self.schedule.at(self.time)
 
     def pressures(self, pe_cmd: float, pf_cmd: float) -> tuple[float, float]:
-        """The actuator pressures now: the lag states, or the (seen) commands when there is no lag."""
+        """The actuator pressures now.
+
+        Parameters
+        ----------
+        pe_cmd, pf_cmd : float
+            The commands given now [Pa].
+
+        Returns
+        -------
+        Pe, Pf : float
+            The lag states, or the (seen) commands when there is no lag [Pa].
+        """
         if self.lag:
             return float(self.state[2]), float(self.state[3])
         pe_cmd, pf_cmd = self.seen_commands(pe_cmd, pf_cmd)
         return float(pe_cmd), float(pf_cmd)
 
     def step(self, dt: float, pe_cmd: float, pf_cmd: float) -> np.ndarray:
-        """Advance by dt [s] with the commands pe_cmd, pf_cmd [Pa] held constant; returns the new state.
+        """Advance by one communication step with the commands held constant.
 
-        With a dead time the actuators see each command ``delay`` later: the step is cut where a command given
-        earlier reaches them (:class:`CommandSchedule`)."""
+        With a dead time the actuators see each command ``delay`` later: the step is cut where a
+        command given earlier reaches them (:class:`CommandSchedule`).
+
+        Parameters
+        ----------
+        dt : float
+            Step [s]; nothing happens for dt <= 0.
+        pe_cmd, pf_cmd : float
+            Commanded gauge pressures [Pa].
+
+        Returns
+        -------
+        numpy.ndarray
+            The new state: X [m], V [m/s] (and Pe, Pf [Pa] with a lag).
+
+        Raises
+        ------
+        DomainError
+            For a command that is not finite, or a state that leaves the model's domain.
+        """
         actuator.check_pressure(pe_cmd)
         actuator.check_pressure(pf_cmd)
         if self.schedule is None:
@@ -133,10 +289,12 @@ class KneeSimulator:
             def rhs(y):
                 return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
 
-            key = (tuple(self.state.tolist()), float(pe_cmd), float(pf_cmd), self.params, self.stops)
+            key = (tuple(self.state.tolist()), float(pe_cmd), float(pf_cmd), self.params,
+                   self.stops)
             k1 = self._fsal_k if key == self._fsal_key else None
-            state, self.step_hint, _, k_last = integrate(rhs, self.state, dt, self.step_hint, self.atol, self.rtol,
-                                                          k1=k1, full_output=True)
+            state, self.step_hint, _, k_last = integrate(rhs, self.state, dt, self.step_hint,
+                                                          self.atol, self.rtol, k1=k1,
+                                                          full_output=True)
             self.state = state
             self._fsal_key = (tuple(state.tolist()),) + key[1:]
             self._fsal_k = k_last
@@ -144,11 +302,30 @@ class KneeSimulator:
         return self.state
 
     def advance(self, times, pe_cmd: float, pf_cmd: float, first_step: float) -> np.ndarray:
-        """Advance to ``times[-1]`` [s from now] with the commands pe_cmd, pf_cmd [Pa] held, in one integration
-        whose steps are not cut at the ``times`` (increasing): returns the states there (len(times) x nstate),
-        read off the integrator's continuous extension. first_step [s]: the largest first step to try (the
-        commands have just changed; the record's sample interval; ignored if not positive). What a record runs
-        between command changes.
+        """Advance to ``times[-1]`` with the commands held, in one integration.
+
+        What a record runs between command changes. The integration's steps are not cut at the
+        ``times``: the states there are read off the integrator's continuous extension.
+
+        Parameters
+        ----------
+        times : array_like
+            Increasing times [s from now] at which to return the state.
+        pe_cmd, pf_cmd : float
+            Commanded gauge pressures [Pa], held.
+        first_step : float
+            The largest first step to try [s] (the commands have just changed; the record's sample
+            interval; ignored if not positive).
+
+        Returns
+        -------
+        numpy.ndarray
+            The states at ``times``, len(times) x nstate (X [m], V [m/s], and Pe, Pf [Pa]).
+
+        Raises
+        ------
+        DomainError
+            For a command that is not finite, or a state that leaves the model's domain.
         """
         actuator.check_pressure(pe_cmd)
         actuator.check_pressure(pf_cmd)
@@ -162,23 +339,50 @@ class KneeSimulator:
             return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
 
         hint = min(self.step_hint, first_step) if first_step > 0 else self.step_hint
-        self.state, self.step_hint, _ = integrate(rhs, self.state, times[-1], hint, self.atol, self.rtol,
-                                                  dense_times=times, dense_out=states)
+        self.state, self.step_hint, _ = integrate(rhs, self.state, times[-1], hint, self.atol,
+                                                  self.rtol, dense_times=times, dense_out=states)
         self.time += times[-1]
         self._fsal_key, self._fsal_k = None, None
         return states
 
     def outputs(self, pe_cmd: float, pf_cmd: float) -> dict[str, float]:
-        """Every output of model-spec section 7 at the present state (a1, a2 without the end stops)."""
+        """Every output of model-spec section 7 at the present state (a1, a2 without the end stops).
+
+        Parameters
+        ----------
+        pe_cmd, pf_cmd : float
+            The commands given now [Pa] (the pressures when there is no lag).
+
+        Returns
+        -------
+        dict of str to float
+            :data:`KNEE_OUTPUTS` by name, in their units, and "stable" (a1 < 0 and a2 < 0).
+
+        References
+        ----------
+        .. [1] model-spec section 7.
+        """
         return state_outputs(self.state, *self.seen_commands(pe_cmd, pf_cmd), self.params)
 
 
 class CommandSchedule:
-    """Commands as the actuators see them through a dead time: each command given at time t acts from t + delay;
-    before the first one arrives, the first command holds (model-spec section 4b, dead_time).
+    """Commands as the actuators see them through a dead time.
 
-    ``give(t, command)`` records a command given at t; ``at(t)`` is the command seen at t; ``pieces(t0, t1)``
-    cuts [t0, t1) where the seen command changes: (start, stop, command) in order.
+    Each command given at time t acts from t + delay; before the first one arrives, the first
+    command holds (model-spec section 4b, dead_time). :meth:`give` records a command given at t;
+    :meth:`at` is the command seen at t; :meth:`pieces` cuts [t0, t1) where the seen command
+    changes.
+
+    Parameters
+    ----------
+    delay : float
+        Dead time [s].
+    first : tuple
+        The first command (one pressure [Pa] per actuator), seen until a later one arrives.
+
+    References
+    ----------
+    .. [1] model-spec section 4b (dead_time).
     """
 
     def __init__(self, delay: float, first: tuple):
@@ -186,12 +390,38 @@ class CommandSchedule:
         self.changes = [(-math.inf, tuple(first))]  #: (time it arrives, command), increasing
 
     def snapshot(self) -> tuple:
+        """The commands still on their way, for :meth:`restore`.
+
+        Returns
+        -------
+        tuple
+            (time it arrives [s], command) pairs, increasing.
+        """
         return tuple(self.changes)
 
     def restore(self, snapshot) -> None:
+        """Return to a :meth:`snapshot`.
+
+        Parameters
+        ----------
+        snapshot : tuple
+            What :meth:`snapshot` returned.
+        """
         self.changes = list(snapshot)
 
     def give(self, t: float, command: tuple) -> None:
+        """Record a command given at time t; it acts from t + delay.
+
+        A command given again at the same time replaces the earlier one; one equal to the command
+        before it is no change.
+
+        Parameters
+        ----------
+        t : float
+            Time it is given [s].
+        command : tuple
+            One pressure [Pa] per actuator.
+        """
         arrives = t + self.delay
         while self.changes and self.changes[-1][0] >= arrives and len(self.changes) > 1:
             self.changes.pop()  # a command given again at the same time replaces the earlier one
@@ -199,6 +429,18 @@ class CommandSchedule:
             self.changes.append((arrives, command))
 
     def at(self, t: float) -> tuple:
+        """The command seen at time t.
+
+        Parameters
+        ----------
+        t : float
+            Time [s].
+
+        Returns
+        -------
+        tuple
+            The last command that arrived at or before t (the first one before any arrived) [Pa].
+        """
         seen = self.changes[0][1]
         for arrives, command in self.changes:
             if arrives <= t:
@@ -208,18 +450,61 @@ class CommandSchedule:
         return seen
 
     def pieces(self, t0: float, t1: float):
+        """Cut [t0, t1) where the seen command changes.
+
+        Parameters
+        ----------
+        t0, t1 : float
+            Start and end of the interval [s].
+
+        Returns
+        -------
+        list of tuple
+            (start [s], stop [s], the command seen over it) in order.
+        """
         cuts = [t0] + [a for a, _ in self.changes if t0 < a < t1] + [t1]
         return [(a, b, self.at(a)) for a, b in zip(cuts[:-1], cuts[1:])]
 
     def forget_before(self, t: float) -> None:
-        """Drop the commands that no longer matter (all but the one seen at t and those still to come)."""
+        """Drop the commands that no longer matter: all but the one seen at t and those to come.
+
+        Parameters
+        ----------
+        t : float
+            Time [s] from which on the schedule is still read.
+        """
         while len(self.changes) > 1 and self.changes[1][0] <= t:
             self.changes.pop(0)
 
 
-def state_outputs(state, pe_cmd: float, pf_cmd: float, params: Params = DEFAULT) -> dict[str, float]:
-    """Every output of model-spec section 7 at a knee state (X, V and with a lag Pe, Pf) with the commands
-    pe_cmd, pf_cmd [Pa] (the pressures when there is no lag); a1, a2 without the end stops."""
+def state_outputs(state, pe_cmd: float, pf_cmd: float,
+                  params: Params = DEFAULT) -> dict[str, float]:
+    """Every output of model-spec section 7 at one knee state (a1, a2 without the end stops).
+
+    Parameters
+    ----------
+    state : sequence of float
+        X [m], V [m/s], and with a lag Pe, Pf [Pa].
+    pe_cmd, pf_cmd : float
+        The commands the actuators see [Pa] (the pressures when there is no lag).
+    params : Params
+        The model.
+
+    Returns
+    -------
+    dict of str to float
+        :data:`KNEE_OUTPUTS` by name, in their units; "stable" is a1 < 0 and a2 < 0.
+
+    Raises
+    ------
+    DomainError
+        Where the state or a pressure is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 14-20.
+    .. [2] model-spec section 7.
+    """
     lag = actuator.has_pressure_states(params)
     Pe, Pf = (float(state[2]), float(state[3])) if lag else (float(pe_cmd), float(pf_cmd))
     values = {name: float(value) for name, value in
@@ -229,9 +514,21 @@ def state_outputs(state, pe_cmd: float, pf_cmd: float, params: Params = DEFAULT)
 
 
 def rest_independent() -> tuple[str, ...]:
-    """Parameters a state at rest does not feel: those of effects whose tension term vanishes at Ldot = 0
-    (damping c V, friction Fc tanh(V / vs)) or that only have pressure dynamics (the lagged pressure equals its
-    command at rest), and no final limit. The rest posture of a record does not depend on them."""
+    """Parameters a state at rest does not feel: the rest posture of a record does not need them.
+
+    Those of effects whose tension term vanishes at Ldot = 0 (damping c V, friction
+    Fc tanh(V / vs)) or that only have pressure dynamics (the lagged pressure equals its command at
+    rest), and no final limit. Remembered until the registry of effects changes.
+
+    Returns
+    -------
+    tuple of str
+        Parameter names.
+
+    References
+    ----------
+    .. [1] model-spec sections 4, 4b and 4c (the effects).
+    """
     key = effects.generation()
     if _rest_independent[0] != key:
         names = []
@@ -242,19 +539,22 @@ def rest_independent() -> tuple[str, ...]:
     return _rest_independent[1]
 
 
-#: Where :func:`_tension_vanishes_at_rest` reads a built-in effect's term: lengths (shares of L0) and pressures [Pa].
+#: Where :func:`_tension_vanishes_at_rest` reads a built-in effect's term: lengths (shares of L0)
+#: and pressures [Pa].
 REST_PROBE_LENGTHS = (0.7, 0.8, 0.9, 0.97, 1.0, 1.05)
 REST_PROBE_PRESSURES = (-5e4, 0.0, 1e5, 4e5, 1e6, 2e6)
 
 
 def _tension_vanishes_at_rest(effect) -> bool:
-    """Whether effect's tension term is 0 at Ldot = 0 for every length and pressure (True without a term).
+    """Whether effect's tension term is 0 at Ldot = 0 for every length and pressure (True without
+    one).
 
-    A built-in effect's term is read at Ldot = 0 on a grid of lengths and pressures (:data:`REST_PROBE_LENGTHS`,
-    :data:`REST_PROBE_PRESSURES`) with its parameters at typical values, in floats: no sympy to import, which
-    is a third of a second of a command's start (a test checks the grid's answer against the symbolic one for
-    every built-in effect). Another effect (a user's, model-spec 4c), or a built-in one the grid cannot read,
-    is traced with sympy: its term must simplify to 0.
+    A built-in effect's term is read at Ldot = 0 on a grid of lengths and pressures
+    (:data:`REST_PROBE_LENGTHS`, :data:`REST_PROBE_PRESSURES`) with its parameters at typical
+    values, in floats: no sympy to import, which is a third of a second of a command's start (a test
+    checks the grid's answer against the symbolic one for every built-in effect). Another effect (a
+    user's, model-spec 4c), or a built-in one the grid cannot read, is traced with sympy: its term
+    must simplify to 0.
     """
     if effect.tension is None:
         return True
@@ -263,8 +563,9 @@ def _tension_vanishes_at_rest(effect) -> bool:
 
 
 def _rest_term_vanishes_on_grid(effect) -> bool | None:
-    """Whether effect's tension term is 0.0 at Ldot = 0 at every point of the probe grid (its parameters at
-    :func:`_probe_value`); None when the grid cannot be read (a domain check, an error)."""
+    """Whether effect's tension term is 0.0 at Ldot = 0 at every point of the probe grid (its
+    parameters at :func:`_probe_value`); None when the grid cannot be read (a domain check, an
+    error)."""
     try:
         probe = DEFAULT.replace(**{q.name: _probe_value(q) for q in effect.parameters})
         return all(effect.tension(DEFAULT.L0 * share, 0.0, P, probe, actuator.math_for(0.0)) == 0.0
@@ -284,8 +585,8 @@ def _rest_term_vanishes_symbolically(effect) -> bool:
 
 
 def _probe_value(q) -> float:
-    """A value of parameter q at which its effect is on: its typical value, a switch's other value, else its scale
-    (kept in its bounds)."""
+    """A value of parameter q at which its effect is on: its typical value, a switch's other value,
+    else its scale (kept in its bounds)."""
     if q.typical is not None:
         return float(q.typical)
     if q.switch:
@@ -305,9 +606,35 @@ _rest_heights: dict = {}
 
 
 def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
-    """The hip height X [m] a record starts at when X0 is None: at rest in the stable equilibrium of the first
-    commands (:func:`mkctl.physics.stability.equilibrium_hip_height`). Remembered per (commands, parameters
-    that matter at rest): fits run thousands of records from the same posture with other damping or lag."""
+    """The hip height a record starts at when X0 is None: at rest, the first commands' equilibrium.
+
+    The stable equilibrium of the first commands
+    (:func:`mkctl.physics.stability.equilibrium_hip_height`), remembered per (commands, parameters
+    that matter at rest, :func:`rest_independent`): fits run thousands of records from the same
+    posture with other damping or lag.
+
+    Parameters
+    ----------
+    pe0, pf0 : float
+        The first commands [Pa].
+    params : Params
+        The model.
+
+    Returns
+    -------
+    X0 : float
+        Hip height [m].
+
+    Raises
+    ------
+    DomainError
+        If there is no stable equilibrium between the end stops.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 and 20.
+    """
     skip = rest_independent()
     key = (float(pe0), float(pf0), *(v for k, v in params.as_dict().items() if k not in skip))
     X0 = _rest_heights.get(key)
@@ -319,8 +646,19 @@ def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
 
 
 def held_command_runs(pe_cmd, pf_cmd) -> list[tuple[int, int]]:
-    """The runs (first, last) of sample indices over which the commands are held: pe_cmd[first], pf_cmd[first]
-    act from sample first to sample last, and a command changes at each last but the record's end."""
+    """The runs of sample indices over which the commands are held.
+
+    Parameters
+    ----------
+    pe_cmd, pf_cmd : numpy.ndarray
+        Commands at the samples [Pa], one length.
+
+    Returns
+    -------
+    list of tuple of int
+        (first, last): pe_cmd[first], pf_cmd[first] act from sample first to sample last, and a
+        command changes at each last but the record's end. Empty for fewer than two samples.
+    """
     n = len(pe_cmd)
     changes = np.flatnonzero((pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])) + 1
     bounds = [0, *changes.tolist()] + ([n - 1] if changes.size == 0 or changes[-1] != n - 1 else [])
@@ -328,12 +666,33 @@ def held_command_runs(pe_cmd, pf_cmd) -> list[tuple[int, int]]:
 
 
 def delayed_commands(time, pe_cmd, pf_cmd, delay: float):
-    """A record's commands as the actuators see them through a dead time of ``delay`` [s] (model-spec 4b):
-    the command given at sample k (held to sample k+1) acts from time[k] + delay, the first one before that.
+    """A record's commands as the actuators see them through a dead time.
 
-    Returns (grid, pe_seen, pf_seen, at): the sample times with the arrival times of every command change added
-    (sorted; an arrival within 1e-12 s of a sample is that sample), the seen commands held from each grid point
-    to the next, and the grid index of each original sample.
+    The command given at sample k (held to sample k+1) acts from ``time[k] + delay``, the first one
+    before that.
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        Sample times [s], increasing.
+    pe_cmd, pf_cmd : numpy.ndarray
+        Commands given at the samples [Pa].
+    delay : float
+        Dead time [s].
+
+    Returns
+    -------
+    grid : numpy.ndarray
+        The sample times with the arrival times of every command change added [s] (sorted; an
+        arrival within 1e-12 s of a sample is that sample).
+    pe_seen, pf_seen : numpy.ndarray
+        The seen commands [Pa], held from each grid point to the next.
+    at : numpy.ndarray
+        The grid index of each original sample.
+
+    References
+    ----------
+    .. [1] model-spec section 4b (dead_time).
     """
     changes = np.flatnonzero((pe_cmd[1:] != pe_cmd[:-1]) | (pf_cmd[1:] != pf_cmd[:-1])) + 1
     arrivals = time[changes] + delay
@@ -345,26 +704,29 @@ def delayed_commands(time, pe_cmd, pf_cmd, delay: float):
         close |= np.abs(time[index] - arrivals) <= 1e-12 * max(1.0, abs(time[-1]))
     grid = np.union1d(time, arrivals[~close])
     at = np.searchsorted(grid, time)
-    # the command seen at grid point g: the last one given at or before g - delay (sample times within 1e-12 s
-    # of an arrival count as arrived)
+    # the command seen at grid point g: the last one given at or before g - delay (sample times
+    # within 1e-12 s of an arrival count as arrived)
     given = np.searchsorted(time, grid - delay + 1e-12 * max(1.0, abs(time[-1])), side="right") - 1
     given = np.clip(given, 0, time.size - 1)
     return grid, pe_cmd[given], pf_cmd[given], at
 
 
 def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=False):
-    """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each sample to
-    the next, one integration per run of held commands (:func:`held_command_runs`), the states at the samples
-    with stop_at[k] (stop_at None: every sample) and at each run's end read off the integrator's dense output.
+    """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each
+    sample to the next, one integration per run of held commands (:func:`held_command_runs`), the
+    states at the samples with stop_at[k] (stop_at None: every sample) and at each run's end read
+    off the integrator's dense output.
 
-    The compiled core runs it in one call when available; the Python loop below is the fallback, and it
-    also resumes after a fault of the compiled run (at the start of the failing run) to raise its own error.
-    Returns the states (n x nstate, filled at sample 0 and every stop) and the commands the actuators see at
-    each sample, pe_seen and pf_seen [Pa] (the given ones, or with a dead time those given a delay earlier):
-    what the outputs at the samples are computed from (:func:`record_outputs`).
+    The compiled core runs it in one call when available; the Python loop below is the fallback, and
+    it also resumes after a fault of the compiled run (at the start of the failing run) to raise its
+    own error. Returns the states (n x nstate, filled at sample 0 and every stop) and the commands
+    the actuators see at each sample, pe_seen and pf_seen [Pa] (the given ones, or with a dead time
+    those given a delay earlier): what the outputs at the samples are computed from
+    (:func:`record_outputs`).
     """
     delay = 0.0 if delayed else float(actuator.command_delay(params))
-    if delay > 0 and time.size > 1:  # a dead time: the same record on a grid cut where the late commands arrive
+    # a dead time: the same record on a grid cut where the late commands arrive
+    if delay > 0 and time.size > 1:
         grid, pe_seen, pf_seen, at = delayed_commands(time, pe_cmd, pf_cmd, delay)
         mask = None
         if stop_at is not None:
@@ -372,7 +734,8 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
             mask[at[stop_at]] = True
         if X0 is None:
             X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
-        states, pe_seen, pf_seen = _run_record(grid, pe_seen, pf_seen, params, X0, stops, rtol, mask, delayed=True)
+        states, pe_seen, pf_seen = _run_record(grid, pe_seen, pf_seen, params, X0, stops, rtol,
+                                               mask, delayed=True)
         return states[at], pe_seen[at], pf_seen[at]
     n = time.size
     if X0 is None:
@@ -396,12 +759,40 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
     return states, pe_cmd, pf_cmd
 
 
-def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT, core=None) -> dict[str, np.ndarray]:
-    """Every output of :data:`KNEE_OUTPUTS` at a record's states (n x nstate: X, V and with a lag Pe, Pf) with
-    the commands the actuators see, pe_seen and pf_seen [Pa] (n each; the pressures when there is no lag), in
-    one pass over the samples: the compiled core's when ``core`` is given, else :func:`knee_outputs` on numpy
-    arrays. The same values as :func:`state_outputs` at each sample; a failed domain check raises its error as
-    :func:`state_outputs` does at the first failing sample."""
+def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT,
+                   core=None) -> dict[str, np.ndarray]:
+    """Every output of :data:`KNEE_OUTPUTS` at a record's states, in one pass over the samples.
+
+    The compiled core's pass when ``core`` is given, else :func:`knee_outputs` on numpy arrays: the
+    same values as :func:`state_outputs` at each sample.
+
+    Parameters
+    ----------
+    states : array_like
+        States, n x nstate: X [m], V [m/s], and with a lag Pe, Pf [Pa].
+    pe_seen, pf_seen : array_like
+        The commands the actuators see [Pa], n each (the pressures when there is no lag).
+    params : Params
+        The model.
+    core : optional
+        The compiled core (:func:`mkctl.physics.backend.compiled_core`), or None.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+        :data:`KNEE_OUTPUTS` by name, n values each, in their units; "stable" as bool.
+
+    Raises
+    ------
+    DomainError
+        At the first sample whose state is outside the model's domain, with the error
+        :func:`state_outputs` raises there.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 14-20.
+    .. [2] model-spec section 7.
+    """
     states = np.asarray(states, dtype=float)
     n = states.shape[0]
     if core is not None and n > 0:
@@ -412,7 +803,8 @@ def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT, core=None
             return columns
     lag = states.shape[1] == 4
     X, V = states[:, 0], states[:, 1]
-    Pe, Pf = (states[:, 2], states[:, 3]) if lag else (np.asarray(pe_seen, float), np.asarray(pf_seen, float))
+    Pe, Pf = ((states[:, 2], states[:, 3]) if lag
+              else (np.asarray(pe_seen, float), np.asarray(pf_seen, float)))
     if n == 0:
         columns = {name: np.empty(0) for name in KNEE_OUTPUTS}
         columns["stable"] = np.empty(0, dtype=bool)
@@ -431,15 +823,45 @@ def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT, core=None
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
                   stops: bool = True, rtol: float = 1e-10) -> SimulationResult:
-    """Simulate the knee over a record; commands are held from each sample to the next.
+    """Simulate the knee (Eq. 17) over a record; commands are held from each sample to the next.
 
-    Parameters: time [s] increasing sample times; pe_cmd, pf_cmd [Pa] commands at those times; X0 [m]
-    the initial hip height, or None to start at rest in the stable equilibrium of the first commands.
-    Returns a :class:`mkctl.physics.results.SimulationResult`: "time" and every name of :data:`KNEE_OUTPUTS` as
-    named arrays (``run.X``, or ``run["X"]`` as before). X, V, Pe and Pf are the run's states (and commands);
-    the other outputs are computed from them when the first of them is read, in one pass
-    (:func:`record_outputs`).
-    Runs in the compiled core (:mod:`mkctl.native`) when it is available, else in Python: same results.
+    Runs in the compiled core (:mod:`mkctl.native`) when it is available, else in Python: same
+    results.
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times [s], increasing.
+    pe_cmd, pf_cmd : float or array_like
+        Commanded gauge pressures at those times [Pa] (a scalar is held throughout).
+    params : Params
+        The model.
+    X0 : float, optional
+        Initial hip height [m], at rest; None: at rest in the stable equilibrium of the first
+        commands (:func:`rest_hip_height`).
+    stops : bool
+        Whether the end stops act.
+    rtol : float
+        Relative tolerance of the adaptive integrator [-].
+
+    Returns
+    -------
+    SimulationResult
+        "time" and every name of :data:`KNEE_OUTPUTS` as named arrays (``run.X``, or ``run["X"]`` as
+        before), in their units. X, V, Pe and Pf are the run's states (and commands); the other
+        outputs are computed from them when the first of them is read, in one pass
+        (:func:`record_outputs`).
+
+    Raises
+    ------
+    DomainError
+        For a command that is not finite, a state that leaves the model's domain, or no equilibrium
+        to start from.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
+    .. [2] model-spec sections 4b (dead_time), 5 (the knee experiment) and 7 (the outputs).
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
@@ -447,19 +869,55 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
     states, pe_seen, pf_seen = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None)
     core = backend.compiled_core(params) if time.size > 0 else None
     lag = states.shape[1] == 4
-    Pe, Pf = (states[:, 2].copy(), states[:, 3].copy()) if lag else (np.array(pe_seen), np.array(pf_seen))
+    Pe, Pf = ((states[:, 2].copy(), states[:, 3].copy()) if lag
+              else (np.array(pe_seen), np.array(pf_seen)))
     return SimulationResult.deferred(time, states[:, 0].copy(), states[:, 1].copy(), Pe, Pf,
                                      lambda: record_outputs(states, pe_seen, pf_seen, params, core))
 
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
                 stops: bool = True, rtol: float = 1e-10) -> tuple[np.ndarray, np.ndarray]:
-    """Hip height X [m] and velocity V [m/s] at the sample indices ``at`` (default: all), cheaply.
+    """Hip height and velocity at some samples of a record, cheaply.
 
-    The same run as :func:`simulate_knee` (commands held from each sample to the next; X0 None: at rest in
-    the equilibrium of the first commands), but only the asked samples are read off the integration and no
-    other output is computed: what fitting many simulations needs.
-    Runs in the compiled core when it is available, in one call.
+    What fitting many simulations needs: the same run as :func:`simulate_knee` (commands held from
+    each sample to the next; X0 None: at rest in the equilibrium of the first commands), but only
+    the asked samples are read off the integration and no other output is computed. Runs in the
+    compiled core when it is available, in one call.
+
+    Parameters
+    ----------
+    time : array_like
+        Sample times [s], increasing.
+    pe_cmd, pf_cmd : float or array_like
+        Commanded gauge pressures at those times [Pa].
+    params : Params
+        The model.
+    X0 : float, optional
+        Initial hip height [m]; None: at rest in the equilibrium of the first commands.
+    at : array_like of int, optional
+        Sample indices to return; default: all.
+    stops : bool
+        Whether the end stops act.
+    rtol : float
+        Relative tolerance of the adaptive integrator [-].
+
+    Returns
+    -------
+    X : numpy.ndarray
+        Hip height [m] at the samples ``at``.
+    V : numpy.ndarray
+        Hip velocity [m/s] there.
+
+    Raises
+    ------
+    DomainError
+        For a command that is not finite, a state that leaves the model's domain, or no equilibrium
+        to start from.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
+    .. [2] model-spec section 5 (the knee experiment).
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
@@ -475,10 +933,21 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
 
 
 class ActuatorSimulator:
-    """One actuator as the actuator FMU runs it: pressure lag state plus the tension at (L, P, Ldot).
+    """One actuator as the actuator FMU runs it: a pressure lag state, the tension at (L, P, Ldot).
 
-    The lag is integrated exactly over each step (the command is held constant), so the step size does
-    not matter. Without a lag the pressure equals the command.
+    The lag is integrated exactly over each step (the command is held constant), so the step size
+    does not matter. Without a lag the pressure equals the command.
+
+    Parameters
+    ----------
+    params : Params
+        The actuator and its effects.
+    p0 : float
+        Initial pressure [Pa] (and the first command seen through a dead time).
+
+    References
+    ----------
+    .. [1] model-spec sections 4, 4b and 7 (McKibbenActuator.fmu).
     """
 
     def __init__(self, params: Params = DEFAULT, p0: float = 0.0):
@@ -490,30 +959,93 @@ class ActuatorSimulator:
         self.schedule = CommandSchedule(delay, (float(p0),)) if delay > 0 else None
 
     def get_state(self) -> tuple:
-        return (self.time, self.pressure, None if self.schedule is None else self.schedule.snapshot())
+        """A snapshot of everything that determines the future (FMU get state).
+
+        Returns
+        -------
+        tuple
+            (time [s], pressure [Pa], the commands still on their way through a dead time or None).
+        """
+        return (self.time, self.pressure,
+                None if self.schedule is None else self.schedule.snapshot())
 
     def set_state(self, snapshot: tuple) -> None:
+        """Return to a snapshot taken by :meth:`get_state` (FMU set state).
+
+        Parameters
+        ----------
+        snapshot : tuple
+            What :meth:`get_state` returned.
+        """
         self.time, self.pressure = snapshot[:2]
         if self.schedule is not None and len(snapshot) > 2 and snapshot[2] is not None:
             self.schedule.restore(snapshot[2])
 
     def step(self, dt: float, p_cmd: float) -> float:
-        """Advance the pressure by dt [s] towards p_cmd [Pa] (seen a dead time late, if any); returns the new
-        pressure [Pa]."""
+        """Advance the pressure by one step towards the command (seen a dead time late, if any).
+
+        Parameters
+        ----------
+        dt : float
+            Step [s].
+        p_cmd : float
+            Commanded gauge pressure [Pa], held over the step.
+
+        Returns
+        -------
+        float
+            The new pressure [Pa].
+
+        Raises
+        ------
+        DomainError
+            For a command that is not finite.
+
+        References
+        ----------
+        .. [1] model-spec sections 4 (pressure_lag) and 4b (dead_time, asymmetric_lag).
+        """
         actuator.check_pressure(p_cmd)
         if self.schedule is None:
             self.pressure = float(actuator.pressure_after(self.pressure, p_cmd, dt, self.params))
         else:
             self.schedule.give(self.time, (float(p_cmd),))
             for start, stop, (seen,) in self.schedule.pieces(self.time, self.time + dt):
-                self.pressure = float(actuator.pressure_after(self.pressure, seen, stop - start, self.params))
+                self.pressure = float(actuator.pressure_after(self.pressure, seen, stop - start,
+                                                              self.params))
             self.schedule.forget_before(self.time + dt)
         self.time += dt
         return self.pressure
 
     def outputs(self, p_cmd: float, L: float, Ldot: float) -> dict[str, float]:
-        """The actuator FMU's outputs now: pressure "P" [Pa] (the lag state, or the command it sees without a
-        lag) and tension "f" [N] at length L [m] and lengthening rate Ldot [m/s]."""
+        """The actuator FMU's outputs now: its pressure and its tension.
+
+        Parameters
+        ----------
+        p_cmd : float
+            Commanded gauge pressure [Pa].
+        L : float
+            Actuator length [m], 0 < L < b.
+        Ldot : float
+            Lengthening rate [m/s] (positive when it lengthens).
+
+        Returns
+        -------
+        dict of str to float
+            "f": tension [N] (positive when it pulls); "P": pressure [Pa] (the lag state, or the
+            command it sees without a lag).
+
+        Raises
+        ------
+        DomainError
+            For a command that is not finite or a length outside (0, b).
+
+        References
+        ----------
+        .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+           Eq. 7 and 13.
+        .. [2] model-spec sections 2, 4 and 7.
+        """
         actuator.check_pressure(p_cmd)
         seen = p_cmd if self.schedule is None else self.schedule.at(self.time)[0]
         P = self.pressure if actuator.has_pressure_states(self.params) else float(seen)

@@ -5,15 +5,20 @@ Linearizing Eq. 17 about a posture gives ``d/dt (X, V) = [[0, 1], [a2, a1]] (X, 
 - ``a2 = (1/m) dF/dX`` (position condition, Eq. 20: a2 < 0),
 - ``a1 = (1/m) dF/dV`` (velocity condition, Eq. 19: a1 < 0),
 
-and by Routh-Hurwitz the posture is asymptotically stable iff a1 < 0 and a2 < 0. Because X grows with
-alpha, Eq. 20 is equivalent to ``h(alpha, Pe, Pf) = d/dalpha (G_e f_e - G_f f_f) < 0`` (Eq. 21-23).
+and by Routh-Hurwitz the posture is asymptotically stable iff a1 < 0 and a2 < 0. Because X grows
+with alpha, Eq. 20 is equivalent to ``h(alpha, Pe, Pf) = d/dalpha (G_e f_e - G_f f_f) < 0``
+(Eq. 21-23).
 
-Model 2 alone has a1 = 0: the poles sit on the imaginary axis ("marginal"), which is the paper's point.
-Viscous damping gives ``a1 = -c (G_e^2 + G_f^2) / m < 0`` (spec section 4).
+Model 2 alone has a1 = 0: the poles sit on the imaginary axis ("marginal"), which is the paper's
+point. Viscous damping gives ``a1 = -c (G_e^2 + G_f^2) / m < 0`` (spec section 4).
 
-The pressures enter h and F affinely, so the equilibrium set (F = m g, V = 0) and the h = 0 surface are
-both closed-form surfaces ``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and :func:`h_zero_pressure`.
-The pressure lag adds the decoupled poles -1/tau and does not change a1, a2.
+The pressures enter h and F affinely (not with the pressure threshold of model-spec section 4b), so
+the equilibrium set (F = m g, V = 0) and the h = 0 surface are both closed-form surfaces
+``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and :func:`h_zero_pressure`. The pressure lag
+adds the decoupled poles -1/tau and does not change a1, a2.
+
+References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
+paper), Section VI, Eq. 18-25 and Fig. 7; model-spec sections 3 and 4.
 """
 from __future__ import annotations
 
@@ -24,7 +29,8 @@ from . import knee
 from ..errors import DomainError
 from .params import DEFAULT, Params
 
-#: The default posture of the FMU, the examples and the analyses: alpha = 60 deg (model-spec section 7)...
+#: The default posture of the FMU, the examples and the analyses: alpha = 60 deg (model-spec
+#: section 7)...
 DEFAULT_ALPHA = float(np.radians(60.0))
 #: ... held with this flexor pressure [Pa] (the extensor pressure follows from the equilibrium).
 DEFAULT_PF = 100e3
@@ -36,16 +42,17 @@ def routh_hurwitz_coefficients(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
     .. math:: a_1 = \\frac{1}{m} \\frac{\\partial F}{\\partial V}, \\qquad
               a_2 = \\frac{1}{m} \\frac{\\partial F}{\\partial X}
 
-    with F the ground force of Eq. 17 (:func:`mkctl.physics.knee.knee_force_partials`). The end stops are not
-    included: a1, a2 describe what the muscles alone do at that posture.
+    with F the ground force of Eq. 14 that drives Eq. 17
+    (:func:`mkctl.physics.knee.knee_force_partials`). The end stops are not included: a1, a2
+    describe what the muscles alone do at that posture.
 
     Parameters
     ----------
-    X : float or array
+    X : float or array_like
         Hip height [m].
-    Pe, Pf : float or array
+    Pe, Pf : float or array_like
         Extensor and flexor gauge pressures [Pa].
-    V : float or array
+    V : float or array_like
         Hip velocity [m/s] (0 at an equilibrium).
     params : Params
         The model; a1 = 0 without damping or friction (model 2 alone).
@@ -57,25 +64,32 @@ def routh_hurwitz_coefficients(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
     a2 : float or array
         Position coefficient [1/s^2]; Eq. 20 asks a2 < 0.
 
+    Raises
+    ------
+    DomainError
+        Where X, a pressure or an actuator length is outside the model's domain.
+
     References
     ----------
-    Seed paper, Section VI, Eq. 18-20; model-spec section 4 (a1 = -c (G_e^2 + G_f^2)/m with damping c).
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Section VI, Eq. 18-20.
+    .. [2] model-spec section 4 (a1 = -c (G_e^2 + G_f^2) / m with damping c).
     """
     partials = knee.knee_force_partials(knee.geometry_at_X(X, params), V, Pe, Pf, params)
     return partials.dF_dV / params.m, partials.dF_dX / params.m
 
 
 def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
-    """The position condition in the paper's form, Eq. 22-23: ``h = d/dalpha (G_e f_e - G_f f_f)`` at V = 0.
+    """The position condition in the paper's form: ``h = d/dalpha (G_e f_e - G_f f_f)`` at V = 0.
 
     Computed from the analytic derivatives, ``h = dF/dX dX/dalpha``. X grows with alpha, so h < 0 is
     equivalent to a2 < 0 (Eq. 20, 21).
 
     Parameters
     ----------
-    alpha : float or array
+    alpha : float or array_like
         Kneecap angle [rad].
-    Pe, Pf : float or array
+    Pe, Pf : float or array_like
         Extensor and flexor gauge pressures [Pa] (Pe', Pf' of the paper). All three broadcast.
     params : Params
         The model.
@@ -85,9 +99,15 @@ def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
     h : float or array
         [N/rad]; h < 0: the posture is held by a restoring force.
 
+    Raises
+    ------
+    DomainError
+        Where alpha, a pressure or an actuator length is outside the model's domain.
+
     References
     ----------
-    Seed paper, Section VI-B, Eq. 21-23.
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Section VI-B, Eq. 21-23.
     """
     geo = knee.geometry_at_alpha(alpha, params)
     partials = knee.knee_force_partials(geo, 0.0, Pe, Pf, params)
@@ -95,12 +115,39 @@ def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
 
 
 def h_slope(alpha, Pe, Pf, params: Params = DEFAULT, step: float = 1e-5):
-    """dh/dalpha [N/rad^2] by a central difference of the analytic :func:`h_function`.
+    """dh/dalpha by a central difference of the analytic :func:`h_function`.
 
-    Parameters: alpha [rad], Pe, Pf [Pa] (broadcast), step [rad]. Used to check the paper's "h decreases
-    monotonically along alpha" (Section VI-B).
+    ``dh/dalpha = (h(alpha + step) - h(alpha - step)) / (2 step)``. Used to check the paper's "h
+    decreases monotonically along alpha" (Section VI-B).
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        Kneecap angle [rad].
+    Pe, Pf : float or array_like
+        Extensor and flexor gauge pressures [Pa]; all three broadcast.
+    params : Params
+        The model.
+    step : float
+        Half the difference's span [rad].
+
+    Returns
+    -------
+    float or array
+        The slope dh/dalpha [N/rad^2].
+
+    Raises
+    ------
+    DomainError
+        Where alpha +- step, a pressure or an actuator length is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Section VI-B, Eq. 23 and Fig. 7.
     """
-    return (h_function(alpha + step, Pe, Pf, params) - h_function(alpha - step, Pe, Pf, params)) / (2 * step)
+    return ((h_function(alpha + step, Pe, Pf, params) - h_function(alpha - step, Pe, Pf, params))
+            / (2 * step))
 
 
 def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
@@ -110,11 +157,37 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
 
     .. math:: P_e = \\frac{m g - F(\\alpha, V = 0, P_e = 0, P_f)}{\\partial F / \\partial P_e}
 
-    Parameters: alpha kneecap angle [rad], Pf flexor gauge pressure [Pa] (broadcast), params. Returns Pe [Pa]
-    (negative where the flexor alone would lift the hip; infinite where the extensor's pressure gain vanishes).
-    References: seed paper Eq. 17 and Fig. 7; model-spec section 4 (slack).
-    With slack (model-spec section 4) the extensor that holds the hip is taut, so its tension stays affine
-    in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``.
+    With slack (model-spec section 4) the extensor that holds the hip is taut, so its tension stays
+    affine in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``. The pressure
+    threshold (model-spec section 4b, ``P_eff = P - P0 (1 - exp(-P / P0))``) makes F nonlinear in
+    Pe: with P0 > 0 the result does not hold the hip (measured at alpha = 60 deg, Pf = 100 kPa,
+    P0 = 100 kPa: F - m g = -7.6 N there).
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        Kneecap angle [rad].
+    Pf : float or array_like
+        Flexor gauge pressure [Pa]; broadcasts with alpha.
+    params : Params
+        The model: the hip mass m [kg], g [m/s^2], the actuators and the effects.
+
+    Returns
+    -------
+    Pe : float or array
+        Extensor gauge pressure [Pa]: negative where the flexor alone would lift the hip, infinite
+        where the extensor's pressure gain vanishes.
+
+    Raises
+    ------
+    DomainError
+        Where alpha, Pf or an actuator length is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 and Fig. 7.
+    .. [2] model-spec section 4 (slack).
     """
     geo = knee.geometry_at_alpha(alpha, params)
     taut = params.replace(slack=0) if params.slack else params
@@ -128,8 +201,34 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
 def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
     """Extensor pressure on the surface h(alpha, Pe, Pf) = 0 of Fig. 7.
 
-    h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``.
-    Parameters: alpha [rad], Pf [Pa] (broadcast), params. Returns Pe [Pa]. References: seed paper Eq. 22-23, Fig. 7.
+    h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``. Not so
+    with the pressure threshold (model-spec section 4b: P0 > 0), where the result is not on the
+    surface, nor where the extensor is slack at 0 and 1 Pa (slack = 1 with model 2), where the
+    difference is zero: a ZeroDivisionError for floats, inf for arrays.
+
+    Parameters
+    ----------
+    alpha : float or array_like
+        Kneecap angle [rad].
+    Pf : float or array_like
+        Flexor gauge pressure [Pa]; broadcasts with alpha.
+    params : Params
+        The model.
+
+    Returns
+    -------
+    Pe : float or array
+        Extensor gauge pressure [Pa] at which h = 0; above it (in Pe) h < 0.
+
+    Raises
+    ------
+    DomainError
+        Where alpha, Pf or an actuator length is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 22-23 and Fig. 7.
     """
     h0 = h_function(alpha, 0.0, Pf, params)
     h1 = h_function(alpha, 1.0, Pf, params)
@@ -139,18 +238,46 @@ def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
 def verdict(a1, a2) -> np.ndarray:
     """Routh-Hurwitz verdict for the characteristic polynomial ``s^2 - a1 s - a2`` of Eq. 18.
 
-    Parameters: a1 [1/s], a2 [1/s^2] (broadcast). Returns an array of 'stable' (a1 < 0 and a2 < 0, Eq. 19-20),
-    'marginal' (a1 = 0, a2 < 0: poles on the imaginary axis, the paper's model 2) or 'unstable'.
-    References: seed paper Eq. 18-20.
+    Parameters
+    ----------
+    a1 : float or array_like
+        Velocity coefficient [1/s].
+    a2 : float or array_like
+        Position coefficient [1/s^2]; broadcasts with a1.
+
+    Returns
+    -------
+    numpy.ndarray of str
+        'stable' (a1 < 0 and a2 < 0, Eq. 19-20), 'marginal' (a1 = 0, a2 < 0: poles on the imaginary
+        axis, the paper's model 2) or 'unstable'.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
     """
     a1, a2 = np.asarray(a1), np.asarray(a2)
-    return np.where((a1 < 0) & (a2 < 0), "stable", np.where((a1 == 0) & (a2 < 0), "marginal", "unstable"))
+    return np.where((a1 < 0) & (a2 < 0), "stable",
+                    np.where((a1 == 0) & (a2 < 0), "marginal", "unstable"))
 
 
 def poles(a1, a2) -> np.ndarray:
-    """The two eigenvalues of Eq. 18's matrix [[0, 1], [a2, a1]]: ``s = (a1 +- sqrt(a1^2 + 4 a2)) / 2``.
+    """The eigenvalues of Eq. 18's matrix [[0, 1], [a2, a1]]: ``s = (a1 +- sqrt(a1^2 + 4 a2)) / 2``.
 
-    Parameters: a1 [1/s], a2 [1/s^2] (broadcast). Returns complex poles [1/s], shape (..., 2).
+    Parameters
+    ----------
+    a1 : float or array_like
+        Velocity coefficient [1/s].
+    a2 : float or array_like
+        Position coefficient [1/s^2]; broadcasts with a1.
+
+    Returns
+    -------
+    numpy.ndarray of complex
+        The poles [1/s], shape (..., 2): the ``+`` root first.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18.
     """
     disc = np.sqrt(np.asarray(a1 * a1 + 4 * a2, dtype=complex))
     return np.stack([(a1 + disc) / 2, (a1 - disc) / 2], axis=-1)
@@ -179,37 +306,83 @@ def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float |
     Parameters
     ----------
     alpha : float, optional
-        Kneecap angle [rad]; or give ``X``, the hip height [m] (exactly one of them).
+        Kneecap angle [rad], 0 < alpha < pi/2; give exactly one of alpha and X.
+    X : float, optional
+        Hip height [m], instead of alpha.
     Pf : float
         Flexor gauge pressure [Pa].
     Pe : float, optional
-        Extensor gauge pressure [Pa]; None: the one that holds the posture at rest (:func:`equilibrium_pressure`).
+        Extensor gauge pressure [Pa]; None: the one that holds the posture at rest
+        (:func:`equilibrium_pressure`).
     params : Params
         The model.
 
     Returns
     -------
     PostureStability
-        a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s] and the verdict ('stable', 'marginal', 'unstable').
+        The posture, its pressures, a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s] and the verdict
+        ('stable', 'marginal', 'unstable').
+
+    Raises
+    ------
+    ParameterError
+        Unless exactly one of alpha and X is given.
+    DomainError
+        For a posture or a pressure outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Section VI, Eq. 18-23.
+    .. [2] model-spec sections 3 and 4.
     """
     alpha, X = knee.posture(alpha, X, params)
     in_equilibrium = Pe is None
     if Pe is None:
         Pe = float(equilibrium_pressure(alpha, Pf, params))
     a1, a2 = (float(v) for v in routh_hurwitz_coefficients(X, Pe, Pf, 0.0, params))
-    return PostureStability(float(alpha), X, float(Pe), float(Pf), a1, a2, float(h_function(alpha, Pe, Pf, params)),
-                            tuple(complex(s) for s in poles(a1, a2)), str(verdict(a1, a2)), in_equilibrium)
+    return PostureStability(float(alpha), X, float(Pe), float(Pf), a1, a2,
+                            float(h_function(alpha, Pe, Pf, params)),
+                            tuple(complex(s) for s in poles(a1, a2)), str(verdict(a1, a2)),
+                            in_equilibrium)
 
 
-def equilibrium_hip_height(Pe: float, Pf: float, params: Params = DEFAULT, X_range=None, samples: int = 400):
-    """The hip height of a stable equilibrium, ``F(X, V = 0, Pe, Pf) = m g`` with dF/dX < 0 (Eq. 17, 20).
+def equilibrium_hip_height(Pe: float, Pf: float, params: Params = DEFAULT, X_range=None,
+                           samples: int = 400):
+    """The hip height of a stable equilibrium: ``F(X, V = 0, Pe, Pf) = m g`` with dF/dX < 0.
 
-    Parameters: Pe, Pf gauge pressures [Pa]; X_range (low, high) [m] to search (default: between the end
-    stops, :func:`mkctl.physics.knee.stop_positions`); samples of the bracketing grid. Returns X [m], the stable
-    root nearest the upper stop. Raises :class:`DomainError` if there is none in range.
+    The root is bracketed on a grid of X (where F - m g falls through zero as X grows) and refined
+    by Brent's method to 1e-13 m.
+
+    Parameters
+    ----------
+    Pe, Pf : float
+        Extensor and flexor gauge pressures [Pa].
+    params : Params
+        The model.
+    X_range : tuple of float, optional
+        (low, high) hip heights [m] to search; default: between the end stops
+        (:func:`mkctl.physics.knee.stop_positions`).
+    samples : int
+        Points of the bracketing grid.
+
+    Returns
+    -------
+    X : float
+        Hip height [m] of the stable root nearest the upper stop.
+
+    Raises
+    ------
+    DomainError
+        If there is no stable equilibrium in range (the leg would rest on an end stop).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 and 20.
     """
-    # imported here, not at the top: the FMUs import this module, and a host that loads an FMU should not
-    # have to load scipy (and a second OpenBLAS) for a function the FMU never calls
+    # imported here, not at the top: the FMUs import this module, and a host that loads an FMU
+    # should not have to load scipy (and a second OpenBLAS) for a function the FMU never calls
     from scipy.optimize import brentq
 
     low, high = X_range if X_range is not None else knee.stop_positions(params)
@@ -217,8 +390,8 @@ def equilibrium_hip_height(Pe: float, Pf: float, params: Params = DEFAULT, X_ran
     excess = knee.ground_force(grid, Pe, Pf, 0.0, params) - params.m * params.g
     crossings = np.nonzero((excess[:-1] > 0) & (excess[1:] <= 0))[0]  # + to -: dF/dX < 0, stable
     if crossings.size == 0:
-        raise DomainError(f"no stable equilibrium for Pe = {Pe:g} Pa, Pf = {Pf:g} Pa between X = {low:.4f} "
-                          f"and {high:.4f} m (the leg would rest on an end stop)")
+        raise DomainError(f"no stable equilibrium for Pe = {Pe:g} Pa, Pf = {Pf:g} Pa between "
+                          f"X = {low:.4f} and {high:.4f} m (the leg would rest on an end stop)")
     i = crossings[-1]
     return brentq(lambda x: float(knee.ground_force(x, Pe, Pf, 0.0, params)) - params.m * params.g,
                   grid[i], grid[i + 1], xtol=1e-13)
