@@ -198,26 +198,32 @@ def test_actuator_functions_with_other_parameters():
 
 
 def test_friction_and_its_slope_with_and_without_friction():
+    """The registry's damping and friction terms, and their exact slope (tension_partials) against differences."""
+    L, P = 0.19, 2e5
     for Fc in (0.0, 1.0, 4.0):
         p = DEFAULT.replace(c=20.0, Fc=Fc, vs=0.01)
         for Ldot in (0.0, 0.004, np.array([-0.02, 0.0, 0.03])):
             expected = 20.0 * np.asarray(Ldot) + Fc * np.tanh(np.asarray(Ldot) / 0.01)
-            np.testing.assert_allclose(actuator.velocity_tension(Ldot, p), expected, rtol=1e-12, atol=1e-15)
-            slope = (actuator.velocity_tension(np.asarray(Ldot) + 1e-7, p)
-                     - actuator.velocity_tension(np.asarray(Ldot) - 1e-7, p)) / 2e-7
-            np.testing.assert_allclose(actuator.velocity_tension_dLdot(Ldot, p), slope, rtol=1e-6)
+            moving = actuator.compose_tension(L, P, Ldot, p) - actuator.compose_tension(L, P, 0.0 * np.asarray(Ldot), p)
+            np.testing.assert_allclose(moving, expected, rtol=1e-12, atol=1e-9)
+            slope = (actuator.compose_tension(L, P, np.asarray(Ldot) + 1e-7, p)
+                     - actuator.compose_tension(L, P, np.asarray(Ldot) - 1e-7, p)) / 2e-7
+            np.testing.assert_allclose(actuator.tension_partials(L, P, Ldot, p)[2], slope, rtol=1e-6)
 
 
 def test_slack_clips_at_zero_tension_exactly():
     """Model-spec section 4: a slack muscle carries no compression; any pull, however small, is carried."""
     values = [-1.0, -1e-9, 0.0, 1e-9, 0.5, 2.0]
+    on, off = DEFAULT.replace(slack=1), DEFAULT.replace(slack=0)
     for f in values:
-        assert actuator.slack_tension(f, 1) == max(f, 0.0)
-        assert actuator.slack_tension(f, 0) == f
-        assert actuator.slack_factor(f, 1) == (1.0 if f > 0 else 0.0)
-        assert actuator.slack_factor(f, 0) == 1.0
-    np.testing.assert_array_equal(actuator.slack_tension(np.array(values), 1), np.maximum(values, 0.0))
-    np.testing.assert_array_equal(actuator.slack_factor(np.array(values), 1), (np.array(values) > 0).astype(float))
+        assert actuator.apply_limits(f, on) == max(f, 0.0)
+        assert actuator.apply_limits(f, off) == f
+    np.testing.assert_array_equal(actuator.apply_limits(np.array(values), on), np.maximum(values, 0.0))
+    # the limit's slope (tension_partials' last value): 0 where a slack muscle carries nothing, else 1
+    model1 = DEFAULT.replace(model=1)
+    for L, carries in ((0.1, 0.0), (0.2, 1.0)):  # model 1 pushes below b / sqrt(3) = 0.139 m
+        assert actuator.tension_partials(L, 2e5, 0.0, model1.replace(slack=1))[4] == carries
+        assert actuator.tension_partials(L, 2e5, 0.0, model1)[4] == 1.0
 
 
 def test_the_slack_equilibrium_equals_the_taut_one_while_both_muscles_pull(posture):

@@ -319,13 +319,15 @@ def test_the_pressure_without_dynamics_is_the_command_shaped_like_the_pressure()
 
 
 def test_the_small_helpers_on_every_kind_of_value():
-    assert type(actuator.friction_tension(0.01, 2.0, 0.02)) is float
-    assert actuator.friction_tension(0.01, 2.0, 0.02) == pytest.approx(2.0 * math.tanh(0.5), rel=1e-15)
-    f = sympy.Symbol("f", real=True)
-    factor = actuator.slack_factor(f, 1)
-    assert [factor.subs(f, v) for v in (-1.0, 0.0, 2.0)] == [0.0, 0.0, 1.0]
-    array = actuator.slack_factor(np.array([-1.0, 0.0, 2.0]), 1)
-    assert array.dtype == float and list(array) == [0.0, 0.0, 1.0]
+    friction = Params(Fc=2.0, vs=0.02)
+    moving = actuator.compose_tension(0.19, 2e5, 0.01, friction) - actuator.compose_tension(0.19, 2e5, 0.0, friction)
+    assert type(moving) is float and moving == pytest.approx(2.0 * math.tanh(0.5), rel=1e-12)
+    slack = Params(slack=1, model=1)  # model 1 at 0.1 m pushes: 3 L^2 < b^2
+    factor = actuator.tension_partials(sympy.Symbol("L", positive=True), 2e5, 0.0, slack)[4]
+    L = sympy.Symbol("L", positive=True)
+    assert [float(factor.subs(L, v)) for v in (0.1, 0.2)] == [0.0, 1.0]
+    array = actuator.tension_partials(np.array([0.1, 0.2]), 2e5, 0.0, slack)[4]
+    assert np.asarray(array).dtype == float and list(array) == [0.0, 1.0]
     assert actuator.command_delay(Params(delay=0.03)) == 0.03 and actuator.command_delay(DEFAULT) == 0.0
 
 
@@ -344,13 +346,14 @@ def test_exact_pressure_steps_keep_the_kind_of_value_they_are_given():
 
 
 def test_slack_on_every_kind_of_value():
-    assert math.copysign(1.0, actuator.slack_tension(-0.0, 1)) == 1.0  # a slack muscle carries +0, not -0
-    assert actuator.slack_tension(-3.0, 1) == 0.0 and actuator.slack_tension(2.0, 1) == 2.0
-    assert actuator.slack_tension(-3.0, 0) == -3.0
+    on, off = Params(slack=1), Params(slack=0)
+    assert math.copysign(1.0, actuator.apply_limits(-0.0, on)) == 1.0  # a slack muscle carries +0, not -0
+    assert actuator.apply_limits(-3.0, on) == 0.0 and actuator.apply_limits(2.0, on) == 2.0
+    assert actuator.apply_limits(-3.0, off) == -3.0
     f = sympy.Symbol("f", real=True)
-    limited = actuator.slack_tension(f, 1)
+    limited = actuator.apply_limits(f, on)
     assert [limited.subs(f, v) for v in (-1.0, 2.0)] == [0.0, 2.0]
-    np.testing.assert_array_equal(actuator.slack_tension(np.array([-1.0, 2.0]), 1), [0.0, 2.0])
+    np.testing.assert_array_equal(actuator.apply_limits(np.array([-1.0, 2.0]), on), [0.0, 2.0])
     assert type(actuator.viscous_coefficient(DEFAULT)) is float and actuator.viscous_coefficient(Params(c=7.0)) == 7.0
 
 
@@ -437,12 +440,13 @@ def test_floats_in_floats_out_and_the_steps_at_zero(abs_effects):
     p = Params(k_play=2e-5, c=30.0, Fc=3.0, vs=0.02)
     assert type(actuator.play_half_width(-2e5, p)) is float
     assert type(actuator.braid_diameter(0.2, 0.25, 3.1)) is float
-    assert type(actuator.velocity_tension_dLdot(0.01, p)) is float
-    assert type(actuator.slack_factor(2.0, 1)) is float and actuator.slack_factor(-2.0, 1) == 0.0
+    assert type(actuator.tension_partials(0.19, 2e5, 0.01, p)[2]) is float
+    slack = Params(slack=1, model=1)
+    assert type(actuator.tension_partials(0.2, 2e5, 0.0, slack)[4]) is float
+    assert actuator.tension_partials(0.1, 2e5, 0.0, slack)[4] == 0.0
     assert [xp._ScalarMath.sign(v) for v in (0.5, -0.5)] == [1.0, -1.0]
     x = sympy.Symbol("x", real=True)
     assert actuator._heaviside_as_step(sympy.Heaviside(x)).subs(x, 0.5) == 1.0
-    assert actuator.slack_factor(x, 1).subs(x, 0.5) == 1.0
     rubber = actuator.elastic_tension(np.array([0.18, 0.2]), Params(model=1))
     assert (rubber == 0.0).all() and rubber.shape == (2,)
 

@@ -435,57 +435,6 @@ def static_tension_dP(L, params: Params = DEFAULT):
 
 # --- Effects beyond the paper (model-spec section 4) --------------------------------------------
 
-def viscous_tension(Ldot, c: float):
-    """Viscous damping ``c Ldot`` [N]: c [N s/m], Ldot [m/s] (> 0 when lengthening)."""
-    return c * as_values(Ldot)
-
-
-def friction_tension(Ldot, Fc: float, vs: float):
-    """Smoothed Coulomb friction ``Fc tanh(Ldot / vs)`` [N]: Fc [N], Ldot and vs [m/s]."""
-    Ldot = as_values(Ldot)
-    return Fc * math_for(Ldot).tanh(Ldot / vs)
-
-
-def velocity_tension(Ldot, params: Params = DEFAULT):
-    """All velocity-dependent terms switched on in params: damping plus friction [N]."""
-    Ldot = as_values(Ldot)
-    if params.Fc == 0:  # skip the tanh when friction is off: this sits in the integrator's inner loop
-        return viscous_tension(Ldot, params.c)
-    return viscous_tension(Ldot, params.c) + friction_tension(Ldot, params.Fc, params.vs)
-
-
-def velocity_tension_dLdot(Ldot, params: Params = DEFAULT):
-    """Analytic d/dLdot of :func:`velocity_tension` [N s/m]."""
-    Ldot = as_values(Ldot)
-    if params.Fc == 0:
-        return params.c + 0.0 * Ldot
-    return params.c + params.Fc / params.vs * (1 - math_for(Ldot).tanh(Ldot / params.vs) ** 2)  # sech^2, no overflow
-
-
-def slack_tension(f, slack: int):
-    """The slack effect (model-spec section 4): ``max(f, 0)`` when slack = 1, f unchanged when 0 [N].
-
-    A braided muscle cannot push: where the model's tension f [N] is negative (a shortened muscle at low
-    pressure), the real muscle goes slack and carries nothing. Applied last, to the whole tension.
-    """
-    if not slack:
-        return f
-    if type(f) is float:
-        return f if f > 0.0 else 0.0
-    return math_for(f).maximum(f, 0.0)
-
-
-def slack_factor(f, slack: int):
-    """d(slack_tension)/df [-]: 0 where a slack muscle carries nothing (f <= 0), else 1."""
-    if not slack:
-        return 1.0
-    if type(f) is float:
-        return 1.0 if f > 0.0 else 0.0
-    if is_symbolic(f):
-        return _symbolic_math().where(f > 0.0, 1.0, 0.0)
-    return (np.asarray(f) > 0.0).astype(float)
-
-
 def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
     """Total tension [N]: :func:`compose_tension` (Eq. 7 plus every effect params switch on, then slack).
 
