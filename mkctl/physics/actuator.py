@@ -1,11 +1,12 @@
-"""The McKibben actuator: tension from pressure (model 1), rubber elasticity (model 2) and the effects.
+"""The McKibben actuator: tension from pressure (model 1), rubber elasticity (model 2), the effects.
 
-Every function works on numpy arrays (or plain floats) and broadcasts. Lengths are in m, pressures are
-gauge pressures P' = P - P0 in Pa, tensions in N, positive when the actuator pulls (model-spec section 1).
+Every function works on numpy arrays (or plain floats) and broadcasts. Lengths are in m, pressures
+are gauge pressures P' = P - P0 in Pa, tensions in N, positive when the actuator pulls (model-spec
+section 1).
 
-Source: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5-13, with the
-missing n and V_r fixed by model-spec section 2 (see :mod:`mkctl.physics.params`), and the effects of model-spec
-section 4.
+Source: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5-13, with
+the missing n and V_r fixed by model-spec section 2 (see :mod:`mkctl.physics.params`), and the
+effects of model-spec section 4.
 
 Example
 -------
@@ -23,8 +24,9 @@ import numpy as np
 
 from . import effects as _effects
 from ..errors import DomainError
-from .braid import (bladder_volume, braid_diameter, pressure_gain, pressure_gain_slope,  # noqa: F401 (re-exported)
-                    strain_energy_curvature, strain_energy_density, strain_energy_gradient)
+from .braid import (bladder_volume, braid_diameter, pressure_gain,  # noqa: F401 (re-exported)
+                    pressure_gain_slope, strain_energy_curvature, strain_energy_density,
+                    strain_energy_gradient)
 from .effects import SymbolicParams  # noqa: F401 (re-exported: what the equations are traced on)
 from .params import DEFAULT, PARAMETER_NAMES, Params
 from .xp import (MATH_FUNCTIONS, _symbolic_math, as_values, is_symbolic,  # noqa: F401 (re-exported)
@@ -32,7 +34,12 @@ from .xp import (MATH_FUNCTIONS, _symbolic_math, as_values, is_symbolic,  # noqa
 
 
 class Structure(NamedTuple):
-    """What the equations need to know of the effects a parameter set switches on (remembered on the set)."""
+    """What the equations need to know of the effects a parameter set switches on.
+
+    Notes
+    -----
+    Remembered on the parameter set (see :func:`structure`).
+    """
 
     active: tuple  #: the effects switched on, in the registry's order
     tension: tuple  #: (effect, term) of those with a tension term
@@ -42,7 +49,19 @@ class Structure(NamedTuple):
 
 
 def structure(params) -> Structure:
-    """The :class:`Structure` of params (cached on params until the registry changes)."""
+    """The :class:`Structure` of params (cached on params until the registry changes).
+
+    Parameters
+    ----------
+    params : Params or SymbolicParams
+        The parameter set whose switched-on effects are read.
+
+    Returns
+    -------
+    Structure
+        The effects params switch on, their tension terms, final limits and pressure-rate terms,
+        and whether the pressures are states.
+    """
     own = getattr(params, "__dict__", None)
     generation = _effects._generation[0]
     if own is not None:
@@ -52,20 +71,49 @@ def structure(params) -> Structure:
     active = tuple(e for e in _effects.all_effects() if e.is_on(params))
     pressure = tuple(e.pressure_rate for e in active if e.pressure_rate is not None)
     result = Structure(active, tuple((e, e.tension) for e in active if e.tension is not None),
-                       tuple(e.final for e in active if e.final is not None), pressure, bool(pressure))
+                       tuple(e.final for e in active if e.final is not None), pressure,
+                       bool(pressure))
     if own is not None:
         own["_structure"] = (generation, result)
     return result
 
 
 def active_effects(params) -> tuple:
-    """The registered effects params switch on, in the registry's order (remembered on params)."""
+    """The registered effects params switch on, in the registry's order (remembered on params).
+
+    Parameters
+    ----------
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    tuple of Effect
+        The effects switched on, in the registry's order.
+    """
     return structure(params).active
 
 
 def command_delay(params):
-    """How late each actuator sees its pressure command [s]: the sum of the command delays of the effects params
-    switch on (a dead time), 0.0 without any."""
+    """How late each actuator sees its pressure command [s] (a dead time), 0.0 without any.
+
+    ``delay = sum_effects command_delay(p)`` over the effects params switch on (dead_time: the
+    parameter ``delay``).
+
+    Parameters
+    ----------
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    float or sympy expression
+        The sum of the command delays of the effects params switch on [s]; 0.0 without any.
+
+    References
+    ----------
+    .. [1] model-spec section 4b (dead_time).
+    """
     delay = 0.0
     for effect in active_effects(params):
         if effect.command_delay is not None:
@@ -74,23 +122,38 @@ def command_delay(params):
 
 
 def has_pressure_states(params) -> bool:
-    """Whether params switch on an effect with pressure dynamics: the actuator pressures are then states."""
+    """Whether params switch on an effect with pressure dynamics (the pressures are then states).
+
+    Parameters
+    ----------
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    bool
+        True when an effect with a pressure-rate term is on (pressure lag): the actuator pressures
+        are then states.
+    """
     return structure(params).lag
 
 
-#: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead of
-#: being tested: (value, low, high, message, what) with low/high None for "finite",
+#: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead
+#: of being tested: (value, low, high, message, what) with low/high None for "finite",
 #: message(bad, low, high) -> str the Python error text, what a short name of the checked quantity.
 _domain_trace: list | None = None
 
 
 @contextmanager
 def tracing_domain_checks():
-    """Collect the domain checks met while the equations are evaluated on symbols (for generated code).
+    """Collect the domain checks met while the equations are evaluated on symbols (generated code).
 
-    Yields the list of (value, low, high, message, what): the check is ``low < value < high`` (NaN fails),
-    or ``value`` finite when low and high are None; ``message(bad, low, high)`` is the error text of the
-    Python check; ``what`` names the checked quantity.
+    Returns
+    -------
+    context manager
+        Yields the list of (value, low, high, message, what): the check is ``low < value < high``
+        (NaN fails), or ``value`` finite when low and high are None; ``message(bad, low, high)``
+        is the error text of the Python check; ``what`` names the checked quantity.
     """
     global _domain_trace
     previous, _domain_trace = _domain_trace, []
@@ -101,7 +164,19 @@ def tracing_domain_checks():
 
 
 def trace_domain_check(value, low, high, message, what: str) -> None:
-    """Record a check on a symbolic value (see :func:`tracing_domain_checks`); nothing outside tracing."""
+    """Record a check on a symbolic value (see :func:`tracing_domain_checks`); nothing outside.
+
+    Parameters
+    ----------
+    value : sympy expression
+        The checked value.
+    low, high : float or None
+        The open range ``low < value < high``; both None for "finite".
+    message : callable
+        ``message(bad, low, high) -> str``, the error text of the Python check.
+    what : str
+        A short name of the checked quantity, with its unit (``"actuator length L [m]"``).
+    """
     if _domain_trace is not None:
         _domain_trace.append((value, low, high, message, what))
 
@@ -115,9 +190,34 @@ _LDOT_MESSAGE = "lengthening rate Ldot is not a finite number (NaN or infinite)"
 
 
 def check_length(L, b: float):
-    """Raise :class:`DomainError` unless every length lies in the model's domain 0 < L < b [m]."""
+    """Raise :class:`DomainError` unless every length lies in the model's domain 0 < L < b [m].
+
+    A symbolic length is not tested: its check is recorded for generated code (see
+    :func:`trace_domain_check`).
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length(s) [m].
+    b : float
+        Braid (thread) length [m].
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    DomainError
+        Where a length is outside 0 < L < b (NaN too); the message names the first one.
+
+    References
+    ----------
+    .. [1] model-spec section 2 (the domain 0 < L < b).
+    """
     if is_symbolic(L):
-        trace_domain_check(L, 0.0, b, lambda bad, low, high: _length_message(bad, high), "actuator length L [m]")
+        trace_domain_check(L, 0.0, b, lambda bad, low, high: _length_message(bad, high),
+                           "actuator length L [m]")
         return
     if isinstance(L, (float, np.floating)):
         if 0 < L < b:  # False for NaN too
@@ -133,7 +233,22 @@ def check_length(L, b: float):
 
 
 def check_pressure(P):
-    """Raise :class:`DomainError` for a pressure that is not a finite number [Pa]."""
+    """Raise :class:`DomainError` for a pressure that is not a finite number [Pa].
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Gauge pressure(s) [Pa]; a symbolic one is recorded for generated code, not tested.
+
+    Returns
+    -------
+    None
+
+    Raises
+    ------
+    DomainError
+        Where a pressure is NaN or infinite.
+    """
     if isinstance(P, (float, np.floating)) and math.isfinite(P):
         return
     if is_symbolic(P):
@@ -144,9 +259,33 @@ def check_pressure(P):
 
 
 def tension_model1(L, P, params: Params = DEFAULT):
-    """Model 1, Eq. 7: ``f1 = P (3 L^2 - b^2) / (4 pi n^2)`` [N].
+    """Model 1, Eq. 7: the tension of the braid and the air alone [N].
 
-    Parameters: L actuator length [m] in 0 < L < b, P gauge pressure [Pa]; params supplies b [m], n [-].
+    ``f1 = P (3 L^2 - b^2) / (4 pi n^2)``
+
+    Parameters
+    ----------
+    L : float or array_like
+        Actuator length [m], 0 < L < b.
+    P : float or array_like
+        Gauge pressure [Pa].
+    params : Params
+        Supplies the braid length b [m] and the turns of a thread n [-].
+
+    Returns
+    -------
+    f1 : float or array
+        Tension [N], positive when the actuator pulls.
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b or P is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5-7.
+    .. [2] model-spec section 2 (model 1, n from Eq. 5 at rest, the domain).
     """
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
@@ -157,30 +296,102 @@ def tension_model1(L, P, params: Params = DEFAULT):
 # --- Model 2: plus Mooney-Rivlin rubber (Eq. 10-13) ---------------------------------------------
 
 def elastic_tension(L, params: Params = DEFAULT):
-    """The rubber's share of the tension, ``V_r dW/dL`` [N] (zero for model 1)."""
+    """The rubber's share of the tension, ``V_r dW/dL`` [N] (zero for model 1).
+
+    ``V_r = pi t0 (D0 - t0) L0``; W is the Mooney-Rivlin strain energy density of Eq. 10-12.
+    No domain check (see :func:`tension_model2`).
+
+    Parameters
+    ----------
+    L : float or array_like
+        Actuator length [m], 0 < L < b.
+    params : Params
+        Supplies model (1 or 2), b, L0, D0, t0 [m], n [-], C1, C2 [Pa].
+
+    Returns
+    -------
+    float or array
+        The elastic tension [N]; zeros shaped like L for model 1.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 8-13.
+    .. [2] model-spec section 2 (V_r, model 2).
+    """
     if params.model == 1:
         return 0.0 * L
     return params.V_r * strain_energy_gradient(L, params)
 
 
 def tension_model2(L, P, params: Params = DEFAULT):
-    """Model 2, Eq. 13: ``f2 = P (3 L^2 - b^2)/(4 pi n^2) + V_r dW/dL`` [N].
+    """Model 2, Eq. 13: model 1 plus the Mooney-Rivlin rubber [N].
 
-    Parameters: L actuator length [m] in 0 < L < b, P gauge pressure [Pa]; params supplies b, L0, D0,
-    t0 [m], n [-], C1, C2 [Pa] (V_r = pi t0 (D0 - t0) L0).
+    ``f2 = P (3 L^2 - b^2) / (4 pi n^2) + V_r dW/dL`` with ``V_r = pi t0 (D0 - t0) L0``.
+
+    Parameters
+    ----------
+    L : float or array_like
+        Actuator length [m], 0 < L < b.
+    P : float or array_like
+        Gauge pressure [Pa].
+    params : Params
+        Supplies b, L0, D0, t0 [m], n [-], C1, C2 [Pa] (the rubber is added whatever ``model``).
+
+    Returns
+    -------
+    f2 : float or array
+        Tension [N], positive when the actuator pulls.
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b or P is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 7-13.
+    .. [2] model-spec section 2 (model 2, n, V_r and the reference table).
     """
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
     check_pressure(P)
-    return P * pressure_gain(L, params.b, params.n) + params.V_r * strain_energy_gradient(L, params)
+    return (P * pressure_gain(L, params.b, params.n)
+            + params.V_r * strain_energy_gradient(L, params))
 
 
 def tension_before_limits(L, P, Ldot, params: Params = DEFAULT, quasi_static: bool = False):
-    """The pressure term of Eq. 7 plus the tension term of every effect params switch on [N], before the final
-    limits (slack). ``quasi_static``: every term at Ldot = 0 (the static share: elasticity's whole term, nothing
-    of damping's or friction's). No domain checks: see :func:`compose_tension`.
+    """The pressure term of Eq. 7 plus every switched-on effect's tension term [N], before limits.
 
-    ``f = P (3 L^2 - b^2) / (4 pi n^2) + sum_effects term(L, Ldot, P, p, xp)``.
+    ``f = P (3 L^2 - b^2) / (4 pi n^2) + sum_effects term(L, Ldot, P, p, xp)``
+
+    The final limits (slack) are not applied. No domain checks: see :func:`compose_tension`.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m].
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa].
+    Ldot : float, array_like or sympy expression
+        Lengthening rate [m/s] (> 0: the actuator lengthens).
+    params : Params or SymbolicParams
+        The parameter set: b [m], n [-] and the effects it switches on.
+    quasi_static : bool
+        Every term at Ldot = 0 (the static share: elasticity's whole term, nothing of damping's
+        or friction's): the effects whose quasi-static limit is "play" or "viscous" are left out.
+
+    Returns
+    -------
+    f : float, array or sympy expression
+        Tension before the final limits [N].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7
+       and 13.
+    .. [2] model-spec sections 2 and 4 (the effects' terms), 4b, 4c (a user's term).
     """
     if quasi_static:
         Ldot = 0.0
@@ -193,22 +404,70 @@ def tension_before_limits(L, P, Ldot, params: Params = DEFAULT, quasi_static: bo
 
 
 def apply_limits(f, params: Params = DEFAULT):
-    """The final limits of the effects params switch on (slack: ``max(f, 0)``), in the registry's order [N]."""
+    """The final limits of the effects params switch on, in the registry's order [N].
+
+    slack: ``f = max(f, 0)`` (a braided muscle cannot push).
+
+    Parameters
+    ----------
+    f : float, array_like or sympy expression
+        Tension before the limits [N].
+    params : Params or SymbolicParams
+        The parameter set whose effects' limits apply.
+
+    Returns
+    -------
+    float, array or sympy expression
+        The limited tension [N]; f itself when no limit is on.
+
+    References
+    ----------
+    .. [1] model-spec section 4 (slack).
+    """
     for limit in structure(params).final:
         f = limit(f, params, math_for(f))
     return f
 
 
 def compose_tension(L, P, Ldot=0.0, params: Params = DEFAULT, quasi_static: bool = False):
-    """THE actuator tension [N], composed from the effects of the registry: the one place the knee, the isotonic
-    and the isometric tests and the calibration get it from.
+    """THE actuator tension [N], composed from the effects of the registry.
 
-    ``f = limits(P (3L^2 - b^2)/(4 pi n^2) + sum_effects term(L, Ldot, P))`` (model-spec sections 2, 4).
-    quasi_static: the static share only (Ldot = 0; play and viscous shares are the caller's, see
-    :func:`play_half_width`, :func:`viscous_coefficient`), without the final limits.
-    Parameters: L [m] in 0 < L < b, P gauge pressure [Pa], Ldot [m/s] (finite).
+    ``f = limits(P (3 L^2 - b^2) / (4 pi n^2) + sum_effects term(L, Ldot, P))``
+
+    The one place the knee, the isotonic and the isometric tests and the calibration get it from.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa] (finite).
+    Ldot : float, array_like or sympy expression
+        Lengthening rate [m/s] (finite).
+    params : Params or SymbolicParams
+        The parameter set: b [m], n [-] and the effects it switches on.
+    quasi_static : bool
+        The static share only (Ldot = 0; play and viscous shares are the caller's, see
+        :func:`play_half_width`, :func:`viscous_coefficient`), without the final limits.
+
+    Returns
+    -------
+    f : float, array or sympy expression
+        Tension [N], positive when the actuator pulls.
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b, or P or Ldot is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7
+       and 13.
+    .. [2] model-spec sections 2 and 4 (4b, 4c: the further effects).
     """
-    if type(L) is float and type(P) is float and type(Ldot) is float:  # the integrator's case: cheap checks
+    # the integrator's case: cheap checks
+    if type(L) is float and type(P) is float and type(Ldot) is float:
         if not 0 < L < params.b:
             check_length(L, params.b)
         if not (math.isfinite(P) and math.isfinite(Ldot)):
@@ -220,7 +479,8 @@ def compose_tension(L, P, Ldot=0.0, params: Params = DEFAULT, quasi_static: bool
     check_length(L, params.b)
     check_pressure(P)
     if is_symbolic(Ldot):
-        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE, "lengthening rate Ldot [m/s]")
+        trace_domain_check(Ldot, None, None, lambda *_: _LDOT_MESSAGE,
+                           "lengthening rate Ldot [m/s]")
     elif not (type(Ldot) is float and math.isfinite(Ldot)) and not np.isfinite(Ldot).all():
         raise DomainError(_LDOT_MESSAGE)
     f = tension_before_limits(L, P, Ldot, params, quasi_static)
@@ -228,13 +488,61 @@ def compose_tension(L, P, Ldot=0.0, params: Params = DEFAULT, quasi_static: bool
 
 
 def static_tension(L, P, params: Params = DEFAULT):
-    """The quasi-static tension [N]: Eq. 7 plus the effects whose limit is static (model 2's rubber), no limits."""
+    """The quasi-static tension [N]: Eq. 7 plus the effects whose limit is static, no limits.
+
+    ``f = P (3 L^2 - b^2) / (4 pi n^2) + sum_static_effects term(L, 0, P)`` (model 2's rubber
+    ``V_r dW/dL``, the pressure threshold's term); :func:`compose_tension` with quasi_static.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa].
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    float, array or sympy expression
+        Quasi-static tension [N].
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b or P is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7
+       and 13.
+    .. [2] model-spec sections 2 and 4.
+    """
     return compose_tension(L, P, params=params, quasi_static=True)
 
 
 def play_half_width(P, params: Params = DEFAULT):
-    """Half-width of the quasi-static play band [N] at gauge pressure P [Pa]: the sum of the "play" limits params
-    switch on (Coulomb friction: Fc), 0.0 without."""
+    """Half-width of the quasi-static play band [N] at gauge pressure P [Pa], 0.0 without.
+
+    ``w = sum_play_effects play(P, p, xp)``: the sum of the "play" limits params switch on
+    (Coulomb friction: Fc; pressure friction: Fc_p P, so ``w = Fc + Fc_p P`` with both).
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa].
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    float, array or sympy expression
+        Half-width of the play band [N]; 0.0 without a "play" effect.
+
+    References
+    ----------
+    .. [1] model-spec sections 4 (coulomb_friction) and 4b (pressure_friction).
+    """
     P = as_values(P)
     xp = math_for(P)
     width = 0.0
@@ -245,27 +553,48 @@ def play_half_width(P, params: Params = DEFAULT):
 
 
 def viscous_coefficient(params: Params = DEFAULT) -> float:
-    """The quasi-static damping coefficient [N s/m]: the sum of the "viscous" limits params switch on (c)."""
-    return sum((e.viscous(params) for e in active_effects(params) if e.quasi_static == "viscous"), 0.0)
+    """The quasi-static damping coefficient [N s/m]: the sum of the "viscous" limits switched on.
+
+    Viscous damping: ``c``.
+
+    Parameters
+    ----------
+    params : Params
+        The parameter set.
+
+    Returns
+    -------
+    float
+        Damping coefficient [N s/m]; 0.0 without a "viscous" effect.
+
+    References
+    ----------
+    .. [1] model-spec section 4 (viscous_damping).
+    """
+    return sum((e.viscous(params) for e in active_effects(params) if e.quasi_static == "viscous"),
+               0.0)
 
 
-# --- exact derivatives: sympy.diff of the traced terms ------------------------------------------------------------
+# --- exact derivatives: sympy.diff of the traced terms -------------------------------------------
 
-#: Both kinds of derivative cache, emptied together (the pin tests do, see bench/mutation.py): lambdified functions
-#: by effect structure (:func:`_derivative_function`), traced expressions by symbols (:func:`_traced_expressions`).
+#: Both kinds of derivative cache, emptied together (the pin tests do, see bench/mutation.py):
+#: lambdified functions by effect structure (:func:`_derivative_function`), traced expressions by
+#: symbols (:func:`_traced_expressions`).
 _DERIVATIVES: dict = {}
 
 
 def _symbol_arguments(expressions, leading):
-    """The names of the parameter symbols the expressions use (every free symbol but the leading inputs)."""
+    """The names of the parameter symbols the expressions use (every free symbol but the leading
+    inputs)."""
     return sorted({s.name for e in expressions for s in e.free_symbols if s not in set(leading)})
 
 
 def _derivative_function(params, build, scalar: bool = False):
-    """A lambdified function of (inputs..., parameter values...) for the structure of params, made once per
-    structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns (function, parameter names).
-    scalar: the version for Python floats (the math module: much cheaper than numpy on one value). Each version
-    is made when first asked for: most structures are only ever evaluated on floats or only on arrays."""
+    """A lambdified function of (inputs..., parameter values...) for the structure of params, made
+    once per structure from ``build(sp) -> (inputs, expressions)`` (sympy), cached; returns
+    (function, parameter names). scalar: the version for Python floats (the math module: much
+    cheaper than numpy on one value). Each version is made when first asked for: most structures
+    are only ever evaluated on floats or only on arrays."""
     key = (build, _effects.generation(), tuple(e.name for e in active_effects(params)))
     entry = _DERIVATIVES.get(key)
     if entry is None:
@@ -277,18 +606,21 @@ def _derivative_function(params, build, scalar: bool = False):
         names = _symbol_arguments(expressions, inputs)
         symbols = {s.name: s for e in expressions for s in e.free_symbols if s not in set(inputs)}
         arguments = [*inputs, *(symbols[n] for n in names)]
-        entry = _DERIVATIVES[key] = {"arguments": arguments, "expressions": expressions, "names": tuple(names)}
+        entry = _DERIVATIVES[key] = {"arguments": arguments, "expressions": expressions,
+                                     "names": tuple(names)}
     module = "math" if scalar else "numpy"
     if module not in entry:
         import sympy
-        entry[module] = sympy.lambdify(entry["arguments"], entry["expressions"], modules=module, cse=True)
+        entry[module] = sympy.lambdify(entry["arguments"], entry["expressions"], modules=module,
+                                       cse=True)
     return entry[module], entry["names"]
 
 
 def _traced_expressions(params, build):
-    """``build(params)`` for a :class:`SymbolicParams`, made once per registry and set of symbols, cached: the
-    compiled core's generator asks for the same terms' derivatives for both muscles and for every output of a
-    variant, and tracing and differentiating them is most of its time. Anything else is built afresh."""
+    """``build(params)`` for a :class:`SymbolicParams`, made once per registry and set of symbols,
+    cached: the compiled core's generator asks for the same terms' derivatives for both muscles
+    and for every output of a variant, and tracing and differentiating them is most of its time.
+    Anything else is built afresh."""
     if not isinstance(params, SymbolicParams):
         return build(params)
     key = (build, _effects.generation(), tuple(getattr(params, name) for name in PARAMETER_NAMES))
@@ -299,9 +631,11 @@ def _traced_expressions(params, build):
 
 
 def _heaviside_as_step(expr):
-    """Replace sympy's Heaviside(x) (the derivative of Max(x, 0)) by 1 for x > 0, else 0 (Python's branch)."""
+    """Replace sympy's Heaviside(x) (the derivative of Max(x, 0)) by 1 for x > 0, else 0 (Python's
+    branch)."""
     import sympy
-    return expr.replace(sympy.Heaviside, lambda x, *rest: sympy.Piecewise((1.0, x > 0), (0.0, True)))
+    return expr.replace(sympy.Heaviside,
+                        lambda x, *rest: sympy.Piecewise((1.0, x > 0), (0.0, True)))
 
 
 def _tension_expressions(sp):
@@ -314,11 +648,43 @@ def _tension_expressions(sp):
 
 
 def tension_partials(L, P, Ldot, params: Params = DEFAULT):
-    """Exact partial derivatives of the tension before the limits, and the limits' slope, from ``sympy.diff`` of
-    the traced terms (:func:`tension_before_limits`, :func:`apply_limits`).
+    """Exact partial derivatives of the tension before the limits, and the limits' slope.
 
-    Returns (g, dg/dL [N/m], dg/dLdot [N s/m], dg/dP [N/Pa], factor [-]) with g the tension before the limits and
-    factor = d limits / d g at g (slack: 0 where the muscle carries nothing). Works on floats, arrays and symbols.
+    From ``sympy.diff`` of the traced terms (:func:`tension_before_limits`,
+    :func:`apply_limits`): ``dg/dL``, ``dg/dLdot``, ``dg/dP`` of
+    ``g = P (3 L^2 - b^2) / (4 pi n^2) + sum_effects term(L, Ldot, P)``, and
+    ``factor = d limits(g) / d g`` (slack: 0 where the muscle carries nothing, ``g <= 0``; 1
+    where it pulls). Works on floats, arrays and symbols. No domain checks.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m].
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa].
+    Ldot : float, array_like or sympy expression
+        Lengthening rate [m/s].
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    g : float, array or sympy expression
+        Tension before the limits [N].
+    dg_dL : float, array or sympy expression
+        [N/m]
+    dg_dLdot : float, array or sympy expression
+        [N s/m]
+    dg_dP : float, array or sympy expression
+        [N/Pa] (= m^2)
+    factor : float, array or sympy expression
+        Slope of the final limits at g [-].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7,
+       13 and 18 (the linearization these derivatives feed).
+    .. [2] model-spec sections 2 and 4.
     """
     if any(is_symbolic(x) for x in (L, P, Ldot)):
         import sympy
@@ -326,8 +692,10 @@ def tension_partials(L, P, Ldot, params: Params = DEFAULT):
         l, ld, pp, f = sp_inputs
         g = tension_before_limits(L, P, Ldot, params)
         values = {l: L, ld: Ldot, pp: P}
-        # xreplace, not subs: the dummies are atoms, replaced exactly, without subs' search for patterns
-        return (g, *(sympy.sympify(e).xreplace(values) for e in expressions[1:4]),  # fresh dummies: no clash
+        # xreplace, not subs: the dummies are atoms, replaced exactly, without subs' search
+        # for patterns
+        return (g, *(sympy.sympify(e).xreplace(values)
+                     for e in expressions[1:4]),  # fresh dummies: no clash
                 sympy.sympify(expressions[4]).xreplace({f: g}))
     scalar = type(L) is float and type(P) is float and type(Ldot) is float
     function, names = _derivative_function(params, _tension_expressions, scalar)
@@ -337,8 +705,34 @@ def tension_partials(L, P, Ldot, params: Params = DEFAULT):
 
 
 def pressure_derivative(P, P_cmd, params: Params = DEFAULT):
-    """dP/dt of one actuator [Pa/s]: the sum of the pressure-rate terms of the effects params switch on
-    (pressure lag: ``(P_cmd - P) / tau``); 0 without any."""
+    """dP/dt of one actuator [Pa/s]: the sum of the switched-on effects' pressure-rate terms.
+
+    ``dP/dt = sum_effects pressure_rate(P, P_cmd, p, xp)``; pressure lag:
+    ``dP/dt = (P_cmd - P) / tau``; with the asymmetric lag, ``(P_cmd - P) / tau_exhaust`` while
+    exhausting (P_cmd < P). 0 without any.
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Actuator gauge pressure [Pa].
+    P_cmd : float, array_like or sympy expression
+        Commanded gauge pressure [Pa].
+    params : Params or SymbolicParams
+        The parameter set (tau, tau_exhaust [s], a user's pressure effects).
+
+    Returns
+    -------
+    float, array or sympy expression
+        Pressure rate [Pa/s]; 0.0 without a pressure effect.
+
+    Notes
+    -----
+    Not in the paper, whose Eq. 17 takes the pressures as given and instant.
+
+    References
+    ----------
+    .. [1] model-spec sections 4 (pressure_lag), 4b (asymmetric_lag) and 4c (a user's term).
+    """
     if not (type(P) is float and type(P_cmd) is float):
         P, P_cmd = as_values(P), as_values(P_cmd)
     xp = math_for_all(P, P_cmd)
@@ -352,45 +746,116 @@ def _pressure_expressions(sp):
     import sympy
     P, P_cmd = sympy.Dummy(real=True), sympy.Dummy(real=True)
     rate = sympy.sympify(pressure_derivative(P, P_cmd, sp))
-    return (P, P_cmd), [rate, _heaviside_as_step(sympy.diff(rate, P)), _heaviside_as_step(sympy.diff(rate, P_cmd))]
+    return (P, P_cmd), [rate, _heaviside_as_step(sympy.diff(rate, P)),
+                        _heaviside_as_step(sympy.diff(rate, P_cmd))]
 
 
 def pressure_derivative_partials(P, P_cmd, params: Params = DEFAULT):
-    """(d(dP/dt)/dP [1/s], d(dP/dt)/dP_cmd [1/s]) of :func:`pressure_derivative`, from ``sympy.diff``: the
-    linearization's pressure block (lag: -1/tau and 1/tau)."""
+    """The partial derivatives of :func:`pressure_derivative` by P and P_cmd, from ``sympy.diff``.
+
+    The linearization's pressure block (lag: -1/tau and 1/tau).
+
+    Parameters
+    ----------
+    P : float or sympy expression
+        Actuator gauge pressure [Pa].
+    P_cmd : float or sympy expression
+        Commanded gauge pressure [Pa].
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    dPdot_dP : float or sympy expression
+        d(dP/dt)/dP [1/s].
+    dPdot_dPcmd : float or sympy expression
+        d(dP/dt)/dP_cmd [1/s].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18
+       (the linearization, which this block extends by the pressure states).
+    .. [2] model-spec sections 4 (pressure_lag) and 4b (asymmetric_lag).
+    """
     if is_symbolic(P) or is_symbolic(P_cmd):
         import sympy
         (p, pc), expressions = _traced_expressions(params, _pressure_expressions)
-        return tuple(sympy.sympify(e).xreplace({p: P, pc: P_cmd}) for e in expressions[1:])  # as tension_partials
-    # the result is two floats whatever P is: the math module's version (cheaper on one value) always
+        return tuple(sympy.sympify(e).xreplace({p: P, pc: P_cmd})
+                     for e in expressions[1:])  # as tension_partials
+    # the result is two floats whatever P is: always the math module's version (cheaper on one
+    # value)
     function, names = _derivative_function(params, _pressure_expressions, scalar=True)
     _, dP, dPcmd = function(P, P_cmd, *[getattr(params, n) for n in names])
     return float(dP), float(dPcmd)
 
 
-#: The tolerances :func:`pressure_after` integrates the pressure dynamics with where no exact step covers them:
-#: absolute [Pa] and relative (the compiled core's generated step uses the same ones).
+#: The tolerances :func:`pressure_after` integrates the pressure dynamics with where no exact step
+#: covers them: absolute [Pa] and relative (the compiled core's generated step uses the same ones).
 PRESSURE_STEP_ATOL = 1e-3
 PRESSURE_STEP_RTOL = 1e-10
 
 
 def exact_pressure_step(params):
-    """The registered effect whose exact pressure step (``pressure_step``) covers every pressure effect params
-    switch on (its own and those it requires), or None: no effect with pressure dynamics is on, or none of those on
-    has a step covering the others (a user effect with a ``pressure_rate`` only)."""
+    """The registered effect whose exact pressure step covers every pressure effect on, or None.
+
+    The effect's ``pressure_step`` covers its own pressure dynamics and those of the effects it
+    requires. None: no effect with pressure dynamics is on, or none of those on has a step
+    covering the others (a user effect with a ``pressure_rate`` only).
+
+    Parameters
+    ----------
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    Effect or None
+        The effect whose step to use (the last such in the registry's order), or None.
+    """
     dynamic = [e for e in active_effects(params) if e.pressure_rate is not None]
     for effect in reversed(dynamic):
-        if effect.pressure_step is not None and all(e is effect or e.name in effect.requires for e in dynamic):
+        if effect.pressure_step is not None and all(e is effect or e.name in effect.requires
+                                                    for e in dynamic):
             return effect
     return None
 
 
 def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
-    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P: an effect's exact solution
-    when it covers every pressure effect on (:func:`exact_pressure_step`; the lag,
-    ``P_cmd + (P - P_cmd) exp(-dt/tau)``; the asymmetric lag), else :func:`pressure_derivative` integrated over dt
-    (Dormand-Prince 5(4), :data:`PRESSURE_STEP_ATOL`, :data:`PRESSURE_STEP_RTOL`, first step dt); the command
-    itself when no effect has pressure dynamics."""
+    """The actuator pressure [Pa] after dt [s] with the command P_cmd held, from P.
+
+    An effect's exact solution when it covers every pressure effect on
+    (:func:`exact_pressure_step`; the lag, ``P_cmd + (P - P_cmd) exp(-dt/tau)``; the asymmetric
+    lag, tau_exhaust in place of tau while P_cmd < P), else :func:`pressure_derivative`
+    integrated over dt (Dormand-Prince 5(4), :data:`PRESSURE_STEP_ATOL`,
+    :data:`PRESSURE_STEP_RTOL`, first step dt); the command itself when no effect has pressure
+    dynamics.
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Actuator gauge pressure at the start [Pa] (a float where the rate is integrated).
+    P_cmd : float, array_like or sympy expression
+        Commanded gauge pressure, held over dt [Pa].
+    dt : float or sympy expression
+        Duration [s]; not positive: P itself where the rate is integrated.
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    float, array or sympy expression
+        Gauge pressure after dt [Pa].
+
+    Notes
+    -----
+    Not in the paper, whose Eq. 17 takes the pressures as given and instant.
+
+    References
+    ----------
+    .. [1] model-spec sections 4 (pressure_lag) and 4b (asymmetric_lag).
+    .. [2] Dormand & Prince, "A family of embedded Runge-Kutta formulae", J. Comp. Appl. Math. 6
+       (1980) (:func:`mkctl.physics.integrate.integrate`).
+    """
     P, P_cmd = as_values(P), as_values(P_cmd)
     if not has_pressure_states(params):
         return P_cmd + 0.0 * P
@@ -400,34 +865,97 @@ def pressure_after(P, P_cmd, dt, params: Params = DEFAULT):
     from .integrate import integrate
     if not dt > 0:
         return P
-    state, _, _ = integrate(lambda y: np.array([float(pressure_derivative(float(y[0]), P_cmd, params))]),
-                            np.array([float(P)]), float(dt), float(dt), np.array([PRESSURE_STEP_ATOL]),
-                            PRESSURE_STEP_RTOL)
+    state, _, _ = integrate(lambda y: np.array([float(pressure_derivative(float(y[0]), P_cmd,
+                                                                          params))]),
+                            np.array([float(P)]), float(dt), float(dt),
+                            np.array([PRESSURE_STEP_ATOL]), PRESSURE_STEP_RTOL)
     return float(state[0])
 
 
 def static_tension_dL(L, P, params: Params = DEFAULT):
-    """Exact d/dL of :func:`static_tension` [N/m] (sympy.diff of the traced terms)."""
+    """Exact d/dL of :func:`static_tension` [N/m] (sympy.diff of the traced terms).
+
+    Model 2 without further effects: ``P 6 L / (4 pi n^2) + V_r d^2W/dL^2``.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa].
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    float, array or sympy expression
+        The static stiffness d f / d L [N/m].
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b or P is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 13
+       and 23-25 (the slopes the stability condition needs).
+    .. [2] model-spec sections 2 and 4.
+    """
     L, P = as_values(L), as_values(P)
     check_length(L, params.b)
     check_pressure(P)
     if is_symbolic(L) or is_symbolic(P):
         (l, p), expressions = _traced_expressions(params, _static_expressions)
         return expressions[1].xreplace({l: L, p: P})  # fresh dummies: no clash; as tension_partials
-    function, names = _derivative_function(params, _static_expressions, type(L) is float and type(P) is float)
+    function, names = _derivative_function(params, _static_expressions,
+                                           type(L) is float and type(P) is float)
     return function(L, P, *[getattr(params, n) for n in names])[1]
 
 
 def _static_expressions(sp):
     import sympy
     L, P = sympy.Dummy(real=True), sympy.Dummy(real=True)
-    with tracing_domain_checks():  # the checks on these dummies are no caller's (generated code traces its own)
+    # the checks on these dummies are no caller's (generated code traces its own)
+    with tracing_domain_checks():
         f = sympy.sympify(static_tension(L, P, sp))
     return (L, P), [f, _heaviside_as_step(sympy.diff(f, L))]
 
 
 def static_tension_dP(L, params: Params = DEFAULT):
-    """Analytic d/dP of the paper's static tension [m^2]: the elastic term does not depend on P."""
+    """Analytic d/dP of the paper's static tension [m^2]: the elastic term does not depend on P.
+
+    ``df/dP = (3 L^2 - b^2) / (4 pi n^2)`` (Eq. 7 and 13).
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    params : Params or SymbolicParams
+        Supplies b [m] and n [-].
+
+    Returns
+    -------
+    float, array or sympy expression
+        Tension per unit gauge pressure [N/Pa = m^2].
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b.
+
+    Notes
+    -----
+    The paper's static tension: with the pressure threshold (model-spec section 4b) on, the
+    quasi-static tension's slope is ``(1 - exp(-P/P0)) (3 L^2 - b^2) / (4 pi n^2)`` for P > 0,
+    which this function does not give.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7
+       and 13.
+    .. [2] model-spec section 2.
+    """
     L = as_values(L)
     check_length(L, params.b)
     return pressure_gain(L, params.b, params.n)
@@ -436,27 +964,102 @@ def static_tension_dP(L, params: Params = DEFAULT):
 # --- Effects beyond the paper (model-spec section 4) --------------------------------------------
 
 def tension(L, P, Ldot=0.0, params: Params = DEFAULT):
-    """Total tension [N]: :func:`compose_tension` (Eq. 7 plus every effect params switch on, then slack).
+    """Total tension [N]: :func:`compose_tension` (Eq. 7, every effect params switch on, slack).
 
-    ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``, and with slack = 1
-    ``f = max(f, 0)`` (model-spec section 4). Parameters: L [m], P gauge pressure [Pa], Ldot [m/s].
+    ``f = P (3L^2 - b^2)/(4 pi n^2) [+ V_r dW/dL] [+ c Ldot] [+ Fc tanh(Ldot/vs)]``, and with
+    slack = 1 ``f = max(f, 0)``; the further effects of model-spec section 4b and a user's own
+    (section 4c) add their terms the same way.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    P : float, array_like or sympy expression
+        Gauge pressure [Pa].
+    Ldot : float, array_like or sympy expression
+        Lengthening rate [m/s].
+    params : Params or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    f : float, array or sympy expression
+        Tension [N], positive when the actuator pulls.
+
+    Raises
+    ------
+    DomainError
+        Where L is outside 0 < L < b, or P or Ldot is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7
+       and 13.
+    .. [2] model-spec sections 2 and 4.
     """
     return compose_tension(L, P, Ldot, params)
 
 
 def pressure_rate(P, P_cmd, tau: float):
-    """First-order pressure lag ``dP/dt = (P_cmd - P) / tau`` [Pa/s] (spec section 4); tau [s] > 0."""
+    """First-order pressure lag ``dP/dt = (P_cmd - P) / tau`` [Pa/s].
+
+    Parameters
+    ----------
+    P : float or array_like
+        Actuator gauge pressure [Pa].
+    P_cmd : float or array_like
+        Commanded gauge pressure [Pa].
+    tau : float
+        Time constant [s], > 0.
+
+    Returns
+    -------
+    float or array
+        Pressure rate [Pa/s].
+
+    Notes
+    -----
+    Not in the paper, whose Eq. 17 takes the pressures as given and instant.
+
+    References
+    ----------
+    .. [1] model-spec section 4 (pressure_lag: ``tau dP/dt = P_cmd - P``).
+    """
     return (as_values(P_cmd) - as_values(P)) / tau
 
 
 def lagged_pressure(P, P_cmd, tau: float, dt: float):
-    """Exact solution of the lag over dt with P_cmd held constant: ``P_cmd + (P - P_cmd) exp(-dt/tau)``.
+    """Exact solution of the lag over dt with P_cmd held: ``P_cmd + (P - P_cmd) exp(-dt/tau)``.
 
     With tau = 0 there is no lag and the pressure equals the command.
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Actuator gauge pressure at the start [Pa].
+    P_cmd : float, array_like or sympy expression
+        Commanded gauge pressure, held over dt [Pa].
+    tau : float
+        Time constant [s]; not positive: no lag.
+    dt : float or sympy expression
+        Duration [s].
+
+    Returns
+    -------
+    float, array or sympy expression
+        Gauge pressure after dt [Pa].
+
+    Notes
+    -----
+    Not in the paper, whose Eq. 17 takes the pressures as given and instant.
+
+    References
+    ----------
+    .. [1] model-spec section 4 (pressure_lag: ``tau dP/dt = P_cmd - P``).
     """
     P, P_cmd = as_values(P), as_values(P_cmd)
     if tau <= 0:
         return P_cmd + 0.0 * P
     decay = -dt / tau
-    return P_cmd + (P - P_cmd) * (_symbolic_math().exp(decay) if is_symbolic(decay) else math.exp(decay))
-
+    return P_cmd + (P - P_cmd) * (_symbolic_math().exp(decay) if is_symbolic(decay)
+                                  else math.exp(decay))
