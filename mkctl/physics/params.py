@@ -1,14 +1,18 @@
 """Parameter sets: Table I (actuator), Table II (knee) and the effects of model-spec section 4.
 
-All values are SI (m, s, N, Pa, kg). :class:`Params` is one immutable, flat set holding every name of
-model-spec sections 2-4, so that the same names work everywhere: in Python (``Params(m=2.5)``), in a
-measurement file's metadata (``# m = 2.5``) and as FMU parameters.
+All values are SI (m, s, N, Pa, kg). :class:`Params` is one immutable, flat set holding every name
+of model-spec sections 2-4, so that the same names work everywhere: in Python (``Params(m=2.5)``),
+in a measurement file's metadata (``# m = 2.5``) and as FMU parameters.
 
 Derived values (model-spec section 2):
 
-- ``n = sqrt(b^2 - L0^2) / (pi D0)``, the turns of a thread, missing from Table I. It makes the braid
-  geometry of Eq. 5 pass through the rest state (L0, D0).
+- ``n = sqrt(b^2 - L0^2) / (pi D0)``, the turns of a thread, missing from Table I. It makes the
+  braid geometry of Eq. 5 pass through the rest state (L0, D0).
 - ``V_r = pi t0 (D0 - t0) L0``, the rubber volume of Eq. 8-9 (an annulus times L0).
+
+References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
+paper), Table I, Table II, Eq. 5 and 8-9; model-spec sections 2 (n, V_r), 3 (Table II's r) and 4
+(the effects' parameters).
 
 Example
 -------
@@ -25,20 +29,27 @@ from types import MappingProxyType
 from typing import NamedTuple
 
 from . import effects
-from .effects import outside_domain_message  # noqa: F401  (re-exported: the native FMUs write it into C)
+from .effects import outside_domain_message  # noqa: F401  (re-exported: native FMUs write it in C)
 from ..errors import ParameterError
-from .tables import (BASE_NAMES, RATED_PRESSURE, TABLE_I, TABLE_II, Quantity,  # noqa: F401 (re-exported)
-                     derived_turns, rubber_volume)
+from .tables import (BASE_NAMES, RATED_PRESSURE, TABLE_I, TABLE_II,  # noqa: F401 (re-exported)
+                     Quantity, derived_turns, rubber_volume)
 
 
-#: Table parameters that must be positive, and those that must not be negative (the effects' own bounds are in
-#: their definitions, :mod:`mkctl.physics.effects`).
+#: Table parameters that must be positive, and those that must not be negative (the effects' own
+#: bounds are in their definitions, :mod:`mkctl.physics.effects`).
 _POSITIVE = ("b", "L0", "D0", "t0", "m", "L1", "L2", "L5", "L6", "Lo", "Lu", "r", "g")
 _NOT_NEGATIVE = ("C1", "C2", "Lec", "Lfc")
 
 
 class LiveSequence(Sequence):
-    """A tuple-like view that follows the effect registry (names registered at run time included)."""
+    """A tuple-like view that follows the effect registry (names registered at run time included).
+
+    Parameters
+    ----------
+    compute : callable
+        ``compute() -> iterable``, the items; called again whenever the registry changes (its
+        generation), its result kept until then.
+    """
 
     def __init__(self, compute):
         self._compute = compute
@@ -63,7 +74,8 @@ class LiveSequence(Sequence):
         return iter(self._items())
 
     def __eq__(self, other) -> bool:
-        return tuple(self) == tuple(other) if isinstance(other, (tuple, list, LiveSequence)) else NotImplemented
+        return (tuple(self) == tuple(other) if isinstance(other, (tuple, list, LiveSequence))
+                else NotImplemented)
 
     def __hash__(self):
         return hash(tuple(self))
@@ -79,7 +91,14 @@ class LiveSequence(Sequence):
 
 
 class LiveMapping(Mapping):
-    """A read-only mapping that follows the effect registry."""
+    """A read-only mapping that follows the effect registry.
+
+    Parameters
+    ----------
+    compute : callable
+        ``compute() -> mapping`` (or (key, value) pairs); called again whenever the registry
+        changes (its generation), its result kept until then.
+    """
 
     def __init__(self, compute):
         self._compute = compute
@@ -104,10 +123,11 @@ class LiveMapping(Mapping):
         return repr(self._items())
 
 
-#: Effects beyond the paper (spec section 4): every effect parameter with its off value (the default; model's
-#: default is 2), unit and meaning, read from the registry (:mod:`mkctl.physics.effects`).
-EFFECTS_TABLE = LiveMapping(lambda: {q.name: Quantity(q.start if q.switch else float(q.start), q.unit,
-                                                       q.description)
+#: Effects beyond the paper (spec section 4): every effect parameter with its off value (the
+#: default; model's default is 2), unit and meaning, read from the registry
+#: (:mod:`mkctl.physics.effects`).
+EFFECTS_TABLE = LiveMapping(lambda: {q.name: Quantity(q.start if q.switch else float(q.start),
+                                                       q.unit, q.description)
                                       for q in effects.parameters() if q.name != "model"})
 
 #: Names of the effects of spec section 4, and the parameters each one brings.
@@ -120,25 +140,58 @@ UNITS = LiveMapping(lambda: {**{k: q.unit for k, q in {**TABLE_I, **TABLE_II}.it
 #: Parameters that are whole numbers (switches), not real values.
 INTEGER_PARAMETERS = LiveSequence(lambda: [q.name for q in effects.parameters() if q.switch])
 
-#: Every parameter name accepted by :meth:`Params.replace`, a measurement file and the FMUs: the tables', then
-#: each registered effect's, in the registry's order.
+#: Every parameter name accepted by :meth:`Params.replace`, a measurement file and the FMUs: the
+#: tables', then each registered effect's, in the registry's order.
 PARAMETER_NAMES = LiveSequence(lambda: [*BASE_NAMES, *(q.name for q in effects.parameters())])
 
 
 class Params:
-    """Every parameter of the actuator, the knee and the effects, in SI units; immutable and hashable.
+    """Every parameter of the actuator, the knee and the effects, in SI units; immutable, hashable.
 
-    Defaults are Table I, Table II and "effects off" (every effect parameter at its off value, model 2:
-    elasticity on). Switches (``model`` 1 or 2, ``slack`` 0 or 1) are whole numbers; everything else is a float.
-    ``n`` is derived from b, L0 and D0 unless given. The effect parameters are those of the registry
-    (:mod:`mkctl.physics.effects`), effects registered at run time included: a set made before an effect was
-    registered reads its parameters at their off values. Invalid values raise :class:`ParameterError`.
+    Defaults are Table I, Table II and "effects off" (every effect parameter at its off value,
+    model 2: elasticity on). Switches (``model`` 1 or 2, ``slack`` 0 or 1) are whole numbers;
+    everything else is a float. ``n`` is derived from b, L0 and D0 unless given:
+    ``n = sqrt(b^2 - L0^2) / (pi D0)``. The effect parameters are those of the registry
+    (:mod:`mkctl.physics.effects`), effects registered at run time included: a set made before an
+    effect was registered reads its parameters at their off values. Invalid values raise
+    :class:`ParameterError`.
+
+    Parameters
+    ----------
+    **values : float or int
+        Any names of :data:`PARAMETER_NAMES`, in SI units (their units: :data:`UNITS`): Table I's
+        b, L0, D0, t0 [m], C1, C2 [Pa]; Table II's m [kg], g [m/s^2], L1, L2, L5, L6, Lo, Lu,
+        Lec, Lfc, r [m]; n [-]; the effects' parameters (c [N s/m], Fc [N], vs [m/s], tau [s],
+        ..., the switches model and slack).
+
+    Raises
+    ------
+    ParameterError
+        For an unknown name; a value that is not a finite number (a bool included); a switch that
+        is not whole; a table length, m or g not positive, C1, C2, Lec or Lfc negative; a value
+        outside its effect's bounds or :data:`DOMAIN`; an effect switched on without the effect
+        it requires; L0 >= b; t0 >= D0/2; n not positive; r >= L1 (see :func:`check_domain`).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Table I,
+       Table II and Eq. 5 (n at rest).
+    .. [2] model-spec sections 2 (n, V_r), 3 (r) and 4 (the effects' parameters).
+
+    Examples
+    --------
+    >>> from mkctl.physics.params import Params
+    >>> round(Params().n, 6)
+    2.980485
+    >>> Params(m=2.5).replace(m=3.0).m
+    3.0
     """
 
     def __init__(self, **values):
         unknown = [k for k in values if k not in PARAMETER_NAMES]
         if unknown:
-            raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(PARAMETER_NAMES)})")
+            raise ParameterError(f"unknown parameter {unknown[0]!r} "
+                                 f"(known: {', '.join(PARAMETER_NAMES)})")
         own = self.__dict__
         for name in BASE_NAMES:
             own[name] = values.get(name, None if name == "n" else _BASE_DEFAULTS[name])
@@ -153,7 +206,8 @@ class Params:
             value = own[name]
             if value is None:
                 continue
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not math.isfinite(value)):
                 raise ParameterError(f"parameter {name} must be a finite number, got {value!r}")
             if name in switches and value != int(value):
                 raise ParameterError(f"parameter {name} must be a whole number, got {value!r}")
@@ -173,12 +227,14 @@ class Params:
             for name in effect.requires:
                 needed = effects.get(name).switch_parameter
                 if own[needed.name] == needed.off:
-                    raise ParameterError(f"parameter {q.name} ({effect.name}) needs the effect {name} "
-                                         f"({needed.name} switched on)")
+                    raise ParameterError(f"parameter {q.name} ({effect.name}) needs the effect "
+                                         f"{name} ({needed.name} switched on)")
         if own["L0"] >= own["b"]:
-            raise ParameterError(f"rest length L0 = {own['L0']} m must be shorter than the braid b = {own['b']} m")
+            raise ParameterError(f"rest length L0 = {own['L0']} m must be shorter than the braid "
+                                 f"b = {own['b']} m")
         if own["t0"] >= own["D0"] / 2:
-            raise ParameterError(f"wall thickness t0 = {own['t0']} m must be less than the radius D0/2")
+            raise ParameterError(f"wall thickness t0 = {own['t0']} m must be less than the radius "
+                                 "D0/2")
         if own["n"] is None:
             own["n"] = derived_turns(own["b"], own["L0"], own["D0"])
         elif own["n"] <= 0:
@@ -186,7 +242,8 @@ class Params:
         check_domain(own)
 
     def __getattr__(self, name: str):
-        # only names not set in __init__ land here: an effect registered after this set was made is off
+        # only names not set in __init__ land here: an effect registered after this set was made
+        # is off
         if not name.startswith("_"):
             for q in effects.parameters():
                 if q.name == name:
@@ -194,7 +251,8 @@ class Params:
         raise AttributeError(f"'Params' object has no attribute {name!r}")
 
     def __setattr__(self, name, value):
-        raise AttributeError(f"Params are immutable: use replace({name}=...) for a copy with another value")
+        raise AttributeError(f"Params are immutable: use replace({name}=...) for a copy with "
+                             "another value")
 
     def __delattr__(self, name):
         raise AttributeError("Params are immutable")
@@ -216,7 +274,8 @@ class Params:
         return hash(self._key())
 
     def __repr__(self) -> str:
-        return "Params(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in PARAMETER_NAMES) + ")"
+        return ("Params(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in PARAMETER_NAMES)
+                + ")")
 
     def __getstate__(self) -> dict:
         return self.as_dict()  # values only: caches are rebuilt
@@ -226,7 +285,7 @@ class Params:
 
     @property
     def V_r(self) -> float:
-        """Rubber volume [m^3], spec section 2."""
+        """Rubber volume ``V_r = pi t0 (D0 - t0) L0`` [m^3], spec section 2 (Eq. 8-9)."""
         return rubber_volume(self.t0, self.D0, self.L0)
 
     @property
@@ -237,32 +296,60 @@ class Params:
     def replace(self, **overrides) -> "Params":
         """A copy with some values changed; unknown names raise :class:`ParameterError`.
 
-        ``n`` is derived again from b, L0, D0 when one of them changes value, unless it is given explicitly.
+        ``n`` is derived again from b, L0, D0 when one of them changes value, unless it is given
+        explicitly.
+
+        Parameters
+        ----------
+        **overrides : float or int
+            The names to change (any of :data:`PARAMETER_NAMES`) with their new values, in SI
+            units.
+
+        Returns
+        -------
+        Params
+            A new set; this one is unchanged.
+
+        Raises
+        ------
+        ParameterError
+            For an unknown name, or a new value that is invalid (see :class:`Params`).
         """
         unknown = sorted(set(overrides) - set(PARAMETER_NAMES))
         if unknown:
-            raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(PARAMETER_NAMES)})")
+            raise ParameterError(f"unknown parameter {unknown[0]!r} "
+                                 f"(known: {', '.join(PARAMETER_NAMES)})")
         values = self.as_dict()
-        # a geometry that does not change (a file repeating a muscle file's L0) keeps that muscle's fitted n
-        if "n" not in overrides and any(overrides[k] != values[k] for k in {"b", "L0", "D0"} & set(overrides)):
+        # a geometry that does not change (a file repeating a muscle file's L0) keeps that muscle's
+        # fitted n
+        if "n" not in overrides and any(overrides[k] != values[k]
+                                        for k in {"b", "L0", "D0"} & set(overrides)):
             values["n"] = None
         values.update(overrides)
         return Params(**values)
 
     def as_dict(self) -> dict[str, float]:
-        """All values by name (n included), e.g. for a JSON report or an FMU's start values."""
+        """All values by name (n included), e.g. for a JSON report or an FMU's start values.
+
+        Returns
+        -------
+        dict
+            ``{name: value}`` in :data:`PARAMETER_NAMES`' order, SI units (floats; the switches
+            ints).
+        """
         return {name: getattr(self, name) for name in PARAMETER_NAMES}
 
 
-# --- The model's domain: the values a real muscle and knee can take ---------------------------------
+# --- The model's domain: the values a real muscle and knee can take ------------------------------
 
-#: The range [low, high] of each parameter (SI) that the model accepts: every real muscle and knee lies well
-#: inside it (lengths from a micrometre to 100 m, masses from a gram to 10 t, ...), and every value inside it
-#: keeps the equations' intermediate numbers far from overflow and underflow. The effects' parameters are checked
-#: by their own bounds in the registry (:class:`mkctl.physics.effects.Parameter`). A value outside gives a
-#: one-line ParameterError.
+#: The range [low, high] of each parameter (SI) that the model accepts: every real muscle and knee
+#: lies well inside it (lengths from a micrometre to 100 m, masses from a gram to 10 t, ...), and
+#: every value inside it keeps the equations' intermediate numbers far from overflow and underflow.
+#: The effects' parameters are checked by their own bounds in the registry
+#: (:class:`mkctl.physics.effects.Parameter`). A value outside gives a one-line ParameterError.
 DOMAIN = MappingProxyType({
-    **{name: (1e-6, 100.0) for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
+    **{name: (1e-6, 100.0)
+       for name in ("b", "L0", "D0", "t0", "L1", "L2", "L5", "L6", "Lo", "Lu", "r")},
     "Lec": (0.0, 100.0), "Lfc": (0.0, 100.0),
     "n": (1e-4, 1e4),
     "C1": (0.0, 1e9), "C2": (0.0, 1e9),
@@ -272,8 +359,21 @@ DOMAIN = MappingProxyType({
 
 
 def domain_of(name: str) -> tuple[float, float] | None:
-    """The range [low, high] a parameter must lie in (the paper's from :data:`DOMAIN`, an effect's from its
-    registry bounds), or None when it has no finite range."""
+    """The range [low, high] a parameter must lie in, or None when it has no finite range.
+
+    The paper's parameters from :data:`DOMAIN`, an effect's from its registry bounds.
+
+    Parameters
+    ----------
+    name : str
+        A parameter name (:data:`PARAMETER_NAMES`).
+
+    Returns
+    -------
+    tuple of float or None
+        (low, high) in the parameter's SI unit (:data:`UNITS`); None for a switch, an effect
+        parameter without a finite upper bound, or an unknown name.
+    """
     if name in DOMAIN:
         return DOMAIN[name]
     q = next((q for q in effects.parameters() if q.name == name and not q.switch), None)
@@ -281,17 +381,39 @@ def domain_of(name: str) -> tuple[float, float] | None:
 
 
 def check_domain(values) -> None:
-    """Raise :class:`ParameterError` (one line: name, value, allowed range) unless every value of ``values``
-    (names to values) lies in :data:`DOMAIN` and the knee's geometry exists: the kneecap lever ``r`` shorter than
-    the extensor's thigh anchor distance ``L1``, so that ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3) is defined
-    for every kneecap angle alpha in (0, pi/2)."""
+    """Raise :class:`ParameterError` unless the values lie in :data:`DOMAIN` and the knee exists.
+
+    Every value of ``values`` must lie in :data:`DOMAIN`, and the knee's geometry must exist: the
+    kneecap lever ``r`` shorter than the extensor's thigh anchor distance ``L1``, so that
+
+    ``beta = pi/2 + alpha + asin(r sin(alpha) / L1)`` (spec section 3)
+
+    is defined for every kneecap angle alpha in (0, pi/2).
+
+    Parameters
+    ----------
+    values : Mapping
+        Names to values, SI units; r and L1 [m] must be among them (a name of :data:`DOMAIN`
+        missing or None is not checked).
+
+    Raises
+    ------
+    ParameterError
+        One line: the name, the value and the allowed range; or r >= L1.
+
+    References
+    ----------
+    .. [1] model-spec section 3 (the knee geometry and its kneecap angle alpha).
+    """
     for name, (low, high) in DOMAIN.items():
         value = values.get(name)
         if value is not None and not low <= value <= high:
-            raise ParameterError(outside_domain_message(name, f"{value:.6g}", low, high, UNITS.get(name, "1")))
+            raise ParameterError(outside_domain_message(name, f"{value:.6g}", low, high,
+                                                        UNITS.get(name, "1")))
     if values["r"] >= values["L1"]:
-        raise ParameterError(f"parameter r = {values['r']:.6g} m must be shorter than L1 = {values['L1']:.6g} m: the "
-                             "kneecap lever cannot reach past the extensor's thigh anchor (no knee geometry)")
+        raise ParameterError(f"parameter r = {values['r']:.6g} m must be shorter than "
+                             f"L1 = {values['L1']:.6g} m: the kneecap lever cannot reach past the "
+                             "extensor's thigh anchor (no knee geometry)")
 
 
 _BASE_DEFAULTS = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}
