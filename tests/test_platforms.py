@@ -265,3 +265,19 @@ def test_the_mach_o_check_finds_a_symbol_of_no_library_and_refuses_what_is_not_m
     assert binary.undefined["_mystery"] != SYSTEM_LIBRARY and "_fmi2GetVersion" in binary.exported
     with pytest.raises(ValueError, match="not a 64-bit Mach-O"):
         MachO((fmus["fmi3", "knee"] / "binaries" / "aarch64-linux" / "McKibbenKnee.so").read_bytes())
+
+
+# --- the pythonfmu FMUs' Python ------------------------------------------------------------------------------
+
+def test_the_pythonfmu_fmus_say_which_python_they_need(tmp_path):
+    import sys
+    from xml.etree import ElementTree
+
+    from mkctl.fmu.build import build
+    built = build(tmp_path, run=False, native=False)
+    version = f"{sys.version_info.major}.{sys.version_info.minor}"
+    for path in built.values():
+        with zipfile.ZipFile(path) as archive:
+            root = ElementTree.fromstring(archive.read("modelDescription.xml"))
+        assert root.get("description").endswith(f"(pythonfmu FMU: the host needs Python {version} with numpy "
+                                                 "and scipy)"), root.get("description")
