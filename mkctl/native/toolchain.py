@@ -18,6 +18,7 @@ default ``~/.cache/zig``): seconds to minutes per target, once per machine (docs
 """
 from __future__ import annotations
 
+import functools
 import importlib.util
 import os
 import shlex
@@ -138,13 +139,19 @@ def missing_host_compiler() -> str:
 
 def identity(compiler: list[str]) -> str:
     """The compiler's command and the first line of its ``--version``, and ziglang's version for zig (the
-    compiled-core cache records it: another compiler or version builds the library again)."""
+    compiled-core cache records it: another compiler or version builds the library again). Asked once per
+    process and command (starting ziglang takes a few tenths of a second)."""
+    return _identity(tuple(compiler))
+
+
+@functools.lru_cache(maxsize=16)
+def _identity(compiler: tuple[str, ...]) -> str:
     try:
         done = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=60)
         version = (done.stdout.strip().splitlines() or [""])[0]
     except (OSError, subprocess.SubprocessError):
         version = "unknown"
-    if is_zig(compiler):
+    if is_zig(list(compiler)):
         try:
             version = f"{ZIG_PACKAGE} {metadata.version(ZIG_PACKAGE)}, {version}"
         except metadata.PackageNotFoundError:
