@@ -86,6 +86,27 @@ def test_each_fmu_carries_every_platform_its_fmi_version_names(fmus):
         assert {"linux64", "win64", "darwin64", "c-code"} <= set(supported_platforms(str(folder)))
 
 
+def test_without_ziglang_the_build_names_each_missing_platform_in_one_line(tmp_path, monkeypatch, capfd):
+    from mkctl.native import cross
+    from mkctl.native.fmi3 import build_one
+    monkeypatch.setattr(toolchain, "zig_installed", lambda: False)
+    monkeypatch.setenv("MKCTL_MINGW_CC", "/nonexistent/x86_64-w64-mingw32-gcc")  # and no MinGW-w64
+    cross._note_platform_missing.cache_clear()
+    cross._note_missing.cache_clear()
+    capfd.readouterr()
+    for name in ("a", "b"):  # twice: the notes come once per process
+        with zipfile.ZipFile(build_one("McKibbenActuator", tmp_path / f"{name}.fmu")) as archive:
+            folders = {n.split("/")[1] for n in archive.namelist() if n.startswith("binaries/")}
+        assert folders == {"x86_64-linux"}
+    notes = [line for line in capfd.readouterr().err.splitlines() if "note:" in line]
+    assert sorted(notes) == sorted(
+        [f"mkctl.native: note: no toolchain for {p} (pip install mkctl[native]): the native FMUs carry no binary "
+         "for it" for p in ("aarch64-linux", "x86_64-darwin", "aarch64-darwin")]
+        + ["mkctl.native: note: no MinGW-w64 cross compiler (/nonexistent/x86_64-w64-mingw32-gcc; Debian: "
+           "apt-get install gcc-mingw-w64-x86-64) and no ziglang (pip install mkctl[native]): the native FMUs "
+           "carry no Windows binary"]), notes
+
+
 # --- aarch64-linux under qemu-user ------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")

@@ -56,9 +56,12 @@ def find_cross_compiler() -> list[str] | None:
 
 def missing_cross_compiler() -> str:
     """The one line that says why there is no Windows binary."""
+    if os.environ.get(ENV_MINGW) == "":
+        return (f"no MinGW-w64 cross compiler ({ENV_MINGW} is empty: no Windows binary asked for): the native "
+                "FMUs carry no Windows binary")
     return (f"no MinGW-w64 cross compiler ({os.environ.get(ENV_MINGW) or MINGW_CC}; Debian: apt-get install "
-            f"{MINGW_PACKAGE}) and no ziglang (pip install {toolchain.ZIG_EXTRA}): the native FMUs carry no "
-            "Windows binary")
+            f"{MINGW_PACKAGE}) and no ziglang (pip install {toolchain.ZIG_EXTRA}): the native FMUs carry "
+            "no Windows binary")
 
 
 @functools.lru_cache(maxsize=1)
