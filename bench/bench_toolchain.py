@@ -1,13 +1,15 @@
-"""A diagnosis with the system C compiler and with ziglang only (pip's toolchain, ``MKCTL_CC=zig``), side by side.
+"""A diagnosis with the system C compiler and with ziglang only (pip's toolchain, ``MKCTL_CC=zig``),
+side by side.
 
-Run on demand: ``.venv/bin/python bench/bench_toolchain.py [--python]``. One 3000-sample knee record with hidden
-viscous damping is diagnosed by ``python -m mkctl diagnose`` (a fresh process, as a user runs it) with each
-toolchain, twice: first with an empty compiled-core cache (the C is generated and compiled in the run: the
-cost a user pays once), then again with that cache (every later run). ``MKCTL_CC=zig`` stands for a machine with
-no system compiler: mkctl then compiles with ziglang only (and fails rather than use another). ``--python`` adds
-the Python path (``MKCTL_NATIVE=0``), what a user with no compiler got before ziglang. Zig's own cache of each
-target's C runtime (built on its first compile, once per machine) is warmed before timing.
-Prints the times and the ratio zig / system; exits 1 if a diagnosis failed or did not use the toolchain asked for.
+Run on demand: ``.venv/bin/python bench/bench_toolchain.py [--python]``. One 3000-sample knee record
+with hidden viscous damping is diagnosed by ``python -m mkctl diagnose`` (a fresh process, as a user
+runs it) with each toolchain, twice: first with an empty compiled-core cache (the C is generated and
+compiled in the run: the cost a user pays once), then again with that cache (every later run).
+``MKCTL_CC=zig`` stands for a machine with no system compiler: mkctl then compiles with ziglang only
+(and fails rather than use another). ``--python`` adds the Python path (``MKCTL_NATIVE=0``), what a
+user with no compiler got before ziglang. Zig's own cache of each target's C runtime (built on its
+first compile, once per machine) is warmed before timing. Prints the times and the ratio zig /
+system; exits 1 if a diagnosis failed or did not use the toolchain asked for.
 """
 from __future__ import annotations
 
@@ -30,7 +32,8 @@ def diagnose(record: Path, cache: Path, env_extra: dict) -> tuple[float, str, in
     env = {**os.environ, "MKCTL_CACHE": str(cache), **env_extra}
     start = time.perf_counter()
     done = subprocess.run([sys.executable, "-m", "mkctl", "diagnose", str(record), "--json",
-                           str(cache / "result.json"), "--quiet"], capture_output=True, text=True, env=env)
+                           str(cache / "result.json"), "--quiet"],
+                          capture_output=True, text=True, env=env)
     wall = time.perf_counter() - start
     found = next((line for line in done.stdout.splitlines() if line.startswith("missing:")),
                  done.stderr.strip()[-200:])
@@ -47,12 +50,12 @@ def main(argv=None) -> int:
     if toolchain.system_compiler() is None or not toolchain.zig_installed():
         print("bench_toolchain: needs a system C compiler and ziglang (pip install mkctl[native])")
         return 1
-    # warm zig's cache of the host's C runtime (once per machine; docs/native.md, "A compiler from pip")
+    # warm zig's cache of the host's C runtime (once per machine: docs/native.md)
     with tempfile.TemporaryDirectory() as folder:
         source = Path(folder) / "warm.c"
         source.write_text("#include <math.h>\ndouble f(double x) { return exp(x); }\n")
-        subprocess.run([*toolchain.zig_command(), "-O2", "-fPIC", "-shared", "-o", str(Path(folder) / "w.so"),
-                        str(source), "-lm"], check=True)
+        subprocess.run([*toolchain.zig_command(), "-O2", "-fPIC", "-shared", "-o",
+                        str(Path(folder) / "w.so"), str(source), "-lm"], check=True)
     runs = [("system compiler", {"MKCTL_CC": "system"}), ("ziglang only", {"MKCTL_CC": "zig"})]
     if "--python" in argv:
         runs.append(("Python path (no compiler)", {"MKCTL_NATIVE": "0"}))
@@ -68,13 +71,16 @@ def main(argv=None) -> int:
             used = compilers(cache)
             expected = {"system": lambda c: "ziglang" not in c, "zig": lambda c: "ziglang" in c}
             kind = env.get("MKCTL_CC")
-            if first[2] or again[2] or (kind and not (used and all(expected[kind](c) for c in used))):
+            right = not kind or (used and all(expected[kind](c) for c in used))
+            if first[2] or again[2] or not right:
                 ok = False
             rows[label] = (first, again, used)
-    print(f"mkctl diagnose of a {SAMPLES}-sample knee record (hidden viscous damping), a fresh process each")
+    print(f"mkctl diagnose of a {SAMPLES}-sample knee record (hidden viscous damping), "
+          "a fresh process each")
     print(f"{'toolchain':<28} {'empty cache [s]':>15} {'cached [s]':>11}  result; compiler")
     for label, (first, again, used) in rows.items():
-        print(f"{label:<28} {first[0]:>15.1f} {again[0]:>11.1f}  {again[1]}; {', '.join(sorted(used)) or '-'}")
+        compilers_used = ", ".join(sorted(used)) or "-"
+        print(f"{label:<28} {first[0]:>15.1f} {again[0]:>11.1f}  {again[1]}; {compilers_used}")
     system, zig = rows["system compiler"], rows["ziglang only"]
     print(f"ratio zig / system: {zig[0][0] / system[0][0]:.2f} with an empty cache, "
           f"{zig[1][0] / system[1][0]:.2f} cached")

@@ -1,11 +1,12 @@
-"""The compiled core built by ziglang (pip's C toolchain, ``MKCTL_CC=zig``) against the system compiler's.
+"""The compiled core built by ziglang (pip's C toolchain, ``MKCTL_CC=zig``) against the system
+compiler's.
 
-Both libraries are compiled from the same generated C with the same flags; these tests load both and compare
-what they compute on a set of inputs (right-hand sides, outputs, actuator terms, whole knee records with every
-structural variant, the damped isotonic test) to 1e-12. They also check the cache keeps the two libraries
-apart (the compiler and its version are in the name and the record), and the toolchain switch's errors.
-Without ziglang (or without a system compiler) they skip with the reason, and fail instead under
-``MKCTL_REQUIRE_TOOLCHAINS=1`` (CI: it promises both).
+Both libraries are compiled from the same generated C with the same flags; these tests load both and
+compare what they compute on a set of inputs (right-hand sides, outputs, actuator terms, whole knee
+records with every structural variant, the damped isotonic test) to 1e-12. They also check the cache
+keeps the two libraries apart (the compiler and its version are in the name and the record), and the
+toolchain switch's errors. Without ziglang (or without a system compiler) they skip with the reason,
+and fail instead under ``MKCTL_REQUIRE_TOOLCHAINS=1`` (CI: it promises both).
 """
 from __future__ import annotations
 
@@ -28,7 +29,8 @@ REQUIRE = "MKCTL_REQUIRE_TOOLCHAINS"
 
 
 def missing(reason: str):
-    """Skip with the reason, or fail when the toolchains are required (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
+    """Skip with the reason, or fail when the toolchains are required
+    (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
     if os.environ.get(REQUIRE) == "1":
         pytest.fail(f"{reason} ({REQUIRE}=1: CI promises this toolchain)")
     pytest.skip(reason)
@@ -40,7 +42,8 @@ def libraries(tmp_path_factory):
     if toolchain.system_compiler() is None:
         missing("no system C compiler: nothing to compare ziglang's core with")
     if not toolchain.zig_installed():
-        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed (pip install {toolchain.ZIG_EXTRA})")
+        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed "
+                f"(pip install {toolchain.ZIG_EXTRA})")
     cache = tmp_path_factory.mktemp("cache")
     saved = {k: os.environ.get(k) for k in (build.ENV_CACHE, toolchain.ENV_CHOICE)}
     cores, paths = {}, {}
@@ -63,7 +66,8 @@ CASES = [Params(), Params(c=40.0, Fc=2.0), Params(tau=0.03, c=20.0), Params(mode
 
 def _close(a, b):
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    np.testing.assert_allclose(a, b, rtol=TOLERANCE, atol=TOLERANCE * max(1.0, float(np.abs(b).max())))
+    scale = max(1.0, float(np.abs(b).max()))
+    np.testing.assert_allclose(a, b, rtol=TOLERANCE, atol=TOLERANCE * scale)
 
 
 def test_the_cache_keeps_each_toolchain_s_library_and_records_its_compiler(libraries):
@@ -72,9 +76,11 @@ def test_the_cache_keeps_each_toolchain_s_library_and_records_its_compiler(libra
     records = {k: json.loads(p.with_name(p.name + ".json").read_text()) for k, p in paths.items()}
     assert f"{toolchain.ZIG_PACKAGE} " in records["zig"]["compiler"], records["zig"]
     assert "ziglang" not in records["system"]["compiler"]
-    assert records["zig"]["source_sha256"] == records["system"]["source_sha256"]  # the same generated C
+    # the same generated C
+    assert records["zig"]["source_sha256"] == records["system"]["source_sha256"]
     assert records["zig"]["cflags"] == records["system"]["cflags"] == list(build.CFLAGS)
-    assert paths["system"].read_bytes() != paths["zig"].read_bytes()  # two compilers: two different binaries
+    # two compilers: two different binaries
+    assert paths["system"].read_bytes() != paths["zig"].read_bytes()
 
 
 def test_zig_s_core_gives_the_system_compiler_s_results(libraries):
@@ -92,13 +98,15 @@ def test_zig_s_core_gives_the_system_compiler_s_results(libraries):
         if n_state > 2:  # the lagged pressures
             states[:, 2:] *= rng.uniform(0.8, 1.2, (40, n_state - 2))
         pe, pf = pe0 * rng.uniform(0.7, 1.3, 40), pf0 * rng.uniform(0.7, 1.3, 40)
-        lengths, pressures, rates = rng.uniform(0.15, 0.19, 8), rng.uniform(1e5, 5e5, 8), rng.normal(0.0, 0.05, 8)
+        lengths, pressures = rng.uniform(0.15, 0.19, 8), rng.uniform(1e5, 5e5, 8)
+        rates = rng.normal(0.0, 0.05, 8)
         results = {}
         for name, core in cores.items():
             rhs = [core.knee_rhs(params, y, a, b, stops) for y, a, b in zip(states, pe, pf)]
             assert all(r is not None for r in rhs), name
             tension = [core.actuator("tension", params, *x) for x in zip(lengths, pressures, rates)]
-            results[name] = (np.array(rhs), core.knee_outputs_many(params, states, pe, pf), np.array(tension))
+            results[name] = (np.array(rhs), core.knee_outputs_many(params, states, pe, pf),
+                             np.array(tension))
         for a, b in zip(results["zig"], results["system"]):
             _close(a, b)
 
@@ -132,24 +140,27 @@ def test_the_damped_isotonic_test_is_the_same_with_either_compiler(libraries):
     t = np.arange(2000) * 1e-3
     pressure = np.where(t > 0.2, 4e5, 2e5)
     load = np.full(t.size, 100.0)
-    lengths = [cores[k].isotonic_damped(params, t, pressure, load, 0.17, True) for k in ("system", "zig")]
+    lengths = [cores[k].isotonic_damped(params, t, pressure, load, 0.17, True)
+               for k in ("system", "zig")]
     assert lengths[0] is not None and np.ptp(lengths[0]) > 1e-4
     _close(lengths[1], lengths[0])
 
 
 def test_the_toolchain_switch(monkeypatch):
     monkeypatch.setenv(toolchain.ENV_CHOICE, "gcc-please")
-    with pytest.raises(MkctlError, match=r"^MKCTL_CC must be one of auto, system, zig, got 'gcc-please'$"):
+    with pytest.raises(MkctlError,
+                       match=r"^MKCTL_CC must be one of auto, system, zig, got 'gcc-please'$"):
         build.find_compiler()
     monkeypatch.setenv(toolchain.ENV_CHOICE, "zig")
     monkeypatch.setattr(toolchain, "zig_installed", lambda: False)
     assert build.find_compiler() is None
-    with pytest.raises(build.BuildUnavailable, match=r"MKCTL_CC=zig but the ziglang package is not installed "
-                                                       r"\(pip install mkctl\[native\]\)"):
+    with pytest.raises(build.BuildUnavailable,
+                       match=r"MKCTL_CC=zig but the ziglang package is not installed "
+                             r"\(pip install mkctl\[native\]\)"):
         build.build_library((Variant.of(Params()),))
     monkeypatch.setattr(toolchain, "zig_installed", lambda: True)
     assert toolchain.is_zig(build.find_compiler())
-    # auto: the system compiler first, ziglang when there is none; a $CC named but missing means none
+    # auto: the system compiler first, else ziglang; a $CC named but missing means none
     monkeypatch.delenv(toolchain.ENV_CHOICE)
     monkeypatch.delenv("CC", raising=False)
     monkeypatch.setenv("PATH", "/nonexistent")
