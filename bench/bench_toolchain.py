@@ -45,6 +45,42 @@ def compilers(cache: Path) -> set[str]:
     return {json.loads(p.read_text())["compiler"] for p in (cache / "native").glob("core-*.json")}
 
 
+def record_speed(repeats: int = 15) -> dict[str, float]:
+    """The best time [s] of one 3000-sample knee record (damped, lagged, a step) in each toolchain's
+    library, loaded side by side in this process (the libraries alone: no process start, no
+    compile)."""
+    import numpy as np
+
+    from mkctl.native import build, compiled
+    from mkctl.physics.params import Params
+    from mkctl.physics.simulate import KNEE_OUTPUTS, KneeSimulator, default_commands
+    params = Params(c=45.0, tau=0.05)
+    t = np.arange(SAMPLES) * 1e-3
+    pe0, pf0 = default_commands(params)
+    pe, pf = np.where((t > 0.5) & (t < 2.0), 1.05 * pe0, pe0), np.full(SAMPLES, pf0)
+    best = {}
+    with tempfile.TemporaryDirectory() as cache:
+        saved = dict(os.environ)
+        try:
+            os.environ["MKCTL_CACHE"] = cache
+            cores = {}
+            for kind in ("system", "zig"):
+                os.environ["MKCTL_CC"] = kind
+                cores[kind] = compiled.Core(build.build_library((compiled.Variant.of(params),)))
+        finally:
+            os.environ.clear()
+            os.environ.update(saved)
+        for _ in range(repeats):
+            for kind, core in cores.items():  # interleaved: the same load on both
+                sim = KneeSimulator(params)
+                states = np.empty((SAMPLES, sim.state.size))
+                outputs = np.empty((SAMPLES, len(KNEE_OUTPUTS)))
+                start = time.perf_counter()
+                core.run_record(sim, t, pe, pf, None, states, outputs)
+                best[kind] = min(best.get(kind, np.inf), time.perf_counter() - start)
+    return best
+
+
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if toolchain.system_compiler() is None or not toolchain.zig_installed():
@@ -84,6 +120,10 @@ def main(argv=None) -> int:
     system, zig = rows["system compiler"], rows["ziglang only"]
     print(f"ratio zig / system: {zig[0][0] / system[0][0]:.2f} with an empty cache, "
           f"{zig[1][0] / system[1][0]:.2f} cached")
+    speed = record_speed()
+    print(f"one {SAMPLES}-sample knee record in the library (best of 15): system "
+          f"{speed['system'] * 1e3:.2f} ms, zig {speed['zig'] * 1e3:.2f} ms, ratio zig / system "
+          f"{speed['zig'] / speed['system']:.2f}")
     if "Python path (no compiler)" in rows:
         python = rows["Python path (no compiler)"][0][0]
         print(f"ratio Python path / zig (cached): {python / zig[1][0]:.1f}")
