@@ -27,7 +27,7 @@
 #define BINARY_FOLDER "win64"
 #elif defined(__APPLE__)
 #define BINARY_FOLDER "darwin64"
-#elif defined(__aarch64__) /* FMI 2.0 has no name for ARM Linux: FMI 3.0's, where the sources are compiled to */
+#elif defined(__aarch64__) /* FMI 2.0 has no name for ARM Linux: FMI 3.0's, for the compiled sources */
 #define BINARY_FOLDER "aarch64-linux"
 #else
 #define BINARY_FOLDER "linux64"

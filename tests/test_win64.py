@@ -42,7 +42,8 @@ REQUIRE = "MKCTL_REQUIRE_TOOLCHAINS"
 
 
 def missing(reason: str):
-    """Skip with the reason, or fail when the toolchains are required (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
+    """Skip with the reason, or fail when the toolchains are required
+    (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
     if os.environ.get(REQUIRE) == "1":
         pytest.fail(f"{reason} ({REQUIRE}=1: CI promises this toolchain)")
     pytest.skip(reason)
@@ -145,12 +146,13 @@ def test_the_windows_binary_refuses_a_bad_parameter_with_the_linux_message(wine,
     assert all(message in run.stderr for run in runs), runs[1].stderr
 
 
-def test_without_mingw_ziglang_builds_the_windows_binary_and_it_gives_the_linux_results(wine, hosts,
-                                                                                          tmp_path, monkeypatch):
+def test_without_mingw_ziglang_builds_the_windows_binary_and_it_gives_the_linux_results(
+        wine, hosts, tmp_path, monkeypatch):
     from mkctl.native import toolchain
     from mkctl.native.fmi3 import build_one
     if not toolchain.zig_installed():
-        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed (pip install {toolchain.ZIG_EXTRA})")
+        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed "
+                f"(pip install {toolchain.ZIG_EXTRA})")
     monkeypatch.setenv("MKCTL_MINGW_CC", "/nonexistent/x86_64-w64-mingw32-gcc")  # MinGW-w64 missing
     assert find_cross_compiler() is None
     folder = tmp_path / "knee"
@@ -158,7 +160,8 @@ def test_without_mingw_ziglang_builds_the_windows_binary_and_it_gives_the_linux_
         archive.extractall(folder)
     dll = folder / "binaries" / "x86_64-windows" / "McKibbenKnee.dll"
     assert sorted(p.name for p in dll.parent.iterdir()) == [dll.name]  # no .pdb or .lib beside it
-    assert b"api-ms-win-crt" in dll.read_bytes() and b"msvcrt.dll" not in dll.read_bytes().lower()  # zig's UCRT
+    data = dll.read_bytes()
+    assert b"api-ms-win-crt" in data and b"msvcrt.dll" not in data.lower()  # zig's: the UCRT
     command, env = wine
     output, stop, start = CASES["knee"]
     arguments = _arguments(folder, output, stop, **start)

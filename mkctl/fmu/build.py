@@ -200,7 +200,7 @@ def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
             real.set("unit", fmi_units[name])
         if variable.get("causality") == "output" and variable.get("initial") in (None, "calculated"):
             outputs.append(index)
-    # the FMU runs its Python source in the host's interpreter, which must be the build's minor version
+    # the FMU runs its Python source in the host's interpreter: the build's minor version
     root.set("description", f"{root.get('description', '')} (pythonfmu FMU: the host needs Python "
              f"{sys.version_info.major}.{sys.version_info.minor} with numpy and scipy)")
     structure = root.find("ModelStructure")

@@ -64,8 +64,8 @@ def cache_dir() -> Path:
 
 
 def find_compiler() -> list[str] | None:
-    """The C compiler command, or None (:func:`mkctl.native.toolchain.host_compiler`: ``MKCTL_CC`` chooses;
-    by default ``$CC`` when set, else cc, gcc or clang, else ziglang's)."""
+    """The C compiler command, or None (:func:`mkctl.native.toolchain.host_compiler`: ``MKCTL_CC``
+    chooses; by default ``$CC`` when set, else cc, gcc or clang, else ziglang's)."""
     return toolchain.host_compiler()
 
 
@@ -160,8 +160,8 @@ def _verified(path: Path, expected: dict) -> bool:
 
 
 def compiler_identity(compiler: list[str]) -> str:
-    """The compiler's command and the first line of its ``--version`` (cached libraries record it; ziglang's
-    version too: :func:`mkctl.native.toolchain.identity`)."""
+    """The compiler's command and the first line of its ``--version`` (cached libraries record it;
+    ziglang's version too: :func:`mkctl.native.toolchain.identity`)."""
     return toolchain.identity(compiler)
 
 
@@ -229,7 +229,7 @@ def build_library(variants) -> Path:
     source_path = generated_source(variants)
     source = source_path.read_bytes()
     expected = {"source_sha256": _digest(source), "compiler": compiler_identity(compiler), "cflags": list(CFLAGS)}
-    # the name is keyed by the compiler too: the system compiler's library and ziglang's stay side by side
+    # the name is keyed by the compiler too: the system compiler's library and ziglang's coexist
     key = _digest(json.dumps(expected, sort_keys=True).encode())[:20]
     library = cache_dir() / f"core-{key}{_library_suffix()}"
     if library.exists() and _verified(library, expected):

@@ -176,7 +176,8 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         (stage / "modelDescription.xml").write_bytes(
             model_description(interface, token, fmi2.core_event_indicators(model_name)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
-        add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0", fmi2.compile_binary)
+        add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
+                              fmi2.compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(stage.rglob("*")):
