@@ -13,14 +13,22 @@
  *   (host_common.h, beside this file, finds and loads the FMU's binary; fmi2_host.c and fmi3_host.c share it)
  * Windows (binaries/win64/<model>.dll), cross-compiled and run under Wine as tests/test_win64.py does:
  *   x86_64-w64-mingw32-gcc -D__USE_MINGW_ANSI_STDIO=1 -I <fmpy>/c-code -o fmi2_host.exe fmi2_host.c
+ * ARM Linux (FMI 2.0 has no binary folder for it: the host reads binaries/aarch64-linux/, where the FMU's
+ * sources/ are compiled to), cross-compiled and run under qemu-user as tests/test_platforms.py does:
+ *   python -m ziglang cc -target aarch64-linux-gnu.2.17 -I <fmpy>/c-code -o fmi2_host fmi2_host.c -ldl
+ *   qemu-aarch64-static -L /usr/aarch64-linux-gnu ./fmi2_host ...
  * Run (pythonfmu FMUs need libpython in the process, and Python's own modules):
  *   LD_PRELOAD=<LIBDIR>/<INSTSONAME> PYTHONHOME=<sys.base_prefix> PYTHONPATH=<site-packages> ./fmi2_host ...
  */
 #include <stdarg.h>
 #include "fmi2Functions.h"
 
-#ifdef _WIN32
+#if defined(_WIN32)
 #define BINARY_FOLDER "win64"
+#elif defined(__APPLE__)
+#define BINARY_FOLDER "darwin64"
+#elif defined(__aarch64__) /* FMI 2.0 has no name for ARM Linux: FMI 3.0's, for the compiled sources */
+#define BINARY_FOLDER "aarch64-linux"
 #else
 #define BINARY_FOLDER "linux64"
 #endif

@@ -11,11 +11,20 @@
  * Build: gcc -I <fmpy>/c-code -o fmi3_host fmi3_host.c -ldl
  *   (host_common.h, beside this file, finds and loads the FMU's binary; fmi2_host.c and fmi3_host.c share it)
  * Windows: x86_64-w64-mingw32-gcc -D__USE_MINGW_ANSI_STDIO=1 -I <fmpy>/c-code -o fmi3_host.exe fmi3_host.c
+ * ARM Linux (binaries/aarch64-linux/<model>.so), run under qemu-user as tests/test_platforms.py does:
+ *   python -m ziglang cc -target aarch64-linux-gnu.2.17 -I <fmpy>/c-code -o fmi3_host fmi3_host.c -ldl
+ *   qemu-aarch64-static -L /usr/aarch64-linux-gnu ./fmi3_host ...
  */
 #include "fmi3Functions.h"
 
-#ifdef _WIN32
+#if defined(_WIN32)
 #define BINARY_FOLDER "x86_64-windows"
+#elif defined(__APPLE__) && defined(__aarch64__)
+#define BINARY_FOLDER "aarch64-darwin"
+#elif defined(__APPLE__)
+#define BINARY_FOLDER "x86_64-darwin"
+#elif defined(__aarch64__)
+#define BINARY_FOLDER "aarch64-linux"
 #else
 #define BINARY_FOLDER "x86_64-linux"
 #endif

@@ -2,7 +2,7 @@
  * unzipped FMU, on Linux (dlopen) and on Windows (LoadLibrary, when cross-compiled with MinGW-w64).
  *
  * The including host defines BINARY_FOLDER first: the folder of binaries/ its FMI version uses on this platform
- * ("linux64" or "win64" in FMI 2.0, "x86_64-linux" or "x86_64-windows" in FMI 3.0).
+ * ("linux64", "win64", "darwin64" in FMI 2.0; "x86_64-linux", "x86_64-windows", "aarch64-linux", ... in FMI 3.0).
  */
 #ifndef HOST_COMMON_H
 #define HOST_COMMON_H
@@ -26,6 +26,9 @@ static const char *dlerror(void) { return "LoadLibrary failed"; }
 static char *realpath(const char *path, char *resolved) { return _fullpath(resolved, path, PATH_MAX); }
 #define RTLD_NOW 0
 #define RTLD_LOCAL 0
+#elif defined(__APPLE__)
+#include <dlfcn.h>
+#define BINARY_SUFFIX ".dylib"
 #else
 #include <dlfcn.h>
 #define BINARY_SUFFIX ".so"

@@ -2,8 +2,10 @@
 
 With MinGW-w64 installed, every native FMU carries a Windows DLL (``binaries/win64`` in FMI 2.0,
 ``binaries/x86_64-windows`` in FMI 3.0). The C hosts of ``fmu/`` are cross-compiled too and run under Wine on the
-DLLs; their results must equal the Linux binaries' in the Linux build of the same hosts to 1e-9. Without the cross
-compiler or Wine the tests skip with a one-line reason, and the build says so in one line (tested without them).
+DLLs; their results must equal the Linux binaries' in the Linux build of the same hosts to 1e-9. Without MinGW-w64,
+ziglang builds the DLL (against the Universal C Runtime of Windows 10 and later): that DLL runs under Wine too,
+with the same results. Without a cross compiler or Wine the tests skip with a one-line reason (and fail under
+``MKCTL_REQUIRE_TOOLCHAINS=1``, CI), and the build says so in one line (tested without them).
 Wine's first start (wineboot) in a fresh prefix takes seconds: it is done once per module, time-boxed.
 """
 from __future__ import annotations
@@ -35,20 +37,32 @@ def _compiler():
 pytestmark = pytest.mark.skipif(_compiler() is None, reason="no C compiler: no native FMUs")
 
 
+#: CI sets it: a toolchain the tests need and do not find is a failure there, not a skip.
+REQUIRE = "MKCTL_REQUIRE_TOOLCHAINS"
+
+
+def missing(reason: str):
+    """Skip with the reason, or fail when the toolchains are required
+    (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
+    if os.environ.get(REQUIRE) == "1":
+        pytest.fail(f"{reason} ({REQUIRE}=1: CI promises this toolchain)")
+    pytest.skip(reason)
+
+
 @pytest.fixture(scope="module")
 def wine(tmp_path_factory):
     """(wine command, its environment) with the prefix initialized, or a skip saying what is missing."""
     if find_cross_compiler() is None:
-        pytest.skip(missing_cross_compiler())
+        missing(missing_cross_compiler())
     command = find_wine()
     if command is None:
-        pytest.skip(f"Wine is not installed (Debian: apt-get install {WINE_PACKAGES}): the Windows binaries cannot "
-                    "be run here")
+        missing(f"Wine is not installed (Debian: apt-get install {WINE_PACKAGES}): the Windows binaries cannot "
+                "be run here")
     env = wine_environment(tmp_path_factory.mktemp("wineprefix"))
     try:
         subprocess.run([*command, "wineboot", "--init"], env=env, capture_output=True, timeout=WINEBOOT_SECONDS)
     except subprocess.TimeoutExpired:
-        pytest.skip(f"Wine's first start (wineboot) took more than {WINEBOOT_SECONDS} s here")
+        missing(f"Wine's first start (wineboot) took more than {WINEBOOT_SECONDS} s here")
     return command, env
 
 
@@ -130,6 +144,31 @@ def test_the_windows_binary_refuses_a_bad_parameter_with_the_linux_message(wine,
     assert [run.returncode for run in runs] == [1, 1]
     message = "invalid parameters: parameter m must be positive, got -1.0"
     assert all(message in run.stderr for run in runs), runs[1].stderr
+
+
+def test_without_mingw_ziglang_builds_the_windows_binary_and_it_gives_the_linux_results(
+        wine, hosts, tmp_path, monkeypatch):
+    from mkctl.native import toolchain
+    from mkctl.native.fmi3 import build_one
+    if not toolchain.zig_installed():
+        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed "
+                f"(pip install {toolchain.ZIG_EXTRA})")
+    monkeypatch.setenv("MKCTL_MINGW_CC", "/nonexistent/x86_64-w64-mingw32-gcc")  # MinGW-w64 missing
+    assert find_cross_compiler() is None
+    folder = tmp_path / "knee"
+    with zipfile.ZipFile(build_one("McKibbenKnee", tmp_path / "knee.fmu")) as archive:
+        archive.extractall(folder)
+    dll = folder / "binaries" / "x86_64-windows" / "McKibbenKnee.dll"
+    assert sorted(p.name for p in dll.parent.iterdir()) == [dll.name]  # no .pdb or .lib beside it
+    data = dll.read_bytes()
+    assert b"api-ms-win-crt" in data and b"msvcrt.dll" not in data.lower()  # zig's: the UCRT
+    command, env = wine
+    output, stop, start = CASES["knee"]
+    arguments = _arguments(folder, output, stop, **start)
+    linux = _run([str(hosts["fmi3", "linux"]), *arguments], env={})
+    windows = _run([*command, str(hosts["fmi3", "windows"]), *arguments], env=env)
+    assert linux.shape == windows.shape and np.ptp(linux[:, 1]) > 1e-3 * np.abs(linux[:, 1]).max()
+    np.testing.assert_allclose(windows, linux, rtol=0, atol=1e-9 * max(1.0, np.abs(linux).max()))
 
 
 def test_without_a_cross_compiler_the_build_says_so_in_one_line(tmp_path):

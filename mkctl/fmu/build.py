@@ -200,6 +200,9 @@ def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
             real.set("unit", fmi_units[name])
         if variable.get("causality") == "output" and variable.get("initial") in (None, "calculated"):
             outputs.append(index)
+    # the FMU runs its Python source in the host's interpreter: the build's minor version
+    root.set("description", f"{root.get('description', '')} (pythonfmu FMU: the host needs Python "
+             f"{sys.version_info.major}.{sys.version_info.minor} with numpy and scipy)")
     structure = root.find("ModelStructure")
     if outputs and structure.find("InitialUnknowns") is None:
         initial = ET.SubElement(structure, "InitialUnknowns")

@@ -6,7 +6,8 @@ its ``native/`` subfolder:
 - ``gen-<inputs>.c``: the generated source, keyed by a hash of everything it is generated from (the
   physics modules, the generator, the C template, the sympy version, the variants), so that the equations
   are traced once, not in every process;
-- ``core-<source>.so``: the shared library, keyed by a hash of the generated source it is compiled from.
+- ``core-<key>.so``: the shared library, keyed by a hash of the generated source it is compiled from, the
+  compiler (its command and version) and the flags.
 
 Each has a record beside it (``<name>.json``): its SHA-256 and what it was made from (the inputs' key; the
 source's SHA-256, the compiler and its version, the flags). A cached file is used only when the record matches
@@ -14,16 +15,17 @@ both the file and what would be made now; anything else (a file edited or swappe
 missing, another compiler) is made again, so the cache never loads code it did not build.
 
 Files are written to a temporary name and renamed, so processes building at the same time do not clash.
-The compiler is ``$CC`` if set (none if that does not exist), else the first of ``cc``, ``gcc``, ``clang``
-on the PATH. ``MKCTL_NATIVE=0`` switches the compiled core off altogether.
+The compiler is :func:`mkctl.native.toolchain.host_compiler`'s: ``$CC`` if set (none if that does not exist),
+else the first of ``cc``, ``gcc``, ``clang`` on the PATH, else the ``ziglang`` package's (``pip install
+mkctl[native]``); ``MKCTL_CC=zig`` or ``MKCTL_CC=system`` asks for one of them only. The library's record holds
+the compiler's command and version (ziglang's too), so a library built by one is never loaded for the other.
+``MKCTL_NATIVE=0`` switches the compiled core off altogether.
 """
 from __future__ import annotations
 
 import hashlib
 import json
 import os
-import shlex
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -31,7 +33,7 @@ from contextlib import contextmanager
 from importlib import metadata
 from pathlib import Path
 
-from . import TEMPLATE
+from . import TEMPLATE, toolchain
 
 #: Environment variable: "0" forces the Python path.
 ENV_SWITCH = "MKCTL_NATIVE"
@@ -62,17 +64,9 @@ def cache_dir() -> Path:
 
 
 def find_compiler() -> list[str] | None:
-    """The C compiler command, or None: ``$CC`` when set (None if it is not found), else cc, gcc or clang."""
-    requested = os.environ.get("CC")
-    if requested:
-        words = shlex.split(requested)
-        found = shutil.which(words[0]) if words else None
-        return [found, *words[1:]] if found else None
-    for name in ("cc", "gcc", "clang"):
-        found = shutil.which(name)
-        if found:
-            return [found]
-    return None
+    """The C compiler command, or None (:func:`mkctl.native.toolchain.host_compiler`: ``MKCTL_CC``
+    chooses; by default ``$CC`` when set, else cc, gcc or clang, else ziglang's)."""
+    return toolchain.host_compiler()
 
 
 def _library_suffix() -> str:
@@ -166,13 +160,9 @@ def _verified(path: Path, expected: dict) -> bool:
 
 
 def compiler_identity(compiler: list[str]) -> str:
-    """The compiler's command and the first line of its ``--version`` (cached libraries record it)."""
-    try:
-        done = subprocess.run([*compiler, "--version"], capture_output=True, text=True, timeout=30)
-        version = (done.stdout.strip().splitlines() or [""])[0]
-    except (OSError, subprocess.SubprocessError):
-        version = "unknown"
-    return f"{' '.join(compiler)} ({version})"
+    """The compiler's command and the first line of its ``--version`` (cached libraries record it;
+    ziglang's version too: :func:`mkctl.native.toolchain.identity`)."""
+    return toolchain.identity(compiler)
 
 
 #: codegen.generate's results in this process, by input_key: the compiled core and the native FMUs' core are
@@ -235,11 +225,13 @@ def build_library(variants) -> Path:
         raise BuildUnavailable(f"switched off by {ENV_SWITCH}={os.environ.get(ENV_SWITCH)}")
     compiler = find_compiler()
     if compiler is None:
-        raise BuildUnavailable("no C compiler found (CC, cc, gcc, clang)")
+        raise BuildUnavailable(toolchain.missing_host_compiler())
     source_path = generated_source(variants)
     source = source_path.read_bytes()
-    library = cache_dir() / f"core-{hashlib.sha256(source).hexdigest()[:20]}{_library_suffix()}"
     expected = {"source_sha256": _digest(source), "compiler": compiler_identity(compiler), "cflags": list(CFLAGS)}
+    # the name is keyed by the compiler too: the system compiler's library and ziglang's coexist
+    key = _digest(json.dumps(expected, sort_keys=True).encode())[:20]
+    library = cache_dir() / f"core-{key}{_library_suffix()}"
     if library.exists() and _verified(library, expected):
         return library
     with cache_lock(library):

@@ -13,8 +13,9 @@ numbers with the same code. Types: Real -> Float64, Integer -> Int32, Boolean ->
 Exchange and Co-Simulation (no event mode in Co-Simulation).
 
 Each FMU carries ``sources/`` (an FMI 3.0 source-code FMU: ``sources/buildDescription.xml`` lists the compilation
-units) and the binaries ``binaries/x86_64-linux/<model>.so`` and, when MinGW-w64 is installed
-(:mod:`mkctl.native.cross`), ``binaries/x86_64-windows/<model>.dll``. Building needs what the FMI 2.0 native FMUs
+units) and the binaries ``binaries/x86_64-linux/<model>.so`` and, when their toolchains are installed
+(:mod:`mkctl.native.cross`: MinGW-w64 or ziglang), ``x86_64-windows/<model>.dll``, ``aarch64-linux/<model>.so``,
+``x86_64-darwin/<model>.dylib`` and ``aarch64-darwin/<model>.dylib``. Building needs what the FMI 2.0 native FMUs
 need (a C compiler, sympy) and fmpy's FMI 3.0 headers (``fmpy/c-code``).
 """
 from __future__ import annotations
@@ -164,7 +165,7 @@ def write_sources(interface: Interface, token: str, dest: Path, model_source: Pa
 
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None) -> Path:
     """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`)."""
-    from .cross import add_windows_binary
+    from .cross import add_platform_binaries
     interface = fmi2.slave_interface(model_name, params)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_fmi3_") as temp:
@@ -175,7 +176,8 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         (stage / "modelDescription.xml").write_bytes(
             model_description(interface, token, fmi2.core_event_indicators(model_name)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
-        add_windows_binary(sources, units, stage / "binaries" / WINDOWS / f"{model_name}.dll", fmi2.compile_binary)
+        add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
+                              fmi2.compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(stage.rglob("*")):

@@ -765,8 +765,9 @@ def _validate(fmu: Path) -> None:
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
               windows: bool = True) -> Path:
     """Generate, compile, pack and validate one native FMU at target (model_source: see :func:`write_sources`).
-    windows=False leaves out the Windows binary (otherwise added when MinGW-w64 is installed): half the build's
-    compiling, for an FMU that will only run here."""
+    windows=False leaves out the other platforms' binaries (otherwise added when their toolchains
+    are installed: :mod:`mkctl.native.cross`): a fraction of the build's compiling, for an FMU that
+    will only run here."""
     interface = slave_interface(model_name, params)
     guid = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
@@ -775,10 +776,10 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         (stage / "modelDescription.xml").write_bytes(
             model_description(interface, guid, units, core_event_indicators(model_name)))
         compile_binary(stage / "sources", units, stage / "binaries" / "linux64" / f"{model_name}.so")
-        if windows:
-            from .cross import add_windows_binary  # win64 too, when MinGW-w64 is installed (model-spec 7c)
-            add_windows_binary(stage / "sources", units, stage / "binaries" / "win64" / f"{model_name}.dll",
-                               compile_binary)
+        if windows:  # win64 and darwin64 too, when their toolchains are installed (cross.py)
+            from .cross import add_platform_binaries
+            add_platform_binaries(stage / "sources", units, stage / "binaries", model_name, "2.0",
+                                  compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as fmu:
             for path in sorted(stage.rglob("*")):
