@@ -140,3 +140,17 @@ def test_h_zero_pressure_with_slack_where_h_jumps_at_the_taut_pressure():
     taut = DEFAULT  # the extensor's tension without the slack limit crosses 0 at this pressure
     fe = [float(knee.knee_force(geo, 0.0, pe, 0.0, taut).fe) for pe in (below, above)]
     assert fe[0] < 0 < fe[1]
+
+
+def test_h_zero_pressure_where_none_marks_only_the_postures_without_a_sign_change():
+    """A caller that maps the surface (Fig. 7 with slack) asks for NaN where h has no zero; every
+    other posture gets the same pressure as without the option."""
+    alpha = np.radians([30.0, 45.0, 60.0, 70.0])
+    Pe = stability.h_zero_pressure(alpha, PF, SLACK, where_none=np.nan)
+    assert np.array_equal(np.isnan(Pe), [False, False, True, True])
+    for a, pe in zip(alpha[:2], Pe[:2]):
+        assert pe == pytest.approx(stability.h_zero_pressure(float(a), PF, SLACK), rel=1e-12)
+    for a in alpha[2:]:
+        with pytest.raises(DomainError):
+            stability.h_zero_pressure(float(a), PF, SLACK)
+    assert np.isnan(stability.h_zero_pressure(ALPHA60, PF, SLACK, where_none=np.nan))

@@ -23,6 +23,7 @@ paper), Section VI, Eq. 18-25 and Fig. 7; model-spec sections 3 and 4.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -205,7 +206,9 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
     # the exact force, and where it misses, find the root of the exact F(Pe) - m g by bisection.
 
     def excess(alpha_, Pe_, Pf_):
-        return knee.knee_force(knee.geometry_at_alpha(alpha_, params), 0.0, Pe_, Pf_, params).F - mg
+        # the check at the guess is at alpha itself: its geometry is already known
+        at = geo if alpha_ is alpha else knee.geometry_at_alpha(alpha_, params)
+        return knee.knee_force(at, 0.0, Pe_, Pf_, params).F - mg
 
     scale = mg + np.abs(F) + np.abs(partials.dF_dPe * np.where(np.isfinite(Pe), Pe, 0.0))
     return _refined(excess, alpha, Pf, Pe, scale, np.isfinite(Pe),
@@ -213,7 +216,7 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
                     "the extensor's pressure gain does not lift the hip there")
 
 
-def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
+def h_zero_pressure(alpha, Pf, params: Params = DEFAULT, where_none: float | None = None):
     """Extensor pressure on the surface h(alpha, Pe, Pf) = 0 of Fig. 7.
 
     h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``. Not so
@@ -233,19 +236,24 @@ def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
         Flexor gauge pressure [Pa]; broadcasts with alpha.
     params : Params
         The model.
+    where_none : float, optional
+        What to return where h does not change sign at any extensor pressure: None (default)
+        raises DomainError; a caller that maps the surface and leaves its gaps blank asks for
+        ``numpy.nan`` here.
 
     Returns
     -------
     Pe : float or array
         Extensor gauge pressure [Pa] at which h changes sign (h = 0 there where h is continuous in
-        Pe); on one side of it h < 0 (above it at most postures of the default model).
+        Pe). Which side is stable (h < 0) depends on the posture: in the default model h rises
+        with Pe below alpha = 57 deg (h < 0 below the result) and falls with Pe above it.
 
     Raises
     ------
     DomainError
-        Where alpha, Pf or an actuator length is outside the model's domain; where h does not
-        change sign at any extensor pressure (e.g. a slack extensor at alpha = 60 deg,
-        Pf = 100 kPa, model 2, where h < 0 at every Pe).
+        Where alpha, Pf or an actuator length is outside the model's domain; with where_none None,
+        where h does not change sign at any extensor pressure (e.g. a slack extensor at
+        alpha = 60 deg, Pf = 100 kPa, model 2, where h < 0 at every Pe).
 
     References
     ----------
@@ -257,7 +265,7 @@ def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
     slope = np.asarray(h1 - h0)
     # The secant through 0 and 1 Pa is exact where h is affine in Pe. Elsewhere (the pressure
     # threshold bends h; a slack extensor makes h flat in Pe, slope 0) the root of h(Pe) itself is
-    # bracketed and bisected; where h has no sign change at all, that is a DomainError.
+    # bracketed and bisected; where h has no sign change at all, a DomainError (or where_none).
     if np.all(slope != 0):
         Pe = -h0 / (h1 - h0)
     else:
@@ -271,7 +279,7 @@ def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
 
     return _refined(h_at, alpha, Pf, Pe, scale, np.ones(np.shape(Pe), dtype=bool),
                     "h does not change sign at any extensor pressure", "h [N/rad]",
-                    "where the extensor is slack, h does not depend on Pe")
+                    "where the extensor is slack, h does not depend on Pe", where_none)
 
 
 #: Relative residual below which a closed-form pressure (affine in Pe) is taken as exact.
@@ -280,34 +288,48 @@ _AFFINE_TOLERANCE = 1e-9
 _PE_SEARCH_LIMIT = 1e12
 
 
-def _refined(fun, alpha, Pf, Pe, scale, check, failure: str, what: str, why: str):
+def _refined(fun, alpha, Pf, Pe, scale, check, failure: str, what: str, why: str,
+             where_none: float | None = None):
     """The boundary in Pe between ``fun(alpha, Pe, Pf) < 0`` and ``>= 0``, from the guess Pe.
 
     The closed-form guess is kept, bit for bit, where ``|fun| <= _AFFINE_TOLERANCE scale`` (fun
     affine in Pe) or where check is False (an infinite guess the caller documents). Elsewhere the
     boundary is bracketed around the guess (fun is monotone in Pe) and bisected to rounding: where
     fun is continuous, its root; where it jumps through zero or is zero over an interval (a muscle
-    turning taut), the pressure at which its sign changes. Raises DomainError where the sign does
-    not change for |Pe| up to _PE_SEARCH_LIMIT [Pa].
+    turning taut), the pressure at which its sign changes. Where the sign does not change for |Pe|
+    up to _PE_SEARCH_LIMIT [Pa]: where_none, or (None) a DomainError that says so.
     """
-    finite = np.isfinite(Pe)
-    at_guess = np.where(finite, Pe, 0.0)
-    residual = np.where(finite, fun(alpha, at_guess, Pf), np.inf)
-    off = np.asarray(np.broadcast_to(check, np.shape(Pe))
-                     & ~(np.abs(residual) <= _AFFINE_TOLERANCE * scale))
-    if not off.any():
-        return Pe
+    if np.ndim(Pe) == 0:  # one posture: Python floats keep the equations on their fast path
+        finite = math.isfinite(float(Pe))
+        at_guess = float(Pe) if finite else 0.0
+        residual = float(fun(alpha, at_guess, Pf)) if finite else math.inf
+        if not (bool(check) and not abs(residual) <= _AFFINE_TOLERANCE * float(scale)):
+            return Pe
+        off = np.asarray(True)
+    else:
+        finite = np.isfinite(Pe)
+        at_guess = np.where(finite, Pe, 0.0)
+        residual = np.where(finite, fun(alpha, at_guess, Pf), np.inf)
+        off = np.asarray(np.broadcast_to(check, np.shape(Pe))
+                         & ~(np.abs(residual) <= _AFFINE_TOLERANCE * scale))
+        if not off.any():
+            return Pe
     alphas, Pfs, guesses = (np.broadcast_to(v, off.shape)[off].astype(float)
                             for v in (alpha, Pf, at_guess))
     half = np.maximum(np.abs(guesses), 1e5)
     low, high = guesses - half, guesses + half
     f_low, f_high = fun(alphas, low, Pfs), fun(alphas, high, Pfs)
+    lost = np.zeros(guesses.shape, dtype=bool)  # no sign change: where_none
     while True:
-        open_ = (f_low < 0) == (f_high < 0)
+        open_ = ((f_low < 0) == (f_high < 0)) & ~lost
         if not open_.any():
             break
-        if np.max(half[open_]) > _PE_SEARCH_LIMIT:
-            i = int(np.argmax(open_))
+        beyond = open_ & (half > _PE_SEARCH_LIMIT)
+        if beyond.any() and where_none is not None:
+            lost |= beyond
+            continue
+        if beyond.any():
+            i = int(np.argmax(beyond))
             raise DomainError(
                 f"{failure} at alpha = {np.degrees(alphas[i]):.4g} deg, Pf = {Pfs[i]:g} Pa: "
                 f"{what} is {float(f_low[i]):.4g} at Pe = {low[i]:.3g} Pa and "
@@ -324,7 +346,8 @@ def _refined(fun, alpha, Pf, Pe, scale, check, failure: str, what: str, why: str
         same = (fun(alphas, middle, Pfs) < 0) == negative_low
         low, high = np.where(same, middle, low), np.where(same, high, middle)
     result = np.array(Pe, dtype=float)
-    result[off] = 0.5 * (low + high)
+    result[off] = np.where(lost, where_none if where_none is not None else np.nan,
+                           0.5 * (low + high))
     return float(result) if np.ndim(Pe) == 0 else result
 
 
