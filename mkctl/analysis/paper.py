@@ -260,10 +260,11 @@ def fig7_surfaces(params: Params = DEFAULT, Pe_max: float = PE_MAX, Pf_max: floa
     eq_low, eq_high = eq_range
     eq_domain = np.linspace(eq_low, eq_high, search)
     for i, pf in enumerate(Pf):
-        run = _in_range_run(lambda a: stability.h_zero_pressure(a, pf, params), domain, 0.0, Pe_max)
+        run = _in_range_run(lambda a: stability.h_zero_pressure(a, pf, params, where_none=np.nan),
+                            domain, 0.0, Pe_max)
         if run is not None:
             h0_alpha[i] = np.linspace(*run, n_alpha)
-            h0_Pe[i] = stability.h_zero_pressure(h0_alpha[i], pf, params)
+            h0_Pe[i] = stability.h_zero_pressure(h0_alpha[i], pf, params, where_none=np.nan)
         run = _in_range_run(lambda a: stability.equilibrium_pressure(a, pf, params), eq_domain, 0.0, Pe_max)
         if run is not None:
             eq_alpha[i] = np.linspace(*run, n_alpha)
@@ -349,7 +350,7 @@ def plot_fig7_sections(path, params: Params = DEFAULT, pf_values=(0.0, 100e3, 30
         pe_eq = stability.equilibrium_pressure(eq_alpha, pf, params)
         stable = stability.h_function(eq_alpha, pe_eq, pf, params) < 0
         pe_eq = np.where(pe_eq <= 1.2 * Pe_max, pe_eq, np.nan)
-        pe_h0 = stability.h_zero_pressure(alpha, pf, params)
+        pe_h0 = stability.h_zero_pressure(alpha, pf, params, where_none=np.nan)
         try:
             loss = stability_loss_alpha(pf, params, eq_range=eq_range)
         except DomainError:

@@ -1,17 +1,19 @@
-"""The braid and the rubber of a McKibben muscle: its geometry (Eq. 5-6), the pressure's lever (Eq. 7) and the
-Mooney-Rivlin energy of its rubber (Eq. 10-13).
+"""The braid and the rubber of a McKibben muscle: its geometry (Eq. 5-6), the pressure's lever
+(Eq. 7) and the Mooney-Rivlin energy of its rubber (Eq. 10-13).
 
 These are the functions the tension (:mod:`mkctl.physics.actuator`), the effects' own terms
-(:mod:`mkctl.physics.effects`: elasticity, the pressure threshold) and the air volume of section 4d are built
-from. They read a muscle's numbers by attribute (``b``, ``n``, ``L0``, ``D0``, ``C1``, ``C2``), so any parameter
-set works: :class:`~mkctl.physics.params.Params`, its symbolic stand-in, or the default
-:data:`~mkctl.physics.tables.TABLE_I_MUSCLE` (Table I's muscle, the values of ``Params()``).
+(:mod:`mkctl.physics.effects`: elasticity, the pressure threshold) and the air volume of section 4d
+are built from. They read a muscle's numbers by attribute (``b``, ``n``, ``L0``, ``D0``, ``C1``,
+``C2``), so any parameter set works: :class:`~mkctl.physics.params.Params`, its symbolic stand-in,
+or the default :data:`~mkctl.physics.tables.TABLE_I_MUSCLE` (Table I's muscle, the values of
+``Params()``).
 
 Example
 -------
 >>> from mkctl.physics.braid import pressure_gain, strain_energy_gradient
 >>> from mkctl.physics.tables import TABLE_I_MUSCLE as M
->>> round(float(300e3 * pressure_gain(0.18, M.b, M.n)), 6)  # model 1 at 0.18 m, 300 kPa [N] (model-spec section 2)
+>>> # model 1 at 0.18 m, 300 kPa [N] (model-spec section 2's table)
+>>> round(float(300e3 * pressure_gain(0.18, M.b, M.n)), 6)
 105.129671
 >>> abs(float(strain_energy_gradient(M.L0))) < 1e-6  # the rubber is relaxed at rest
 True
@@ -27,30 +29,114 @@ from .xp import as_values, math_for
 # --- Braid geometry (Eq. 5-6) -------------------------------------------------------------------
 
 def braid_diameter(L, b: float, n: float):
-    """Bladder diameter ``D = sqrt(b^2 - L^2) / (n pi)`` [m], Eq. 5.
+    """Bladder diameter of the braid at length L, Eq. 5.
 
-    Parameters: L actuator length [m], b braid length [m], n turns of a thread [-].
+    ``D = sqrt(b^2 - L^2) / (n pi)``
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    b : float
+        Braid (thread) length [m].
+    n : float
+        Turns of a thread [-] (:func:`mkctl.physics.tables.derived_turns`).
+
+    Returns
+    -------
+    D : float, array or sympy expression
+        Bladder diameter [m].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5.
+    .. [2] model-spec section 2.
     """
     return math_for(L).sqrt(b * b - L * L) / (n * np.pi)
 
 
 def bladder_volume(L, b: float, n: float):
-    """Bladder volume ``V_b = (b^2 L - L^3) / (4 pi n^2)`` [m^3], Eq. 6."""
+    """Bladder volume of the braid at length L, Eq. 6.
+
+    ``V_b = (b^2 L - L^3) / (4 pi n^2)``
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    b : float
+        Braid (thread) length [m].
+    n : float
+        Turns of a thread [-] (:func:`mkctl.physics.tables.derived_turns`).
+
+    Returns
+    -------
+    V_b : float, array or sympy expression
+        Bladder volume [m^3].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 6.
+    .. [2] model-spec section 2 and section 4d (the air volume).
+    """
     return (b * b * L - L * L * L) / (4 * np.pi * n * n)
 
 
 # --- Model 1: pressure only (Eq. 7) -------------------------------------------------------------
 
 def pressure_gain(L, b: float, n: float):
-    """Tension per unit pressure ``-dV_b/dL = (3 L^2 - b^2) / (4 pi n^2)`` [N/Pa = m^2], Eq. 7.
+    """Tension per unit pressure, Eq. 7: the pressure's lever on the braid.
+
+    ``-dV_b/dL = (3 L^2 - b^2) / (4 pi n^2)``
 
     It is also df1/dP, the derivative of model 1 (and model 2) with respect to the pressure.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    b : float
+        Braid (thread) length [m].
+    n : float
+        Turns of a thread [-] (:func:`mkctl.physics.tables.derived_turns`).
+
+    Returns
+    -------
+    float, array or sympy expression
+        Tension per unit gauge pressure [N/Pa = m^2]; negative below L = b / sqrt(3).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 6-7.
+    .. [2] model-spec section 2 (model 1: f1 = P (3 L^2 - b^2) / (4 pi n^2)).
     """
     return (3 * L * L - b * b) / (4 * np.pi * n * n)
 
 
 def pressure_gain_slope(L, b: float, n: float):
-    """``d/dL (3 L^2 - b^2) / (4 pi n^2) = 6 L / (4 pi n^2)`` [m]."""
+    """Slope of :func:`pressure_gain` with length: ``6 L / (4 pi n^2)``.
+
+    ``d/dL (3 L^2 - b^2) / (4 pi n^2) = 6 L / (4 pi n^2)``
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    b : float
+        Braid (thread) length [m].
+    n : float
+        Turns of a thread [-] (:func:`mkctl.physics.tables.derived_turns`).
+
+    Returns
+    -------
+    float, array or sympy expression
+        d(pressure gain)/dL [m] (N/Pa per m).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 7.
+    .. [2] model-spec section 2.
+    """
     return 6 * L / (4 * np.pi * n * n)
 
 
@@ -60,11 +146,30 @@ def _stretch_constant(params) -> float:
 
 
 def strain_energy_density(L, params=TABLE_I_MUSCLE):
-    """Mooney-Rivlin strain energy density W(L) [J/m^3 = Pa], Eq. 10-12.
+    """Mooney-Rivlin strain energy density W(L) of the rubber, Eq. 10-12.
 
-    With ``lambda_1 = L / L0``, ``lambda_2 = sqrt(b^2 - L^2) / (D0 n pi)``, ``lambda_3 = 1/(lambda_1 lambda_2)``:
-    ``W = C1 (l1^2 + l2^2 + l3^2 - 3) + C2 (1/l1^2 + 1/l2^2 + 1/l3^2 - 3)``.
-    Parameters: L [m]; params supplies b, L0, D0 [m], n [-], C1, C2 [Pa].
+    With ``lambda_1 = L / L0``, ``lambda_2 = sqrt(b^2 - L^2) / (D0 n pi)`` and
+    ``lambda_3 = 1/(lambda_1 lambda_2)`` (incompressible rubber):
+
+    ``W = C1 (l1^2 + l2^2 + l3^2 - 3) + C2 (1/l1^2 + 1/l2^2 + 1/l3^2 - 3)``
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    params : Params or Muscle
+        Supplies b, L0, D0 [m], n [-], C1, C2 [Pa] by attribute; default Table I's muscle
+        (:data:`mkctl.physics.tables.TABLE_I_MUSCLE`).
+
+    Returns
+    -------
+    W : float, array or sympy expression
+        Strain energy density [J/m^3 = Pa]; 0 at rest (L = L0).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 10-12.
+    .. [2] model-spec section 2.
     """
     L = as_values(L)
     q, s, L0 = _stretch_constant(params), params.b**2 - L * L, params.L0
@@ -74,10 +179,30 @@ def strain_energy_density(L, params=TABLE_I_MUSCLE):
 
 
 def strain_energy_gradient(L, params=TABLE_I_MUSCLE):
-    """dW/dL [Pa/m], the bracket of Eq. 13.
+    """dW/dL, the bracket of Eq. 13 (model 2's elastic tension is ``V_r dW/dL``).
 
-    ``C1 (2L/L0^2 - 2L/q - 2 L0^2 q (b^2 - 2L^2) / (L^3 (b^2 - L^2)^2))
-    + C2 (-2 L0^2/L^3 + 2 q L/(b^2 - L^2)^2 + (2 L b^2 - 4 L^3)/(L0^2 q))`` with ``q = D0^2 n^2 pi^2``.
+    ``dW/dL = C1 (2L/L0^2 - 2L/q - 2 L0^2 q (b^2 - 2L^2) / (L^3 (b^2 - L^2)^2))``
+    ``        + C2 (-2 L0^2/L^3 + 2 q L/(b^2 - L^2)^2 + (2 L b^2 - 4 L^3)/(L0^2 q))``
+
+    with ``q = D0^2 n^2 pi^2``.
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    params : Params or Muscle
+        Supplies b, L0, D0 [m], n [-], C1, C2 [Pa] by attribute; default Table I's muscle
+        (:data:`mkctl.physics.tables.TABLE_I_MUSCLE`).
+
+    Returns
+    -------
+    float, array or sympy expression
+        dW/dL [Pa/m]; 0 at rest (L = L0, where lambda_2 = 1).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 13.
+    .. [2] model-spec section 2 (model 2: f2 = f1 + V_r dW/dL).
     """
     L = as_values(L)
     q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
@@ -88,7 +213,27 @@ def strain_energy_gradient(L, params=TABLE_I_MUSCLE):
 
 
 def strain_energy_curvature(L, params=TABLE_I_MUSCLE):
-    """d^2W/dL^2 [Pa/m^2], the derivative of :func:`strain_energy_gradient` (needed by Eq. 23)."""
+    """d^2W/dL^2, the derivative of :func:`strain_energy_gradient` (needed by Eq. 23).
+
+    Parameters
+    ----------
+    L : float, array_like or sympy expression
+        Actuator length [m], 0 < L < b.
+    params : Params or Muscle
+        Supplies b, L0, D0 [m], n [-], C1, C2 [Pa] by attribute; default Table I's muscle
+        (:data:`mkctl.physics.tables.TABLE_I_MUSCLE`).
+
+    Returns
+    -------
+    float, array or sympy expression
+        d^2W/dL^2 [Pa/m^2].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 13 and 23.
+    .. [2] model-spec section 2.
+    """
     L = as_values(L)
     q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
     u = b2 - 2 * L * L

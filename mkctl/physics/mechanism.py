@@ -65,12 +65,24 @@ RESERVED_NAMES = ("q", "qdot")
 # --- The parameter view ---------------------------------------------------------------------------
 
 class MechanismParams:
-    """``p`` of a mechanism's functions: its own parameter values first, then the muscle's
-    parameters, by attribute.
+    """``p`` of a mechanism's functions: its own parameter values, then the muscle's, by attribute.
 
     Immutable and hashable. ``muscle_params(p)`` is the muscle's
     :class:`~mkctl.physics.params.Params` (what the tension and the effects read);
     :meth:`Mechanism.bind` makes one with the defaults filled in and checked.
+
+    Parameters
+    ----------
+    params : Params
+        The muscle's parameters and effects (model-spec sections 2 and 4), shared by every muscle.
+    own : mapping of str to float, optional
+        The mechanism's own parameter values, each in its parameter's unit (model-spec section 3b);
+        they shadow the muscle's names (which :class:`Mechanism` forbids them to take). Not
+        checked here: :meth:`Mechanism.bind` checks them.
+
+    References
+    ----------
+    .. [1] model-spec section 3b (a mechanism's own parameters).
     """
 
     __slots__ = ("_params", "_own")
@@ -108,7 +120,18 @@ class MechanismParams:
 
 
 def muscle_params(p) -> Params:
-    """The muscle's parameter set of a :class:`MechanismParams` (p itself for anything else)."""
+    """The muscle's parameter set of a :class:`MechanismParams` (p itself for anything else).
+
+    Parameters
+    ----------
+    p : MechanismParams or Params
+        A mechanism's parameter view, or a muscle's parameter set.
+
+    Returns
+    -------
+    Params
+        What the tension and the effects read (model-spec sections 2 and 4).
+    """
     return p._params if isinstance(p, MechanismParams) else p
 
 
@@ -173,10 +196,35 @@ class Mechanism:
         return {q.name: float(q.start) for q in self.parameters}
 
     def bind(self, params=DEFAULT, **values) -> MechanismParams:
-        """The :class:`MechanismParams` of this mechanism: own parameters at their defaults unless
-        given in ``values`` (or already in a MechanismParams handed in as params); names of mkctl's
-        parameters in ``values`` change the muscle's set. Each own value is checked against its
-        bounds (:class:`ParameterError`)."""
+        """The :class:`MechanismParams` of this mechanism, its own values checked against bounds.
+
+        Own parameters are at their defaults unless given in ``values`` (or already in a
+        MechanismParams handed in as params); names of mkctl's parameters in ``values`` change the
+        muscle's set.
+
+        Parameters
+        ----------
+        params : Params or MechanismParams
+            The muscle's parameters and effects; a MechanismParams also brings its own values.
+        **values : float
+            Own parameters (each in its unit, model-spec section 3b) or mkctl's (their units,
+            :class:`~mkctl.physics.params.Params`) by name.
+
+        Returns
+        -------
+        MechanismParams
+            Own values as floats, each within its bounds.
+
+        Raises
+        ------
+        ParameterError
+            For an own value that is not a finite number or lies outside its bounds, or an mkctl
+            parameter that is invalid.
+
+        References
+        ----------
+        .. [1] model-spec section 3b.
+        """
         own = self.defaults
         if isinstance(params, MechanismParams):
             own.update({k: v for k, v in params._own.items() if k in own})
@@ -196,7 +244,27 @@ class Mechanism:
         return MechanismParams(params, own)
 
     def stop_positions(self, p) -> tuple[float, float]:
-        """(q_min, q_max) of the end stops at p, checked: finite and q_min < q_max."""
+        """(q_min, q_max) of the end stops at p, checked: finite and q_min < q_max.
+
+        Parameters
+        ----------
+        p : MechanismParams
+            :meth:`bind`'s parameters (the stops may depend on them).
+
+        Returns
+        -------
+        q_min, q_max : float
+            The end stops [m or rad, the coordinate's unit].
+
+        Raises
+        ------
+        ParameterError
+            Unless both are finite and q_min < q_max.
+
+        References
+        ----------
+        .. [1] model-spec section 3b (end stops at the mechanism's limits).
+        """
         low, high = (float(v) for v in self.stops(p))
         if not (math.isfinite(low) and math.isfinite(high) and low < high):
             raise ParameterError(f"mechanism {self.name}: its stops ({low:g}, {high:g}) "
@@ -206,8 +274,10 @@ class Mechanism:
     # --- the symbolic trace, kept on the value ---
     @functools.cached_property
     def traced(self) -> "Traced":
-        """The mechanism traced on sympy symbols and differentiated, lambdified: made once, kept on
-        this value."""
+        """The mechanism traced on sympy symbols, differentiated and lambdified: made once, kept.
+
+        Kept on this value, not in a global registry (see the module docstring).
+        """
         return _trace(self)
 
     def __getstate__(self):
@@ -225,8 +295,7 @@ class Mechanism:
 
 
 class Traced(NamedTuple):
-    """A mechanism's symbolic trace: q, qdot symbols, the expressions, and their lambdified
-    versions."""
+    """A mechanism's symbolic trace: q, qdot symbols, the expressions, their lambdified versions."""
 
     q: object  #: the coordinate's symbol
     qdot: object  #: its rate's symbol
@@ -244,18 +313,63 @@ class Traced(NamedTuple):
 
 
 def symbolic_params(mechanism: Mechanism) -> MechanismParams:
-    """A :class:`MechanismParams` of sympy symbols: mkctl's
-    (:class:`mkctl.physics.actuator.SymbolicParams`) and the mechanism's own, each a real symbol
-    named after its parameter."""
+    """A :class:`MechanismParams` of sympy symbols, mkctl's and the mechanism's own.
+
+    mkctl's are :class:`mkctl.physics.actuator.SymbolicParams`; the mechanism's own are each a real
+    symbol named after its parameter.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism whose own parameters get symbols.
+
+    Returns
+    -------
+    MechanismParams
+        Symbols in place of every parameter value (what a trace and generated code evaluate on).
+
+    References
+    ----------
+    .. [1] model-spec section 3b (traced into the compiled core and the native FMUs).
+    """
     import sympy
     own = {q.name: sympy.Symbol(q.name, real=True) for q in mechanism.parameters}
     return MechanismParams(actuator.SymbolicParams(), own)
 
 
 def trace(mechanism: Mechanism, q=None, qdot=None):
-    """(lengths, inertia, load) of the mechanism on sympy: q, qdot symbols (default: real symbols
-    named ``q`` and ``qdot``) and :func:`symbolic_params`. Raises whatever the mechanism's functions
-    raise."""
+    """(lengths, inertia, load) of the mechanism on sympy symbols.
+
+    The mechanism's functions run on q, qdot and :func:`symbolic_params` with the sympy namespace
+    (:func:`mkctl.physics.xp.symbolic_math`); their domain checks are recorded, not raised.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism to trace.
+    q, qdot : sympy expression, optional
+        The coordinate [m or rad] and its rate [per s]; default real symbols named ``q`` and
+        ``qdot``.
+
+    Returns
+    -------
+    lengths : tuple of sympy expression
+        L_i(q) [m], one per muscle.
+    inertia : sympy expression
+        M(q) [kg or kg m^2].
+    load : sympy expression
+        Q(q, qdot) [N or N m].
+
+    Raises
+    ------
+    ParameterError
+        If lengths gives another number of lengths than the mechanism has muscles; and whatever the
+        mechanism's own functions raise.
+
+    References
+    ----------
+    .. [1] model-spec section 3b (a file that cannot be traced ends with a one-line error).
+    """
     import sympy
     q = sympy.Symbol("q", real=True) if q is None else q
     qdot = sympy.Symbol("qdot", real=True) if qdot is None else qdot
@@ -348,8 +462,32 @@ class Kinematics(NamedTuple):
 
 
 def kinematics(mechanism: Mechanism, q, p, qdot=0.0) -> Kinematics:
-    """Each muscle's length and moment arm dL_i/dq, the inertia and the load at q [m or rad] and
-    qdot (floats or arrays, broadcast), from the lambdified trace (:attr:`Mechanism.traced`)."""
+    """Each muscle's length and moment arm dL_i/dq, the inertia and the load at (q, qdot).
+
+    From the lambdified trace (:attr:`Mechanism.traced`); the moment arms are ``sympy.diff`` of
+    the traced lengths, never written by hand.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q : float, array_like or sympy expression
+        The coordinate [m or rad].
+    p : MechanismParams
+        :meth:`Mechanism.bind`'s parameters.
+    qdot : float, array_like or sympy expression
+        The coordinate's rate [m/s or rad/s]; broadcasts with q.
+
+    Returns
+    -------
+    Kinematics
+        L (each muscle's length [m]), arms (each dL_i/dq [m/m or m/rad]), M [kg or kg m^2] and
+        Q [N or N m].
+
+    References
+    ----------
+    .. [1] model-spec section 3b.
+    """
     k = len(mechanism.muscles)
     q, qdot = actuator.as_values(q), actuator.as_values(qdot)
     values = _evaluate(mechanism, "state", q, qdot, p)
@@ -357,27 +495,43 @@ def kinematics(mechanism: Mechanism, q, p, qdot=0.0) -> Kinematics:
 
 
 def mechanism_force(mechanism: Mechanism, q, qdot, pressures, p) -> MechanismForce:
-    """The generalized force ``F = sum_i (-dL_i/dq) f_i(L_i, Ldot_i, P_i) + Q(q, qdot)`` (virtual
-    work, model-spec section 3b) at coordinate q, rate qdot and muscle pressures [Pa] (one per
-    muscle; floats or arrays, broadcast; on sympy symbols the expression).
+    """The generalized force of the muscles and the load at one state, by virtual work.
+
+    ``F = sum_i (-dL_i/dq) f_i(L_i, Ldot_i, P_i) + Q(q, qdot)``, ``Ldot_i = (dL_i/dq) qdot``
+
+    at coordinate q, rate qdot and muscle pressures (one per muscle; floats or arrays, broadcast;
+    on sympy symbols the expression). End stops are not included.
 
     Parameters
     ----------
     mechanism : Mechanism
-    q, qdot : float or array
-        The coordinate [m or rad] and its rate [per s].
+        The mechanism.
+    q, qdot : float, array_like or sympy expression
+        The coordinate [m or rad] and its rate [m/s or rad/s].
     pressures : sequence
-        Each muscle's gauge pressure [Pa].
+        Each muscle's gauge pressure [Pa], in the order of ``mechanism.muscles`` (one value for a
+        single muscle).
     p : MechanismParams
         :meth:`Mechanism.bind`; the tension reads the muscle's Params.
 
     Returns
     -------
     MechanismForce
+        F and Q [N or N m], M [kg or kg m^2], each muscle's L [m], arm dL_i/dq, Ldot [m/s] and
+        tension f [N].
+
+    Raises
+    ------
+    ParameterError
+        For another number of pressures than muscles.
+    DomainError
+        Where a length leaves 0 < L < b or a pressure is not finite.
 
     References
     ----------
-    Seed paper Eq. 14-17 (the knee: q = X); model-spec section 3b.
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 14-17 (the knee: q = X).
+    .. [2] model-spec section 3b.
     """
     q, qdot = actuator.as_values(q), actuator.as_values(qdot)
     pressures = _pressures(mechanism, pressures)
@@ -403,14 +557,47 @@ class ForcePartials(NamedTuple):
 
 
 def force_partials(mechanism: Mechanism, q, qdot, pressures, p) -> ForcePartials:
-    """Exact partials of F (:func:`mechanism_force`): the lengths' and the load's derivatives by
-    ``sympy.diff`` of the trace, the tension's by :func:`mkctl.physics.actuator.tension_partials`
-    (sympy.diff of the traced effect terms, with slack's factor), joined by the chain rule with
-    ``Ldot_i = L_i'(q) qdot``:
+    """Exact partials of F (:func:`mechanism_force`) by q, qdot and each muscle's pressure.
 
-    ``dF/dq = sum_i -(L_i'' f_i + L_i' s_i (f_L L_i' + f_Ldot L_i'' qdot)) + dQ/dq``,
-    ``dF/dqdot = sum_i -L_i' s_i f_Ldot L_i' + dQ/dqdot``, ``dF/dP_i = -L_i' s_i f_P``
+    The lengths' and the load's derivatives are ``sympy.diff`` of the trace, the tension's
+    :func:`mkctl.physics.actuator.tension_partials` (sympy.diff of the traced effect terms, with
+    slack's factor), joined by the chain rule with ``Ldot_i = L_i'(q) qdot``:
+
+    ``dF/dq = sum_i -(L_i'' f_i + L_i' s_i (f_L L_i' + f_Ldot L_i'' qdot)) + dQ/dq``
+
+    ``dF/dqdot = sum_i -L_i' s_i f_Ldot L_i' + dQ/dqdot``
+
+    ``dF/dP_i = -L_i' s_i f_P``
+
     with s_i the final limits' slope (slack: 0 where the muscle carries nothing).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q, qdot : float, array_like or sympy expression
+        The coordinate [m or rad] and its rate [m/s or rad/s].
+    pressures : sequence
+        Each muscle's gauge pressure [Pa].
+    p : MechanismParams
+        :meth:`Mechanism.bind`'s parameters.
+
+    Returns
+    -------
+    ForcePartials
+        F [N or N m], dF_dq [N/m or N m/rad], dF_dqdot [N s/m or N m s/rad], dF_dP (each
+        muscle's, [N/Pa or N m/Pa]) and the inertia M.
+
+    Raises
+    ------
+    ParameterError, DomainError
+        As :func:`mechanism_force`.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 18 (the partials a1, a2 are made of).
+    .. [2] model-spec section 3b (moment arms and the linearization differentiated exactly).
     """
     q, qdot = actuator.as_values(q), actuator.as_values(qdot)
     force = mechanism_force(mechanism, q, qdot, pressures, p)
@@ -432,8 +619,25 @@ def force_partials(mechanism: Mechanism, q, qdot, pressures, p) -> ForcePartials
 
 
 def state_names(mechanism: Mechanism, params=DEFAULT) -> tuple:
-    """The states: the coordinate, its rate (``<coordinate>_dot``) and, with pressure dynamics (a
-    lag), each muscle's pressure (``P_<muscle>``)."""
+    """The state names: the coordinate, its rate and, with pressure dynamics, each pressure.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    params : Params or MechanismParams
+        The muscle's effects decide whether the pressures are states (a lag).
+
+    Returns
+    -------
+    tuple of str
+        ``<coordinate>``, ``<coordinate>_dot`` and, with pressure dynamics, ``P_<muscle>`` for
+        each muscle.
+
+    References
+    ----------
+    .. [1] model-spec sections 3b and 4 (the pressure lag).
+    """
     names = (mechanism.coordinate, mechanism.coordinate + "_dot")
     if actuator.has_pressure_states(muscle_params(params)):
         names += tuple(f"P_{m}" for m in mechanism.muscles)
@@ -441,13 +645,43 @@ def state_names(mechanism: Mechanism, params=DEFAULT) -> tuple:
 
 
 def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) -> np.ndarray:
-    """Right-hand side of the equation of motion (model-spec section 3b) [SI per second].
+    """Right-hand side of the mechanism's equation of motion (model-spec section 3b).
 
-    ``state``: (q, qdot) or, with pressure dynamics, (q, qdot, P_1[, P_2]); ``commands``: each
-    muscle's pressure command [Pa] (as the muscles see it: after a dead time); ``stops``: (q_min,
-    q_max) of the end stops or None. ``qdd = (F + F_stop) / M`` with F of :func:`mechanism_force`
-    and F_stop :func:`mkctl.physics.knee.end_stop_force`. Returns a numpy array, or on sympy symbols
-    (generated code) a list of expressions.
+    ``qdd = (F + F_stop) / M``
+
+    with F of :func:`mechanism_force` and F_stop :func:`mkctl.physics.knee.end_stop_force` (the
+    knee's contact law, with the mechanism's inertia in place of the hip mass).
+
+    Parameters
+    ----------
+    state : sequence of float or sympy expression
+        (q [m or rad], qdot [m/s or rad/s]) or, with pressure dynamics, (q, qdot, P_1[, P_2])
+        with the pressures [Pa].
+    commands : sequence of float or sympy expression
+        Each muscle's pressure command [Pa] (as the muscles see it: after a dead time).
+    mechanism : Mechanism
+        The mechanism.
+    p : MechanismParams
+        :meth:`Mechanism.bind`'s parameters.
+    stops : tuple of float, optional
+        (q_min, q_max) of the end stops [m or rad]; None: no stops.
+
+    Returns
+    -------
+    numpy.ndarray or list of sympy expression
+        The state's rates [SI per second]: (qdot, qdd[, dP_1/dt, dP_2/dt]); on sympy symbols
+        (generated code) a list of expressions.
+
+    Raises
+    ------
+    DomainError
+        Where a length leaves 0 < L < b or a pressure is not finite.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 (the knee's equation of motion, q = X).
+    .. [2] model-spec sections 3b and 4 (the pressure effects).
     """
     muscle = muscle_params(p)
     k = len(mechanism.muscles)
@@ -475,14 +709,43 @@ def _scalar(x):
 
 def equilibrium(mechanism: Mechanism, pressures, params=DEFAULT, q_range=None,
                 samples: int = 400) -> float:
-    """The coordinate of a stable equilibrium at rest: ``F(q, 0, P) = 0`` with ``dF/dq < 0``, within
-    the stops.
+    """The coordinate of a stable equilibrium at rest, within the stops.
 
-    Parameters: pressures, one per muscle [Pa]; params a Params or :class:`MechanismParams`; q_range
-    (low, high) to search (default: the mechanism's stops); samples of the bracketing grid. Returns
-    q [m or rad]: the stable root nearest the upper stop (the knee's rule,
-    :func:`mkctl.physics.stability.equilibrium_hip_height`). Raises :class:`DomainError` when there
-    is none in range (the mechanism would rest on a stop).
+    ``F(q, 0, P) = 0`` with ``dF/dq < 0``
+
+    bracketed on a grid of q (where F falls through zero as q grows) and refined by Brent's method.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    pressures : sequence of float
+        Each muscle's gauge pressure [Pa].
+    params : Params or MechanismParams
+        The muscle's parameters (and the mechanism's own values).
+    q_range : tuple of float, optional
+        (low, high) coordinates to search [m or rad]; default: the mechanism's stops.
+    samples : int
+        Points of the bracketing grid.
+
+    Returns
+    -------
+    q : float
+        The coordinate [m or rad] of the stable root nearest the upper stop (the knee's rule,
+        :func:`mkctl.physics.stability.equilibrium_hip_height`).
+
+    Raises
+    ------
+    DomainError
+        When there is no stable equilibrium in range (the mechanism would rest on a stop).
+    ParameterError
+        For another number of pressures than muscles, or invalid own parameters.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 and 20.
+    .. [2] model-spec sections 3b and 5d (a run starts at rest in this equilibrium).
     """
     from scipy.optimize import brentq
 
@@ -503,9 +766,43 @@ def equilibrium(mechanism: Mechanism, pressures, params=DEFAULT, q_range=None,
 
 
 def stability_coefficients(mechanism: Mechanism, q, pressures, params=DEFAULT, qdot=0.0):
-    """(a1, a2) of the linearized equation of motion, Eq. 18 for one coordinate: ``a1 = (dF/dqdot) /
-    M`` [1/s] and ``a2 = (dF/dq) / M`` [1/s^2], stops excluded; Eq. 19-20 ask both < 0. For the knee
-    these are :func:`mkctl.physics.stability.routh_hurwitz_coefficients`."""
+    """(a1, a2) of the linearized equation of motion, Eq. 18 for one coordinate.
+
+    ``a1 = (dF/dqdot) / M``, ``a2 = (dF/dq) / M``
+
+    stops excluded; Eq. 19-20 ask both < 0. For the knee these are
+    :func:`mkctl.physics.stability.routh_hurwitz_coefficients`.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q : float or array_like
+        The coordinate [m or rad].
+    pressures : sequence
+        Each muscle's gauge pressure [Pa].
+    params : Params or MechanismParams
+        The muscle's parameters (and the mechanism's own values).
+    qdot : float or array_like
+        The coordinate's rate [m/s or rad/s] (0 at rest).
+
+    Returns
+    -------
+    a1 : float or array
+        Velocity coefficient [1/s].
+    a2 : float or array
+        Position coefficient [1/s^2].
+
+    Raises
+    ------
+    ParameterError, DomainError
+        As :func:`mechanism_force`.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
+    .. [2] model-spec section 3b (the stability analysis holds for any mechanism).
+    """
     p = mechanism.bind(params)
     d = force_partials(mechanism, q, qdot, pressures, p)
     return d.dF_dqdot / d.M, d.dF_dq / d.M
@@ -524,18 +821,59 @@ class MechanismStability(Result):
     verdict: str  #: 'stable', 'marginal' or 'unstable'
 
     def summary_lines(self):
+        """The repr's lines: the state and pressures, then a1, a2 and the verdict.
+
+        Returns
+        -------
+        list of str
+            Two lines.
+        """
         shown = ", ".join(f"{P:g}" for P in self.pressures)
         return [f"{self.mechanism} at q = {self.q:.6g}, pressures {shown} Pa",
                 f"a1 = {self.a1:.6g} 1/s, a2 = {self.a2:.6g} 1/s^2: {self.verdict}"]
 
     def table(self):
+        """The result as one row.
+
+        Returns
+        -------
+        list of dict
+            One row: q [m or rad], a1 [1/s], a2 [1/s^2], verdict.
+        """
         return [{"q": self.q, "a1": self.a1, "a2": self.a2, "verdict": self.verdict}]
 
 
 def equilibrium_stability(mechanism: Mechanism, pressures, params=DEFAULT,
                           q=None) -> MechanismStability:
-    """a1, a2, poles and the Routh-Hurwitz verdict at q (default: :func:`equilibrium` of the
-    pressures), at rest."""
+    """a1, a2, poles and the Routh-Hurwitz verdict of a mechanism at rest at q.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    pressures : sequence of float
+        Each muscle's gauge pressure [Pa].
+    params : Params or MechanismParams
+        The muscle's parameters (and the mechanism's own values).
+    q : float, optional
+        The coordinate [m or rad]; default: the stable :func:`equilibrium` of the pressures.
+
+    Returns
+    -------
+    MechanismStability
+        q, the pressures [Pa], a1 [1/s], a2 [1/s^2], the poles [1/s] and the verdict ('stable',
+        'marginal', 'unstable').
+
+    Raises
+    ------
+    DomainError
+        With q None, when there is no stable equilibrium between the stops.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
+    .. [2] model-spec section 3b.
+    """
     q = equilibrium(mechanism, pressures, params) if q is None else float(q)
     a1, a2 = (float(v) for v in stability_coefficients(mechanism, q, pressures, params))
     shown = tuple(float(P) for P in _pressures(mechanism, pressures))
@@ -544,12 +882,46 @@ def equilibrium_stability(mechanism: Mechanism, pressures, params=DEFAULT,
 
 
 def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFAULT):
-    """(A, B) of the equation of motion at rest at q with muscle pressures (and commands, default
-    the pressures), stops excluded; states :func:`state_names`, inputs the pressure commands.
-    Without pressure dynamics ``A = [[0, 1], [a2, a1]]``, ``B = [[0...], [dF/dP_i / M]]``; with them
-    the pressure columns move into A and the pressure rows hold
+    """(A, B) of the equation of motion linearized at rest at q, stops excluded.
+
+    States :func:`state_names`, inputs the pressure commands. Without pressure dynamics
+
+    ``A = [[0, 1], [a2, a1]]``, ``B = [[0...], [dF/dP_i / M]]``
+
+    with them the pressure columns move into A and the pressure rows hold
     :func:`mkctl.physics.actuator.pressure_derivative_partials`; a dead time adds the knee's
-    first-order Pade states (:func:`mkctl.physics.knee.pade_delay`)."""
+    first-order Pade states (:func:`mkctl.physics.knee.pade_delay`).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q : float
+        The coordinate [m or rad].
+    pressures : sequence of float
+        Each muscle's gauge pressure [Pa].
+    commands : sequence of float, optional
+        Each muscle's pressure command [Pa]; default the pressures (a steady state).
+    params : Params or MechanismParams
+        The muscle's parameters (and the mechanism's own values).
+
+    Returns
+    -------
+    A : numpy.ndarray
+        State matrix, (n, n) [SI per second].
+    B : numpy.ndarray
+        Input matrix, (n, muscles) [state units per s per Pa].
+
+    Raises
+    ------
+    ParameterError, DomainError
+        As :func:`mechanism_force`.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18.
+    .. [2] model-spec sections 3b and 4 (pressure lag, dead time).
+    """
     p = mechanism.bind(params)
     muscle = muscle_params(p)
     k = len(mechanism.muscles)
@@ -576,10 +948,37 @@ def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFA
 
 
 def linear_system(mechanism: Mechanism, pressures, params=DEFAULT, q=None):
-    """A python-control state-space model (``control.ss``) of the mechanism linearized at rest at q
-    (default: the equilibrium of the pressures): states :func:`state_names` (and with a dead time
-    the Pade states ``<muscle>_pade``), inputs each muscle's pressure command (``<muscle>_cmd``
-    [Pa]), output the coordinate."""
+    """A python-control state-space model (``control.ss``) of the mechanism linearized at rest.
+
+    States :func:`state_names` (and with a dead time the Pade states ``<muscle>_pade``), inputs
+    each muscle's pressure command (``<muscle>_cmd`` [Pa]), output the coordinate.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    pressures : sequence of float
+        Each muscle's gauge pressure [Pa] (and command).
+    params : Params or MechanismParams
+        The muscle's parameters (and the mechanism's own values).
+    q : float, optional
+        The coordinate [m or rad]; default: the stable :func:`equilibrium` of the pressures.
+
+    Returns
+    -------
+    control.StateSpace
+        The matrices of :func:`linearization`; C picks the coordinate [m or rad], D = 0.
+
+    Raises
+    ------
+    DomainError
+        With q None, when there is no stable equilibrium between the stops.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18.
+    .. [2] model-spec section 3b.
+    """
     import control
 
     q = equilibrium(mechanism, pressures, params) if q is None else float(q)
@@ -615,6 +1014,13 @@ class MechanismRun(Result):
     P: np.ndarray
 
     def summary_lines(self):
+        """The repr's lines: samples and time span, then the coordinate's start, end and range.
+
+        Returns
+        -------
+        list of str
+            Two lines (one, "no samples", for an empty run).
+        """
         if self.time.size == 0:
             return ["no samples"]
         t, q = self.time, self.q
@@ -623,6 +1029,14 @@ class MechanismRun(Result):
                 f"(range {q.min():.6g} .. {q.max():.6g})"]
 
     def table(self):
+        """The run as columns: time, the coordinate and its rate, each muscle's L, f and P.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``time`` [s], ``<coordinate>``, ``<coordinate>_dot``, and ``L_<muscle>`` [m],
+            ``f_<muscle>`` [N], ``P_<muscle>`` [Pa] for each muscle.
+        """
         columns = {"time": self.time, self.coordinate: self.q, self.coordinate + "_dot": self.qdot}
         for i, m in enumerate(self.muscles):
             columns.update({f"L_{m}": self.L[:, i], f"f_{m}": self.f[:, i], f"P_{m}": self.P[:, i]})
@@ -646,8 +1060,10 @@ def _commands(mechanism: Mechanism, commands, time) -> np.ndarray:
 
 def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=None,
                        stops: bool = True, rtol: float = 1e-10) -> MechanismRun:
-    """Simulate a mechanism over a record, commands held from each sample to the next (as
-    :func:`mkctl.physics.simulate.simulate_knee`).
+    """Simulate a mechanism over a record, commands held from each sample to the next.
+
+    As :func:`mkctl.physics.simulate.simulate_knee`: the equation of motion of
+    :func:`mechanism_derivatives`, integrated over each run of held commands.
 
     Parameters
     ----------
@@ -657,13 +1073,14 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
         One pressure command per muscle [Pa], at those times (scalars broadcast); one array for one
         muscle.
     mechanism : Mechanism
+        The mechanism.
     params : Params or MechanismParams
         The muscle's parameters and effects (one set for every muscle), and the mechanism's own
         values.
     q0 : float, optional
-        The initial coordinate; None: at rest in the stable equilibrium of the first commands
-        (model-spec 5d, :func:`equilibrium`). The motion always starts at rest, the pressures at the
-        first commands.
+        The initial coordinate [m or rad]; None: at rest in the stable equilibrium of the first
+        commands (model-spec 5d, :func:`equilibrium`). The motion always starts at rest, the
+        pressures at the first commands.
     stops : bool
         Whether the end stops act.
     rtol : float
@@ -673,6 +1090,22 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
     Returns
     -------
     MechanismRun
+        On the record's time grid [s]: q [m or rad], qdot, and each muscle's L [m], f [N] and
+        P [Pa].
+
+    Raises
+    ------
+    ParameterError
+        For another number of commands than muscles, or invalid own parameters.
+    DomainError
+        For a command that is not finite, a q0 outside the geometry, or no stable equilibrium of
+        the first commands (q0 None).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 17 (the knee's equation of motion).
+    .. [2] model-spec sections 3b and 5d (mechanism records).
     """
     p = mechanism.bind(params)
     muscle = muscle_params(p)
@@ -845,9 +1278,29 @@ BUILTIN = MappingProxyType({m.name: m for m in (KNEE, HANGING_MASS, PULLEY_JOINT
 
 
 def builtin_mechanism(name: str) -> Mechanism:
-    """A built-in mechanism by name (:data:`BUILTIN`); a one-line :class:`ParameterError` for
-    another name. A mechanism file (model-spec 3b) is read by
-    :func:`mkctl.analysis.mechanism_files.mechanism`."""
+    """A built-in mechanism by name (:data:`BUILTIN`).
+
+    A mechanism file (model-spec 3b) is read by :func:`mkctl.analysis.mechanism_files.mechanism`.
+
+    Parameters
+    ----------
+    name : str
+        ``knee``, ``hanging_mass`` or ``pulley_joint``.
+
+    Returns
+    -------
+    Mechanism
+        The built-in mechanism of that name.
+
+    Raises
+    ------
+    ParameterError
+        A one-line error for another name, listing the built-ins.
+
+    References
+    ----------
+    .. [1] model-spec section 3b (the built-ins' table).
+    """
     try:
         return BUILTIN[name]
     except KeyError:

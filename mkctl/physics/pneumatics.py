@@ -80,11 +80,14 @@ def air_volume(L, b, n, V_dead):
 
     Returns
     -------
-    V : air volume [m^3]
+    V : float, array or sympy expression
+        Air volume [m^3].
 
     References
     ----------
-    Seed paper Eq. 6 (:func:`mkctl.physics.actuator.bladder_volume`); model-spec section 4d.
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 6 (:func:`mkctl.physics.braid.bladder_volume`).
+    .. [2] model-spec section 4d.
     """
     return actuator.bladder_volume(L, b, n) + V_dead
 
@@ -98,18 +101,23 @@ def air_volume_slope(L, b, n):
 
     Parameters
     ----------
-    L : muscle length [m]
-    b : braid length [m]
-    n : turns of a thread [-]
+    L : float or array_like
+        Muscle length [m].
+    b : float or array_like
+        Braid length [m].
+    n : float or array_like
+        Turns of a thread [-].
 
     Returns
     -------
-    dV_b/dL : [m^2]
+    float, array or sympy expression
+        dV_b/dL [m^2].
 
     References
     ----------
-    Seed paper Eq. 4, 6, 7 (:func:`mkctl.physics.actuator.pressure_gain` is its negative);
-    model-spec 4d.
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 4, 6, 7 (:func:`mkctl.physics.braid.pressure_gain` is its negative).
+    .. [2] model-spec section 4d.
     """
     return -actuator.pressure_gain(L, b, n)
 
@@ -144,18 +152,25 @@ def flow_function(r, b_cr, m_sub, r_laminar=LAMINAR_RATIO):
 
     Parameters
     ----------
-    r : pressure ratio p_d / p_u [-] (absolute pressures)
-    b_cr : critical pressure ratio [-], 0 <= b_cr < r_laminar
-    m_sub : subsonic index [-] (0.5 in ISO 6358-1:2013's elliptic law)
-    r_laminar : ratio where the laminar branch starts [-]
+    r : float or array_like
+        Pressure ratio p_d / p_u [-] (absolute pressures).
+    b_cr : float or array_like
+        Critical pressure ratio [-], 0 <= b_cr < r_laminar.
+    m_sub : float or array_like
+        Subsonic index [-] (0.5 in ISO 6358-1:2013's elliptic law).
+    r_laminar : float or array_like
+        Ratio where the laminar branch starts [-].
 
     Returns
     -------
-    phi : [-], 1 while choked, 0 at r = 1
+    phi : float, array or sympy expression
+        Flow function [-]: 1 while choked, 0 at r = 1.
 
     References
     ----------
-    ISO 6358-1:2013 Eq. 2; model-spec section 4d.
+    .. [1] ISO 6358-1:2013, "Pneumatic fluid power - Determination of flow-rate
+       characteristics of components using compressible fluids", Eq. 2.
+    .. [2] model-spec section 4d.
     """
     xp = math_for_all(r, b_cr, m_sub)
     r = xp.minimum(xp.maximum(r, 0.0), 1.0)
@@ -186,21 +201,31 @@ def orifice_mass_flow(p_u, p_d, C, b_cr, m_sub, T_u=T0, T_d=None):
 
     Parameters
     ----------
-    p_u : absolute pressure upstream [Pa]
-    p_d : absolute pressure downstream [Pa]
-    C : sonic conductance [m^3/(s Pa)]
-    b_cr : critical pressure ratio [-]
-    m_sub : subsonic index [-]
-    T_u : temperature of the gas at p_u [K]
-    T_d : temperature of the gas at p_d [K] (the upstream one when the flow reverses; default T_u)
+    p_u : float or array_like
+        Absolute pressure upstream [Pa].
+    p_d : float or array_like
+        Absolute pressure downstream [Pa].
+    C : float or array_like
+        Sonic conductance [m^3/(s Pa)].
+    b_cr : float or array_like
+        Critical pressure ratio [-].
+    m_sub : float or array_like
+        Subsonic index [-].
+    T_u : float or array_like
+        Temperature of the gas at p_u [K].
+    T_d : float or array_like, optional
+        Temperature of the gas at p_d [K] (the upstream one when the flow reverses; default T_u).
 
     Returns
     -------
-    q : mass flow from p_u to p_d [kg/s] (negative when it flows back)
+    q : float, array or sympy expression
+        Mass flow from p_u to p_d [kg/s] (negative when it flows back).
 
     References
     ----------
-    ISO 6358-1:2013 Eq. 1-2; model-spec section 4d.
+    .. [1] ISO 6358-1:2013, "Pneumatic fluid power - Determination of flow-rate
+       characteristics of components using compressible fluids", Eq. 1-2.
+    .. [2] model-spec section 4d.
     """
     xp = math_for_all(p_u, p_d, C, b_cr, m_sub, T_u)
     T_d = T_u if T_d is None else T_d
@@ -219,24 +244,45 @@ def regulator_opening(P_cmd, P, band):
 
     Parameters
     ----------
-    P_cmd : commanded gauge pressure [Pa]
-    P : gauge pressure in the muscle [Pa]
-    band : proportional band [Pa]
+    P_cmd : float or array_like
+        Commanded gauge pressure [Pa].
+    P : float or array_like
+        Gauge pressure in the muscle [Pa].
+    band : float or array_like
+        Proportional band [Pa].
 
     Returns
     -------
-    u : opening [-] in [-1, 1] (1 open to the supply, -1 open to the exhaust)
+    u : float, array or sympy expression
+        Opening [-] in [-1, 1] (1 open to the supply, -1 open to the exhaust).
 
     References
     ----------
-    Model-spec section 4d.
+    .. [1] model-spec section 4d.
     """
     xp = math_for_all(P_cmd, P, band)
     return xp.minimum(xp.maximum((P_cmd - P) / band, -1.0), 1.0)
 
 
 def exhaust_conductance(C_fill, C_exhaust):
-    """The exhaust's sonic conductance [m^3/(s Pa)]: C_exhaust, or C_fill where it is 0."""
+    """The exhaust's sonic conductance: C_exhaust, or C_fill where it is 0.
+
+    Parameters
+    ----------
+    C_fill : float or array_like
+        Sonic conductance to the supply [m^3/(s Pa)].
+    C_exhaust : float or array_like
+        Sonic conductance to the exhaust [m^3/(s Pa)] (0: the same as C_fill).
+
+    Returns
+    -------
+    float, array or sympy expression
+        The exhaust's sonic conductance [m^3/(s Pa)].
+
+    References
+    ----------
+    .. [1] model-spec section 4d (``C_exhaust``, 0: the same as C_fill).
+    """
     xp = math_for_all(C_fill, C_exhaust)
     return xp.where(C_exhaust > 0, C_exhaust, C_fill)
 
@@ -256,23 +302,35 @@ def valve_mass_flow(u, P, P_supply, C_fill, C_exhaust, b_cr, m_sub, T_air=T0, T=
 
     Parameters
     ----------
-    u : opening [-] in [-1, 1]
-    P : gauge pressure in the muscle [Pa]
-    P_supply : gauge pressure of the supply [Pa]
-    C_fill : sonic conductance to the supply [m^3/(s Pa)]
-    C_exhaust : sonic conductance to the exhaust [m^3/(s Pa)] (0: the same as C_fill)
-    b_cr : critical pressure ratio [-]
-    m_sub : subsonic index [-]
-    T_air : temperature of the supply's and the atmosphere's air [K]
-    T : temperature of the muscle's air [K] (default T_air)
+    u : float or array_like
+        Opening [-] in [-1, 1].
+    P : float or array_like
+        Gauge pressure in the muscle [Pa].
+    P_supply : float or array_like
+        Gauge pressure of the supply [Pa].
+    C_fill : float or array_like
+        Sonic conductance to the supply [m^3/(s Pa)].
+    C_exhaust : float or array_like
+        Sonic conductance to the exhaust [m^3/(s Pa)] (0: the same as C_fill).
+    b_cr : float or array_like
+        Critical pressure ratio [-].
+    m_sub : float or array_like
+        Subsonic index [-].
+    T_air : float or array_like
+        Temperature of the supply's and the atmosphere's air [K].
+    T : float or array_like, optional
+        Temperature of the muscle's air [K] (default T_air).
 
     Returns
     -------
-    q : net mass flow into the muscle [kg/s]
+    q : float, array or sympy expression
+        Net mass flow into the muscle [kg/s].
 
     References
     ----------
-    Model-spec section 4d; ISO 6358-1:2013.
+    .. [1] model-spec section 4d.
+    .. [2] ISO 6358-1:2013, "Pneumatic fluid power - Determination of flow-rate
+       characteristics of components using compressible fluids".
     """
     xp = math_for_all(u, P, P_supply, C_fill, C_exhaust)
     T = T_air if T is None else T
@@ -291,16 +349,19 @@ def leak_mass_flow(P, C_leak):
 
     Parameters
     ----------
-    P : gauge pressure [Pa]
-    C_leak : leak conductance [m^3/(s Pa)]
+    P : float or array_like
+        Gauge pressure [Pa].
+    C_leak : float or array_like
+        Leak conductance [m^3/(s Pa)].
 
     Returns
     -------
-    q : mass flow into the muscle [kg/s] (negative: out)
+    q : float, array or sympy expression
+        Mass flow into the muscle [kg/s] (negative: out).
 
     References
     ----------
-    Model-spec section 4d.
+    .. [1] model-spec section 4d.
     """
     return -RHO0 * C_leak * P
 
@@ -317,20 +378,27 @@ def polytropic_pressure_rate(P, V, dV_dt, q_m, k_poly, T_air=T0):
 
     Parameters
     ----------
-    P : gauge pressure [Pa] (p = P + P_atm)
-    V : air volume [m^3]
-    dV_dt : its rate [m^3/s]
-    q_m : net mass flow in [kg/s]
-    k_poly : polytropic exponent [-]
-    T_air : air temperature [K]
+    P : float or array_like
+        Gauge pressure [Pa] (p = P + P_atm).
+    V : float or array_like
+        Air volume [m^3].
+    dV_dt : float or array_like
+        Rate of the air volume [m^3/s].
+    q_m : float or array_like
+        Net mass flow in [kg/s].
+    k_poly : float or array_like
+        Polytropic exponent [-].
+    T_air : float or array_like
+        Air temperature [K].
 
     Returns
     -------
-    dP/dt : [Pa/s]
+    float, array or sympy expression
+        dP/dt [Pa/s].
 
     References
     ----------
-    Model-spec section 4d.
+    .. [1] model-spec section 4d.
     """
     return k_poly / V * (R_AIR * T_air * q_m - (P + P_ATM) * dV_dt)
 
@@ -359,22 +427,35 @@ def air_heat_rates(P, T, V, dV_dt, q_m, T_air, tau_heat, gamma=GAMMA_AIR):
 
     Parameters
     ----------
-    P : gauge pressure [Pa]
-    T : temperature of the muscle's air [K]
-    V : air volume [m^3]
-    dV_dt : its rate [m^3/s]
-    q_m : net mass flow in [kg/s]
-    T_air : temperature of the supply and the wall [K]
-    tau_heat : thermal time constant [s] (> 0)
-    gamma : ratio of specific heats [-] (1.4 for air)
+    P : float or array_like
+        Gauge pressure [Pa].
+    T : float or array_like
+        Temperature of the muscle's air [K].
+    V : float or array_like
+        Air volume [m^3].
+    dV_dt : float or array_like
+        Rate of the air volume [m^3/s].
+    q_m : float or array_like
+        Net mass flow in [kg/s].
+    T_air : float or array_like
+        Temperature of the supply and the wall [K].
+    tau_heat : float or array_like
+        Thermal time constant [s] (> 0).
+    gamma : float or array_like
+        Ratio of specific heats [-] (1.4 for air).
 
     Returns
     -------
-    (dP/dt [Pa/s], dT/dt [K/s])
+    dP_dt : float, array or sympy expression
+        Pressure rate [Pa/s].
+    dT_dt : float, array or sympy expression
+        Temperature rate [K/s].
 
     References
     ----------
-    Model-spec section 4d; Carneiro & de Almeida (2006); docs/pneumatics.md (the derivation).
+    .. [1] model-spec section 4d; docs/pneumatics.md (the derivation).
+    .. [2] J. F. Carneiro & F. G. de Almeida, "Reduced-order thermodynamic models for
+       servo-pneumatic actuator chambers", Proc. IMechE I 220 (2006).
     """
     xp = math_for_all(P, T, V, dV_dt, q_m, T_air, tau_heat)
     p = P + P_ATM
@@ -414,23 +495,34 @@ def regulator_time_constant(P, V, band, C_fill, C_exhaust, P_supply, b_cr, m_sub
 
     Parameters
     ----------
-    P : operating gauge pressure [Pa], > 0 (at P = 0 nothing is left to exhaust: tau_exhaust is
-        infinite, a ZeroDivisionError on floats and inf on arrays)
-    V : air volume [m^3]
-    band : proportional band [Pa]
-    C_fill, C_exhaust : sonic conductances [m^3/(s Pa)] (C_exhaust 0: the same as C_fill)
-    P_supply : supply gauge pressure [Pa]
-    b_cr, m_sub : critical ratio and subsonic index [-]
-    k_poly : polytropic exponent [-]
-    T_air : air temperature [K]
+    P : float or array_like
+        Operating gauge pressure [Pa], > 0 (at P = 0 nothing is left to exhaust: tau_exhaust is
+        infinite, a ZeroDivisionError on floats and inf on arrays).
+    V : float or array_like
+        Air volume [m^3].
+    band : float or array_like
+        Proportional band [Pa].
+    C_fill, C_exhaust : float or array_like
+        Sonic conductances [m^3/(s Pa)] (C_exhaust 0: the same as C_fill).
+    P_supply : float or array_like
+        Supply gauge pressure [Pa].
+    b_cr, m_sub : float or array_like
+        Critical ratio and subsonic index [-].
+    k_poly : float or array_like
+        Polytropic exponent [-].
+    T_air : float or array_like
+        Air temperature [K].
 
     Returns
     -------
-    (tau_fill [s], tau_exhaust [s])
+    tau_fill : float or array
+        Time constant of a small step up [s].
+    tau_exhaust : float or array
+        Time constant of a small step down [s].
 
     References
     ----------
-    Model-spec section 4 (pressure_lag, asymmetric_lag) and 4d; docs/pneumatics.md.
+    .. [1] model-spec section 4 (pressure_lag, asymmetric_lag) and 4d; docs/pneumatics.md.
     """
     fill = valve_mass_flow(1.0, P, P_supply, C_fill, C_exhaust, b_cr, m_sub, T_air)
     exhaust = -valve_mass_flow(-1.0, P, P_supply, C_fill, C_exhaust, b_cr, m_sub, T_air)
@@ -447,19 +539,25 @@ def choked_fill_rate(V, C_fill, P_supply, k_poly, T_air=T0):
 
     Parameters
     ----------
-    V : air volume [m^3]
-    C_fill : sonic conductance [m^3/(s Pa)]
-    P_supply : supply gauge pressure [Pa]
-    k_poly : polytropic exponent [-]
-    T_air : air temperature [K]
+    V : float or array_like
+        Air volume [m^3].
+    C_fill : float or array_like
+        Sonic conductance [m^3/(s Pa)].
+    P_supply : float or array_like
+        Supply gauge pressure [Pa].
+    k_poly : float or array_like
+        Polytropic exponent [-].
+    T_air : float or array_like
+        Air temperature [K].
 
     Returns
     -------
-    dP/dt [Pa/s]
+    float, array or sympy expression
+        dP/dt [Pa/s] while the valve chokes.
 
     References
     ----------
-    Model-spec section 4d.
+    .. [1] model-spec section 4d.
     """
     xp = math_for_all(V, C_fill, P_supply, k_poly, T_air)
     return k_poly * R_AIR * T_air / V * C_fill * RHO0 * (P_supply + P_ATM) * xp.sqrt(T0 / T_air)
@@ -475,18 +573,23 @@ def leak_time_constant(V, C_leak, k_poly, T_air=T0):
 
     Parameters
     ----------
-    V : air volume [m^3]
-    C_leak : leak conductance [m^3/(s Pa)] (> 0)
-    k_poly : polytropic exponent [-]
-    T_air : air temperature [K]
+    V : float or array_like
+        Air volume [m^3].
+    C_leak : float or array_like
+        Leak conductance [m^3/(s Pa)] (> 0).
+    k_poly : float or array_like
+        Polytropic exponent [-].
+    T_air : float or array_like
+        Air temperature [K].
 
     Returns
     -------
-    tau_leak [s]
+    tau_leak : float or array
+        Time constant of the leak-down [s].
 
     References
     ----------
-    Model-spec section 4d.
+    .. [1] model-spec section 4d.
     """
     return V / (k_poly * R_AIR * T_air * RHO0 * C_leak)
 
@@ -503,19 +606,27 @@ def sealed_stiffness(L, P, b, n, V_dead, k_poly):
 
     Parameters
     ----------
-    L : muscle length [m]
-    P : gauge pressure [Pa]
-    b, n : braid length [m], turns of a thread [-]
-    V_dead : dead volume [m^3]
-    k_poly : polytropic exponent [-]
+    L : float or array_like
+        Muscle length [m].
+    P : float or array_like
+        Gauge pressure [Pa].
+    b, n : float or array_like
+        Braid length [m], turns of a thread [-].
+    V_dead : float or array_like
+        Dead volume [m^3].
+    k_poly : float or array_like
+        Polytropic exponent [-].
 
     Returns
     -------
-    dP/dL [Pa/m]
+    float, array or sympy expression
+        dP/dL [Pa/m].
 
     References
     ----------
-    Seed paper Eq. 6; model-spec section 4d.
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 6 and 23.
+    .. [2] model-spec section 4d.
     """
     return -k_poly * (P + P_ATM) * air_volume_slope(L, b, n) / air_volume(L, b, n, V_dead)
 
@@ -695,7 +806,23 @@ class AirParams:
             object.__setattr__(self, q.name, float(value))
 
     def replace(self, **values) -> "AirParams":
-        """A copy with the given values changed."""
+        """A copy with the given values changed (checked as on construction).
+
+        Parameters
+        ----------
+        **values : float
+            New values by field name, in each field's SI unit.
+
+        Returns
+        -------
+        AirParams
+            The copy.
+
+        Raises
+        ------
+        ParameterError
+            For a value that is not a finite number or lies outside its parameter's bounds.
+        """
         return dataclasses.replace(self, **values)
 
 
@@ -720,6 +847,13 @@ class PressureSimulation(Result):
     evaluations: int = 0  #: right-hand-side evaluations the integrator made (its cost)
 
     def summary_lines(self) -> list[str]:
+        """The repr's line: samples and span, the pressure's start, end and maximum, T's range.
+
+        Returns
+        -------
+        list of str
+            One line, with the integrator and its number of evaluations.
+        """
         return [
             f"{self.time.size} samples over {self.time[-1] - self.time[0]:.4g} s, P from "
             f"{self.P[0] / 1e3:.4g} to {self.P[-1] / 1e3:.4g} kPa "
@@ -729,6 +863,14 @@ class PressureSimulation(Result):
         ]
 
     def table(self):
+        """The record as columns.
+
+        Returns
+        -------
+        dict of str to numpy.ndarray
+            ``time`` [s], ``P`` [Pa], ``mass_flow`` [kg/s], ``T`` [K], ``V`` [m^3], ``L`` [m],
+            ``opening`` [-].
+        """
         return {
             name: getattr(self, name)
             for name in ("time", "P", "mass_flow", "T", "V", "L", "opening")
@@ -790,26 +932,47 @@ def simulate_muscle_pressure(
 
     Parameters
     ----------
-    time : increasing sample times [s]
-    command : regulator set-points P_cmd [Pa] at the sample times (or one number), or None
-    opening : valve openings u [-] at the sample times (or one number), or None
-    length, length_rate : the held length [m], or the moving length's samples [m] and rates [m/s]
-    load : constant load [N] of a free muscle (instead of length)
-    air : :class:`AirParams`
-    muscle : the muscle's :class:`~mkctl.physics.params.Params` (b, n, L0; the static tension for a
-        load)
-    P_start : gauge pressure at the first sample [Pa] (default: the first command, or 0 with
-        openings)
-    method : "LSODA" (default), "Radau" or "BDF"
-    rtol, atol : the integrator's tolerances (atol in Pa, and in K for T)
+    time : array_like
+        Increasing sample times [s], at least two.
+    command : float or array_like, optional
+        Regulator set-points P_cmd [Pa] at the sample times (or one number); give it or opening.
+    opening : float or array_like, optional
+        Valve openings u [-] in [-1, 1] at the sample times (or one number).
+    length : float or array_like, optional
+        The held length [m] (default the muscle's L0), or the moving length's samples [m].
+    length_rate : array_like, optional
+        The moving length's rates [m/s] at the sample times (default ``numpy.gradient``).
+    load : float, optional
+        Constant load [N] of a free muscle (instead of length).
+    air : AirParams
+        The air's section 4d values (valve, leak, heat, dead volume).
+    muscle : Params
+        The muscle's parameters (b, n, L0; the static tension for a load).
+    P_start : float, optional
+        Gauge pressure at the first sample [Pa] (default: the first command, or 0 with openings).
+    method : str
+        "LSODA" (default), "Radau" or "BDF".
+    rtol : float
+        The integrator's relative tolerance [-].
+    atol : float
+        The integrator's absolute tolerance (in Pa, and in K for T).
 
     Returns
     -------
-    :class:`PressureSimulation`
+    PressureSimulation
+        At the sample times: P [Pa], mass_flow [kg/s], T [K], V [m^3], L [m], opening [-], and the
+        integrator's cost.
+
+    Raises
+    ------
+    DomainError
+        For sample times that are not increasing, both or neither of command and opening, both
+        length and load, an unknown method, an opening outside [-1, 1], a record of the wrong
+        length or with a value that is not finite, or a length outside 0 < L < b.
 
     References
     ----------
-    Model-spec sections 4d and 5c.
+    .. [1] model-spec sections 4d and 5c.
     """
     from scipy.integrate import solve_ivp
     from scipy.interpolate import CubicHermiteSpline

@@ -14,14 +14,16 @@ point. Viscous damping gives ``a1 = -c (G_e^2 + G_f^2) / m < 0`` (spec section 4
 
 The pressures enter h and F affinely (not with the pressure threshold of model-spec section 4b), so
 the equilibrium set (F = m g, V = 0) and the h = 0 surface are both closed-form surfaces
-``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and :func:`h_zero_pressure`. The pressure lag
-adds the decoupled poles -1/tau and does not change a1, a2.
+``Pe(alpha, Pf)``; see :func:`equilibrium_pressure` and :func:`h_zero_pressure`, which check the
+closed form on the exact force and bisect where it misses (the threshold, a slack extensor). The
+pressure lag adds the decoupled poles -1/tau and does not change a1, a2.
 
 References: "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator" (the seed
 paper), Section VI, Eq. 18-25 and Fig. 7; model-spec sections 3 and 4.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -160,8 +162,10 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
     With slack (model-spec section 4) the extensor that holds the hip is taut, so its tension stays
     affine in Pe; only the flexor may be slack: its tension is ``max(f_f, 0)``. The pressure
     threshold (model-spec section 4b, ``P_eff = P - P0 (1 - exp(-P / P0))``) makes F nonlinear in
-    Pe: with P0 > 0 the result does not hold the hip (measured at alpha = 60 deg, Pf = 100 kPa,
-    P0 = 100 kPa: F - m g = -7.6 N there).
+    Pe: with P0 > 0 the affine step alone missed (at alpha = 60 deg, Pf = 100 kPa, P0 = 100 kPa it
+    gave 1.598 MPa, where F - m g = -7.6 N). So the step is checked on the exact force (to a
+    relative 1e-9) and, where it misses, the root of ``F(Pe) - m g`` is bracketed and bisected:
+    F rises monotonically with Pe where the extensor pulls (1.698 MPa in that example).
 
     Parameters
     ----------
@@ -181,7 +185,8 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
     Raises
     ------
     DomainError
-        Where alpha, Pf or an actuator length is outside the model's domain.
+        Where alpha, Pf or an actuator length is outside the model's domain; where F is not affine
+        in Pe and no extensor pressure holds the hip.
 
     References
     ----------
@@ -195,16 +200,33 @@ def equilibrium_pressure(alpha, Pf, params: Params = DEFAULT):
     F = partials.F
     if params.slack:
         F = F + geo.G_f * np.minimum(partials.ff, 0.0)  # a slack flexor does not push the hip up
-    return (params.m * params.g - F) / partials.dF_dPe
+    mg = params.m * params.g
+    Pe = (mg - F) / partials.dF_dPe
+    # The affine step is exact unless F bends in Pe (the pressure threshold, P0 > 0): check it on
+    # the exact force, and where it misses, find the root of the exact F(Pe) - m g by bisection.
+
+    def excess(alpha_, Pe_, Pf_):
+        # the check at the guess is at alpha itself: its geometry is already known
+        at = geo if alpha_ is alpha else knee.geometry_at_alpha(alpha_, params)
+        return knee.knee_force(at, 0.0, Pe_, Pf_, params).F - mg
+
+    scale = mg + np.abs(F) + np.abs(partials.dF_dPe * np.where(np.isfinite(Pe), Pe, 0.0))
+    return _refined(excess, alpha, Pf, Pe, scale, np.isfinite(Pe),
+                    "no extensor pressure holds the hip at rest", "F - m g [N]",
+                    "the extensor's pressure gain does not lift the hip there")
 
 
-def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
+def h_zero_pressure(alpha, Pf, params: Params = DEFAULT, where_none: float | None = None):
     """Extensor pressure on the surface h(alpha, Pe, Pf) = 0 of Fig. 7.
 
     h is affine in Pe, so ``Pe = -h(alpha, 0, Pf) / (h(alpha, 1 Pa, Pf) - h(alpha, 0, Pf))``. Not so
-    with the pressure threshold (model-spec section 4b: P0 > 0), where the result is not on the
-    surface, nor where the extensor is slack at 0 and 1 Pa (slack = 1 with model 2), where the
-    difference is zero: a ZeroDivisionError for floats, inf for arrays.
+    with the pressure threshold (model-spec section 4b: P0 > 0), where that secant missed the
+    surface (h = 1.5e7 N/rad at its result with P0 = 100 kPa, alpha = 60 deg, Pf = 100 kPa), nor
+    where the extensor is slack at 0 and 1 Pa (slack = 1 with model 2), where the secant divided
+    by zero (a ZeroDivisionError for floats, inf for arrays). So the secant is checked on h itself
+    (to a relative 1e-9) and, where it misses, the pressure at which h changes sign is bracketed
+    and bisected (h is monotone in Pe). With slack, h does not depend on Pe while the extensor is
+    slack and may jump through zero where it turns taut: the result is then that pressure.
 
     Parameters
     ----------
@@ -214,16 +236,24 @@ def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
         Flexor gauge pressure [Pa]; broadcasts with alpha.
     params : Params
         The model.
+    where_none : float, optional
+        What to return where h does not change sign at any extensor pressure: None (default)
+        raises DomainError; a caller that maps the surface and leaves its gaps blank asks for
+        ``numpy.nan`` here.
 
     Returns
     -------
     Pe : float or array
-        Extensor gauge pressure [Pa] at which h = 0; above it (in Pe) h < 0.
+        Extensor gauge pressure [Pa] at which h changes sign (h = 0 there where h is continuous in
+        Pe). Which side is stable (h < 0) depends on the posture: in the default model h rises
+        with Pe below alpha = 57 deg (h < 0 below the result) and falls with Pe above it.
 
     Raises
     ------
     DomainError
-        Where alpha, Pf or an actuator length is outside the model's domain.
+        Where alpha, Pf or an actuator length is outside the model's domain; with where_none None,
+        where h does not change sign at any extensor pressure (e.g. a slack extensor at
+        alpha = 60 deg, Pf = 100 kPa, model 2, where h < 0 at every Pe).
 
     References
     ----------
@@ -232,7 +262,93 @@ def h_zero_pressure(alpha, Pf, params: Params = DEFAULT):
     """
     h0 = h_function(alpha, 0.0, Pf, params)
     h1 = h_function(alpha, 1.0, Pf, params)
-    return -h0 / (h1 - h0)
+    slope = np.asarray(h1 - h0)
+    # The secant through 0 and 1 Pa is exact where h is affine in Pe. Elsewhere (the pressure
+    # threshold bends h; a slack extensor makes h flat in Pe, slope 0) the root of h(Pe) itself is
+    # bracketed and bisected; where h has no sign change at all, a DomainError (or where_none).
+    if np.all(slope != 0):
+        Pe = -h0 / (h1 - h0)
+    else:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            Pe = -np.asarray(h0) / slope
+    finite_Pe = np.where(np.isfinite(Pe), Pe, 0.0)
+    scale = np.abs(h0) + np.abs(slope * finite_Pe)
+
+    def h_at(alpha_, Pe_, Pf_):
+        return h_function(alpha_, Pe_, Pf_, params)
+
+    return _refined(h_at, alpha, Pf, Pe, scale, np.ones(np.shape(Pe), dtype=bool),
+                    "h does not change sign at any extensor pressure", "h [N/rad]",
+                    "where the extensor is slack, h does not depend on Pe", where_none)
+
+
+#: Relative residual below which a closed-form pressure (affine in Pe) is taken as exact.
+_AFFINE_TOLERANCE = 1e-9
+#: Largest extensor pressure magnitude [Pa] the bracket search of :func:`_refined` tries.
+_PE_SEARCH_LIMIT = 1e12
+
+
+def _refined(fun, alpha, Pf, Pe, scale, check, failure: str, what: str, why: str,
+             where_none: float | None = None):
+    """The boundary in Pe between ``fun(alpha, Pe, Pf) < 0`` and ``>= 0``, from the guess Pe.
+
+    The closed-form guess is kept, bit for bit, where ``|fun| <= _AFFINE_TOLERANCE scale`` (fun
+    affine in Pe) or where check is False (an infinite guess the caller documents). Elsewhere the
+    boundary is bracketed around the guess (fun is monotone in Pe) and bisected to rounding: where
+    fun is continuous, its root; where it jumps through zero or is zero over an interval (a muscle
+    turning taut), the pressure at which its sign changes. Where the sign does not change for |Pe|
+    up to _PE_SEARCH_LIMIT [Pa]: where_none, or (None) a DomainError that says so.
+    """
+    if np.ndim(Pe) == 0:  # one posture: Python floats keep the equations on their fast path
+        finite = math.isfinite(float(Pe))
+        at_guess = float(Pe) if finite else 0.0
+        residual = float(fun(alpha, at_guess, Pf)) if finite else math.inf
+        if not (bool(check) and not abs(residual) <= _AFFINE_TOLERANCE * float(scale)):
+            return Pe
+        off = np.asarray(True)
+    else:
+        finite = np.isfinite(Pe)
+        at_guess = np.where(finite, Pe, 0.0)
+        residual = np.where(finite, fun(alpha, at_guess, Pf), np.inf)
+        off = np.asarray(np.broadcast_to(check, np.shape(Pe))
+                         & ~(np.abs(residual) <= _AFFINE_TOLERANCE * scale))
+        if not off.any():
+            return Pe
+    alphas, Pfs, guesses = (np.broadcast_to(v, off.shape)[off].astype(float)
+                            for v in (alpha, Pf, at_guess))
+    half = np.maximum(np.abs(guesses), 1e5)
+    low, high = guesses - half, guesses + half
+    f_low, f_high = fun(alphas, low, Pfs), fun(alphas, high, Pfs)
+    lost = np.zeros(guesses.shape, dtype=bool)  # no sign change: where_none
+    while True:
+        open_ = ((f_low < 0) == (f_high < 0)) & ~lost
+        if not open_.any():
+            break
+        beyond = open_ & (half > _PE_SEARCH_LIMIT)
+        if beyond.any() and where_none is not None:
+            lost |= beyond
+            continue
+        if beyond.any():
+            i = int(np.argmax(beyond))
+            raise DomainError(
+                f"{failure} at alpha = {np.degrees(alphas[i]):.4g} deg, Pf = {Pfs[i]:g} Pa: "
+                f"{what} is {float(f_low[i]):.4g} at Pe = {low[i]:.3g} Pa and "
+                f"{float(f_high[i]):.4g} at {high[i]:.3g} Pa ({why})")
+        half = np.where(open_, 4 * half, half)
+        low, high = np.where(open_, guesses - half, low), np.where(open_, guesses + half, high)
+        f_low = np.where(open_, fun(alphas, low, Pfs), f_low)
+        f_high = np.where(open_, fun(alphas, high, Pfs), f_high)
+    negative_low = f_low < 0
+    for _ in range(200):
+        middle = 0.5 * (low + high)
+        if np.all((middle <= low) | (middle >= high)):  # bisected to rounding
+            break
+        same = (fun(alphas, middle, Pfs) < 0) == negative_low
+        low, high = np.where(same, middle, low), np.where(same, high, middle)
+    result = np.array(Pe, dtype=float)
+    result[off] = np.where(lost, where_none if where_none is not None else np.nan,
+                           0.5 * (low + high))
+    return float(result) if np.ndim(Pe) == 0 else result
 
 
 def verdict(a1, a2) -> np.ndarray:
@@ -296,7 +412,9 @@ class PostureStability:
     h: float  #: Eq. 22 [N/rad]
     poles: tuple[complex, complex]  #: eigenvalues of Eq. 18 [1/s]
     verdict: str  #: 'stable', 'marginal' or 'unstable'
-    in_equilibrium: bool  #: whether Pe was chosen to hold the posture at rest
+    #: whether F = m g at (X, Pe, Pf) to a relative 1e-9: the posture is a rest state (checked on
+    #: the exact force, whether Pe was given or found by :func:`equilibrium_pressure`)
+    in_equilibrium: bool
 
 
 def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float | None = None,
@@ -320,15 +438,16 @@ def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float |
     Returns
     -------
     PostureStability
-        The posture, its pressures, a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s] and the verdict
-        ('stable', 'marginal', 'unstable').
+        The posture, its pressures, a1 [1/s], a2 [1/s^2], h [N/rad], the poles [1/s], the verdict
+        ('stable', 'marginal', 'unstable') and whether F = m g there (checked on the exact force).
 
     Raises
     ------
     ParameterError
         Unless exactly one of alpha and X is given.
     DomainError
-        For a posture or a pressure outside the model's domain.
+        For a posture or a pressure outside the model's domain; with Pe None, where no extensor
+        pressure holds the posture.
 
     References
     ----------
@@ -337,9 +456,11 @@ def posture_stability(alpha=None, *, X=None, Pf: float = DEFAULT_PF, Pe: float |
     .. [2] model-spec sections 3 and 4.
     """
     alpha, X = knee.posture(alpha, X, params)
-    in_equilibrium = Pe is None
     if Pe is None:
         Pe = float(equilibrium_pressure(alpha, Pf, params))
+    mg = params.m * params.g
+    excess = float(knee.ground_force(X, Pe, Pf, 0.0, params)) - mg
+    in_equilibrium = abs(excess) <= _AFFINE_TOLERANCE * mg
     a1, a2 = (float(v) for v in routh_hurwitz_coefficients(X, Pe, Pf, 0.0, params))
     return PostureStability(float(alpha), X, float(Pe), float(Pf), a1, a2,
                             float(h_function(alpha, Pe, Pf, params)),

@@ -1,9 +1,11 @@
-"""The paper's tables: Table I (the muscle) and Table II (the knee), with the values derived from them.
+"""The paper's tables: Table I (the muscle) and Table II (the knee), with the values derived from
+them.
 
-Values are SI (m, Pa, kg). Table I's first row "h = 0.241 m" is the braid length b, Table II's unnamed last row
-(0.059 m) is the kneecap lever r (model-spec sections 2 and 3). The turns of a thread ``n`` and the rubber volume
-``V_r`` are derived (model-spec section 2). :data:`TABLE_I_MUSCLE` is Table I's muscle as a value, the default of
-the braid and rubber functions (:mod:`mkctl.physics.braid`).
+Values are SI (m, Pa, kg). Table I's first row "h = 0.241 m" is the braid length b, Table II's
+unnamed last row (0.059 m) is the kneecap lever r (model-spec sections 2 and 3). The turns of a
+thread ``n`` and the rubber volume ``V_r`` are derived (model-spec section 2).
+:data:`TABLE_I_MUSCLE` is Table I's muscle as a value, the default of the braid and rubber functions
+(:mod:`mkctl.physics.braid`).
 
 Example
 -------
@@ -26,7 +28,8 @@ class Quantity(NamedTuple):
     description: str
 
 
-#: Table I of the paper: the McKibben muscle. Row "h = 0.241 m" is the braid length b (spec section 2).
+#: Table I of the paper: the McKibben muscle. Row "h = 0.241 m" is the braid length b (spec section
+#: 2).
 TABLE_I = MappingProxyType({
     "b": Quantity(0.241, "m", "braid (thread) length"),
     "L0": Quantity(0.208, "m", "actuator length at rest"),
@@ -51,26 +54,68 @@ TABLE_II = MappingProxyType({
     "g": Quantity(9.81, "m/s^2", "gravitational acceleration"),
 })
 
-#: Typical rated gauge pressure of a real McKibben muscle [Pa]; the model itself has no limit (spec section 3
-#: note). Used only to tell users when the model asks for more than a real muscle takes.
+#: Typical rated gauge pressure of a real McKibben muscle [Pa]; the model itself has no limit (spec
+#: section 3 note). Used only to tell users when the model asks for more than a real muscle takes.
 RATED_PRESSURE = 600e3
 
-#: The parameters of the paper's tables (and the derived n), in Params' order; the effects' follow them.
+#: The parameters of the paper's tables (and the derived n), in Params' order; the effects' follow
+#: them.
 BASE_NAMES = (*TABLE_I, "n", *TABLE_II)
 
 
 def derived_turns(b: float, L0: float, D0: float) -> float:
-    """Turns of a thread ``n = sqrt(b^2 - L0^2) / (pi D0)`` (spec section 2, from Eq. 5 at rest).
+    """Turns of a thread of the braid, from Eq. 5 at rest (the number Table I leaves out).
 
-    Parameters: b braid length [m], L0 rest length [m], D0 rest diameter [m]. Returns n [-].
+    ``n = sqrt(b^2 - L0^2) / (pi D0)``
+
+    With this n, lambda_2 = 1 at L0 and dW/dL = 0 there: the rubber is relaxed at rest.
+
+    Parameters
+    ----------
+    b : float
+        Braid (thread) length [m].
+    L0 : float
+        Actuator length at rest [m], L0 < b.
+    D0 : float
+        Actuator outer diameter at rest [m].
+
+    Returns
+    -------
+    n : float
+        Turns of a thread [-] (2.980484828 for Table I).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 5 and
+       Table I.
+    .. [2] model-spec section 2.
     """
     return math.sqrt(b * b - L0 * L0) / (math.pi * D0)
 
 
 def rubber_volume(t0: float, D0: float, L0: float) -> float:
-    """Rubber volume ``V_r = pi t0 (D0 - t0) L0`` [m^3] (spec section 2; Eq. 8-9 of the paper).
+    """Rubber volume of the bladder: an annulus of outer diameter D0 and thickness t0, times L0.
 
-    Parameters: t0 wall thickness [m], D0 outer diameter [m], L0 rest length [m].
+    ``V_r = pi t0 (D0 - t0) L0``
+
+    Parameters
+    ----------
+    t0 : float
+        Bladder wall thickness [m].
+    D0 : float
+        Actuator outer diameter at rest [m].
+    L0 : float
+        Actuator length at rest [m].
+
+    Returns
+    -------
+    V_r : float
+        Rubber volume [m^3] (1.1272034e-5 for Table I).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 8-9.
+    .. [2] model-spec section 2.
     """
     return math.pi * t0 * (D0 - t0) * L0
 
@@ -94,4 +139,5 @@ class Muscle(NamedTuple):
 
 #: Table I's muscle, n derived (model-spec section 2): the values of ``Params()``.
 TABLE_I_MUSCLE = Muscle(**{name: q.value for name, q in TABLE_I.items()},
-                        n=derived_turns(TABLE_I["b"].value, TABLE_I["L0"].value, TABLE_I["D0"].value))
+                        n=derived_turns(TABLE_I["b"].value, TABLE_I["L0"].value,
+                                        TABLE_I["D0"].value))
