@@ -230,14 +230,26 @@ def _step_label(step: dict) -> str:
     return "+ " + " & ".join([step["added"], *step.get("added_with", [])])
 
 
+def alternative_label(alternative: dict) -> str:
+    """How the pictures name one explanation of a tie: ``"with pressure_lag"`` (the tied effect(s) it holds)."""
+    return "with " + " & ".join(alternative.get("with") or alternative["effects"])
+
+
 def error_bars(result) -> tuple[list, list, list]:
     """The bars of ``*_error_steps.png``: labels, RMSE (file units) and colours. The baseline, the RMSE after each
     round's step (as the report's "-> added" lines print it), and last the final fit on the whole record (the
-    report's "after: RMSE"), when anything was added."""
+    report's "after: RMSE"), when anything was added; on a tie, instead of that, each explanation refitted on the
+    whole record as a whole model (orange)."""
     labels = ["baseline"] + [_step_label(s) for s in result.steps]
     values = list(result.error_steps)
     colours = ["0.6"] + ["tab:blue"] * (len(values) - 1)
-    if result.steps or result.missing:
+    alternatives = getattr(result, "alternatives", None) or []
+    if alternatives:
+        for alternative in alternatives:
+            labels.append(alternative_label(alternative).replace(" & ", "\n& ") + "\n(whole record)")
+            values.append(alternative["rmse"])
+            colours.append("tab:orange")
+    elif result.steps or result.missing:
         labels.append("final fit\n(whole record)")
         values.append(result.rmse_after)
         colours.append("tab:green")
@@ -270,12 +282,18 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
 
     after_label = "baseline + " + ", ".join(result.missing) if result.missing else "baseline (nothing added)"
-    paths["overlay"] = plot_overlay(measurement, {"baseline": result.simulated_before,
-                                                  after_label: result.simulated_after},
+    alternatives = getattr(result, "alternatives", None) or []
+    curves = getattr(result, "alternative_simulated", None) or []
+    if alternatives and len(curves) == len(alternatives):  # a tie: each explanation as a whole model
+        after = {"baseline + " + ", ".join(a["effects"]): simulated for a, simulated in zip(alternatives, curves)}
+    else:
+        after = {after_label: result.simulated_after}
+    paths["overlay"] = plot_overlay(measurement, {"baseline": result.simulated_before, **after},
                                     folder / f"{stem}_overlay.png", f"before and after the diagnosis ({result.verdict})")
     paths["residuals"] = plot_residuals(measurement, {
         "before (baseline)": measurement.to_file_units(measurement.output - result.simulated_before),
-        f"after ({after_label})": measurement.to_file_units(measurement.output - result.simulated_after),
+        **{f"after ({label})": measurement.to_file_units(measurement.output - simulated)
+           for label, simulated in after.items()},
     }, folder / f"{stem}_residuals.png")
 
     if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
@@ -374,7 +392,18 @@ def summary(result) -> list[str]:
         lines.append(f"{'tie' if neither else 'undecided'}: this record cannot tell {' from '.join(item['effects'])}"
                      f"{', and neither explains it' if neither else ''}; "
                      f"to separate them: {item['experiment']}")
-    if result.missing:
+    alternatives = getattr(result, "alternatives", None) or []
+    for number, alternative in enumerate(alternatives, 1):
+        values = ", ".join(_value_text(name, value, alternative["uncertainty"].get(name))
+                           for name, value in alternative["params"].items())
+        lines.append(f"alternative {number} ({alternative_label(alternative)}): {', '.join(alternative['effects'])}"
+                     f": {values}; RMSE {alternative['rmse']:.4g} {unit} (whole record), {alternative['text']}")
+    if result.missing and alternatives:
+        lines.append("missing (what every alternative shares): " + ", ".join(result.missing))
+        for name, value in result.params.items():
+            lines.append("  " + _value_text(name, value, result.uncertainty.get(name)) + " (every alternative "
+                                                                                          "agrees)")
+    elif result.missing:
         lines.append("missing: " + ", ".join(result.missing))
         for name, value in result.params.items():
             if name in INTEGER_PARAMETERS:  # a switch (slack = 1): on, no standard error to give
@@ -396,6 +425,13 @@ def summary(result) -> list[str]:
     lines += discovery_lines(getattr(result, "discovery", None))
     lines.append(f"verdict: {result.verdict}")
     return lines
+
+
+def _value_text(name: str, value: float, error: float | None) -> str:
+    """``"c = 45.02 +- 0.3 N s/m"`` (a switch as on/off, no error)."""
+    if name in INTEGER_PARAMETERS:
+        return f"{name} = {int(value)} ({'on' if value else 'off'})"
+    return f"{name} = {value:.4g}" + (f" +- {error:.2g}" if error is not None else "") + f" {UNITS[name]}"
 
 
 def discovery_lines(found: dict | None) -> list[str]:
