@@ -1688,7 +1688,9 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         say(note)
     missing, values, uncertainty, simulated, params_after = (final.added, final.values, final.uncertainty,
                                                              final.simulated, final.params)
+    without_tied = None
     if len(alternatives) >= 2:
+        without_tied = {"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "text": fit.text()}
         missing, values, uncertainty, disputed = _shared_values(alternatives)
         best = min(alternatives, key=lambda a: (not a.adequacy.adequate, a.adequacy.ratio))
         fit, simulated, params_after = best.adequacy, best.simulated, best.params
@@ -1719,7 +1721,8 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         steps=state.steps, stopped=state.stopped, undecided=undecided, notes=notes,
         offset=final.offset * to_file if record.fit_offset else None,
         adequacy={"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "worst_window": worst,
-                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text()},
+                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text(),
+                  **({"without_tied": without_tied} if without_tied else {})},
         simulated_before=before, simulated_after=simulated, error_steps=steps_rmse, params_after=params_after,
         signatures=sigs, signature_order=order)
 
