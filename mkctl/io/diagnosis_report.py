@@ -277,7 +277,9 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     ax.set_yscale("log")
     plain_log_ticks(ax.yaxis)
     ax.set_ylabel(f"RMSE [{unit}] (log)")
-    ax.set_title("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
+    ax.set_title(("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
+                 + ("; the tie's explanations (orange), each refitted" if getattr(result, "alternatives", None)
+                    else ""))
     fixed_layout(fig, left=0.8, bottom=0.55)
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
 
@@ -356,7 +358,7 @@ def summary(result) -> list[str]:
         if step.get("wider_search"):
             lines.append(f"wider search (what forward selection added left many times the noise): "
                          f"{' + '.join([step['added'], *step['added_with']])} fitted together replace "
-                         f"{', '.join(step['replaced'])}: RMSE {step['rmse']:.4g} {unit} (whole record)")
+                         f"{', '.join(step['replaced']) or 'the baseline'}: RMSE {step['rmse']:.4g} {unit} (whole record)")
             continue
         lines.append(f"round {number}: candidates (best BIC first; RMSE over the compared samples, held-out "
                      f"over the last {result.rule['holdout_fraction']:.0%})")
