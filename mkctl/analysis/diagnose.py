@@ -1519,6 +1519,19 @@ def _final_fit(problem: _Problem, record: _Record, state: "_Search", offset_befo
         offset = problem.offset(problem.measured - problem.simulate(final_params)) if problem.fit_offset else 0.0
     simulated = (simulate_output(record.prepared, final_params) + offset if (added or start is not m.params)
                  else record.full_before + offset_before)
+    if added and m.experiment in QUASI_STATIC and record.renoised is not None:
+        # the measured inputs' noise moves the values too (a friction follows the wiggles the smoothed pressure
+        # leaves): refitted with the model driven by other realisations of the inputs' noise, the values' RMS
+        # shift is added (in quadrature) to their standard errors
+        shifts = []
+        for renoised in [record.renoised, *record.renoised_more]:
+            moved = dataclasses.replace(problem, measurement=dataclasses.replace(
+                problem.measurement, inputs=renoised.inputs))
+            values, _, _, _ = _joint_fit(moved, start, added, final_values, train_only=False, rough=True)
+            shifts.append(values)
+        for name in final_values:
+            rms = math.sqrt(sum((v[name] - final_values[name]) ** 2 for v in shifts) / len(shifts))
+            uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), rms)
     if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
         # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
         # (first order: refit at tau -+ its standard error, add the spread in quadrature)
