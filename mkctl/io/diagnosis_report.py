@@ -405,6 +405,10 @@ def summary(result) -> list[str]:
         for name, value in result.params.items():
             lines.append("  " + _value_text(name, value, result.uncertainty.get(name)) + " (every alternative "
                                                                                           "agrees)")
+        for effect in result.missing:
+            disputed = [p for p in effects.get(effect).parameter_names
+                        if p not in result.params and all(p in a["params"] for a in alternatives)]
+            lines += [f"  {p}: depends on the explanation (see the alternatives above)" for p in disputed]
     elif result.missing:
         lines.append("missing: " + ", ".join(result.missing))
         for name, value in result.params.items():
