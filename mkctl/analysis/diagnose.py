@@ -29,7 +29,9 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    against the force the model lacks. When the best does not beat a rival, the two are fitted together:
    if each is needed beside the other both are added, otherwise the diagnosis stops with the verdict
    ``"undecided"``, saying plainly which effects this record cannot tell apart and which experiment
-   would (:data:`DISCRIMINATING_EXPERIMENTS`). After an acceptance, earlier effects that no longer earn
+   would (:data:`DISCRIMINATING_EXPERIMENTS`). An effect that requires another (the registry's ``requires``)
+   is tried together with its prerequisite when that is tied or a round stops, and in the wider search on top
+   of every combination that holds it. After an acceptance, earlier effects that no longer earn
    their place are dropped.
 5. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
    the Jacobian of the residuals, ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS / (n - k)``, widened for
@@ -39,7 +41,8 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    output noise and the measured inputs' noise passed through the model); else "incomplete", and the
    discovery of model-spec section 6b runs. A tie is judged on the best of the tied effects (the final model
    refitted with each, :func:`_tied_rivals`): "undecided" when it reaches the noise, else neither explains the
-   record and the verdict is "incomplete" (the tie still reported).
+   record and the verdict is "incomplete" (the tie still reported). Each explanation of a tie is reported as
+   a whole model (``alternatives``), and the top level keeps only what they share (:func:`_shared_values`).
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most

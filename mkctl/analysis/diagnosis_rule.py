@@ -31,7 +31,9 @@ Among the candidates that pass 1-3, 5 and 6, the best BIC is the one judged by 4
 tell the best from its rivals: the verdict is ``"undecided"`` (the loop then tries them together, see
 :func:`pair_needed`, and otherwise reports the tie with the experiment that would separate them). After
 an acceptance, an earlier effect is dropped (:func:`to_drop`) when removing it costs less than the
-threshold in BIC. :func:`forward_selection` runs these rounds for the diagnosis and the calibration alike.
+threshold in BIC. :func:`forward_selection` runs these rounds for the diagnosis and the calibration alike. An
+effect that requires another is tried together with its prerequisite when a round ends tied or stopped (the
+combination judged by :func:`decide` like any candidate, a rival joining it by :func:`extension_needed`).
 
 When the selection is over, :func:`adequacy` says whether the final model leaves only what the noise explains
 (a chi-square test with the effective sample count, never stricter than :attr:`Rule.adequate_factor`), over
