@@ -29,10 +29,10 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    against the force the model lacks. When the best does not beat a rival, the two are fitted together:
    if each is needed beside the other both are added, otherwise the diagnosis stops with the verdict
    ``"undecided"``, saying plainly which effects this record cannot tell apart and which experiment
-   would (:data:`DISCRIMINATING_EXPERIMENTS`). An effect that requires another (the registry's ``requires``)
-   is tried together with its prerequisite when that is tied or a round stops, and in the wider search on top
-   of every combination that holds it. After an acceptance, earlier effects that no longer earn
-   their place are dropped.
+   would (:data:`DISCRIMINATING_EXPERIMENTS`). An effect that requires another (the registry's
+   ``requires``) is tried together with its prerequisite when that is tied or a round stops, and in
+   the wider search on top of every combination that holds it. After an acceptance, earlier effects
+   that no longer earn their place are dropped.
 5. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
    the Jacobian of the residuals, ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS / (n - k)``, widened for
    correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
@@ -41,8 +41,9 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    output noise and the measured inputs' noise passed through the model); else "incomplete", and the
    discovery of model-spec section 6b runs. A tie is judged on the best of the tied effects (the final model
    refitted with each, :func:`_tied_rivals`): "undecided" when it reaches the noise, else neither explains the
-   record and the verdict is "incomplete" (the tie still reported). Each explanation of a tie is reported as
-   a whole model (``alternatives``), and the top level keeps only what they share (:func:`_shared_values`).
+   record and the verdict is "incomplete" (the tie still reported). Each explanation of a tie is
+   reported as a whole model (``alternatives``), and the top level keeps only what they share
+   (:func:`_shared_values`).
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most
@@ -1013,8 +1014,8 @@ class DiagnosisResult(Result):
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
     pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
     discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
-    #: on a tie, each explanation as a whole model: effects, params, uncertainty, rmse, adequate (see
-    #: docs/diagnosis.md); the top level then holds only what they share
+    #: on a tie, each explanation as a whole model: effects, params, uncertainty, rmse, adequate
+    #: (see docs/diagnosis.md); the top level then holds only what they share
     alternatives: list = field(default_factory=list)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
@@ -1025,7 +1026,8 @@ class DiagnosisResult(Result):
     error_steps: list = field(default_factory=list, repr=False)  #: RMSE after each step, file units
     signatures: dict = field(default_factory=dict, repr=False)  #: first round's signatures
     signature_order: list = field(default_factory=list, repr=False)
-    alternative_simulated: list = field(default_factory=list, repr=False)  #: each alternative over every sample
+    #: each alternative's simulation over every sample [SI]
+    alternative_simulated: list = field(default_factory=list, repr=False)
 
     @property
     def units(self) -> dict:
@@ -1039,8 +1041,9 @@ class DiagnosisResult(Result):
             lines.append(f"{name} = {value:.4g}" + (f" +- {error:.2g}" if error is not None else "") + f" {UNITS[name]}")
         lines.append(f"RMSE {self.rmse_before:.4g} -> {self.rmse_after:.4g} {self.output_unit}")
         lines += [f"cannot tell {' from '.join(u['effects'])}" for u in self.undecided]
-        lines += [f"alternative: {', '.join(a['effects'])}: " + ", ".join(f"{k} = {v:.4g}" for k, v in
-                                                                      a["params"].items()) for a in self.alternatives]
+        for a in self.alternatives:
+            values = ", ".join(f"{k} = {v:.4g}" for k, v in a["params"].items())
+            lines.append(f"alternative: {', '.join(a['effects'])}: {values}")
         lines += [f"problem: {text}" for text in self.problems]
         return lines
 
@@ -1328,7 +1331,8 @@ class _Record:
     problems: list  #: why the output cannot be this model's (sanity checks)
     fit_offset: bool = False
     renoised: Measurement | None = None  #: the prepared record with re-noised inputs (:func:`renoised_inputs`)
-    #: more such records, other realisations (quasi-static records: see :data:`QUASI_STATIC_NULL_REALISATIONS`)
+    #: more such records, other realisations (quasi-static records: see
+    #: :data:`QUASI_STATIC_NULL_REALISATIONS`)
     renoised_more: list = field(default_factory=list)
 
     def input_floor(self, params: Params, simulated) -> float:
@@ -1384,43 +1388,48 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
                   rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
     problems = sanity_problems(m, full_before, m.params, fit_offset)
     judged = set(PRESSURE_PATH) - ({lag["path"]["motion"]} if lag_judged and lag["path"].get("motion") else set())
-    # a quasi-static record passes its inputs' noise straight to the output, sample by sample: one realisation
-    # of it is a poor measure of what it gives a candidate, so the null test takes the worst of several
-    more = [renoised_inputs(motion, prepared, noise_info, seed)
-            for seed in range(2, QUASI_STATIC_NULL_REALISATIONS + 1)] if m.experiment in QUASI_STATIC else []
+    # a quasi-static record passes its inputs' noise straight to the output, sample by sample: one
+    # realisation of it is a poor measure of what it gives a candidate, so the null test takes the
+    # worst of several
+    seeds = range(2, QUASI_STATIC_NULL_REALISATIONS + 1) if m.experiment in QUASI_STATIC else ()
+    more = [renoised_inputs(motion, prepared, noise_info, seed) for seed in seeds]
     return _Record(m, prepared, start, lag, judged if lag_judged else set(), noise, full_before, notes,
                    common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info),
                    [r for r in more if r is not None])
 
 
-#: Records whose model follows its measured inputs sample by sample (no dynamics to filter their noise).
+#: Records whose model follows its measured inputs sample by sample (no dynamics to filter their
+#: noise).
 QUASI_STATIC = ("isotonic", "isometric")
-#: How many realisations of the noise the null test of such a record draws (criterion 5: the worst counts).
+#: How many realisations of the noise the null test of such a record draws (criterion 5: the worst
+#: counts).
 QUASI_STATIC_NULL_REALISATIONS = 4
 
 
 def input_noise_through_model(record: "_Record", params: Params) -> tuple[float, float]:
-    """The measured inputs' noise as the model passes it to the output: (standard deviation [SI], lag-one
-    correlation between samples) of the model driven by re-noised inputs against the model driven by the prepared
-    ones (:func:`renoised_inputs`); (0, 0) when no input was smoothed."""
+    """The measured inputs' noise as the model passes it to the output: (standard deviation [SI],
+    lag-one correlation between samples) of the model driven by re-noised inputs against the model
+    driven by the prepared ones (:func:`renoised_inputs`); (0, 0) when no input was smoothed."""
     if record.renoised is None:
         return 0.0, 0.0
     try:
-        difference = simulate_output(record.renoised, params) - simulate_output(record.prepared, params)
+        renoised = simulate_output(record.renoised, params)
+        difference = renoised - simulate_output(record.prepared, params)
     except MkctlError:
         return 0.0, 0.0
     return float(np.sqrt(np.mean(difference ** 2))), _lag_one_correlation(difference)
 
 
 def _with_input_noise(problem: "_Problem", record: "_Record", say) -> "_Problem":
-    """A quasi-static record's problem with its inputs' noise in the correlation BIC counts its samples with.
+    """A quasi-static record's problem with its inputs' noise in the correlation BIC counts with.
 
-    Its model follows the measured inputs sample by sample, so what their noise leaves after the smoothing reaches
-    the residual as it is: a wiggle as long as the smoothing window, correlated between neighbouring samples. BIC
-    counted those samples as independent (with the output noise's correlation alone), so that any effect that
-    bends the model along one wiggle gained tens in BIC (a friction of 0.3 N on a clean record under 4 kPa of
-    pressure noise). The correlation of the sum of both noises, ``(s_o^2 phi_o + s_i^2 phi_i) / (s_o^2 + s_i^2)``,
-    takes its place (the knee's inputs are commands, or pressures that its dynamics filter: unchanged)."""
+    Its model follows the measured inputs sample by sample, so what their noise leaves after the
+    smoothing reaches the residual as it is: a wiggle as long as the smoothing window, correlated
+    between neighbouring samples. BIC counted those samples as independent (with the output noise's
+    correlation alone), so that any effect that bends the model along one wiggle gained tens in BIC
+    (damping c = 63 N s/m added on a clean record under 16 kPa of pressure noise). The correlation
+    of the sum of both noises, ``(s_o^2 phi_o + s_i^2 phi_i) / (s_o^2 + s_i^2)``, takes its place
+    (the knee's inputs are commands, or pressures that its dynamics filter: unchanged)."""
     if problem.measurement.experiment not in QUASI_STATIC or record.renoised is None:
         return problem
     sigma_in, phi_in = input_noise_through_model(record, record.start)
@@ -1432,10 +1441,12 @@ def _with_input_noise(problem: "_Problem", record: "_Record", say) -> "_Problem"
     if phi <= problem.noise_correlation:
         return problem
     to_file = record.to_file
-    record.notes.append(f"the measured inputs' noise reaches the output through the model ({sigma_in * to_file:.2g} "
-                        f"{record.measurement.output_unit} RMS, correlated {phi_in:.2f} between samples, beside "
-                        f"{sigma_out * to_file:.2g} {record.measurement.output_unit} of output noise): BIC counts the "
-                        f"samples as correlated {phi:.2f}, so that no effect wins by following it")
+    unit = record.measurement.output_unit
+    record.notes.append(f"the measured inputs' noise reaches the output through the model "
+                        f"({sigma_in * to_file:.2g} {unit} RMS, correlated {phi_in:.2f} between "
+                        f"samples, beside {sigma_out * to_file:.2g} {unit} of output noise): BIC "
+                        f"counts the samples as correlated {phi:.2f}, so that no effect wins by "
+                        f"following it")
     say(record.notes[-1])
     return dataclasses.replace(problem, noise_correlation=phi)
 
@@ -1483,13 +1494,15 @@ def _select(problem: _Problem, record: _Record, rule: Rule, say):
     if record.lag is not None:  # what the measured pressures could not tell apart
         state.undecided = [*record.lag["path"]["undecided"], *state.undecided]
     if (state.added or state.undecided) and len(pending_all) >= 2:
-        # the noise the model should leave includes the measured inputs' noise through it (a quasi-static record
-        # passes it on sample by sample): without it, 4 kPa of pressure noise looked like 10 times the output noise
+        # the noise the model should leave includes the measured inputs' noise through it (a
+        # quasi-static record passes it on sample by sample): without it, 4 kPa of pressure noise
+        # looked like 10 times the output noise
         through_model, _ = input_noise_through_model(record, state.current.params)
-        inadequate = _inadequacy(problem, state.current, math.hypot(record.noise.sigma, through_model))
+        sigma = math.hypot(record.noise.sigma, through_model)
+        inadequate = _inadequacy(problem, state.current, sigma)
         if inadequate > WIDER_SEARCH_FACTOR:
-            say(f"the model leaves {inadequate:.3g} times the noise (output, and inputs' through the model): "
-                f"trying the candidates in pairs and threes")
+            say(f"the model leaves {inadequate:.3g} times the noise (output, and inputs' through "
+                f"the model): trying the candidates in pairs and threes")
             if state.wider():
                 state.forward(state.current)
     return state, first.offset
@@ -1523,14 +1536,15 @@ def _final_fit(problem: _Problem, record: _Record, state: "_Search", offset_befo
     simulated = (simulate_output(record.prepared, final_params) + offset if (added or start is not m.params)
                  else record.full_before + offset_before)
     if added and m.experiment in QUASI_STATIC and record.renoised is not None:
-        # the measured inputs' noise moves the values too (a friction follows the wiggles the smoothed pressure
-        # leaves): refitted with the model driven by other realisations of the inputs' noise, the values' RMS
-        # shift is added (in quadrature) to their standard errors
+        # the measured inputs' noise moves the values too (a friction follows the wiggles the
+        # smoothed pressure leaves): refitted with the model driven by other realisations of the
+        # inputs' noise, the values' RMS shift is added (in quadrature) to their standard errors
         shifts = []
         for renoised in [record.renoised, *record.renoised_more]:
             moved = dataclasses.replace(problem, measurement=dataclasses.replace(
                 problem.measurement, inputs=renoised.inputs))
-            values, _, _, _ = _joint_fit(moved, start, added, final_values, train_only=False, rough=True)
+            values, _, _, _ = _joint_fit(moved, start, added, final_values, train_only=False,
+                                         rough=True)
             shifts.append(values)
         for name in final_values:
             rms = math.sqrt(sum((v[name] - final_values[name]) ** 2 for v in shifts) / len(shifts))
@@ -1617,7 +1631,8 @@ def _tied_rivals(record: _Record, state: "_Search", rule: Rule, say) -> tuple[li
 
 
 def _best_alternative(alternatives: list) -> tuple[list, Adequacy] | None:
-    """(the rivals, the adequacy) of the alternative that passes the adequacy test, else leaves least; None."""
+    """(the rivals, the adequacy) of the alternative that passes the adequacy test, else leaves
+    least; None."""
     best = None
     for alternative in alternatives:
         fit = alternative.adequacy
@@ -1628,9 +1643,9 @@ def _best_alternative(alternatives: list) -> tuple[list, Adequacy] | None:
 
 @dataclass
 class _Alternative:
-    """One explanation of a tie as a whole model: the final model refitted on the whole record with one effect
-    from each tie (``rivals``): its effects, values, standard errors, simulation over every sample [SI] (offset
-    included) and adequacy."""
+    """One explanation of a tie as a whole model: the final model refitted on the whole record with
+    one effect from each tie (``rivals``): its effects, values, standard errors, simulation over
+    every sample [SI] (offset included) and adequacy."""
 
     rivals: list
     effects: list
@@ -1644,7 +1659,8 @@ class _Alternative:
     def report(self, record: _Record) -> dict:
         """The alternative as the report's JSON gives it (RMSE over every sample, file units)."""
         y = record.output
-        return {"effects": list(self.effects), "with": list(self.rivals), "params": dict(self.values),
+        return {"effects": list(self.effects), "with": list(self.rivals),
+                "params": dict(self.values),
                 "uncertainty": dict(self.uncertainty),
                 "rmse": rmse(y, self.simulated * record.to_file),
                 "fit_percent": fit_percent(y, self.simulated * record.to_file),
@@ -1653,12 +1669,13 @@ class _Alternative:
 
 
 def _alternative_models(record: _Record, state: "_Search", rule: Rule, say) -> list:
-    """Each explanation of the ties in ``state.undecided`` as a whole model (:class:`_Alternative`): the effects
-    added (and a pressure path found on measured pressures) with one effect from each tie, all refitted jointly
-    on the whole record, with the standard errors of that fit."""
+    """Each explanation of the ties in ``state.undecided`` as a whole model (:class:`_Alternative`):
+    the effects added (and a pressure path found on measured pressures) with one effect from each
+    tie, all refitted jointly on the whole record, with the standard errors of that fit."""
     problem, current = state.problem, state.current
     found = []
-    path = record.lag["path"] if record.lag is not None else {"effects": [], "values": {}, "uncertainty": {}}
+    path = (record.lag["path"] if record.lag is not None
+            else {"effects": [], "values": {}, "uncertainty": {}})
     for combo in itertools.product(*[u["effects"] for u in state.undecided]):
         rivals = [e for e in dict.fromkeys(combo) if e not in state.added and e in CANDIDATES]
         if not rivals:
@@ -1673,8 +1690,8 @@ def _alternative_models(record: _Record, state: "_Search", rule: Rule, say) -> l
             start[parameter] = value
         if not all(start[CANDIDATES[e].parameter] > 0 for e in rivals):
             continue
-        values, errors, _, params = _joint_fit(problem, record.start, [*state.added, *rivals], start,
-                                               train_only=False)
+        values, errors, _, params = _joint_fit(problem, record.start, [*state.added, *rivals],
+                                               start, train_only=False)
         on_grid = problem.simulate(params)
         if on_grid is _FAILED:
             continue
@@ -1686,16 +1703,18 @@ def _alternative_models(record: _Record, state: "_Search", rule: Rule, say) -> l
         fit, _, _ = _adequacy_at(record, params, simulated, offset, rule)
         say(f"  the tie judged with {' and '.join(rivals)}: {fit.text()}")
         on_path = [e for e in path["effects"] if e not in state.added and e not in rivals]
-        found.append(_Alternative(rivals, [*on_path, *state.added, *rivals], {**path["values"], **values},
-                                  {**path["uncertainty"], **errors}, simulated, params, fit, offset))
+        found.append(_Alternative(rivals, [*on_path, *state.added, *rivals],
+                                  {**path["values"], **values}, {**path["uncertainty"], **errors},
+                                  simulated, params, fit, offset))
     return found
 
 
 def _shared_values(alternatives: list) -> tuple[list, dict, dict, list]:
-    """What the top level of a tied report holds: the effects every alternative has, and each of their parameters
-    on which the alternatives agree (every pair within twice their combined standard error), as their
-    inverse-variance mean with a standard error that covers their spread. A shared parameter on which they
-    disagree belongs to each alternative alone: it is left out and named (returned last)."""
+    """What the top level of a tied report holds: the effects every alternative has, and each of
+    their parameters on which the alternatives agree (every pair within twice their combined
+    standard error), as their inverse-variance mean with a standard error that covers their spread.
+    A shared parameter on which they disagree belongs to each alternative alone: it is left out and
+    named (returned last)."""
     shared = [e for e in alternatives[0].effects if all(e in a.effects for a in alternatives[1:])]
     params, uncertainty, disputed = {}, {}, []
     for name in alternatives[0].values:
@@ -1720,7 +1739,8 @@ def _shared_values(alternatives: list) -> tuple[list, dict, dict, list]:
 def _effect_parameters(name: str) -> tuple:
     """The parameters an effect brings (the registry's), its fitted one first."""
     fitted = CANDIDATES[name].parameter if name in CANDIDATES else None
-    return tuple(dict.fromkeys([p for p in (fitted,) if p] + list(effects.get(name).parameter_names)))
+    own = list(effects.get(name).parameter_names)
+    return tuple(dict.fromkeys([p for p in (fitted,) if p] + own))
 
 
 def _result(record: _Record, state: "_Search", final: _Final, offset_before: float, rule: Rule,
@@ -1738,8 +1758,9 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     noise_text = f"estimated output noise {noise.sigma * to_file:.2g} {m.output_unit}" + (
         f", correlated {noise.correlation:.2f} between samples" if noise.correlation else "") + (
         f", and {floor * to_file:.2g} {m.output_unit} of the measured inputs' noise through the model" if floor else "")
-    # a tie is judged on the best of the tied explanations, not on the model with neither (issue 21); each
-    # explanation is reported as a whole model, and the top level holds only what they share (issue 32)
+    # a tie is judged on the best of the tied explanations, not on the model with neither (issue
+    # 21); each explanation is reported as a whole model, and the top level holds only what they
+    # share (issue 32)
     alternatives = _alternative_models(record, state, rule, say) if state.undecided else []
     tied = _best_alternative(alternatives) if alternatives and not fit.adequate else None
     undecided = [{**u, "explains": tied[1].adequate} if tied else dict(u) for u in state.undecided]
@@ -1748,20 +1769,23 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     if note:
         notes.append(note)
         say(note)
-    missing, values, uncertainty, simulated, params_after = (final.added, final.values, final.uncertainty,
-                                                             final.simulated, final.params)
+    missing, values, uncertainty = final.added, final.values, final.uncertainty
+    simulated, params_after = final.simulated, final.params
     without_tied = None
     if len(alternatives) >= 2:
-        without_tied = {"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "text": fit.text()}
+        without_tied = {"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit,
+                        "text": fit.text()}
         missing, values, uncertainty, disputed = _shared_values(alternatives)
         best = min(alternatives, key=lambda a: (not a.adequacy.adequate, a.adequacy.ratio))
         fit, simulated, params_after = best.adequacy, best.simulated, best.params
-        text = (f"the record holds {len(alternatives)} explanations that it cannot tell apart, each reported as a "
-                f"whole model under 'alternatives'; the top level keeps only what they share"
-                + (f" ({', '.join(missing)})" if missing else " (nothing)")
+        per_alternative = "; ".join(
+            ", ".join(f"{k} = {a.values[k]:.4g}" for k in disputed)
+            + f" with {' and '.join(a.rivals)}" for a in alternatives)
+        text = (f"the record holds {len(alternatives)} explanations that it cannot tell apart, "
+                f"each reported as a whole model under 'alternatives'; the top level keeps only "
+                f"what they share" + (f" ({', '.join(missing)})" if missing else " (nothing)")
                 + (f", without {', '.join(disputed)}, whose value depends on the explanation: "
-                   + "; ".join(f"{', '.join(f'{k} = {a.values[k]:.4g}' for k in disputed)} with "
-                               f"{' and '.join(a.rivals)}" for a in alternatives) if disputed else "")
+                   f"{per_alternative}" if disputed else "")
                 + f"; its error after is the best explanation's ({' and '.join(best.rivals)})")
         notes.append(text)
         say(text)
@@ -1783,9 +1807,10 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         steps=state.steps, stopped=state.stopped, undecided=undecided, notes=notes,
         offset=final.offset * to_file if record.fit_offset else None,
         adequacy={"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "worst_window": worst,
-                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text(),
-                  **({"without_tied": without_tied} if without_tied else {})},
-        simulated_before=before, simulated_after=simulated, error_steps=steps_rmse, params_after=params_after,
+                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file,
+                  "text": fit.text(), **({"without_tied": without_tied} if without_tied else {})},
+        simulated_before=before, simulated_after=simulated, error_steps=steps_rmse,
+        params_after=params_after,
         signatures=sigs, signature_order=order)
 
 
@@ -1810,7 +1835,8 @@ class _Search:
         self.fits: dict = {}
         self.context: dict = {}
         self.renoised: Measurement | None = None  #: drives the null test's simulation (:func:`renoised_inputs`)
-        self.renoised_more: list = []  #: other realisations of it (quasi-static records), each drawn too
+        #: other realisations of it (quasi-static records), each drawn too
+        self.renoised_more: list = []
         self.added: list[str] = []
         self.individual: dict = {}
         self.steps: list[dict] = []
@@ -1828,7 +1854,8 @@ class _Search:
         self.current = current
         decision = forward_selection(current.score, self._remaining, self._fit_round, self._add, self.rule,
                                      null_test=self._null_test if self.noise is not None else None,
-                                     break_tie=self._break_tie, with_requirements=self._with_requirements)
+                                     break_tie=self._break_tie,
+                                     with_requirements=self._with_requirements)
         self._stop(decision)
 
     def _remaining(self) -> list[str]:
@@ -1873,23 +1900,25 @@ class _Search:
         return sigs
 
     def _null_test(self, outcome: Outcome) -> Outcome:
-        """The candidate refitted on the current model's own simulation plus the estimated output noise: the
-        dBIC it gains there is what noise alone gives it (criterion 5 of the rule). The simulation is driven by
-        the measured inputs re-noised (their noise passes through the model into the null record); a
-        quasi-static record draws several realisations of both noises and the largest gain counts."""
+        """The candidate refitted on the current model's own simulation plus the estimated output
+        noise: the dBIC it gains there is what noise alone gives it (criterion 5 of the rule). The
+        simulation is driven by the measured inputs re-noised (their noise passes through the model
+        into the null record); a quasi-static record draws several realisations of both noises and
+        the largest gain counts."""
         name, current = outcome.effect, self.current
         gains = []
         realisations = [(self.renoised, self.noise)] + [
             (renoised, dataclasses.replace(self.noise, seed=self.noise.seed + k))
             for k, renoised in enumerate(self.renoised_more, 1)]
         for renoised, noise in realisations:
+            output = noise.null_output(self.problem, current, renoised)
             null_problem = dataclasses.replace(self.problem, measurement=dataclasses.replace(
-                self.problem.measurement, output=noise.null_output(self.problem, current, renoised)))
+                self.problem.measurement, output=output))
             null_current = _evaluate(null_problem, current.params, current.values)
             if null_current is None:
                 continue
-            fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {}, name, None,
-                                          self.rule, self.hints.get(name))
+            fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {},
+                                          name, None, self.rule, self.hints.get(name))
             k_more = dataclasses.replace(null_current.score, k=null_current.score.k + 1)
             null_score = fit.score if fit is not None and fit is not null_current else k_more
             gains.append(null_score.bic - null_current.score.bic)
@@ -1915,24 +1944,27 @@ class _Search:
         return dataclasses.replace(decision, verdict="add", together=(rival,))
 
     def _joint_with_added(self, names: list, start: dict) -> tuple[_Fit | None, bool]:
-        """``names`` fitted jointly with the effects already added (training part, full tolerance), from the
-        current values and ``start``: (the fit or None, whether a parameter of ``names`` sits on a bound)."""
+        """``names`` fitted jointly with the effects already added (training part, full tolerance),
+        from the current values and ``start``: (the fit or None, whether a parameter of ``names``
+        sits on a bound)."""
         values, _, _, params = _joint_fit(self.problem, self.start, [*self.added, *names],
                                           {**self.current.values, **start}, train_only=True)
         fit = _evaluate(self.problem, params, values)
         return fit, _pinned(values, names, self.problem.measurement.experiment)
 
     def _with_requirements(self, decision):
-        """A round that ends in a tie or a stop: an effect that requires another (the registry's ``requires``)
-        is no candidate until its prerequisite is on, so a prerequisite that is tied (or, in a stop, any fitted
-        candidate) is fitted together with each effect that requires it, and the combination is judged by the
-        same rule against the current model and the round's candidates (:func:`decide`: physical, BIC, held-out
-        gain, held-out margin over every rival); the winner is then fitted with each of the prerequisite's rivals
-        in turn, kept when the rival passes BIC and the held-out gain beside it
-        (:func:`mkctl.analysis.diagnosis_rule.extension_needed`). Returns an ``add`` of the prerequisite with
-        the others ``together``, or the decision unchanged."""
+        """A round that ends in a tie or a stop: an effect that requires another (the registry's
+        ``requires``) is no candidate until its prerequisite is on, so a prerequisite that is tied
+        (or, in a stop, any fitted candidate) is fitted together with each effect that requires it,
+        and the combination is judged by the same rule against the current model and the round's
+        candidates (:func:`decide`: physical, BIC, held-out gain, held-out margin over every rival);
+        the winner is then fitted with each of the prerequisite's rivals in turn, kept when the
+        rival passes BIC and the held-out gain beside it
+        (:func:`mkctl.analysis.diagnosis_rule.extension_needed`). Returns an ``add`` of the
+        prerequisite with the others ``together``, or the decision unchanged."""
         on = set(self.start.effects) | set(self.added)
-        tied = [decision.effect, *decision.rivals] if decision.verdict == "undecided" else list(self.fits)
+        undecided = decision.verdict == "undecided"
+        tied = [decision.effect, *decision.rivals] if undecided else list(self.fits)
         compounds, rows = {}, []
         for prerequisite in tied:
             fit = self.fits.get(prerequisite)
@@ -1946,35 +1978,41 @@ class _Search:
                     continue
                 key = " + ".join(names)
                 compounds[key] = (names, together, pinned)
-                rows.append({"effects": names, "params": {CANDIDATES[e].parameter: together.values[
-                    CANDIDATES[e].parameter] for e in names}, "delta_bic": together.score.bic - self.current.score.bic,
-                    "rmse_train": together.score.rmse_train * self.to_file,
-                    "rmse_holdout": together.score.rmse_holdout * self.to_file, "at_bound": pinned})
+                own = [CANDIDATES[e].parameter for e in names]
+                rows.append({"effects": names, "params": {p: together.values[p] for p in own},
+                             "delta_bic": together.score.bic - self.current.score.bic,
+                             "rmse_train": together.score.rmse_train * self.to_file,
+                             "rmse_holdout": together.score.rmse_holdout * self.to_file,
+                             "at_bound": pinned})
                 self.say(f"  {key} together: dBIC {rows[-1]['delta_bic']:+.1f}, held-out "
-                         f"{rows[-1]['rmse_holdout']:.4g}" + (" (a parameter on its bound)" if pinned else ""))
+                         f"{rows[-1]['rmse_holdout']:.4g}"
+                         + (" (a parameter on its bound)" if pinned else ""))
         if not compounds:
             return decision
         self.context["with_requirements"] = rows
-        outcomes = [*self.outcomes.values(),
-                    *(Outcome(key, fit.score, at_bound=pinned) for key, (_, fit, pinned) in compounds.items())]
+        outcomes = [*self.outcomes.values(), *(Outcome(key, fit.score, at_bound=pinned)
+                                               for key, (_, fit, pinned) in compounds.items())]
         second = decide(self.current.score, outcomes, self.rule)
         if second.verdict != "add" or second.effect not in compounds:
             self.say(f"  with what requires it: {second.reason}")
             return decision
         names, fit, _ = compounds[second.effect]
-        for rival in (r for r in tied if r not in names and decision.verdict == "undecided"):
+        for rival in (r for r in tied if r not in names and undecided):
             alone = self.fits.get(rival)
             if alone is None or alone is self.current:
                 continue
             parameter = CANDIDATES[rival].parameter
-            more, pinned = self._joint_with_added([*names, rival], {**fit.values, parameter: alone.values[parameter]})
-            if more is not None and not pinned and extension_needed(fit.score, more.score, self.rule):
+            start = {**fit.values, parameter: alone.values[parameter]}
+            more, pinned = self._joint_with_added([*names, rival], start)
+            if more is not None and not pinned and extension_needed(fit.score, more.score,
+                                                                    self.rule):
                 names, fit = [*names, rival], more
         for row in rows:
             row["accepted"] = row["effects"] == names[:2]
         self.fits[names[0]] = fit
         self.say(f"  {' and '.join(names)} are added together")
-        return dataclasses.replace(second, verdict="add", effect=names[0], rivals=(), together=tuple(names[1:]),
+        return dataclasses.replace(second, verdict="add", effect=names[0], rivals=(),
+                                   together=tuple(names[1:]),
                                    reason=f"{' + '.join(names)} together pass every criterion")
 
     def _add(self, decision) -> Score:
@@ -2054,13 +2092,15 @@ class _Search:
 
         def consider(combo, start):
             nonlocal best
-            values, _, _, params = _joint_fit(problem, self.start, list(combo), start, train_only=True, rough=True)
+            values, _, _, params = _joint_fit(problem, self.start, list(combo), start,
+                                              train_only=True, rough=True)
             fit = _evaluate(problem, params, values)
             if fit is None:
                 return None
             pinned = _pinned(values, combo, experiment)
-            say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
-                f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
+            say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, "
+                f"held-out {fit.score.rmse_holdout * self.to_file:.4g}"
+                + (" (on a bound)" if pinned else ""))
             if not pinned:
                 tried.append((combo, fit))
                 if best is None or fit.score.bic < best[1].score.bic:
@@ -2071,8 +2111,9 @@ class _Search:
             for combo in itertools.combinations(names, size):
                 start = {CANDIDATES[e].parameter: self.individual[e] for e in combo}
                 fit = consider(combo, start) if set(combo) != set(self.added) else self.current
-                # an effect that requires one of these (the registry's requires) is tried on top of them, from
-                # their fitted values: it was never a candidate of round 1, so it has no value of its own there
+                # an effect that requires one of these (the registry's requires) is tried on top of
+                # them, from their fitted values: it was never a candidate of round 1, so it has no
+                # value of its own there
                 for prerequisite in combo:
                     for dependent in _dependents(self.pending_all, base | set(combo), prerequisite):
                         if fit is None or set((*combo, dependent)) == set(self.added):
@@ -2082,17 +2123,19 @@ class _Search:
                                                        _dependent_start(dependent, values)})
         if best is None:
             return False
-        # an effect of the best combination whose removal costs less than the rule's BIC threshold does not earn
-        # its place there (the rule's drop step): the combination without it is taken instead, so that a spurious
-        # fourth effect (a friction beside damping, a lag and its exhausting time constant) cannot make the best
-        # combination one that a rival of equal error ties
+        # an effect of the best combination whose removal costs less than the rule's BIC threshold
+        # does not earn its place there (the rule's drop step): the combination without it is taken
+        # instead, so that a spurious fourth effect (a friction beside damping, a lag and its
+        # exhausting time constant) cannot make the best combination one that a rival of equal error
+        # ties
         tried_sets = {frozenset(c): (c, f) for c, f in tried}
         smaller = True
         while smaller:
             smaller = False
             for effect in best[0]:
                 without = tried_sets.get(frozenset(best[0]) - {effect})
-                if without is not None and not self.rule.passes_bic(best[1].score.bic - without[1].score.bic):
+                if without is not None and not self.rule.passes_bic(best[1].score.bic
+                                                                    - without[1].score.bic):
                     best, smaller = without, True
                     break
         combo, fit = best
@@ -2122,20 +2165,22 @@ class _Search:
 
 
 def _dependents(pending: list, on: set, prerequisite: str) -> list[str]:
-    """The candidates of ``pending`` that require ``prerequisite`` (the registry's ``requires``) and become possible
-    once it is on beside the effects ``on``."""
+    """The candidates of ``pending`` that require ``prerequisite`` (the registry's ``requires``) and
+    become possible once it is on beside the effects ``on``."""
     return [e for e in pending if e not in on and prerequisite in effects.get(e).requires
             and set(effects.get(e).requires) <= on | {prerequisite}]
 
 
 def _dependent_start(name: str, values: dict) -> float:
-    """Where a dependent effect's parameter starts a joint fit: at its prerequisite's fitted value when that has
-    the same unit (an exhausting time constant at the lag's tau: the symmetric lag), else at the parameter's
-    typical value (the registry's), else the middle of its search range in log space."""
+    """Where a dependent effect's parameter starts a joint fit: at its prerequisite's fitted value
+    when that has the same unit (an exhausting time constant at the lag's tau: the symmetric lag),
+    else at the parameter's typical value (the registry's), else the middle of its search range in
+    log space."""
     effect, parameter = effects.get(name), CANDIDATES[name].parameter
     for required in effect.requires:
         other = CANDIDATES[required].parameter if required in CANDIDATES else None
-        if other is not None and UNITS.get(other) == UNITS.get(parameter) and values.get(other, 0.0) > 0:
+        same_unit = other is not None and UNITS.get(other) == UNITS.get(parameter)
+        if same_unit and values.get(other, 0.0) > 0:
             return float(values[other])
     typical = getattr(effect.parameter(parameter), "typical", None)
     if typical:

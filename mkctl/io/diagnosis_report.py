@@ -231,22 +231,24 @@ def _step_label(step: dict) -> str:
 
 
 def alternative_label(alternative: dict) -> str:
-    """How the pictures name one explanation of a tie: ``"with pressure_lag"`` (the tied effect(s) it holds)."""
+    """How the pictures name one explanation of a tie: ``"with pressure_lag"`` (the tied effects it
+    holds)."""
     return "with " + " & ".join(alternative.get("with") or alternative["effects"])
 
 
 def error_bars(result) -> tuple[list, list, list]:
-    """The bars of ``*_error_steps.png``: labels, RMSE (file units) and colours. The baseline, the RMSE after each
-    round's step (as the report's "-> added" lines print it), and last the final fit on the whole record (the
-    report's "after: RMSE"), when anything was added; on a tie, instead of that, each explanation refitted on the
-    whole record as a whole model (orange)."""
+    """The bars of ``*_error_steps.png``: labels, RMSE (file units) and colours. The baseline, the
+    RMSE after each round's step (as the report's "-> added" lines print it), and last the final fit
+    on the whole record (the report's "after: RMSE"), when anything was added; on a tie, instead of
+    that, each explanation refitted on the whole record as a whole model (orange)."""
     labels = ["baseline"] + [_step_label(s) for s in result.steps]
     values = list(result.error_steps)
     colours = ["0.6"] + ["tab:blue"] * (len(values) - 1)
     alternatives = getattr(result, "alternatives", None) or []
     if alternatives:
         for alternative in alternatives:
-            labels.append(alternative_label(alternative).replace(" & ", "\n& ") + "\n(whole record)")
+            label = alternative_label(alternative).replace(" & ", "\n& ")
+            labels.append(label + "\n(whole record)")
             values.append(alternative["rmse"])
             colours.append("tab:orange")
     elif result.steps or result.missing:
@@ -277,17 +279,18 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     ax.set_yscale("log")
     plain_log_ticks(ax.yaxis)
     ax.set_ylabel(f"RMSE [{unit}] (log)")
-    ax.set_title(("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
-                 + ("; the tie's explanations (orange), each refitted" if getattr(result, "alternatives", None)
-                    else ""))
+    tied = bool(getattr(result, "alternatives", None))
+    title = "the error falls as effects are added" if len(values) > 1 else f"{result.verdict}"
+    ax.set_title(title + ("; the tie's explanations (orange), each refitted" if tied else ""))
     fixed_layout(fig, left=0.8, bottom=0.55)
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
 
     after_label = "baseline + " + ", ".join(result.missing) if result.missing else "baseline (nothing added)"
     alternatives = getattr(result, "alternatives", None) or []
     curves = getattr(result, "alternative_simulated", None) or []
-    if alternatives and len(curves) == len(alternatives):  # a tie: each explanation as a whole model
-        after = {"baseline + " + ", ".join(a["effects"]): simulated for a, simulated in zip(alternatives, curves)}
+    if alternatives and len(curves) == len(alternatives):  # a tie: each explanation, a whole model
+        after = {"baseline + " + ", ".join(a["effects"]): simulated
+                 for a, simulated in zip(alternatives, curves)}
     else:
         after = {after_label: result.simulated_after}
     paths["overlay"] = plot_overlay(measurement, {"baseline": result.simulated_before, **after},
@@ -358,7 +361,8 @@ def summary(result) -> list[str]:
         if step.get("wider_search"):
             lines.append(f"wider search (what forward selection added left many times the noise): "
                          f"{' + '.join([step['added'], *step['added_with']])} fitted together replace "
-                         f"{', '.join(step['replaced']) or 'the baseline'}: RMSE {step['rmse']:.4g} {unit} (whole record)")
+                         f"{', '.join(step['replaced']) or 'the baseline'}: "
+                         f"RMSE {step['rmse']:.4g} {unit} (whole record)")
             continue
         lines.append(f"round {number}: candidates (best BIC first; RMSE over the compared samples, held-out "
                      f"over the last {result.rule['holdout_fraction']:.0%})")
@@ -398,17 +402,19 @@ def summary(result) -> list[str]:
     for number, alternative in enumerate(alternatives, 1):
         values = ", ".join(_value_text(name, value, alternative["uncertainty"].get(name))
                            for name, value in alternative["params"].items())
-        lines.append(f"alternative {number} ({alternative_label(alternative)}): {', '.join(alternative['effects'])}"
-                     f": {values}; RMSE {alternative['rmse']:.4g} {unit} (whole record), {alternative['text']}")
+        lines.append(f"alternative {number} ({alternative_label(alternative)}): "
+                     f"{', '.join(alternative['effects'])}: {values}; "
+                     f"RMSE {alternative['rmse']:.4g} {unit} (whole record), {alternative['text']}")
     if result.missing and alternatives:
         lines.append("missing (what every alternative shares): " + ", ".join(result.missing))
         for name, value in result.params.items():
-            lines.append("  " + _value_text(name, value, result.uncertainty.get(name)) + " (every alternative "
-                                                                                          "agrees)")
+            value_text = _value_text(name, value, result.uncertainty.get(name))
+            lines.append(f"  {value_text} (every alternative agrees)")
         for effect in result.missing:
             disputed = [p for p in effects.get(effect).parameter_names
                         if p not in result.params and all(p in a["params"] for a in alternatives)]
-            lines += [f"  {p}: depends on the explanation (see the alternatives above)" for p in disputed]
+            lines += [f"  {p}: depends on the explanation (see the alternatives above)"
+                      for p in disputed]
     elif result.missing:
         lines.append("missing: " + ", ".join(result.missing))
         for name, value in result.params.items():
@@ -437,7 +443,8 @@ def _value_text(name: str, value: float, error: float | None) -> str:
     """``"c = 45.02 +- 0.3 N s/m"`` (a switch as on/off, no error)."""
     if name in INTEGER_PARAMETERS:
         return f"{name} = {int(value)} ({'on' if value else 'off'})"
-    return f"{name} = {value:.4g}" + (f" +- {error:.2g}" if error is not None else "") + f" {UNITS[name]}"
+    plus = f" +- {error:.2g}" if error is not None else ""
+    return f"{name} = {value:.4g}{plus} {UNITS[name]}"
 
 
 def discovery_lines(found: dict | None) -> list[str]:
