@@ -321,3 +321,21 @@ def test_nothing_added_on_a_clean_isotonic_rig_record_under_the_issues_noise(see
     result = diagnose(m)
     frictions = {"coulomb_friction", "pressure_friction"}
     assert not frictions & set(result.missing), summary(result)
+
+
+def test_a_tie_of_many_alternatives_draws_every_one(tie, tmp_path):
+    """Four explanations and the baseline: the overlay draws five curves (it ran out of colours at
+    four)."""
+    import dataclasses
+
+    from mkctl.io.diagnosis_report import plot_overlay
+
+    measurement, result = tie
+    curves = {"baseline": result.simulated_before,
+              **{f"alternative {k}": result.simulated_after + k * 1e-4 for k in range(4)}}
+    path = plot_overlay(measurement, curves, tmp_path / "many.png")
+    assert path.stat().st_size > 0
+    many = dataclasses.replace(result, alternatives=result.alternatives * 2,
+                               alternative_simulated=result.alternative_simulated * 2)
+    paths = save_pictures(measurement, many, tmp_path, stem="many")
+    assert Path(paths["overlay"]).stat().st_size > 0

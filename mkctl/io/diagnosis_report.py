@@ -7,6 +7,7 @@ readable lines.
 """
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -101,7 +102,9 @@ def plot_overlay(measurement, curves: dict, path, title: str = "") -> Path:
     fig, axes = new_figure(1 + len(panels), 1, figsize=(9, 5.2 + 1.3 * len(panels)), sharex=True,
                            height_ratios=(3.2,) + (1,) * len(panels), squeeze=False, layout="none")
     top = axes[0, 0]
-    colours = iter(["tab:blue", "tab:orange", "tab:green", "tab:purple"])
+    # a tie draws each explanation: as many curves as it has alternatives (cycled past ten)
+    colours = itertools.cycle(["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink",
+                               "tab:olive", "tab:cyan", "tab:red", "tab:gray"])
     for label, values in curves.items():
         top.plot(measurement.time, measurement.to_file_units(values), lw=1.4, color=next(colours), label=label,
                  zorder=2)
@@ -384,6 +387,12 @@ def summary(result) -> list[str]:
                          + (f" (slope says {name} ~ {estimate:.3g})" if estimate is not None else "") + flag)
         for tie in step["ties"]:
             lines.append(f"  tie: {' ~ '.join(tie['effects'])}; to tell them apart: {tie['experiment']}")
+        for tried in step.get("with_requirements", []):  # a prerequisite with what requires it (issue 32)
+            values = ", ".join(f"{k} = {v:.4g}" for k, v in tried["params"].items())
+            lines.append(f"  with what requires it: {' + '.join(tried['effects'])} ({values}) dBIC "
+                         f"{tried['delta_bic']:+.1f}, held-out {tried['rmse_holdout']:.4g} {unit}"
+                         + (" (on a bound)" if tried.get("at_bound") else "")
+                         + (": added" if tried.get("accepted") else ""))
         if step.get("added"):
             dropped = f" (dropped {', '.join(step['dropped'])}: no longer needed)" if step.get("dropped") else ""
             together = " together with " + ", ".join(step["added_with"]) if step.get("added_with") else ""
