@@ -29,8 +29,10 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    against the force the model lacks. When the best does not beat a rival, the two are fitted together:
    if each is needed beside the other both are added, otherwise the diagnosis stops with the verdict
    ``"undecided"``, saying plainly which effects this record cannot tell apart and which experiment
-   would (:data:`DISCRIMINATING_EXPERIMENTS`). After an acceptance, earlier effects that no longer earn
-   their place are dropped.
+   would (:data:`DISCRIMINATING_EXPERIMENTS`). An effect that requires another (the registry's
+   ``requires``) is tried together with its prerequisite when that is tied or a round stops, and in
+   the wider search on top of every combination that holds it. After an acceptance, earlier effects
+   that no longer earn their place are dropped.
 5. **Report** a final joint fit of all added parameters on the whole record, with standard errors from
    the Jacobian of the residuals, ``cov = s^2 (J^T J)^-1``, ``s^2 = RSS / (n - k)``, widened for
    correlated residuals by ``(1 + rho) / (1 - rho)`` (rho: the residual's lag-one autocorrelation).
@@ -39,7 +41,9 @@ the file's baseline and adds effects one at a time, forward stepwise, while the 
    output noise and the measured inputs' noise passed through the model); else "incomplete", and the
    discovery of model-spec section 6b runs. A tie is judged on the best of the tied effects (the final model
    refitted with each, :func:`_tied_rivals`): "undecided" when it reaches the noise, else neither explains the
-   record and the verdict is "incomplete" (the tie still reported).
+   record and the verdict is "incomplete" (the tie still reported). Each explanation of a tie is
+   reported as a whole model (``alternatives``), and the top level keeps only what they share
+   (:func:`_shared_values`).
 
 The result is a :class:`DiagnosisResult`; ``result.to_dict()`` is the JSON of model-spec section 6.
 For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT_POINTS` points, at most
@@ -71,7 +75,7 @@ from .equation_error import (ISOTONIC_SMOOTHING_SAMPLES, KNEE_SMOOTHING_S, knee_
                              lagged, missing_force, model_pressures)
 from .effect_files import discovery_effects
 from .diagnosis_rule import (RULE, Adequacy, Candidate as Outcome, Rule, Score, adequacy, at_bound, best_value, decide,
-                             forward_selection, judge, pair_needed, to_drop)
+                             extension_needed, forward_selection, judge, pair_needed, to_drop)
 
 # The rule's thresholds (the held-out share, the BIC and held-out gains, the margin) are the fields of
 # :class:`mkctl.analysis.diagnosis_rule.Rule`, passed down from :func:`diagnose`: no copies here.
@@ -1010,6 +1014,9 @@ class DiagnosisResult(Result):
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
     pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
     discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
+    #: on a tie, each explanation as a whole model: effects, params, uncertainty, rmse, adequate
+    #: (see docs/diagnosis.md); the top level then holds only what they share
+    alternatives: list = field(default_factory=list)
     rule: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
@@ -1019,6 +1026,8 @@ class DiagnosisResult(Result):
     error_steps: list = field(default_factory=list, repr=False)  #: RMSE after each step, file units
     signatures: dict = field(default_factory=dict, repr=False)  #: first round's signatures
     signature_order: list = field(default_factory=list, repr=False)
+    #: each alternative's simulation over every sample [SI]
+    alternative_simulated: list = field(default_factory=list, repr=False)
 
     @property
     def units(self) -> dict:
@@ -1032,6 +1041,9 @@ class DiagnosisResult(Result):
             lines.append(f"{name} = {value:.4g}" + (f" +- {error:.2g}" if error is not None else "") + f" {UNITS[name]}")
         lines.append(f"RMSE {self.rmse_before:.4g} -> {self.rmse_after:.4g} {self.output_unit}")
         lines += [f"cannot tell {' from '.join(u['effects'])}" for u in self.undecided]
+        for a in self.alternatives:
+            values = ", ".join(f"{k} = {v:.4g}" for k, v in a["params"].items())
+            lines.append(f"alternative: {', '.join(a['effects'])}: {values}")
         lines += [f"problem: {text}" for text in self.problems]
         return lines
 
@@ -1048,7 +1060,7 @@ class DiagnosisResult(Result):
             "output_noise": self.output_noise, "output_noise_correlation": self.output_noise_correlation,
             "adequacy": self.adequacy, "saturation": self.saturation, "offset": self.offset,
             "pressure_lag": self.pressure_lag,
-            "discovery": self.discovery,
+            "discovery": self.discovery, "alternatives": self.alternatives,
             "file": self.file, "baseline_effects": list(self.baseline_effects), "output_unit": self.output_unit,
             "samples": self.samples, "rule": self.rule, "pictures": self.pictures,
         }
@@ -1293,6 +1305,7 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     if record.problems:
         return _not_diagnosed(record, say)
     problem = _problem(record.prepared, fit_offset, rule, record.noise)
+    problem = _with_input_noise(problem, record, say)
     problem = _blocked_problem(problem, record.start, record.full_before, record.noise.sigma, record.notes, say)
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
         f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
@@ -1318,6 +1331,9 @@ class _Record:
     problems: list  #: why the output cannot be this model's (sanity checks)
     fit_offset: bool = False
     renoised: Measurement | None = None  #: the prepared record with re-noised inputs (:func:`renoised_inputs`)
+    #: more such records, other realisations (quasi-static records: see
+    #: :data:`QUASI_STATIC_NULL_REALISATIONS`)
+    renoised_more: list = field(default_factory=list)
 
     def input_floor(self, params: Params, simulated) -> float:
         """RMS [SI] of the measured inputs' noise passed through the model at params (0 when none was smoothed):
@@ -1372,8 +1388,67 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> _Record:
                   rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
     problems = sanity_problems(m, full_before, m.params, fit_offset)
     judged = set(PRESSURE_PATH) - ({lag["path"]["motion"]} if lag_judged and lag["path"].get("motion") else set())
+    # a quasi-static record passes its inputs' noise straight to the output, sample by sample: one
+    # realisation of it is a poor measure of what it gives a candidate, so the null test takes the
+    # worst of several
+    seeds = range(2, QUASI_STATIC_NULL_REALISATIONS + 1) if m.experiment in QUASI_STATIC else ()
+    more = [renoised_inputs(motion, prepared, noise_info, seed) for seed in seeds]
     return _Record(m, prepared, start, lag, judged if lag_judged else set(), noise, full_before, notes,
-                   common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info))
+                   common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info),
+                   [r for r in more if r is not None])
+
+
+#: Records whose model follows its measured inputs sample by sample (no dynamics to filter their
+#: noise).
+QUASI_STATIC = ("isotonic", "isometric")
+#: How many realisations of the noise the null test of such a record draws (criterion 5: the worst
+#: counts).
+QUASI_STATIC_NULL_REALISATIONS = 4
+
+
+def input_noise_through_model(record: "_Record", params: Params) -> tuple[float, float]:
+    """The measured inputs' noise as the model passes it to the output: (standard deviation [SI],
+    lag-one correlation between samples) of the model driven by re-noised inputs against the model
+    driven by the prepared ones (:func:`renoised_inputs`); (0, 0) when no input was smoothed."""
+    if record.renoised is None:
+        return 0.0, 0.0
+    try:
+        renoised = simulate_output(record.renoised, params)
+        difference = renoised - simulate_output(record.prepared, params)
+    except MkctlError:
+        return 0.0, 0.0
+    return float(np.sqrt(np.mean(difference ** 2))), _lag_one_correlation(difference)
+
+
+def _with_input_noise(problem: "_Problem", record: "_Record", say) -> "_Problem":
+    """A quasi-static record's problem with its inputs' noise in the correlation BIC counts with.
+
+    Its model follows the measured inputs sample by sample, so what their noise leaves after the
+    smoothing reaches the residual as it is: a wiggle as long as the smoothing window, correlated
+    between neighbouring samples. BIC counted those samples as independent (with the output noise's
+    correlation alone), so that any effect that bends the model along one wiggle gained tens in BIC
+    (damping c = 63 N s/m added on a clean record under 16 kPa of pressure noise). The correlation
+    of the sum of both noises, ``(s_o^2 phi_o + s_i^2 phi_i) / (s_o^2 + s_i^2)``, takes its place
+    (the knee's inputs are commands, or pressures that its dynamics filter: unchanged)."""
+    if problem.measurement.experiment not in QUASI_STATIC or record.renoised is None:
+        return problem
+    sigma_in, phi_in = input_noise_through_model(record, record.start)
+    sigma_out, phi_out = record.noise.sigma, record.noise.correlation
+    total = sigma_in ** 2 + sigma_out ** 2
+    if not sigma_in > 0 or not total > 0:
+        return problem
+    phi = (sigma_out ** 2 * phi_out + sigma_in ** 2 * max(phi_in, 0.0)) / total
+    if phi <= problem.noise_correlation:
+        return problem
+    to_file = record.to_file
+    unit = record.measurement.output_unit
+    record.notes.append(f"the measured inputs' noise reaches the output through the model "
+                        f"({sigma_in * to_file:.2g} {unit} RMS, correlated {phi_in:.2f} between "
+                        f"samples, beside {sigma_out * to_file:.2g} {unit} of output noise): BIC "
+                        f"counts the samples as correlated {phi:.2f}, so that no effect wins by "
+                        f"following it")
+    say(record.notes[-1])
+    return dataclasses.replace(problem, noise_correlation=phi)
 
 
 def _output_noise_model(m: Measurement, baseline) -> NoiseModel:
@@ -1414,13 +1489,20 @@ def _select(problem: _Problem, record: _Record, rule: Rule, say):
     pending_all = [e for e in candidates_for(m, start) if e not in record.exclude]
     state = _Search(problem, start, pending_all, rule, record.to_file, say, record.noise)
     state.renoised = record.renoised
+    state.renoised_more = record.renoised_more
     state.forward(current)
     if record.lag is not None:  # what the measured pressures could not tell apart
         state.undecided = [*record.lag["path"]["undecided"], *state.undecided]
     if (state.added or state.undecided) and len(pending_all) >= 2:
-        inadequate = _inadequacy(problem, state.current, record.noise.sigma)
+        # the noise the model should leave includes the measured inputs' noise through it (a
+        # quasi-static record passes it on sample by sample): without it, 4 kPa of pressure noise
+        # looked like 10 times the output noise
+        through_model, _ = input_noise_through_model(record, state.current.params)
+        sigma = math.hypot(record.noise.sigma, through_model)
+        inadequate = _inadequacy(problem, state.current, sigma)
         if inadequate > WIDER_SEARCH_FACTOR:
-            say(f"the model leaves {inadequate:.3g} times the output noise: trying the candidates in pairs and threes")
+            say(f"the model leaves {inadequate:.3g} times the noise (output, and inputs' through "
+                f"the model): trying the candidates in pairs and threes")
             if state.wider():
                 state.forward(state.current)
     return state, first.offset
@@ -1453,6 +1535,20 @@ def _final_fit(problem: _Problem, record: _Record, state: "_Search", offset_befo
         offset = problem.offset(problem.measured - problem.simulate(final_params)) if problem.fit_offset else 0.0
     simulated = (simulate_output(record.prepared, final_params) + offset if (added or start is not m.params)
                  else record.full_before + offset_before)
+    if added and m.experiment in QUASI_STATIC and record.renoised is not None:
+        # the measured inputs' noise moves the values too (a friction follows the wiggles the
+        # smoothed pressure leaves): refitted with the model driven by other realisations of the
+        # inputs' noise, the values' RMS shift is added (in quadrature) to their standard errors
+        shifts = []
+        for renoised in [record.renoised, *record.renoised_more]:
+            moved = dataclasses.replace(problem, measurement=dataclasses.replace(
+                problem.measurement, inputs=renoised.inputs))
+            values, _, _, _ = _joint_fit(moved, start, added, final_values, train_only=False,
+                                         rough=True)
+            shifts.append(values)
+        for name in final_values:
+            rms = math.sqrt(sum((v[name] - final_values[name]) ** 2 for v in shifts) / len(shifts))
+            uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), rms)
     if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
         # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
         # (first order: refit at tau -+ its standard error, add the spread in quadrature)
@@ -1530,8 +1626,56 @@ def _tied_rivals(record: _Record, state: "_Search", rule: Rule, say) -> tuple[li
     """The best of the tied explanations and its adequacy: the final model refitted on the whole record with each
     (one effect from each tie in ``state.undecided``), the best being one that passes the adequacy test, else the
     one that leaves least. None when none could be fitted (the tie is then left undecided)."""
-    problem, current = state.problem, state.current
+    alternatives = _alternative_models(record, state, rule, say)
+    return _best_alternative(alternatives)
+
+
+def _best_alternative(alternatives: list) -> tuple[list, Adequacy] | None:
+    """(the rivals, the adequacy) of the alternative that passes the adequacy test, else leaves
+    least; None."""
     best = None
+    for alternative in alternatives:
+        fit = alternative.adequacy
+        if best is None or (fit.adequate, -fit.ratio) > (best[1].adequate, -best[1].ratio):
+            best = (alternative.rivals, fit)
+    return best
+
+
+@dataclass
+class _Alternative:
+    """One explanation of a tie as a whole model: the final model refitted on the whole record with
+    one effect from each tie (``rivals``): its effects, values, standard errors, simulation over
+    every sample [SI] (offset included) and adequacy."""
+
+    rivals: list
+    effects: list
+    values: dict
+    uncertainty: dict
+    simulated: np.ndarray
+    params: Params
+    adequacy: Adequacy
+    offset: float = 0.0
+
+    def report(self, record: _Record) -> dict:
+        """The alternative as the report's JSON gives it (RMSE over every sample, file units)."""
+        y = record.output
+        return {"effects": list(self.effects), "with": list(self.rivals),
+                "params": dict(self.values),
+                "uncertainty": dict(self.uncertainty),
+                "rmse": rmse(y, self.simulated * record.to_file),
+                "fit_percent": fit_percent(y, self.simulated * record.to_file),
+                "adequate": self.adequacy.adequate, "noise_ratio": self.adequacy.ratio,
+                "text": self.adequacy.text()}
+
+
+def _alternative_models(record: _Record, state: "_Search", rule: Rule, say) -> list:
+    """Each explanation of the ties in ``state.undecided`` as a whole model (:class:`_Alternative`):
+    the effects added (and a pressure path found on measured pressures) with one effect from each
+    tie, all refitted jointly on the whole record, with the standard errors of that fit."""
+    problem, current = state.problem, state.current
+    found = []
+    path = (record.lag["path"] if record.lag is not None
+            else {"effects": [], "values": {}, "uncertainty": {}})
     for combo in itertools.product(*[u["effects"] for u in state.undecided]):
         rivals = [e for e in dict.fromkeys(combo) if e not in state.added and e in CANDIDATES]
         if not rivals:
@@ -1546,7 +1690,8 @@ def _tied_rivals(record: _Record, state: "_Search", rule: Rule, say) -> tuple[li
             start[parameter] = value
         if not all(start[CANDIDATES[e].parameter] > 0 for e in rivals):
             continue
-        values, _, _, params = _joint_fit(problem, record.start, [*state.added, *rivals], start, train_only=False)
+        values, errors, _, params = _joint_fit(problem, record.start, [*state.added, *rivals],
+                                               start, train_only=False)
         on_grid = problem.simulate(params)
         if on_grid is _FAILED:
             continue
@@ -1557,9 +1702,45 @@ def _tied_rivals(record: _Record, state: "_Search", rule: Rule, say) -> tuple[li
             continue
         fit, _, _ = _adequacy_at(record, params, simulated, offset, rule)
         say(f"  the tie judged with {' and '.join(rivals)}: {fit.text()}")
-        if best is None or (fit.adequate, -fit.ratio) > (best[1].adequate, -best[1].ratio):
-            best = (rivals, fit)
-    return best
+        on_path = [e for e in path["effects"] if e not in state.added and e not in rivals]
+        found.append(_Alternative(rivals, [*on_path, *state.added, *rivals],
+                                  {**path["values"], **values}, {**path["uncertainty"], **errors},
+                                  simulated, params, fit, offset))
+    return found
+
+
+def _shared_values(alternatives: list) -> tuple[list, dict, dict, list]:
+    """What the top level of a tied report holds: the effects every alternative has, and each of
+    their parameters on which the alternatives agree (every pair within twice their combined
+    standard error), as their inverse-variance mean with a standard error that covers their spread.
+    A shared parameter on which they disagree belongs to each alternative alone: it is left out and
+    named (returned last)."""
+    shared = [e for e in alternatives[0].effects if all(e in a.effects for a in alternatives[1:])]
+    params, uncertainty, disputed = {}, {}, []
+    for name in alternatives[0].values:
+        if not all(name in a.values for a in alternatives):
+            continue
+        if not any(name in _effect_parameters(e) for e in shared):
+            continue
+        values = np.array([a.values[name] for a in alternatives])
+        errors = np.array([a.uncertainty.get(name, math.inf) for a in alternatives])
+        agree = all(abs(values[i] - values[j]) <= 2.0 * math.hypot(errors[i], errors[j])
+                    for i in range(values.size) for j in range(i + 1, values.size))
+        if not agree or not np.all(np.isfinite(errors)) or not np.all(errors > 0):
+            disputed.append(name)
+            continue
+        weights = 1.0 / errors ** 2
+        mean = float(np.sum(weights * values) / np.sum(weights))
+        params[name] = mean
+        uncertainty[name] = float(max(1.0 / math.sqrt(np.sum(weights)), 0.5 * np.ptp(values)))
+    return shared, params, uncertainty, disputed
+
+
+def _effect_parameters(name: str) -> tuple:
+    """The parameters an effect brings (the registry's), its fitted one first."""
+    fitted = CANDIDATES[name].parameter if name in CANDIDATES else None
+    own = list(effects.get(name).parameter_names)
+    return tuple(dict.fromkeys([p for p in (fitted,) if p] + own))
 
 
 def _result(record: _Record, state: "_Search", final: _Final, offset_before: float, rule: Rule,
@@ -1577,14 +1758,37 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
     noise_text = f"estimated output noise {noise.sigma * to_file:.2g} {m.output_unit}" + (
         f", correlated {noise.correlation:.2f} between samples" if noise.correlation else "") + (
         f", and {floor * to_file:.2g} {m.output_unit} of the measured inputs' noise through the model" if floor else "")
-    # a tie is judged on the best of the tied explanations, not on the model with neither (issue 21)
-    tied = _tied_rivals(record, state, rule, say) if state.undecided and not fit.adequate else None
+    # a tie is judged on the best of the tied explanations, not on the model with neither (issue
+    # 21); each explanation is reported as a whole model, and the top level holds only what they
+    # share (issue 32)
+    alternatives = _alternative_models(record, state, rule, say) if state.undecided else []
+    tied = _best_alternative(alternatives) if alternatives and not fit.adequate else None
     undecided = [{**u, "explains": tied[1].adequate} if tied else dict(u) for u in state.undecided]
     verdict, note = verdict_of(final.added, undecided, fit, noise_text, tied)
     notes = list(record.notes)
     if note:
         notes.append(note)
         say(note)
+    missing, values, uncertainty = final.added, final.values, final.uncertainty
+    simulated, params_after = final.simulated, final.params
+    without_tied = None
+    if len(alternatives) >= 2:
+        without_tied = {"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit,
+                        "text": fit.text()}
+        missing, values, uncertainty, disputed = _shared_values(alternatives)
+        best = min(alternatives, key=lambda a: (not a.adequacy.adequate, a.adequacy.ratio))
+        fit, simulated, params_after = best.adequacy, best.simulated, best.params
+        per_alternative = "; ".join(
+            ", ".join(f"{k} = {a.values[k]:.4g}" for k in disputed)
+            + f" with {' and '.join(a.rivals)}" for a in alternatives)
+        text = (f"the record holds {len(alternatives)} explanations that it cannot tell apart, "
+                f"each reported as a whole model under 'alternatives'; the top level keeps only "
+                f"what they share" + (f" ({', '.join(missing)})" if missing else " (nothing)")
+                + (f", without {', '.join(disputed)}, whose value depends on the explanation: "
+                   f"{per_alternative}" if disputed else "")
+                + f"; its error after is the best explanation's ({' and '.join(best.rivals)})")
+        notes.append(text)
+        say(text)
     # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
     # it lacks show as their own terms, "matches" naming them)
     found = discover(record.prepared, record.start, progress=say, effects=discovery_effects()) \
@@ -1594,16 +1798,19 @@ def _result(record: _Record, state: "_Search", final: _Final, offset_before: flo
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
-        **record.common, discovery=found, verdict=verdict, missing=final.added, params=final.values,
-        uncertainty=final.uncertainty,
-        rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, final.simulated * to_file),
+        **record.common, discovery=found, verdict=verdict, missing=missing, params=values,
+        uncertainty=uncertainty, alternatives=[a.report(record) for a in alternatives],
+        alternative_simulated=[a.simulated for a in alternatives],
+        rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, simulated * to_file),
         fit_percent_before=fit_percent(y, before * to_file),
-        fit_percent_after=fit_percent(y, final.simulated * to_file),
+        fit_percent_after=fit_percent(y, simulated * to_file),
         steps=state.steps, stopped=state.stopped, undecided=undecided, notes=notes,
         offset=final.offset * to_file if record.fit_offset else None,
         adequacy={"adequate": fit.adequate, "ratio": fit.ratio, "limit": fit.limit, "worst_window": worst,
-                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file, "text": fit.text()},
-        simulated_before=before, simulated_after=final.simulated, error_steps=steps_rmse, params_after=final.params,
+                  "noise": sigma * to_file, "input_noise_through_model": floor * to_file,
+                  "text": fit.text(), **({"without_tied": without_tied} if without_tied else {})},
+        simulated_before=before, simulated_after=simulated, error_steps=steps_rmse,
+        params_after=params_after,
         signatures=sigs, signature_order=order)
 
 
@@ -1628,6 +1835,8 @@ class _Search:
         self.fits: dict = {}
         self.context: dict = {}
         self.renoised: Measurement | None = None  #: drives the null test's simulation (:func:`renoised_inputs`)
+        #: other realisations of it (quasi-static records), each drawn too
+        self.renoised_more: list = []
         self.added: list[str] = []
         self.individual: dict = {}
         self.steps: list[dict] = []
@@ -1637,6 +1846,7 @@ class _Search:
         self.signatures_first = None
         self.current = None
         self.hints: dict = {}  #: each candidate's value its signature suggests, this round
+        self.outcomes: dict = {}  #: this round's outcomes for the rule (null-tested ones included)
 
     def forward(self, current: _Fit) -> None:
         """Forward selection from ``current`` (:func:`mkctl.analysis.diagnosis_rule.forward_selection`): each
@@ -1644,7 +1854,8 @@ class _Search:
         self.current = current
         decision = forward_selection(current.score, self._remaining, self._fit_round, self._add, self.rule,
                                      null_test=self._null_test if self.noise is not None else None,
-                                     break_tie=self._break_tie)
+                                     break_tie=self._break_tie,
+                                     with_requirements=self._with_requirements)
         self._stop(decision)
 
     def _remaining(self) -> list[str]:
@@ -1669,6 +1880,7 @@ class _Search:
             fits[name] = fit
         rows.sort(key=lambda r: math.inf if r["bic"] is None else r["bic"])
         self.fits = fits
+        self.outcomes = {outcome.effect: outcome for outcome in outcomes}
         self.context = {"bic_before": current.score.bic,
                         "rmse_holdout_before": current.score.rmse_holdout * self.to_file, "candidates": rows,
                         "ties": []}
@@ -1688,19 +1900,32 @@ class _Search:
         return sigs
 
     def _null_test(self, outcome: Outcome) -> Outcome:
-        """The candidate refitted on the current model's own simulation plus the estimated output noise: the
-        dBIC it gains there is what noise alone gives it (criterion 5 of the rule)."""
+        """The candidate refitted on the current model's own simulation plus the estimated output
+        noise: the dBIC it gains there is what noise alone gives it (criterion 5 of the rule). The
+        simulation is driven by the measured inputs re-noised (their noise passes through the model
+        into the null record); a quasi-static record draws several realisations of both noises and
+        the largest gain counts."""
         name, current = outcome.effect, self.current
-        null_problem = dataclasses.replace(self.problem, measurement=dataclasses.replace(
-            self.problem.measurement, output=self.noise.null_output(self.problem, current, self.renoised)))
-        null_current = _evaluate(null_problem, current.params, current.values)
-        if null_current is None:
+        gains = []
+        realisations = [(self.renoised, self.noise)] + [
+            (renoised, dataclasses.replace(self.noise, seed=self.noise.seed + k))
+            for k, renoised in enumerate(self.renoised_more, 1)]
+        for renoised, noise in realisations:
+            output = noise.null_output(self.problem, current, renoised)
+            null_problem = dataclasses.replace(self.problem, measurement=dataclasses.replace(
+                self.problem.measurement, output=output))
+            null_current = _evaluate(null_problem, current.params, current.values)
+            if null_current is None:
+                continue
+            fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {},
+                                          name, None, self.rule, self.hints.get(name))
+            k_more = dataclasses.replace(null_current.score, k=null_current.score.k + 1)
+            null_score = fit.score if fit is not None and fit is not null_current else k_more
+            gains.append(null_score.bic - null_current.score.bic)
+        if not gains:
             return outcome
-        fit, _, _, _ = _fit_candidate(null_problem, self.start, null_current, self.added, {}, name, None, self.rule,
-                                      self.hints.get(name))
-        k_more = dataclasses.replace(null_current.score, k=null_current.score.k + 1)
-        null_score = fit.score if fit is not None and fit is not null_current else k_more
-        tested = dataclasses.replace(outcome, null_delta_bic=null_score.bic - null_current.score.bic)
+        tested = dataclasses.replace(outcome, null_delta_bic=min(gains))
+        self.outcomes[name] = tested
         judgement = judge(current.score, tested, self.rule)
         row = next(r for r in self.context["candidates"] if r["effect"] == name)
         row.update({"null_delta_bic": tested.null_delta_bic, "beats_noise": judgement.beats_noise})
@@ -1717,6 +1942,78 @@ class _Search:
         rival, fit = pair
         self.fits[decision.effect] = fit
         return dataclasses.replace(decision, verdict="add", together=(rival,))
+
+    def _joint_with_added(self, names: list, start: dict) -> tuple[_Fit | None, bool]:
+        """``names`` fitted jointly with the effects already added (training part, full tolerance),
+        from the current values and ``start``: (the fit or None, whether a parameter of ``names``
+        sits on a bound)."""
+        values, _, _, params = _joint_fit(self.problem, self.start, [*self.added, *names],
+                                          {**self.current.values, **start}, train_only=True)
+        fit = _evaluate(self.problem, params, values)
+        return fit, _pinned(values, names, self.problem.measurement.experiment)
+
+    def _with_requirements(self, decision):
+        """A round that ends in a tie or a stop: an effect that requires another (the registry's
+        ``requires``) is no candidate until its prerequisite is on, so a prerequisite that is tied
+        (or, in a stop, any fitted candidate) is fitted together with each effect that requires it,
+        and the combination is judged by the same rule against the current model and the round's
+        candidates (:func:`decide`: physical, BIC, held-out gain, held-out margin over every rival);
+        the winner is then fitted with each of the prerequisite's rivals in turn, kept when the
+        rival passes BIC and the held-out gain beside it
+        (:func:`mkctl.analysis.diagnosis_rule.extension_needed`). Returns an ``add`` of the
+        prerequisite with the others ``together``, or the decision unchanged."""
+        on = set(self.start.effects) | set(self.added)
+        undecided = decision.verdict == "undecided"
+        tied = [decision.effect, *decision.rivals] if undecided else list(self.fits)
+        compounds, rows = {}, []
+        for prerequisite in tied:
+            fit = self.fits.get(prerequisite)
+            if fit is None or fit is self.current:
+                continue
+            for dependent in _dependents(self.pending_all, on, prerequisite):
+                names = [prerequisite, dependent]
+                start = {CANDIDATES[dependent].parameter: _dependent_start(dependent, fit.values)}
+                together, pinned = self._joint_with_added(names, {**fit.values, **start})
+                if together is None:
+                    continue
+                key = " + ".join(names)
+                compounds[key] = (names, together, pinned)
+                own = [CANDIDATES[e].parameter for e in names]
+                rows.append({"effects": names, "params": {p: together.values[p] for p in own},
+                             "delta_bic": together.score.bic - self.current.score.bic,
+                             "rmse_train": together.score.rmse_train * self.to_file,
+                             "rmse_holdout": together.score.rmse_holdout * self.to_file,
+                             "at_bound": pinned})
+                self.say(f"  {key} together: dBIC {rows[-1]['delta_bic']:+.1f}, held-out "
+                         f"{rows[-1]['rmse_holdout']:.4g}"
+                         + (" (a parameter on its bound)" if pinned else ""))
+        if not compounds:
+            return decision
+        self.context["with_requirements"] = rows
+        outcomes = [*self.outcomes.values(), *(Outcome(key, fit.score, at_bound=pinned)
+                                               for key, (_, fit, pinned) in compounds.items())]
+        second = decide(self.current.score, outcomes, self.rule)
+        if second.verdict != "add" or second.effect not in compounds:
+            self.say(f"  with what requires it: {second.reason}")
+            return decision
+        names, fit, _ = compounds[second.effect]
+        for rival in (r for r in tied if r not in names and undecided):
+            alone = self.fits.get(rival)
+            if alone is None or alone is self.current:
+                continue
+            parameter = CANDIDATES[rival].parameter
+            start = {**fit.values, parameter: alone.values[parameter]}
+            more, pinned = self._joint_with_added([*names, rival], start)
+            if more is not None and not pinned and extension_needed(fit.score, more.score,
+                                                                    self.rule):
+                names, fit = [*names, rival], more
+        for row in rows:
+            row["accepted"] = row["effects"] == names[:2]
+        self.fits[names[0]] = fit
+        self.say(f"  {' and '.join(names)} are added together")
+        return dataclasses.replace(second, verdict="add", effect=names[0], rivals=(),
+                                   together=tuple(names[1:]),
+                                   reason=f"{' + '.join(names)} together pass every criterion")
 
     def _add(self, decision) -> Score:
         """Adopt the decision's effect(s), drop what no longer earns its place, refit, record the round."""
@@ -1791,24 +2088,56 @@ class _Search:
         names = [e for e in self.pending_all if self.individual.get(e, 0.0) > 0]
         experiment = problem.measurement.experiment
         best, tried = None, []
+        base = set(self.start.effects)
+
+        def consider(combo, start):
+            nonlocal best
+            values, _, _, params = _joint_fit(problem, self.start, list(combo), start,
+                                              train_only=True, rough=True)
+            fit = _evaluate(problem, params, values)
+            if fit is None:
+                return None
+            pinned = _pinned(values, combo, experiment)
+            say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, "
+                f"held-out {fit.score.rmse_holdout * self.to_file:.4g}"
+                + (" (on a bound)" if pinned else ""))
+            if not pinned:
+                tried.append((combo, fit))
+                if best is None or fit.score.bic < best[1].score.bic:
+                    best = (combo, fit)
+            return fit
+
         for size in (2, 3):
             for combo in itertools.combinations(names, size):
-                if set(combo) == set(self.added):
-                    continue
                 start = {CANDIDATES[e].parameter: self.individual[e] for e in combo}
-                values, _, _, params = _joint_fit(problem, self.start, list(combo), start, train_only=True, rough=True)
-                fit = _evaluate(problem, params, values)
-                if fit is None:
-                    continue
-                pinned = _pinned(values, combo, experiment)
-                say(f"  {' + '.join(combo)}: training RMSE {fit.score.rmse_train * self.to_file:.4g}, held-out "
-                    f"{fit.score.rmse_holdout * self.to_file:.4g}" + (" (on a bound)" if pinned else ""))
-                if not pinned:
-                    tried.append((combo, fit))
-                    if best is None or fit.score.bic < best[1].score.bic:
-                        best = (combo, fit)
+                fit = consider(combo, start) if set(combo) != set(self.added) else self.current
+                # an effect that requires one of these (the registry's requires) is tried on top of
+                # them, from their fitted values: it was never a candidate of round 1, so it has no
+                # value of its own there
+                for prerequisite in combo:
+                    for dependent in _dependents(self.pending_all, base | set(combo), prerequisite):
+                        if fit is None or set((*combo, dependent)) == set(self.added):
+                            continue
+                        values = dict(fit.values)
+                        consider((*combo, dependent), {**values, CANDIDATES[dependent].parameter:
+                                                       _dependent_start(dependent, values)})
         if best is None:
             return False
+        # an effect of the best combination whose removal costs less than the rule's BIC threshold
+        # does not earn its place there (the rule's drop step): the combination without it is taken
+        # instead, so that a spurious fourth effect (a friction beside damping, a lag and its
+        # exhausting time constant) cannot make the best combination one that a rival of equal error
+        # ties
+        tried_sets = {frozenset(c): (c, f) for c, f in tried}
+        smaller = True
+        while smaller:
+            smaller = False
+            for effect in best[0]:
+                without = tried_sets.get(frozenset(best[0]) - {effect})
+                if without is not None and not self.rule.passes_bic(best[1].score.bic
+                                                                    - without[1].score.bic):
+                    best, smaller = without, True
+                    break
         combo, fit = best
         # two combinations that explain the record equally well are a finding, not an answer: another that is
         # neither part of the best nor contains it must be beaten on the held-out part by the margin
@@ -1833,6 +2162,31 @@ class _Search:
                       "bic_before": before.score.bic, "rmse_holdout_before": before.score.rmse_holdout * self.to_file,
                       "candidates": [], "ties": [], "wider_search": True})
         return True
+
+
+def _dependents(pending: list, on: set, prerequisite: str) -> list[str]:
+    """The candidates of ``pending`` that require ``prerequisite`` (the registry's ``requires``) and
+    become possible once it is on beside the effects ``on``."""
+    return [e for e in pending if e not in on and prerequisite in effects.get(e).requires
+            and set(effects.get(e).requires) <= on | {prerequisite}]
+
+
+def _dependent_start(name: str, values: dict) -> float:
+    """Where a dependent effect's parameter starts a joint fit: at its prerequisite's fitted value
+    when that has the same unit (an exhausting time constant at the lag's tau: the symmetric lag),
+    else at the parameter's typical value (the registry's), else the middle of its search range in
+    log space."""
+    effect, parameter = effects.get(name), CANDIDATES[name].parameter
+    for required in effect.requires:
+        other = CANDIDATES[required].parameter if required in CANDIDATES else None
+        same_unit = other is not None and UNITS.get(other) == UNITS.get(parameter)
+        if same_unit and values.get(other, 0.0) > 0:
+            return float(values[other])
+    typical = getattr(effect.parameter(parameter), "typical", None)
+    if typical:
+        return float(typical)
+    low, high = next(iter(CANDIDATES[name].bounds.values()))
+    return math.sqrt(low * high)
 
 
 def _pinned(values: dict, effects, experiment: str) -> bool:

@@ -31,7 +31,10 @@ Among the candidates that pass 1-3, 5 and 6, the best BIC is the one judged by 4
 tell the best from its rivals: the verdict is ``"undecided"`` (the loop then tries them together, see
 :func:`pair_needed`, and otherwise reports the tie with the experiment that would separate them). After
 an acceptance, an earlier effect is dropped (:func:`to_drop`) when removing it costs less than the
-threshold in BIC. :func:`forward_selection` runs these rounds for the diagnosis and the calibration alike.
+threshold in BIC. :func:`forward_selection` runs these rounds for the diagnosis and the calibration
+alike. An effect that requires another is tried together with its prerequisite when a round ends
+tied or stopped (the combination judged by :func:`decide` like any candidate, a rival joining it by
+:func:`extension_needed`).
 
 When the selection is over, :func:`adequacy` says whether the final model leaves only what the noise explains
 (a chi-square test with the effective sample count, never stricter than :attr:`Rule.adequate_factor`), over
@@ -259,7 +262,8 @@ def forward_selection(current: Score, remaining: Callable[[], list[str]],
                       fit_round: Callable[[list[str]], list[Candidate]],
                       add: Callable[[Decision], Score], rule: Rule = RULE,
                       null_test: Callable[[Candidate], Candidate] | None = None,
-                      break_tie: Callable[[Decision], Decision] | None = None) -> Decision:
+                      break_tie: Callable[[Decision], Decision] | None = None,
+                      with_requirements: Callable[[Decision], Decision] | None = None) -> Decision:
     r"""Forward stepwise selection with the rule, shared by the diagnosis and the calibration.
 
     Each round fits every candidate not yet in the model (``remaining()``, asked each round: an effect
@@ -267,7 +271,11 @@ def forward_selection(current: Score, remaining: Callable[[], list[str]],
     and :func:`decide`\ s. Before the winner is taken, ``null_test`` (if given) adds what the same
     candidate gains on noise alone (:attr:`Candidate.null_delta_bic`) and the round is decided again, so
     that criterion 5 can refuse it and the next best be judged in turn. A tie goes to ``break_tie`` (which
-    returns an ``"add"`` with :attr:`Decision.together`, or the tie). ``add(decision)`` adopts the effect(s)
+    returns an ``"add"`` with :attr:`Decision.together`, or the tie). A round that still ends in a
+    tie or a stop goes to ``with_requirements`` (if given): an effect that requires another (the
+    registry's ``requires``) is never a candidate before its prerequisite is on, so the prerequisite
+    is tried together with what requires it (:func:`extension_needed`); it returns an ``"add"`` with
+    :attr:`Decision.together`, or the decision unchanged. ``add(decision)`` adopts the effect(s)
     and returns the new current score. Returns the decision that ended the selection (``"stop"`` or
     ``"undecided"``; a ``"stop"`` without judgements when no candidate is left).
     """
@@ -284,6 +292,8 @@ def forward_selection(current: Score, remaining: Callable[[], list[str]],
             decision = decide(current, list(outcomes.values()), rule)
         if decision.verdict == "undecided" and break_tie is not None:
             decision = break_tie(decision)
+        if decision.verdict != "add" and decision.judgements and with_requirements is not None:
+            decision = with_requirements(decision)
         if decision.verdict != "add":
             return decision
         current = add(decision)
@@ -294,6 +304,15 @@ def pair_needed(singles: list[Score], both: Score, rule: Rule = RULE) -> bool:
     against each of them alone (each is needed beside the other)."""
     return all(rule.passes_bic(both.bic - one.bic) and rule.passes_holdout(both.rmse_holdout, one.rmse_holdout)
                for one in singles)
+
+
+def extension_needed(model: Score, extended: Score, rule: Rule = RULE) -> bool:
+    """A model extended by one more effect (a rival added to a prerequisite and what requires it)
+    keeps it when the extension passes criteria 2 and 3 against the model: BIC lower by more than
+    the threshold and the held-out RMSE lower by the gain. (Nested models are never each other's
+    rivals under criterion 4.)"""
+    return rule.passes_bic(extended.bic - model.bic) and rule.passes_holdout(extended.rmse_holdout,
+                                                                             model.rmse_holdout)
 
 
 def to_drop(current: Score, without: dict, rule: Rule = RULE) -> str | None:

@@ -7,6 +7,7 @@ readable lines.
 """
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -101,7 +102,9 @@ def plot_overlay(measurement, curves: dict, path, title: str = "") -> Path:
     fig, axes = new_figure(1 + len(panels), 1, figsize=(9, 5.2 + 1.3 * len(panels)), sharex=True,
                            height_ratios=(3.2,) + (1,) * len(panels), squeeze=False, layout="none")
     top = axes[0, 0]
-    colours = iter(["tab:blue", "tab:orange", "tab:green", "tab:purple"])
+    # a tie draws each explanation: as many curves as it has alternatives (cycled past ten)
+    colours = itertools.cycle(["tab:blue", "tab:orange", "tab:green", "tab:purple", "tab:brown", "tab:pink",
+                               "tab:olive", "tab:cyan", "tab:red", "tab:gray"])
     for label, values in curves.items():
         top.plot(measurement.time, measurement.to_file_units(values), lw=1.4, color=next(colours), label=label,
                  zorder=2)
@@ -230,14 +233,28 @@ def _step_label(step: dict) -> str:
     return "+ " + " & ".join([step["added"], *step.get("added_with", [])])
 
 
+def alternative_label(alternative: dict) -> str:
+    """How the pictures name one explanation of a tie: ``"with pressure_lag"`` (the tied effects it
+    holds)."""
+    return "with " + " & ".join(alternative.get("with") or alternative["effects"])
+
+
 def error_bars(result) -> tuple[list, list, list]:
-    """The bars of ``*_error_steps.png``: labels, RMSE (file units) and colours. The baseline, the RMSE after each
-    round's step (as the report's "-> added" lines print it), and last the final fit on the whole record (the
-    report's "after: RMSE"), when anything was added."""
+    """The bars of ``*_error_steps.png``: labels, RMSE (file units) and colours. The baseline, the
+    RMSE after each round's step (as the report's "-> added" lines print it), and last the final fit
+    on the whole record (the report's "after: RMSE"), when anything was added; on a tie, instead of
+    that, each explanation refitted on the whole record as a whole model (orange)."""
     labels = ["baseline"] + [_step_label(s) for s in result.steps]
     values = list(result.error_steps)
     colours = ["0.6"] + ["tab:blue"] * (len(values) - 1)
-    if result.steps or result.missing:
+    alternatives = getattr(result, "alternatives", None) or []
+    if alternatives:
+        for alternative in alternatives:
+            label = alternative_label(alternative).replace(" & ", "\n& ")
+            labels.append(label + "\n(whole record)")
+            values.append(alternative["rmse"])
+            colours.append("tab:orange")
+    elif result.steps or result.missing:
         labels.append("final fit\n(whole record)")
         values.append(result.rmse_after)
         colours.append("tab:green")
@@ -265,17 +282,26 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     ax.set_yscale("log")
     plain_log_ticks(ax.yaxis)
     ax.set_ylabel(f"RMSE [{unit}] (log)")
-    ax.set_title("the error falls as effects are added" if len(values) > 1 else f"{result.verdict}")
+    tied = bool(getattr(result, "alternatives", None))
+    title = "the error falls as effects are added" if len(values) > 1 else f"{result.verdict}"
+    ax.set_title(title + ("; the tie's explanations (orange), each refitted" if tied else ""))
     fixed_layout(fig, left=0.8, bottom=0.55)
     paths["error_steps"] = save_png(fig, folder / f"{stem}_error_steps.png")
 
     after_label = "baseline + " + ", ".join(result.missing) if result.missing else "baseline (nothing added)"
-    paths["overlay"] = plot_overlay(measurement, {"baseline": result.simulated_before,
-                                                  after_label: result.simulated_after},
+    alternatives = getattr(result, "alternatives", None) or []
+    curves = getattr(result, "alternative_simulated", None) or []
+    if alternatives and len(curves) == len(alternatives):  # a tie: each explanation, a whole model
+        after = {"baseline + " + ", ".join(a["effects"]): simulated
+                 for a, simulated in zip(alternatives, curves)}
+    else:
+        after = {after_label: result.simulated_after}
+    paths["overlay"] = plot_overlay(measurement, {"baseline": result.simulated_before, **after},
                                     folder / f"{stem}_overlay.png", f"before and after the diagnosis ({result.verdict})")
     paths["residuals"] = plot_residuals(measurement, {
         "before (baseline)": measurement.to_file_units(measurement.output - result.simulated_before),
-        f"after ({after_label})": measurement.to_file_units(measurement.output - result.simulated_after),
+        **{f"after ({label})": measurement.to_file_units(measurement.output - simulated)
+           for label, simulated in after.items()},
     }, folder / f"{stem}_residuals.png")
 
     if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
@@ -338,7 +364,8 @@ def summary(result) -> list[str]:
         if step.get("wider_search"):
             lines.append(f"wider search (what forward selection added left many times the noise): "
                          f"{' + '.join([step['added'], *step['added_with']])} fitted together replace "
-                         f"{', '.join(step['replaced'])}: RMSE {step['rmse']:.4g} {unit} (whole record)")
+                         f"{', '.join(step['replaced']) or 'the baseline'}: "
+                         f"RMSE {step['rmse']:.4g} {unit} (whole record)")
             continue
         lines.append(f"round {number}: candidates (best BIC first; RMSE over the compared samples, held-out "
                      f"over the last {result.rule['holdout_fraction']:.0%})")
@@ -360,6 +387,12 @@ def summary(result) -> list[str]:
                          + (f" (slope says {name} ~ {estimate:.3g})" if estimate is not None else "") + flag)
         for tie in step["ties"]:
             lines.append(f"  tie: {' ~ '.join(tie['effects'])}; to tell them apart: {tie['experiment']}")
+        for tried in step.get("with_requirements", []):  # a prerequisite with what requires it (issue 32)
+            values = ", ".join(f"{k} = {v:.4g}" for k, v in tried["params"].items())
+            lines.append(f"  with what requires it: {' + '.join(tried['effects'])} ({values}) dBIC "
+                         f"{tried['delta_bic']:+.1f}, held-out {tried['rmse_holdout']:.4g} {unit}"
+                         + (" (on a bound)" if tried.get("at_bound") else "")
+                         + (": added" if tried.get("accepted") else ""))
         if step.get("added"):
             dropped = f" (dropped {', '.join(step['dropped'])}: no longer needed)" if step.get("dropped") else ""
             together = " together with " + ", ".join(step["added_with"]) if step.get("added_with") else ""
@@ -374,7 +407,24 @@ def summary(result) -> list[str]:
         lines.append(f"{'tie' if neither else 'undecided'}: this record cannot tell {' from '.join(item['effects'])}"
                      f"{', and neither explains it' if neither else ''}; "
                      f"to separate them: {item['experiment']}")
-    if result.missing:
+    alternatives = getattr(result, "alternatives", None) or []
+    for number, alternative in enumerate(alternatives, 1):
+        values = ", ".join(_value_text(name, value, alternative["uncertainty"].get(name))
+                           for name, value in alternative["params"].items())
+        lines.append(f"alternative {number} ({alternative_label(alternative)}): "
+                     f"{', '.join(alternative['effects'])}: {values}; "
+                     f"RMSE {alternative['rmse']:.4g} {unit} (whole record), {alternative['text']}")
+    if result.missing and alternatives:
+        lines.append("missing (what every alternative shares): " + ", ".join(result.missing))
+        for name, value in result.params.items():
+            value_text = _value_text(name, value, result.uncertainty.get(name))
+            lines.append(f"  {value_text} (every alternative agrees)")
+        for effect in result.missing:
+            disputed = [p for p in effects.get(effect).parameter_names
+                        if p not in result.params and all(p in a["params"] for a in alternatives)]
+            lines += [f"  {p}: depends on the explanation (see the alternatives above)"
+                      for p in disputed]
+    elif result.missing:
         lines.append("missing: " + ", ".join(result.missing))
         for name, value in result.params.items():
             if name in INTEGER_PARAMETERS:  # a switch (slack = 1): on, no standard error to give
@@ -396,6 +446,14 @@ def summary(result) -> list[str]:
     lines += discovery_lines(getattr(result, "discovery", None))
     lines.append(f"verdict: {result.verdict}")
     return lines
+
+
+def _value_text(name: str, value: float, error: float | None) -> str:
+    """``"c = 45.02 +- 0.3 N s/m"`` (a switch as on/off, no error)."""
+    if name in INTEGER_PARAMETERS:
+        return f"{name} = {int(value)} ({'on' if value else 'off'})"
+    plus = f" +- {error:.2g}" if error is not None else ""
+    return f"{name} = {value:.4g}{plus} {UNITS[name]}"
 
 
 def discovery_lines(found: dict | None) -> list[str]:
