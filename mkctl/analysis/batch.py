@@ -405,16 +405,35 @@ def write_summary_csv(path, rows: list[dict], parameters: list[str]) -> Path:
     return write_rows(path, rows, summary_columns(parameters))
 
 
+#: First characters that make a spreadsheet read a cell as a formula (CSV injection): a text cell that starts with
+#: one (a record named "=HYPERLINK(...).csv") is written with a leading apostrophe, as spreadsheets do.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_cell(value):
+    """A value as a CSV cell: None empty; a text that a spreadsheet would run as a formula prefixed with "'"
+    (a number stays a number); quotes, commas and line breaks are the csv module's to quote."""
+    if value is None:
+        return ""
+    if isinstance(value, str) and value.startswith(FORMULA_STARTS):
+        try:
+            float(value)
+        except ValueError:
+            return "'" + value
+    return value
+
+
 def write_rows(path, rows: list[dict], columns: list[str] | None = None) -> Path:
-    """Write table rows as CSV, atomically (columns: given, or the first row's keys); None is an empty cell."""
+    """Write table rows as CSV (UTF-8; an undecodable file name's bytes as backslash escapes), atomically
+    (columns: given, or the first row's keys); None is an empty cell; see :func:`csv_cell`."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(path.name + ".tmp")
-    with temporary.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]))
+    with temporary.open("w", newline="", encoding="utf-8", errors="backslashreplace") as handle:
+        writer = csv.DictWriter(handle, fieldnames=[csv_cell(c) for c in columns or list(rows[0])])
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+            writer.writerow({csv_cell(k): csv_cell(v) for k, v in row.items()})
     os.replace(temporary, path)
     return path
 
