@@ -67,6 +67,7 @@ import numpy as np
 
 from ..errors import MkctlError
 from ..fmi.xml import xml_forbidden
+from ..io.report import visible
 from ..physics import effects as registry
 from ..physics.actuator import MATH_FUNCTIONS, symbolic_math
 from ..physics.params import BASE_NAMES, DEFAULT, PARAMETER_NAMES, Params
@@ -419,7 +420,8 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
         if not (name.isascii() and name.isidentifier() and parameter.isascii() and parameter.isidentifier()):
             raise EffectFileError(f"cannot write an effect named {name!r} with parameter {parameter!r}: not "
                                   f"Python identifiers")
-        description = (f"{label}, found by mkctl's discovery" + (f" in {source}" if source else "")
+        # the description goes into the FMUs' XML: a control character of the record's name as its escape
+        description = (f"{label}, found by mkctl's discovery" + (f" in {visible(source)}" if source else "")
                        + (f"; the form of the spec's effect {matches}" if matches else "")
                        + f": coefficient {term['coefficient']:.4g} +- {term['stderr']:.2g} {term['unit']}")
         function, entry = effect_source(name, parameter, term["unit"], expression.format(k=parameter),
