@@ -526,6 +526,21 @@ def format_table(rows: list[dict], parameters: list[str]) -> str:
     return "\n".join(out)
 
 
+#: The longest record name a figure's axis shows, in characters (longer ones end in an ellipsis).
+TICK_LABEL_CHARACTERS = 28
+
+
+def tick_label(name: str) -> str:
+    """A record's name as an axis label: on one line, unprintable characters as escapes, '$' escaped (no
+    mathtext), at most :data:`TICK_LABEL_CHARACTERS` characters."""
+    from ..io.report import visible
+
+    text = visible(" ".join(str(name).splitlines()))
+    if len(text) > TICK_LABEL_CHARACTERS:
+        text = text[:TICK_LABEL_CHARACTERS - 1] + "\u2026"
+    return text.replace("$", r"\$")
+
+
 def plot_parameters(rows: list[dict], parameters: list[str], path=None):
     """One panel per parameter: its value with the standard error as error bar, one point per record.
 
@@ -534,7 +549,7 @@ def plot_parameters(rows: list[dict], parameters: list[str], path=None):
     from ..io.plotting import new_figure, save_png
     from ..physics.params import UNITS
 
-    names = [Path(row["file"]).name for row in rows]
+    names = [tick_label(Path(row["file"]).name) for row in rows]
     panels = parameters or [None]
     fig, axes = new_figure(len(panels), 1, figsize=(max(5.0, 0.45 * len(rows) + 2.5), 2.6 * len(panels)),
                            squeeze=False)
