@@ -328,3 +328,26 @@ def test_a_csv_summary_reads_back_with_the_text_intact_and_no_formula(tmp_path, 
     assert [row["file"] for row in rows] == expected
     assert [row["rmse"] for row in rows] == ["-1.5", "2.0"]  # numbers stay numbers
     assert not any(row["file"].startswith(("=", "+", "-", "@")) for row in rows)
+
+
+# --- figures: a record's name in a title ----------------------------------------------------------------------
+
+@pytest.mark.parametrize("text", [*HOSTILE, "$x^{$ \\frac{1}{0} $_$", "a $\\alpha$ b"],
+                         ids=_ids([*HOSTILE, "$x^{$", "alpha"]))
+def test_a_figure_titled_with_a_hostile_record_name_saves_without_a_warning(tmp_path, text):
+    """compare and diagnose put the record's name in their figures' titles: a tab or a control character has no
+    glyph (a warning), and '$...$' that is not valid mathtext raised when the PNG was drawn."""
+    import warnings
+
+    from mkctl.io.plotting import new_figure, save_png
+
+    fig, ax = new_figure()
+    ax.plot([0, 1], [0, 1], label=f"measured ({text}.csv)")
+    ax.set_title(f"{text}: baseline vs measurement")
+    ax.legend()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        path = save_png(fig, tmp_path / "figure.png")
+    assert path.read_bytes().startswith(b"\x89PNG")
+    if "alpha" in text:  # valid mathtext of a name stays mathtext
+        assert ax.title.get_parse_math()
