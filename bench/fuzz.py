@@ -59,7 +59,8 @@ PAYLOAD = 'x""";__import__("os").system("touch PWNED");"""y'
 HOSTILE_NAMES = (PAYLOAD, "x';__import__('os').system('touch PWNED');'", "it's \"quoted\"", "line\nbreak",
                  "cr\rreturn", "</script><script>alert(1)</script>", "a & b &amp; <c>", "100 % %s %n %.6g",
                  "back\\slash\\", "ünïcødé µ² 中文", "ctrl\x01\x07\x1b[31m", "\udcff undecodable", "tab\there",
-                 "[x](javascript:alert(1)) *em* `code`", "=HYPERLINK(\"http://x\")", "-rf", " ", "*/ /* ??= \\n", "$x^{$ \\frac{1}{0} $_$")
+                 "[x](javascript:alert(1)) *em* `code`", "=HYPERLINK(\"http://x\")", "-rf", " ",
+                 "*/ /* ??= \\n", "$x^{$ \\frac{1}{0} $_$")
 
 FLOAT_WORD = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 
@@ -99,7 +100,10 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     folder.mkdir(parents=True, exist_ok=True)
     for name, content in case.files.items():
         path = folder / name
-        (path.write_bytes if isinstance(content, bytes) else lambda t: path.write_text(t, encoding="utf-8", errors="surrogateescape"))(content)
+        if isinstance(content, bytes):
+            path.write_bytes(content)
+        else:  # a lone surrogate (an undecodable name) as the byte it stands for
+            path.write_text(content, encoding="utf-8", errors="surrogateescape")
     before = {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
     out, err = io.StringIO(), io.StringIO()
     status, error = None, None

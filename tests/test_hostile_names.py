@@ -351,3 +351,19 @@ def test_a_figure_titled_with_a_hostile_record_name_saves_without_a_warning(tmp_
     assert path.read_bytes().startswith(b"\x89PNG")
     if "alpha" in text:  # valid mathtext of a name stays mathtext
         assert ax.title.get_parse_math()
+
+
+def test_the_batch_figure_names_hostile_records_without_a_warning(tmp_path):
+    """The batch's parameter figure writes each record's name under its axis (a fixed list of tick labels)."""
+    import warnings
+
+    from mkctl.analysis.batch import TICK_LABEL_CHARACTERS, plot_parameters, tick_label
+
+    names = [*HOSTILE, "$x^{$ \\frac{1}{0} $_$", "中文" * 30]
+    rows = [{"file": f"/data/{name.replace('/', '_')}.csv", "status": "ok", "c": 40.0 + k, "c_se": 0.5}
+            for k, name in enumerate(names)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        plot_parameters(rows, ["c"], tmp_path / "parameters.png")
+    labels = [tick_label(f"{name}.csv") for name in names]
+    assert all(len(label.replace("\\$", "$")) <= TICK_LABEL_CHARACTERS and "\n" not in label for label in labels)

@@ -531,11 +531,12 @@ TICK_LABEL_CHARACTERS = 28
 
 
 def tick_label(name: str) -> str:
-    """A record's name as an axis label: on one line, unprintable characters as escapes, '$' escaped (no
-    mathtext), at most :data:`TICK_LABEL_CHARACTERS` characters."""
-    from ..io.report import visible
+    """A record's name as an axis label: on one line, what the font cannot draw as escapes
+    (:func:`mkctl.io.plotting.drawable`), '$' escaped (no mathtext), at most :data:`TICK_LABEL_CHARACTERS`
+    characters."""
+    from ..io.plotting import drawable
 
-    text = visible(" ".join(str(name).splitlines()))
+    text = drawable(" ".join(str(name).splitlines()))
     if len(text) > TICK_LABEL_CHARACTERS:
         text = text[:TICK_LABEL_CHARACTERS - 1] + "\u2026"
     return text.replace("$", r"\$")

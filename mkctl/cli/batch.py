@@ -49,7 +49,7 @@ def tls_settings(args):
     import dask
 
     from ..analysis.batch import tls_config
-    values = tls_config(getattr(args, "tls_ca", None), getattr(args, "tls_cert", None), getattr(args, "tls_key", None))
+    values = tls_config(*(getattr(args, f"tls_{what}", None) for what in ("ca", "cert", "key")))
     return dask.config.set(values) if values else contextlib.nullcontext()
 
 
@@ -173,7 +173,8 @@ def run_diagnose_batch(args) -> int:
     with tls_settings(args):
         result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
                                 on_record=said, base=base_params(args),
-                                fit_offset=getattr(args, "fit_offset", False), dashboard=getattr(args, "dashboard", None))
+                                fit_offset=getattr(args, "fit_offset", False),
+                                dashboard=getattr(args, "dashboard", None))
     print(repr(result))
     print(f"reports: {folder}/<record>.diagnosis.json; table: {folder / SUMMARY_CSV}; figure: {folder / SUMMARY_PNG}")
     refused = [f for f, r in result.reports.items() if r.get("verdict") == "not diagnosed"]

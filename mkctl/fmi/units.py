@@ -54,7 +54,8 @@ def base_units(unit: str) -> dict | None:
 def unit_definitions(units) -> ET.Element:
     """``<UnitDefinitions>`` for the FMI unit names ``units`` (sorted, each once), with their base units.
 
-    Raises :class:`UnitError` (a ValueError) naming the units that have no base-unit definition in :data:`FMI_BASE_UNITS`.
+    Raises :class:`UnitError` (a ValueError) naming the units that have no base-unit definition in
+    :data:`FMI_BASE_UNITS`.
     """
     used = sorted(set(units))
     unknown = [u for u in used if base_units(u) is None]

@@ -89,30 +89,40 @@ def _font_glyphs(path: str) -> frozenset:
     return frozenset(ft2font.FT2Font(path).get_charmap())
 
 
-def drawable_texts(fig) -> None:
-    """Make every text of fig drawable whatever a user's name put in it (a record named ``a$x^{$.csv`` in a
-    title): unprintable characters (a tab, a control character) as their escapes, and a text whose ``$...$`` is not
-    valid mathtext drawn as plain text instead of raising when the figure is saved."""
-    from matplotlib.mathtext import MathTextParser
-    from matplotlib.text import Text
+def drawable(content: str, properties=None) -> str:
+    """content as the font of ``properties`` (default: matplotlib's) can draw it: unprintable characters (a tab,
+    a control character, a lone surrogate) and letters the font has no glyph for (a CJK name in DejaVu Sans) as
+    their escapes; line breaks kept."""
+    from matplotlib.font_manager import FontProperties
 
     from .report import visible
+
+    if not content.replace("\n", "").isprintable():
+        content = visible(content, keep="\n")
+    if not content.isascii():
+        glyphs = _glyphs(properties if properties is not None else FontProperties())
+        content = "".join(c if c.isascii() or ord(c) in glyphs else c.encode("unicode_escape").decode("ascii")
+                          for c in content)
+    return content
+
+
+def drawable_texts(fig) -> None:
+    """Make every text of fig drawable whatever a user's name put in it (a record named ``a$x^{$.csv`` in a
+    title): what its font cannot draw as escapes (:func:`drawable`), and a text whose ``$...$`` is not valid
+    mathtext drawn as plain text instead of raising when the figure is saved. Tick labels of a fixed list are
+    made later, at drawing: write them with :func:`drawable` yourself."""
+    from matplotlib.mathtext import MathTextParser
+    from matplotlib.text import Text
 
     parser = None
     for text in fig.findobj(Text):
         content = text.get_text()
         if not isinstance(content, str) or not content:
             continue
-        if not content.replace("\n", "").isprintable():
-            content = visible(content, keep="\n")
+        drawn = drawable(content, text.get_fontproperties())
+        if drawn != content:
+            content = drawn
             text.set_text(content)
-        if not content.isascii():  # a letter the font has no glyph for (a CJK name in DejaVu Sans): its escape
-            glyphs = _glyphs(text.get_fontproperties())
-            drawn = "".join(c if c.isascii() or ord(c) in glyphs else c.encode("unicode_escape").decode("ascii")
-                            for c in content)
-            if drawn != content:
-                content = drawn
-                text.set_text(content)
         if content.count("$") - content.count(r"\$") >= 2 and text.get_parse_math():
             parser = parser or MathTextParser("path")
             try:
