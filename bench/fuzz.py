@@ -135,6 +135,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
             os.chdir(cwd)
+            _unregister_effects(folder, case)
     seconds = time.perf_counter() - start
     stdout, stderr = out.getvalue(), err.getvalue()
     result = Result(case, "", status, stdout, stderr, seconds=seconds)
@@ -167,6 +168,17 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
         else:
             result.outcome = "accepted"
     return result
+
+
+def _unregister_effects(folder: Path, case: Case) -> None:
+    """Unregister what the case's effect files registered (``--effects`` registers in this process): each case
+    starts from the same registry, and so does whatever runs in this process after the fuzzer."""
+    from mkctl.analysis.effect_files import EffectFileError, unregister_effect_file
+
+    for name in case.files:
+        if name.endswith(".py"):
+            with contextlib.suppress(EffectFileError):
+                unregister_effect_file(folder / name)
 
 
 def _written(folder: Path, before: dict, suffix: str) -> list:
