@@ -676,7 +676,9 @@ def _starting_muscle(records: list[ForceRecord], params: Params | None, extra: t
         if params is None and name not in metadata and name not in extra:
             notes.append(f"{ASSUMED}{name} not given (metadata '# {name} = ...' or --params): Table I's "
                          f"{getattr(Params(), name):g} {UNITS[name]} used")
-    values = {**metadata, "model": 2, "Fc": 0.0, "slack": 0}
+    # every effect calibrate may add starts off (a muscle file's earlier fit included): the steps decide
+    off = {q.name: q.off for q in (effects.get(e).switch_parameter for e in CANDIDATES)}
+    values = {**metadata, "model": 2, **off}
     if "b" not in metadata:  # the start's braid must fit around these lengths (the fit moves it anyway)
         values["b"] = max(start.b, 1.15 * max(metadata.get("L0", start.L0), longest))
     start = start.replace(**values)
@@ -706,7 +708,9 @@ class _Fitter:
 
     def fit(self, effect_list, base: Params, starts, mask=None):
         """Fit from each start (on the points in mask); returns (_Fit, its _Model, k counting slack as one)."""
-        base = base.replace(slack=1 if "slack" in effect_list else 0)
+        switches = [e for e in CANDIDATES if CANDIDATES[e] is None]  # on or off, nothing to fit (slack)
+        base = base.replace(**{q.name: q.on_value if e in effect_list else q.off
+                               for e, q in ((e, effects.get(e).switch_parameter) for e in switches)})
         fit_names = self.names + tuple(CANDIDATES[e] for e in effect_list if CANDIDATES[e])
         model = _Model(self.records, base, fit_names, self.link_n)
         pairs = [_bounds(n, self.records, base, fit_names) for n in fit_names]
@@ -715,7 +719,7 @@ class _Fitter:
                        for s in starts]
         result = _least_squares(model, full_starts, lows, highs, mask, self.max_evaluations)
         self.evaluations += result.evaluations
-        return result, model, len(fit_names) + (1 if "slack" in effect_list else 0)
+        return result, model, len(fit_names) + sum(1 for e in effect_list if e in switches)
 
 
 def _record_start(records, start: Params, force_range: float, steps: list, curves: dict, say) -> None:
@@ -779,7 +783,8 @@ class _EffectSelection:
                          "rms_holdout": score.rmse_holdout,
                          "nrms_train": float(np.sqrt(np.mean(fitted_train.residual[self.train] ** 2))
                                              / self.force_range),
-                         "params": {CANDIDATES[effect]: value} if CANDIDATES[effect] else {"slack": 1},
+                         "params": ({CANDIDATES[effect]: value} if CANDIDATES[effect]
+                                    else effects.get(effect).on_values),
                          "passes_bic": judgement.passes_bic, "passes_holdout": judgement.passes_holdout,
                          "_fit": fitted_train, "_score": score})
             outcomes.append(outcome)
@@ -965,6 +970,21 @@ def _settle_bounds(records, current: _Fit, notes: list) -> list:
     return at_bound
 
 
+def play_growing_with_pressure() -> str | None:
+    """The calibration candidate whose quasi-static friction band widens with the pressure (its definition's
+    ``play`` at its typical value: larger at 600 kPa than at 100 kPa), or None: what a branch gap that grows with
+    pressure asks for."""
+    for name in CANDIDATES:
+        effect = effects.get(name)
+        if effect.quasi_static != "play" or not CANDIDATES[name]:
+            continue
+        p = Params().replace(**effect.on_values)
+        xp = actuator.math_for(1.0)
+        if effect.play(6e5, p, xp) > effect.play(1e5, p, xp):
+            return name
+    return None
+
+
 def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None, candidates=()) -> None:
     """What the gap between the branches says on its own (:func:`hysteresis_growth`), as a note.
 
@@ -983,18 +1003,19 @@ def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None,
 
     (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
     intercept = growth["intercept"]
-    if "pressure_friction" in added:
-        notes.append(f"friction that grows with pressure, fitted as pressure_friction: Fc_p = {value('Fc_p')} N/Pa"
+    grows = play_growing_with_pressure()  # the candidate whose friction band widens with pressure
+    if grows in added:
+        notes.append(f"friction that grows with pressure, fitted as {grows}: Fc_p = {value('Fc_p')} N/Pa"
                      + (f" with Fc = {value('Fc')} N" if "Fc" in current.values else "") + "; cross-check from the "
                      f"gap between the rising and falling branches alone (whatever the static model): half of it is "
                      f"{intercept:.3g} N + {growth['slope']:.3g} +- {growth['slope_stderr']:.2g} N/Pa times P")
         return
     if not growth["grows"]:
         return
-    if "pressure_friction" in candidates:
-        hint = "the pressure_friction candidate that follows it was not added (see the steps)"
+    if grows in candidates:
+        hint = f"the {grows} candidate that follows it was not added (see the steps)"
     else:
-        hint = "the candidate pressure_friction (Fc + Fc_p P) follows it: add it to the effects tried"
+        hint = f"the candidate {grows} (Fc + Fc_p P) follows it: add it to the effects tried"
     notes.append(f"the gap between the rising and falling branches grows with pressure: half of it is "
                  f"{gap_low:.2g} N at {low / 1e3:.0f} kPa and {gap_high:.2g} N at {high / 1e3:.0f} kPa. That is "
                  f"friction growing with pressure, which the constant Fc of the model cannot follow"

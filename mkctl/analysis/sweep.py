@@ -173,7 +173,8 @@ def _check_seed(seed) -> None:
 def _check_points_memory(count, axes: int) -> None:
     """Refuse up front (with the figure) a sweep whose table would not fit in memory: each point keeps its
     swept values and every quantity, a few times over (chunks, the joined table, the CSV's text)."""
-    check_memory(f"a sweep of {count:.4g} points", count, 4 * 8 * (axes + len(QUANTITIES) + 4))
+    shown = f"{count:.4g}" if count < 1e300 else "more than 1e300"  # a 400-digit count overflows a float
+    check_memory(f"a sweep of {shown} points", count, 4 * 8 * (axes + len(QUANTITIES) + 4))
 
 
 # --- One chunk of points ------------------------------------------------------------------------------

@@ -353,6 +353,7 @@ BUILTIN = (
                 off=0.0,
                 lower=0.0,
                 upper=4e5,
+                smallest_on=1e-3,  # below a millipascal P / P0 overflows: no threshold there
                 typical=5e4,
                 scale=1e4,
                 description=(
