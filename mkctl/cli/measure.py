@@ -145,6 +145,22 @@ def load_mechanism(args):
     return mechanism(args.mechanism)
 
 
+def _own_values(args, items) -> dict:
+    """The --param items that set the mechanism's own parameters (synth mechanism), by name."""
+    if args.experiment != "mechanism" or args.mechanism is None:
+        return {}
+    names = load_mechanism(args).parameter_names
+    own = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        if name.strip() in names:
+            try:
+                own[name.strip()] = float(text)
+            except ValueError:
+                raise UsageError(f"--param {name.strip()}: {text.strip()!r} is not a number") from None
+    return own
+
+
 def _synthesize(args, known: dict):
     """The record ``mkctl synth`` asks for."""
     from ..analysis.synth import synthesize, synthesize_actuator, synthesize_mechanism
@@ -190,8 +206,10 @@ def run_synth(args) -> int:
     if not args.no_truth:
         output_file(truth_path_for(args.output), "truth file")
     known = muscle_values(args)
-    known.update(parse_assignments(split_items(args.param), "--param"))
-    record = _synthesize(args, known)
+    items = split_items(args.param)
+    own = _own_values(args, items)
+    known.update(parse_assignments([i for i in items if i.partition("=")[0].strip() not in own], "--param"))
+    record = _synthesize(args, {**known, **own})
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
     effects = ", ".join(record.hidden_effects) or "none"

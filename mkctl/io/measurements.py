@@ -345,7 +345,9 @@ def _record_mechanism(metadata: dict, header_index: int, source: str, given, fai
     folder = Path(".") if source.startswith("<") else Path(source).parent
     wanted = (folder / value).resolve()
     loaded = getattr(given, "reload", ())
-    if given is None or len(loaded) < 2 or Path(loaded[1]) != wanted:
+    if given is not None and len(loaded) >= 2 and Path(loaded[1]) != wanted:
+        fail(line, f"the record names the mechanism file {wanted}, the command line {loaded[1]}")
+    if given is None or len(loaded) < 2:
         # a record is data: it never runs a file; the user loads it knowingly
         fail(line, f"the record names the mechanism file {value!r}; a record cannot load code: give it with "
                    f"--mechanism {wanted} (or mechanism(...) in Python)")
