@@ -67,6 +67,15 @@ def test_bad_mechanism_options_are_one_line(tmp_path, capsys, argv, expected, mo
     assert err.count("\n") == 1 and expected in err, err
 
 
+def test_diagnose_says_it_does_not_take_these_records_yet(tmp_path, capsys):
+    out = tmp_path / "pull.csv"
+    assert main(["synth", "actuator", str(out), "--samples", "200"]) == 0
+    capsys.readouterr()
+    assert main(["diagnose", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "not built yet" in err
+
+
 def test_a_record_naming_a_file_needs_the_same_file_on_the_command_line(tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
     shutil.copy(ROOT / "docs" / "examples" / "cam_lever.py", tmp_path)
@@ -118,6 +127,7 @@ def _doc_commands():
             if line.strip() and not line.lstrip().startswith("#")]
 
 
+@pytest.mark.slow  # ten commands, each a fresh process: about 25 s
 def test_the_commands_of_docs_mechanisms_run_as_written(tmp_path):
     commands = _doc_commands()
     assert len(commands) >= 5 and any("synth mechanism" in c for c in commands)

@@ -252,3 +252,14 @@ def test_a_small_step_linear_equals_nonlinear():
     peak = np.abs(result.nonlinear).max()
     assert peak > 1e-3 and np.abs(result.linear - result.nonlinear).max() < 0.01 * peak
     assert result.info["linear"]["SteadyStateValue"] == pytest.approx(result.linear[-1], rel=1e-2)
+
+
+def test_a_dataframe_of_a_pulley_record():
+    pd = pytest.importorskip("pandas")
+    frame = pd.DataFrame({"time_s": [0.0, 0.01], "muscle1_cmd_kPa": [300.0, 310.0], "muscle2_cmd_kPa": [300.0, 300.0],
+                          "theta_deg": [0.0, 0.1]})
+    from mkctl.io.measurements import measurement_from_dataframe
+
+    m = measurement_from_dataframe(frame, "mechanism", {"J": 0.02}, mechanism=PULLEY_JOINT)
+    assert m.mechanism is PULLEY_JOINT and m.mechanism_params.J == 0.02
+    np.testing.assert_allclose(m.inputs["p1_cmd"], [300e3, 310e3])

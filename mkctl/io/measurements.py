@@ -28,6 +28,14 @@ then one row of numbers per sample::
 - An isometric file (blocked-force test) has ``length, pressure, force``, optionally ``time`` first and a
   ``branch`` column (``up``/``down``); without it the branch follows from the pressure's direction in time
   order within each length (which needs ``time``).
+- A mechanism record (``experiment = mechanism``, model-spec 5d) names its mechanism (``mechanism = hanging_mass``,
+  ``pulley_joint``, ``knee`` or ``FILE.py``) and has ``time``, a command per muscle (``p1_cmd``, ``p2_cmd`` or the
+  muscle's name, ``muscle1_cmd``), optional measured pressures (``p1`` or ``muscle1``) and the coordinate (``q`` or
+  its name, ``theta``, ``L``) in a length or angle unit (:func:`mechanism_experiment`). Its metadata may set the
+  mechanism's own parameters (``r_p = 0.025``) and ``q0`` (SI). A record never loads code: a ``FILE.py`` it names
+  is accepted only when the caller hands in that same file, loaded (``--mechanism FILE.py``: issue 30).
+- A driven-length record (``experiment = actuator``) has ``time, length``, the pressure measured (``pressure``) or
+  commanded (``p_cmd``), exactly one of them, and the force as output.
 - Every required cell must be a finite number and time must increase strictly. At least two rows.
 
 A file that breaks a rule raises :class:`mkctl.errors.MeasurementFileError` with a one-line message
@@ -646,15 +654,18 @@ def measurement_from_arrays(experiment: str, time, inputs: dict, output, output_
 
 
 def measurement_from_dataframe(frame, experiment: str, params: dict | None = None, baseline: str = "model2",
-                               base: Params = DEFAULT, source: str = "<DataFrame>") -> Measurement:
+                               base: Params = DEFAULT, source: str = "<DataFrame>", mechanism=None) -> Measurement:
     """A :class:`Measurement` from a pandas DataFrame whose columns are named as in a file (``time_s``,
-    ``pe_cmd_kPa``, ``x_mm``, ...; units from the suffixes), with metadata given as arguments."""
+    ``pe_cmd_kPa``, ``x_mm``, ...; units from the suffixes), with metadata given as arguments (``mechanism``: a
+    mechanism record's, loaded)."""
     lines = [f"# experiment = {experiment}", f"# baseline = {baseline}"]
+    if mechanism is not None:
+        lines.append(f"# mechanism = {mechanism_reference(mechanism)}")
     lines += [f"# {key} = {value!r}" for key, value in (params or {}).items()]
     lines.append(",".join(str(c) for c in frame.columns))
     for row in frame.itertuples(index=False):
         lines.append(",".join(repr(float(v)) if not isinstance(v, str) else v for v in row))
-    return parse_measurement("\n".join(lines) + "\n", source, base)
+    return parse_measurement("\n".join(lines) + "\n", source, base, mechanism)
 
 
 # --- writing --------------------------------------------------------------------------------------
