@@ -263,3 +263,19 @@ def test_a_dataframe_of_a_pulley_record():
     m = measurement_from_dataframe(frame, "mechanism", {"J": 0.02}, mechanism=PULLEY_JOINT)
     assert m.mechanism is PULLEY_JOINT and m.mechanism_params.J == 0.02
     np.testing.assert_allclose(m.inputs["p1_cmd"], [300e3, 310e3])
+
+
+def test_a_knee_record_read_as_a_mechanism_record_gives_the_knees_output():
+    from mkctl.analysis.compare import simulate_output
+    from mkctl.analysis.synth import synthesize
+
+    knee = synthesize("knee", ["c=40"], samples=600, noise=0.0)
+    k = measurement_from_arrays("knee", knee.time, knee.inputs, knee.output)
+    m = measurement_from_arrays("mechanism", knee.time, {"p1_cmd": knee.inputs["pe_cmd"],
+                                                         "p2_cmd": knee.inputs["pf_cmd"]}, knee.output,
+                                output_column="q_mm", mechanism=mechanism("knee"))
+    params = Params(c=40.0)
+    X = simulate_output(k, params)
+    q = simulate_output(m, params)
+    assert np.ptp(X) > 1e-3
+    np.testing.assert_allclose(q, X, atol=1e-8)
