@@ -73,7 +73,7 @@ BROKEN = [
     (_with(PULLEY_TEXT, "theta_deg", "theta_N"), "unknown unit 'N' for q"),
     (_with(PULLEY_TEXT, "mechanism = pulley_joint", "mechanism = ../lever.py"),
      "a record cannot load code"),
-    (_with(PULLEY_TEXT, "experiment = mechanism", "experiment = knee"), "line 2: unknown metadata key 'mechanism'"),
+    (_with(PULLEY_TEXT, "experiment = mechanism", "experiment = knee"), "line 2: metadata key 'mechanism' belongs to a mechanism record"),
     ("# experiment = actuator\ntime_s,length_mm,force_N\n0,200,1\n1,200,1\n",
      "missing column pressure_kPa or p_cmd_kPa"),
     ("# experiment = actuator\ntime_s,length_mm,pressure_kPa,p_cmd_kPa,force_N\n0,200,1,1,1\n1,200,1,1,1\n",

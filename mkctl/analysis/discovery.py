@@ -59,7 +59,7 @@ from ..errors import MkctlError
 from ..io.measurements import Measurement
 from ..physics import actuator, knee
 from ..physics import effects as registry
-from ..physics.effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
+from ..physics.builtin_effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
 
 #: Contiguous blocks the samples are cut into; even blocks fit, odd blocks check.
