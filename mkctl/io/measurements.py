@@ -776,12 +776,14 @@ def mechanism_reference(mechanism, folder=None) -> str:
     import os
 
     file = Path(mechanism.reload[1])
-    if folder is None:
-        return str(file)
     try:
-        return os.path.relpath(file, Path(folder).resolve())
+        reference = str(file) if folder is None else os.path.relpath(file, Path(folder).resolve())
     except ValueError:  # another drive
-        return str(file)
+        reference = str(file)
+    if not reference.isprintable():  # one line of metadata, nothing more
+        raise MeasurementFileError(f"the mechanism file's path {reference!r} cannot be written into a record "
+                                   "(a control character); rename it")
+    return reference
 
 
 def write_measurement(path, experiment: str, time, inputs: dict, output, metadata: dict | None = None,
