@@ -1,15 +1,14 @@
 """Compare a model with a measurement: simulate the file's inputs, and score the error.
 
-The simulation is the library's: :func:`mkctl.physics.isotonic.simulate_isotonic` for the isotonic test,
-:func:`mechanism_output` (:func:`mkctl.physics.mechanism.simulate_mechanism`) for a mechanism record,
-:func:`actuator_output` (the tension with every effect at the imposed length and its rate) for a driven-length
-test, and
-the knee's :class:`mkctl.physics.simulate.KneeSimulator` for the knee, started at rest in the stable equilibrium
-of the first commands, exactly as :func:`mkctl.physics.simulate.simulate_knee` starts it. For the knee,
-:func:`simulate_output` may ask for the output at a subset of the samples only: the integrator then
-takes one communication step from each sample it needs (or each change of the commands) to the next,
-which gives the same values (to the integrator's tolerance) at a fraction of the cost. The diagnosis
-fits on such a subset.
+The simulation is the library's: :func:`mkctl.physics.isotonic.simulate_isotonic` for the isotonic
+test, :func:`mechanism_output` (:func:`mkctl.physics.mechanism.simulate_mechanism`) for a mechanism
+record, :func:`actuator_output` (the tension with every effect at the imposed length and its rate)
+for a driven-length test, and the knee's :class:`mkctl.physics.simulate.KneeSimulator` for the knee,
+started at rest in the stable equilibrium of the first commands, exactly as
+:func:`mkctl.physics.simulate.simulate_knee` starts it. For the knee, :func:`simulate_output` may
+ask for the output at a subset of the samples only: the integrator then takes one communication step
+from each sample it needs (or each change of the commands) to the next, which gives the same values
+(to the integrator's tolerance) at a fraction of the cost. The diagnosis fits on such a subset.
 
 Scores, in the units of the file's output column:
 
@@ -37,8 +36,8 @@ from ..physics.simulate import knee_states
 
 
 def _measured_pressure_params(params):
-    """The parameters that a record's measured pressures drive: the lag off (the measured pressures are what
-    any lag already made of the commands), as :func:`knee_drive` does it."""
+    """The parameters that a record's measured pressures drive: the lag off (the measured
+    pressures are what any lag already made of the commands), as :func:`knee_drive` does it."""
     return params.replace(tau=0.0) if params.tau > 0 else params
 
 
@@ -87,11 +86,12 @@ def simulate_output(measurement: Measurement, params: Params, at=None, stop: int
 
 
 def mechanism_output(measurement: Measurement, params: Params, stop: int | None = None):
-    """A mechanism record's model output: (q [m or rad], qdot) over its first ``stop`` samples (default all).
+    """A mechanism record's model output over its first ``stop`` samples (default all).
 
-    :func:`mkctl.physics.mechanism.simulate_mechanism` with the record's mechanism and own values, from rest in
-    the equilibrium of the first commands (or at the record's ``q0``); a record with every measured pressure
-    (``p1``, ...) is driven by them, the lag off (:func:`knee_drive`'s rule).
+    :func:`mkctl.physics.mechanism.simulate_mechanism` with the record's mechanism and own values,
+    from rest in the equilibrium of the first commands (or at the record's ``q0``); a record with
+    every measured pressure (``p1``, ...) is driven by them, the lag off (:func:`knee_drive`'s
+    rule).
 
     Parameters
     ----------
@@ -116,17 +116,17 @@ def mechanism_output(measurement: Measurement, params: Params, stop: int | None 
     else:
         drive = [f"p{i + 1}_cmd" for i in range(count)]
     p = mechanism.bind(params, **measurement.mechanism_values)
-    run = simulate_mechanism(measurement.time[:n], tuple(inputs[name][:n] for name in drive), mechanism, p,
-                             q0=measurement.q0)
+    commands = tuple(inputs[name][:n] for name in drive)
+    run = simulate_mechanism(measurement.time[:n], commands, mechanism, p, q0=measurement.q0)
     return run.q, run.qdot
 
 
 def commanded_pressure(time, command, params: Params):
-    """The pressure [Pa] a muscle holds under a command [Pa] held from each sample to the next: through the
-    dead time and the pressure dynamics of ``params``, as the knee's muscles see theirs, from a steady start.
+    """The pressure [Pa] a muscle holds under a command [Pa] held from each sample to the next.
 
-    The dead time is :func:`mkctl.physics.simulate.delayed_commands`; each held piece is
-    :func:`mkctl.physics.actuator.pressure_after`.
+    Through the dead time (:func:`mkctl.physics.simulate.delayed_commands`) and the pressure
+    dynamics of ``params`` (:func:`mkctl.physics.actuator.pressure_after` over each held piece),
+    as the knee's muscles see theirs, from a steady start at the first command.
     """
     time, command = np.asarray(time, dtype=float), np.asarray(command, dtype=float)
     delay = float(actuator.command_delay(params))
@@ -139,17 +139,18 @@ def commanded_pressure(time, command, params: Params):
     pressure = np.empty(grid.size)
     pressure[0] = seen[0]
     for k in range(grid.size - 1):
-        pressure[k + 1] = float(actuator.pressure_after(pressure[k], float(seen[k]), grid[k + 1] - grid[k],
-                                                        params))
+        step = grid[k + 1] - grid[k]
+        pressure[k + 1] = float(actuator.pressure_after(pressure[k], float(seen[k]), step, params))
     return pressure[at]
 
 
 def actuator_output(measurement: Measurement, params: Params, stop: int | None = None):
-    """A driven-length record's model output: (tension [N], its rate [N/s]) over the first ``stop`` samples.
+    """A driven-length record's model output over its first ``stop`` samples (default all).
 
-    ``f = compose_tension(L, P, Ldot)`` (:func:`mkctl.physics.actuator.compose_tension`: every effect), at the
-    imposed length L, its rate Ldot (``numpy.gradient`` of L over time: second-order central differences) and the
-    measured pressure, or the command through the dead time and the lag (:func:`commanded_pressure`).
+    ``f = compose_tension(L, P, Ldot)`` (:func:`mkctl.physics.actuator.compose_tension`: every
+    effect) at the imposed length L, its rate Ldot (``numpy.gradient`` of L over time:
+    second-order central differences) and the measured pressure, or the command through the dead
+    time and the lag (:func:`commanded_pressure`).
 
     Parameters
     ----------
@@ -177,25 +178,30 @@ def actuator_output(measurement: Measurement, params: Params, stop: int | None =
     return force, (np.gradient(force, time) if n > 1 else np.zeros(n))
 
 
-#: The records whose model output is a function of (measurement, params, stop) -> (output, its rate).
+#: The records whose output is a function (measurement, params, stop) -> (output, its rate).
 RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output}
+
+#: How an output quantity is named on a picture.
+OUTPUT_NAMES = {"force": "tension", "length": "length", "x": "hip height X",
+                "beta": "knee angle beta"}
 
 
 def output_name(measurement: Measurement) -> str:
     """What a record's output is, for labels: a mechanism's coordinate, or the quantity's name."""
     if measurement.experiment == "mechanism":
         return f"{measurement.mechanism.name} {measurement.mechanism.coordinate}"
-    return {"force": "tension", "length": "length", "x": "hip height X", "beta": "knee angle beta"}.get(
-        measurement.output_quantity, measurement.output_quantity)
+    return OUTPUT_NAMES.get(measurement.output_quantity, measurement.output_quantity)
 
 
 def record_panels(measurement: Measurement) -> list:
-    """The inputs of a mechanism or actuator record to draw under its overlay: ``[(label, [(values, name)])]``."""
+    """The inputs of a mechanism or actuator record to draw under its overlay:
+    ``[(label, [(values, name), ...]), ...]``, pressures in kPa, lengths in mm."""
     inputs = measurement.inputs
     if measurement.experiment == "actuator":
         name = "pressure" if "pressure" in inputs else "p_cmd"
+        what = "measured" if name == "pressure" else "command"
         return [("length [mm]", [(inputs["length"] * 1e3, "imposed length")]),
-                ("pressure [kPa]", [(inputs[name] / 1e3, "measured" if name == "pressure" else "command")])]
+                ("pressure [kPa]", [(inputs[name] / 1e3, what)])]
     panels = []
     for i, muscle in enumerate(measurement.mechanism.muscles):
         curves = [(inputs[f"p{i + 1}_cmd"] / 1e3, "command")]
@@ -206,20 +212,25 @@ def record_panels(measurement: Measurement) -> list:
 
 
 def plot_record_overlay(measurement: Measurement, curves: dict, path=None, title: str = ""):
-    """A mechanism or actuator record's measured output and the model's curves (label -> SI array) over time, in
-    the file's unit, with the inputs in panels below; saves a PNG at ``path`` and returns it (the figure
-    without a path)."""
+    """A mechanism or actuator record's measured output and the model's curves over time.
+
+    ``curves``: label -> SI array; drawn in the file's unit, the inputs in panels below
+    (:func:`record_panels`). Saves a PNG at ``path`` and returns it (the figure without a path).
+    """
     from ..io.plotting import new_figure, save_png
 
     panels = record_panels(measurement)
     fig, axes = new_figure(1 + len(panels), 1, figsize=(9, 5.0 + 1.3 * len(panels)), sharex=True,
                            height_ratios=(3.2,) + (1,) * len(panels), squeeze=False)
     top = axes[0, 0]
-    for (label, values), colour in zip(curves.items(), ("tab:blue", "tab:orange", "tab:green", "tab:purple")):
-        top.plot(measurement.time, measurement.to_file_units(values), lw=1.4, color=colour, label=label, zorder=2)
+    colours = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
+    for (label, values), colour in zip(curves.items(), colours):
+        top.plot(measurement.time, measurement.to_file_units(values), lw=1.4, color=colour,
+                 label=label, zorder=2)
     every = max(1, -(-measurement.samples // 400))
-    top.plot(measurement.time[::every], measurement.to_file_units(measurement.output)[::every], "o", ms=3.2,
-             mfc="none", mew=0.7, color="k", alpha=0.6, zorder=3, label="measured")
+    measured = measurement.to_file_units(measurement.output)
+    top.plot(measurement.time[::every], measured[::every], "o", ms=3.2, mfc="none", mew=0.7,
+             color="k", alpha=0.6, zorder=3, label="measured")
     top.set_ylabel(f"{output_name(measurement)} [{measurement.output_unit}]")
     top.legend(loc="best", fontsize=8)
     top.set_title(title or f"{measurement.experiment}: model vs measurement", fontsize=10)
