@@ -29,14 +29,15 @@ Default inputs (chosen to excite what each experiment can show):
   of ``input_noise`` kPa; the truth is simulated with the clean pressures.
 - A sensor's resolution: ``resolution`` (output column's unit; an encoder's count, 360 / 2^bits deg for
   ``beta_deg``) rounds the measured output to multiples of it, after the noise, as a digital sensor does.
-- ``mechanism`` (model-spec 5d, :func:`synthesize_mechanism`): 3000 samples at 1 kHz; every muscle held at
-  :data:`MECHANISM_PRESSURE` (or the pressures given), muscle 1's command stepped through +10 %, -8 %, +6 %,
-  -4 % at 5, 27.5, 50 and 72.5 % of the record; the mechanism starts at rest in the equilibrium of the first
-  commands. Noise in the output column's unit (mm or deg).
-- ``actuator`` (a driven-length test, :func:`synthesize_actuator`): 4000 samples at 1 kHz; the length imposed
-  as a sine about 0.89 L0 of amplitude 0.06 L0, at 1 Hz then 3 Hz, under two pressure commands
-  (:data:`ACTUATOR_PRESSURES`); the force measured (noise in N). The file holds the command ``p_cmd_kPa``, or
-  with ``pressures`` the measured pressure ``pressure_kPa`` (the truth's, after any lag and dead time).
+- ``mechanism`` (model-spec 5d, :func:`synthesize_mechanism`): 3000 samples at 1 kHz; every muscle
+  held at :data:`MECHANISM_PRESSURE` (or the pressures given), muscle 1's command stepped through
+  +10 %, -8 %, +6 %, -4 % at 5, 27.5, 50 and 72.5 % of the record; the mechanism starts at rest in
+  the equilibrium of the first commands. Noise in the output column's unit (mm or deg).
+- ``actuator`` (a driven-length test, :func:`synthesize_actuator`): 4000 samples at 1 kHz; the
+  length imposed as a sine about 0.89 L0 of amplitude 0.06 L0, at 1 Hz then 3 Hz, under two
+  pressure commands (:data:`ACTUATOR_PRESSURES`); the force measured (noise in N). The file holds
+  the command ``p_cmd_kPa``, or with ``pressures`` the measured pressure ``pressure_kPa`` (the
+  truth's, after any lag and dead time).
 - A sensor offset: ``offset`` (output column's unit) is added to the written output; with
   ``declare_offset`` the file declares it (``x_offset_mm = ...``) and a reader removes it, without it the
   file holds the offset like a sensor zeroed elsewhere.
@@ -555,29 +556,31 @@ def synthesize_isometric(hidden=None, known: dict | None = None, noise: float = 
                            "force_N", "steps", 0.0, 0.0, float(offset), declare_offset, dict(inputs))
 
 
-# --- Mechanism and driven-length (actuator) records (model-spec 5d) ---------------------------------------
+# --- Mechanism and driven-length (actuator) records (model-spec 5d) ------------------------------
 
 #: A mechanism record's default: every muscle's holding pressure [Pa].
 MECHANISM_PRESSURE = 300e3
-#: Muscle 1's command steps of a mechanism record: (fraction of the record, factor on its holding pressure).
+#: Muscle 1's command steps of a mechanism record: (fraction of the record, factor on its holding
+#: pressure).
 MECHANISM_STEPS = ((0.05, 1.10), (0.275, 0.92), (0.50, 1.06), (0.725, 0.96))
 #: Default samples of a mechanism and of an actuator record.
 MECHANISM_SAMPLES = 3000
 ACTUATOR_SAMPLES = 4000
-#: The driven-length test: the length's centre and amplitude as shares of L0, its frequencies [Hz] (each for a
-#: quarter of the record), and the pressure command of each half [Pa].
+#: The driven-length test: the length's centre and amplitude as shares of L0, its frequencies [Hz]
+#: (each for a quarter of the record), and the pressure command of each half [Pa].
 ACTUATOR_LENGTH = (0.89, 0.06)
 ACTUATOR_FREQUENCIES = (1.0, 3.0)
 ACTUATOR_PRESSURES = (200e3, 450e3)
 
 
-def _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution, kind, factor):
-    """The shared checks of the new kinds: the ranges of :func:`_check_ranges`, for an output of ``kind``."""
-    _check_ranges("mechanism", seed, samples, rate, noise, factor, kind, input_noise, noise_tau, offset,
-                  resolution, True)
+def _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution, kind,
+                    factor):
+    """The checks of the new kinds: :func:`_check_ranges`' ranges, for an output of ``kind``."""
+    _check_ranges("mechanism", seed, samples, rate, noise, factor, kind, input_noise, noise_tau,
+                  offset, resolution, True)
     if not samples / rate <= LARGEST["time"]:
-        raise ParameterError(f"{samples} samples at {rate:g} Hz last {samples / rate:g} s, longer than a record "
-                             f"may ({LARGEST['time']:g} s)")
+        raise ParameterError(f"{samples} samples at {rate:g} Hz last {samples / rate:g} s, longer "
+                             f"than a record may ({LARGEST['time']:g} s)")
 
 
 def _split_known(known: dict | None, mechanism=None) -> tuple[dict, dict]:
@@ -588,18 +591,24 @@ def _split_known(known: dict | None, mechanism=None) -> tuple[dict, dict]:
     return {k: v for k, v in known.items() if k not in own}, own
 
 
-def mechanism_inputs(mechanism, samples: int = MECHANISM_SAMPLES, rate: float = DEFAULT_RATE, pressures=None):
-    """(time [s], commands [Pa], one array per muscle) of a mechanism record: each muscle held at its pressure
-    (default :data:`MECHANISM_PRESSURE`), muscle 1's command stepped by :data:`MECHANISM_STEPS`."""
+def mechanism_inputs(mechanism, samples: int = MECHANISM_SAMPLES, rate: float = DEFAULT_RATE,
+                     pressures=None):
+    """(time [s], commands [Pa], one array per muscle) of a mechanism record.
+
+    Each muscle held at its pressure (default :data:`MECHANISM_PRESSURE`), muscle 1's command
+    stepped by :data:`MECHANISM_STEPS`.
+    """
     _check_samples(samples)
     count = len(mechanism.muscles)
     held = [MECHANISM_PRESSURE] * count if pressures is None else [float(p) for p in pressures]
     if len(held) != count:
         raise ParameterError(f"mechanism {mechanism.name} has {count} muscle(s) "
                              f"({', '.join(mechanism.muscles)}); got {len(held)} pressure(s)")
+    largest = LARGEST["pressure"]
     for value in held:
-        if not (np.isfinite(value) and 0 <= value <= LARGEST["pressure"]):
-            raise ParameterError(f"pressure {value / 1e3:g} kPa is outside [0, {LARGEST['pressure'] / 1e3:g}] kPa")
+        if not (np.isfinite(value) and 0 <= value <= largest):
+            raise ParameterError(f"pressure {value / 1e3:g} kPa is outside "
+                                 f"[0, {largest / 1e3:g}] kPa")
     time = np.arange(samples) / rate
     first = np.full(samples, held[0])
     for fraction, factor in MECHANISM_STEPS:
@@ -607,13 +616,15 @@ def mechanism_inputs(mechanism, samples: int = MECHANISM_SAMPLES, rate: float = 
     return time, [first] + [np.full(samples, value) for value in held[1:]]
 
 
-def synthesize_mechanism(mechanism, hidden=None, known: dict | None = None, baseline: str = "model2",
-                         noise: float | None = None, seed: int = 0, samples: int | None = None,
-                         rate: float = DEFAULT_RATE, *, pressures=None, output: str | None = None,
-                         input_noise: float = 0.0, noise_tau: float = 0.0, offset: float = 0.0,
+def synthesize_mechanism(mechanism, hidden=None, known: dict | None = None,
+                         baseline: str = "model2", noise: float | None = None, seed: int = 0,
+                         samples: int | None = None, rate: float = DEFAULT_RATE, *, pressures=None,
+                         output: str | None = None, input_noise: float = 0.0,
+                         noise_tau: float = 0.0, offset: float = 0.0,
                          declare_offset: bool = False, measured_pressures: bool = False,
                          resolution: float = 0.0) -> SyntheticRecord:
-    """A mechanism record (model-spec 5d) made by the truth: baseline + hidden, on :func:`mechanism_inputs`.
+    """A mechanism record (model-spec 5d) made by the truth (baseline + hidden) on
+    :func:`mechanism_inputs`.
 
     Parameters
     ----------
@@ -622,16 +633,18 @@ def synthesize_mechanism(mechanism, hidden=None, known: dict | None = None, base
     hidden : list or dict
         As :func:`synthesize` (the muscle's effects and parameters).
     known : dict
-        Known values written into the metadata: the muscle's (SI) and the mechanism's own (their units).
+        Values written into the metadata: the muscle's (SI) and the mechanism's own (their units).
     noise : float
-        Output noise [the output column's unit: mm or deg]; default :data:`DEFAULT_NOISE_MM` (0.01).
+        Output noise [the output column's unit: mm or deg]; default :data:`DEFAULT_NOISE_MM`.
     pressures : sequence of float, optional
         Each muscle's holding pressure [Pa].
     output : str
         The output column, ``q_mm`` or ``q_deg`` (default: by the coordinate's unit).
     measured_pressures : bool
-        Also write each muscle's measured pressure (``p1_kPa``, ...: the truth's, with ``input_noise`` kPa).
-    Others as :func:`synthesize`.
+        Also write each muscle's measured pressure (``p1_kPa``, ...: the truth's, with
+        ``input_noise`` kPa of sensor noise).
+    baseline, seed, samples, rate, input_noise, noise_tau, offset, declare_offset, resolution
+        As :func:`synthesize`.
 
     Returns
     -------
@@ -647,13 +660,14 @@ def synthesize_mechanism(mechanism, hidden=None, known: dict | None = None, base
     factor = UNIT_FACTORS[quantity.kind][quantity.unit]
     noise = DEFAULT_NOISE_MM if noise is None else noise
     samples = MECHANISM_SAMPLES if samples is None else samples
-    _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution, quantity.kind, factor)
+    _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution,
+                    quantity.kind, factor)
     if input_noise and not measured_pressures:
-        raise ParameterError("input noise is the noise of the measured pressures: a mechanism record has them only "
-                             "with --pressures")
+        raise ParameterError("input noise is the noise of the measured pressures: a mechanism "
+                             "record has them only with --pressures")
     muscle_known, own = _split_known(known, mechanism)
     muscle_known, hidden, truth = _truth(muscle_known, hidden, baseline)
-    mechanism.bind(truth, **own)  # the own values checked at once (a one-line ParameterError)
+    bound = mechanism.bind(truth, **own)  # the own values checked at once (a one-line error)
     time, commands = mechanism_inputs(mechanism, samples, rate, pressures)
     inputs = {f"p{i + 1}_cmd": c for i, c in enumerate(commands)}
     time, inputs = as_written("mechanism", time, inputs, mechanism)
@@ -665,23 +679,26 @@ def synthesize_mechanism(mechanism, hidden=None, known: dict | None = None, base
     if measured_pressures:
         from ..physics.mechanism import simulate_mechanism
 
-        run = simulate_mechanism(time, tuple(inputs[f"p{i + 1}_cmd"] for i in range(len(commands))), mechanism,
-                                 mechanism.bind(truth, **own))
+        held = tuple(inputs[f"p{i + 1}_cmd"] for i in range(len(commands)))
+        run = simulate_mechanism(time, held, mechanism, bound)
         for i in range(len(commands)):
             clean_inputs[f"p{i + 1}"] = run.P[:, i]
             inputs[f"p{i + 1}"] = run.P[:, i] + _sensor_noise(rng, input_noise * 1e3, time.size)
     measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
     if resolution > 0:
         measured = np.round(measured / (resolution * factor)) * (resolution * factor)
-    return SyntheticRecord("mechanism", baseline, {**muscle_known, **own}, hidden, truth, time, inputs, clean,
-                           measured, noise, seed, column, "steps", input_noise, noise_tau, offset, declare_offset,
-                           clean_inputs, resolution, mechanism)
+    return SyntheticRecord("mechanism", baseline, {**muscle_known, **own}, hidden, truth, time,
+                           inputs, clean, measured, noise, seed, column, "steps", input_noise,
+                           noise_tau, offset, declare_offset, clean_inputs, resolution, mechanism)
 
 
-def actuator_inputs(samples: int = ACTUATOR_SAMPLES, rate: float = DEFAULT_RATE, params: Params = Params()):
-    """(time [s], length [m], pressure command [Pa]) of a driven-length test: a sine of :data:`ACTUATOR_LENGTH`
-    at each frequency of :data:`ACTUATOR_FREQUENCIES` under each pressure of :data:`ACTUATOR_PRESSURES` (a
-    quarter of the record each), the phase continuous."""
+def actuator_inputs(samples: int = ACTUATOR_SAMPLES, rate: float = DEFAULT_RATE,
+                    params: Params = Params()):
+    """(time [s], length [m], pressure command [Pa]) of a driven-length test.
+
+    A sine of :data:`ACTUATOR_LENGTH` at each frequency of :data:`ACTUATOR_FREQUENCIES` under each
+    pressure of :data:`ACTUATOR_PRESSURES` (a quarter of the record each), the phase continuous.
+    """
     _check_samples(samples)
     time = np.arange(samples) / rate
     quarter = np.minimum((4 * np.arange(samples)) // samples, 3)
@@ -695,30 +712,34 @@ def actuator_inputs(samples: int = ACTUATOR_SAMPLES, rate: float = DEFAULT_RATE,
 
 def synthesize_actuator(hidden=None, known: dict | None = None, baseline: str = "model2",
                         noise: float | None = None, seed: int = 0, samples: int | None = None,
-                        rate: float = DEFAULT_RATE, *, input_noise: float = 0.0, noise_tau: float = 0.0,
-                        offset: float = 0.0, declare_offset: bool = False, measured_pressures: bool = False,
+                        rate: float = DEFAULT_RATE, *, input_noise: float = 0.0,
+                        noise_tau: float = 0.0, offset: float = 0.0, declare_offset: bool = False,
+                        measured_pressures: bool = False,
                         resolution: float = 0.0) -> SyntheticRecord:
     """A driven-length record (``experiment = actuator``, model-spec 5d) made by the truth on
-    :func:`actuator_inputs`: the tension with every effect (:func:`mkctl.analysis.compare.actuator_output`).
+    :func:`actuator_inputs`: the tension with every effect
+    (:func:`mkctl.analysis.compare.actuator_output`).
 
-    ``noise``: the force noise [N] (default :data:`DEFAULT_NOISE_N`); ``measured_pressures``: write the measured
-    pressure ``pressure_kPa`` (the truth's, after any lag and dead time, with ``input_noise`` kPa) in place of the
-    command ``p_cmd_kPa``; others as :func:`synthesize`.
+    ``noise``: the force noise [N] (default :data:`DEFAULT_NOISE_N`); ``measured_pressures``: write
+    the measured pressure ``pressure_kPa`` (the truth's, after any lag and dead time, with
+    ``input_noise`` kPa) in place of the command ``p_cmd_kPa``; others as :func:`synthesize`.
     """
     from .compare import actuator_output, commanded_pressure
     from ..io.measurements import measurement_from_arrays
 
     noise = DEFAULT_NOISE_N if noise is None else noise
     samples = ACTUATOR_SAMPLES if samples is None else samples
-    _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution, "force", 1.0)
+    _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution,
+                    "force", 1.0)
     if input_noise and not measured_pressures:
-        raise ParameterError("input noise is the noise of the measured pressure: an actuator record has it only "
-                             "with --pressures")
+        raise ParameterError("input noise is the noise of the measured pressure: an actuator "
+                             "record has it only with --pressures")
     known, hidden, truth = _truth(known, hidden, baseline)
     time, length, command = actuator_inputs(samples, rate, truth)
     time, inputs = as_written("actuator", time, {"length": length, "p_cmd": command})
     rng = np.random.default_rng(seed)
-    record = measurement_from_arrays("actuator", time, inputs, np.zeros(time.size), source="<synth>")
+    record = measurement_from_arrays("actuator", time, inputs, np.zeros(time.size),
+                                     source="<synth>")
     clean, _ = actuator_output(record, truth)
     clean_inputs = dict(inputs)
     if measured_pressures:
@@ -728,6 +749,6 @@ def synthesize_actuator(hidden=None, known: dict | None = None, baseline: str = 
     measured = clean + colored_noise(rng, noise, time, noise_tau)
     if resolution > 0:
         measured = np.round(measured / resolution) * resolution
-    return SyntheticRecord("actuator", baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
-                           "force_N", "sines", input_noise, noise_tau, offset, declare_offset, clean_inputs,
-                           resolution)
+    return SyntheticRecord("actuator", baseline, known, hidden, truth, time, inputs, clean,
+                           measured, noise, seed, "force_N", "sines", input_noise, noise_tau,
+                           offset, declare_offset, clean_inputs, resolution)
