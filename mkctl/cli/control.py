@@ -414,7 +414,7 @@ def _mechanism_linearize(args) -> int:
             cases["c = 0"] = op.with_params(c=0.0).linear_system().poles()
     else:
         print("a2 >= 0: the rest is not held by a restoring force; no damping makes it stable")
-    print(f"static gain: {factor * 1e3 * float(np.real(control_dcgain(system)[0, 0])):.6g} {unit} per kPa of "
+    print(f"static gain: {factor * 1e3 * float(np.real(_dcgain(system)[0, 0])):.6g} {unit} per kPa of "
           f"{op.mechanism.muscles[0]}")
     path = mc.plot_poles(cases, f"{op.mechanism.name}: poles at {op.mechanism.coordinate} = "
                                 f"{mm.shown(op.q * factor, 4)} {unit}", args.out / "poles.png")
@@ -422,7 +422,7 @@ def _mechanism_linearize(args) -> int:
     return 0
 
 
-def control_dcgain(system):
+def _dcgain(system):
     import control
 
     return np.atleast_2d(control.dcgain(system))
