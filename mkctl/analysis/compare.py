@@ -1,12 +1,14 @@
 """Compare a model with a measurement: simulate the file's inputs, and score the error.
 
-The simulation is the library's: :func:`mkctl.physics.isotonic.simulate_isotonic` for the isotonic test, and
-the knee's :class:`mkctl.physics.simulate.KneeSimulator` for the knee, started at rest in the stable equilibrium
-of the first commands, exactly as :func:`mkctl.physics.simulate.simulate_knee` starts it. For the knee,
-:func:`simulate_output` may ask for the output at a subset of the samples only: the integrator then
-takes one communication step from each sample it needs (or each change of the commands) to the next,
-which gives the same values (to the integrator's tolerance) at a fraction of the cost. The diagnosis
-fits on such a subset.
+The simulation is the library's: :func:`mkctl.physics.isotonic.simulate_isotonic` for the isotonic
+test, :func:`mechanism_output` (:func:`mkctl.physics.mechanism.simulate_mechanism`) for a mechanism
+record, :func:`actuator_output` (the tension with every effect at the imposed length and its rate)
+for a driven-length test, and the knee's :class:`mkctl.physics.simulate.KneeSimulator` for the knee,
+started at rest in the stable equilibrium of the first commands, exactly as
+:func:`mkctl.physics.simulate.simulate_knee` starts it. For the knee, :func:`simulate_output` may
+ask for the output at a subset of the samples only: the integrator then takes one communication step
+from each sample it needs (or each change of the commands) to the next, which gives the same values
+(to the integrator's tolerance) at a fraction of the cost. The diagnosis fits on such a subset.
 
 Scores, in the units of the file's output column:
 
@@ -28,8 +30,15 @@ from ..io.measurements import Measurement
 from ..physics.params import Params
 from ..io.diagnosis_report import (fit_text, input_axis, plot_isometric, plot_overlay,  # noqa: F401 (re-exported)
                                    plot_residuals)
-from ..physics import knee
+from ..physics import actuator, knee, simulate
+from ..physics.mechanism import simulate_mechanism
 from ..physics.simulate import knee_states
+
+
+def _measured_pressure_params(params):
+    """The parameters that a record's measured pressures drive: the lag off (the measured
+    pressures are what any lag already made of the commands), as :func:`knee_drive` does it."""
+    return params.replace(tau=0.0) if params.tau > 0 else params
 
 
 def knee_drive(measurement: Measurement, params: Params, stop: int | None = None):
@@ -39,7 +48,7 @@ def knee_drive(measurement: Measurement, params: Params, stop: int | None = None
     n = measurement.samples if stop is None else int(stop)
     inputs = measurement.inputs
     if "pe" in inputs and "pf" in inputs:
-        return inputs["pe"][:n], inputs["pf"][:n], params.replace(tau=0.0) if params.tau > 0 else params
+        return inputs["pe"][:n], inputs["pf"][:n], _measured_pressure_params(params)
     return inputs["pe_cmd"][:n], inputs["pf_cmd"][:n], params
 
 
@@ -56,6 +65,9 @@ def simulate_output(measurement: Measurement, params: Params, at=None, stop: int
     n = measurement.samples if stop is None else int(stop)
     at = np.arange(n) if at is None else np.asarray(at, dtype=int)
     time = measurement.time[:n]
+    if measurement.experiment in RECORD_OUTPUTS:
+        values, rates = RECORD_OUTPUTS[measurement.experiment](measurement, params, n)
+        return (values[at], rates[at]) if velocity else values[at]
     if measurement.experiment == "isometric":  # quasi-static, no motion: the tension at each point [N]
         force = isometric_tension(measurement.inputs["length"][at], measurement.inputs["pressure"][at],
                                   measurement.branch[at], params)
@@ -71,6 +83,165 @@ def simulate_output(measurement: Measurement, params: Params, at=None, stop: int
         beta = knee.beta_from_X(X, params)
         return (beta, V * X / (params.Lo * params.Lu * np.sin(beta))) if velocity else beta
     return (X, V) if velocity else X
+
+
+def mechanism_output(measurement: Measurement, params: Params, stop: int | None = None):
+    """A mechanism record's model output over its first ``stop`` samples (default all).
+
+    :func:`mkctl.physics.mechanism.simulate_mechanism` with the record's mechanism and own values,
+    from rest in the equilibrium of the first commands (or at the record's ``q0``); a record with
+    every measured pressure (``p1``, ...) is driven by them, the lag off (:func:`knee_drive`'s
+    rule).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        An ``experiment = mechanism`` record (model-spec 5d).
+    params : Params
+        The muscle's parameters and effects (one set for every muscle).
+    stop : int, optional
+        Samples to simulate.
+
+    Returns
+    -------
+    q, qdot : numpy.ndarray
+        The coordinate [m or rad] and its rate [per s] at the samples.
+    """
+    n = measurement.samples if stop is None else int(stop)
+    mechanism, inputs = measurement.mechanism, measurement.inputs
+    count = len(mechanism.muscles)
+    measured = [f"p{i + 1}" for i in range(count)]
+    if all(name in inputs for name in measured):
+        drive, params = measured, _measured_pressure_params(params)
+    else:
+        drive = [f"p{i + 1}_cmd" for i in range(count)]
+    p = mechanism.bind(params, **measurement.mechanism_values)
+    commands = tuple(inputs[name][:n] for name in drive)
+    run = simulate_mechanism(measurement.time[:n], commands, mechanism, p, q0=measurement.q0)
+    return run.q, run.qdot
+
+
+def commanded_pressure(time, command, params: Params):
+    """The pressure [Pa] a muscle holds under a command [Pa] held from each sample to the next.
+
+    Through the dead time (:func:`mkctl.physics.simulate.delayed_commands`) and the pressure
+    dynamics of ``params`` (:func:`mkctl.physics.actuator.pressure_after` over each held piece),
+    as the knee's muscles see theirs, from a steady start at the first command.
+    """
+    time, command = np.asarray(time, dtype=float), np.asarray(command, dtype=float)
+    delay = float(actuator.command_delay(params))
+    if delay > 0 and time.size > 1:
+        grid, seen, _, at = simulate.delayed_commands(time, command, command, delay)
+    else:
+        grid, seen, at = time, command, np.arange(time.size)
+    if not actuator.has_pressure_states(params):
+        return seen[at].copy()
+    pressure = np.empty(grid.size)
+    pressure[0] = seen[0]
+    for k in range(grid.size - 1):
+        step = grid[k + 1] - grid[k]
+        pressure[k + 1] = float(actuator.pressure_after(pressure[k], float(seen[k]), step, params))
+    return pressure[at]
+
+
+def actuator_output(measurement: Measurement, params: Params, stop: int | None = None):
+    """A driven-length record's model output over its first ``stop`` samples (default all).
+
+    ``f = compose_tension(L, P, Ldot)`` (:func:`mkctl.physics.actuator.compose_tension`: every
+    effect) at the imposed length L, its rate Ldot (``numpy.gradient`` of L over time:
+    second-order central differences) and the measured pressure, or the command through the dead
+    time and the lag (:func:`commanded_pressure`).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        An ``experiment = actuator`` record (model-spec 5d).
+    params : Params
+        The muscle's parameters and effects.
+    stop : int, optional
+        Samples to compute.
+
+    Returns
+    -------
+    f, fdot : numpy.ndarray
+        Tension [N] and its finite-difference rate [N/s].
+    """
+    n = measurement.samples if stop is None else int(stop)
+    time, inputs = measurement.time[:n], measurement.inputs
+    length = inputs["length"][:n]
+    rate = np.gradient(length, time) if n > 1 else np.zeros(n)
+    if "pressure" in inputs:
+        pressure = inputs["pressure"][:n]
+    else:
+        pressure = commanded_pressure(time, inputs["p_cmd"][:n], params)
+    force = np.asarray(actuator.compose_tension(length, pressure, rate, params), dtype=float)
+    return force, (np.gradient(force, time) if n > 1 else np.zeros(n))
+
+
+#: The records whose output is a function (measurement, params, stop) -> (output, its rate).
+RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output}
+
+#: How an output quantity is named on a picture.
+OUTPUT_NAMES = {"force": "tension", "length": "length", "x": "hip height X",
+                "beta": "knee angle beta"}
+
+
+def output_name(measurement: Measurement) -> str:
+    """What a record's output is, for labels: a mechanism's coordinate, or the quantity's name."""
+    if measurement.experiment == "mechanism":
+        return f"{measurement.mechanism.name} {measurement.mechanism.coordinate}"
+    return OUTPUT_NAMES.get(measurement.output_quantity, measurement.output_quantity)
+
+
+def record_panels(measurement: Measurement) -> list:
+    """The inputs of a mechanism or actuator record to draw under its overlay:
+    ``[(label, [(values, name), ...]), ...]``, pressures in kPa, lengths in mm."""
+    inputs = measurement.inputs
+    if measurement.experiment == "actuator":
+        name = "pressure" if "pressure" in inputs else "p_cmd"
+        what = "measured" if name == "pressure" else "command"
+        return [("length [mm]", [(inputs["length"] * 1e3, "imposed length")]),
+                ("pressure [kPa]", [(inputs[name] / 1e3, what)])]
+    panels = []
+    for i, muscle in enumerate(measurement.mechanism.muscles):
+        curves = [(inputs[f"p{i + 1}_cmd"] / 1e3, "command")]
+        if f"p{i + 1}" in inputs:
+            curves.append((inputs[f"p{i + 1}"] / 1e3, "measured"))
+        panels.append((f"{muscle} [kPa]", curves))
+    return panels
+
+
+def plot_record_overlay(measurement: Measurement, curves: dict, path=None, title: str = ""):
+    """A mechanism or actuator record's measured output and the model's curves over time.
+
+    ``curves``: label -> SI array; drawn in the file's unit, the inputs in panels below
+    (:func:`record_panels`). Saves a PNG at ``path`` and returns it (the figure without a path).
+    """
+    from ..io.plotting import new_figure, save_png
+
+    panels = record_panels(measurement)
+    fig, axes = new_figure(1 + len(panels), 1, figsize=(9, 5.0 + 1.3 * len(panels)), sharex=True,
+                           height_ratios=(3.2,) + (1,) * len(panels), squeeze=False)
+    top = axes[0, 0]
+    colours = ("tab:blue", "tab:orange", "tab:green", "tab:purple")
+    for (label, values), colour in zip(curves.items(), colours):
+        top.plot(measurement.time, measurement.to_file_units(values), lw=1.4, color=colour,
+                 label=label, zorder=2)
+    every = max(1, -(-measurement.samples // 400))
+    measured = measurement.to_file_units(measurement.output)
+    top.plot(measurement.time[::every], measured[::every], "o", ms=3.2, mfc="none", mew=0.7,
+             color="k", alpha=0.6, zorder=3, label="measured")
+    top.set_ylabel(f"{output_name(measurement)} [{measurement.output_unit}]")
+    top.legend(loc="best", fontsize=8)
+    top.set_title(title or f"{measurement.experiment}: model vs measurement", fontsize=10)
+    for ax, (label, lines) in zip(axes[1:, 0], panels):
+        for (values, name), colour in zip(lines, ("k", "tab:red")):
+            ax.plot(measurement.time, values, color=colour, lw=1, label=name)
+        ax.set_ylabel(label, fontsize=8)
+        if len(lines) > 1:
+            ax.legend(loc="best", fontsize=7)
+    axes[-1, 0].set_xlabel("time [s]")
+    return save_png(fig, path) if path else fig
 
 
 def rmse(measured, simulated) -> float:

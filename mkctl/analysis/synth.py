@@ -29,6 +29,15 @@ Default inputs (chosen to excite what each experiment can show):
   of ``input_noise`` kPa; the truth is simulated with the clean pressures.
 - A sensor's resolution: ``resolution`` (output column's unit; an encoder's count, 360 / 2^bits deg for
   ``beta_deg``) rounds the measured output to multiples of it, after the noise, as a digital sensor does.
+- ``mechanism`` (model-spec 5d, :func:`synthesize_mechanism`): 3000 samples at 1 kHz; every muscle
+  held at :data:`MECHANISM_PRESSURE` (or the pressures given), muscle 1's command stepped through
+  +10 %, -8 %, +6 %, -4 % at 5, 27.5, 50 and 72.5 % of the record; the mechanism starts at rest in
+  the equilibrium of the first commands. Noise in the output column's unit (mm or deg).
+- ``actuator`` (a driven-length test, :func:`synthesize_actuator`): 4000 samples at 1 kHz; the
+  length imposed as a sine about 0.89 L0 of amplitude 0.06 L0, at 1 Hz then 3 Hz, under two
+  pressure commands (:data:`ACTUATOR_PRESSURES`); the force measured (noise in N). The file holds
+  the command ``p_cmd_kPa``, or with ``pressures`` the measured pressure ``pressure_kPa`` (the
+  truth's, after any lag and dead time).
 - A sensor offset: ``offset`` (output column's unit) is added to the written output; with
   ``declare_offset`` the file declares it (``x_offset_mm = ...``) and a reader removes it, without it the
   file holds the offset like a sensor zeroed elsewhere.
@@ -45,7 +54,8 @@ import numpy as np
 from ..errors import ParameterError, check_memory
 from ..physics.isotonic import simulate_isotonic
 from ..io.text import write_text_atomic
-from ..io.measurements import BASELINES, EXPERIMENTS, LARGEST, UNIT_FACTORS, round_to_file, write_measurement
+from ..io.measurements import (BASELINES, EXPERIMENTS, LARGEST, UNIT_FACTORS, experiment_columns, round_to_file,
+                               write_measurement)
 from ..physics import effects
 from ..physics.params import EFFECT_PARAMETERS, PARAMETER_NAMES, LiveMapping, Params
 from ..physics.simulate import default_commands, simulate_knee
@@ -239,13 +249,20 @@ class SyntheticRecord:
     declare_offset: bool = False  #: whether the file's metadata declares the offset
     inputs_clean: dict | None = None  #: the inputs before sensor noise (SI)
     resolution: float = 0.0  #: the output sensor's resolution in the output column's unit (0: none)
+    mechanism: object = None  #: a mechanism record's mechanism
+
+    @property
+    def spec(self):
+        """The record's columns (:func:`mkctl.io.measurements.experiment_columns`)."""
+        return experiment_columns(self.experiment, self.mechanism)
 
     @property
     def hidden_effects(self) -> list[str]:
         # hidden static parameters (a calibration's b, n) belong to the muscle, not to an effect
         effect_parameters = {q.name for e in effects.all_effects() for q in e.parameters}
         muscle = {k: v for k, v in self.hidden.items() if k not in effect_parameters}
-        baseline = Params().replace(model=BASELINES[self.baseline], **self.known, **muscle)
+        known = {k: v for k, v in self.known.items() if k in PARAMETER_NAMES}  # not a mechanism's own
+        baseline = Params().replace(model=BASELINES[self.baseline], **known, **muscle)
         return [e for e in self.truth.effects if e not in baseline.effects]
 
 
@@ -414,9 +431,9 @@ def colored_noise(rng, std: float, time, tau: float = 0.0) -> np.ndarray:
     return std * e
 
 
-def as_written(experiment: str, time, inputs: dict):
+def as_written(experiment: str, time, inputs: dict, mechanism=None):
     """Time and inputs rounded as :func:`mkctl.io.measurements.write_measurement` writes them."""
-    spec = EXPERIMENTS[experiment]
+    spec = experiment_columns(experiment, mechanism)
     rounded = {q.name: round_to_file(inputs[q.name], q) for q in (*spec.inputs[1:], *spec.optional)
                if q.name in inputs}
     return round_to_file(time, spec.inputs[0]), rounded
@@ -424,7 +441,7 @@ def as_written(experiment: str, time, inputs: dict):
 
 def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> tuple[Path, Path | None]:
     """Write the record as a measurement file and (optionally) its truth as ``<stem>.truth.json``."""
-    spec = EXPERIMENTS[record.experiment]
+    spec = record.spec
     column = record.output_column or f"{spec.output.name}_{spec.output.unit}"
     quantity = _output_quantity(spec, column)
     offset_si = record.offset * UNIT_FACTORS[quantity.kind][quantity.unit]
@@ -434,13 +451,14 @@ def write_synthetic(path, record: SyntheticRecord, truth_file: bool = True) -> t
     path = write_measurement(path, record.experiment, record.time, record.inputs, record.output + offset_si,
                              metadata=metadata, baseline=record.baseline, output_column=column,
                              comments=("synthetic record from mkctl synth (the virtual test bench)",),
-                             branch=record.inputs.get("branch"))
+                             branch=record.inputs.get("branch"), mechanism=record.mechanism)
     truth_path = None
     if truth_file:
         truth_path = truth_path_for(path)
         write_text_atomic(truth_path, json.dumps({
             "file": path.name,
             "experiment": record.experiment,
+            **({"mechanism": record.mechanism.name} if record.mechanism is not None else {}),
             "baseline": record.baseline,
             "hidden_effects": record.hidden_effects,
             "hidden": {k: v for k, v in record.hidden.items() if k != "model"},
@@ -536,3 +554,201 @@ def synthesize_isometric(hidden=None, known: dict | None = None, noise: float = 
     measured = clean + colored_noise(np.random.default_rng(seed), noise, time)
     return SyntheticRecord("isometric", baseline, known, hidden, truth, time, inputs, clean, measured, noise, seed,
                            "force_N", "steps", 0.0, 0.0, float(offset), declare_offset, dict(inputs))
+
+
+# --- Mechanism and driven-length (actuator) records (model-spec 5d) ------------------------------
+
+#: A mechanism record's default: every muscle's holding pressure [Pa].
+MECHANISM_PRESSURE = 300e3
+#: Muscle 1's command steps of a mechanism record: (fraction of the record, factor on its holding
+#: pressure).
+MECHANISM_STEPS = ((0.05, 1.10), (0.275, 0.92), (0.50, 1.06), (0.725, 0.96))
+#: Default samples of a mechanism and of an actuator record.
+MECHANISM_SAMPLES = 3000
+ACTUATOR_SAMPLES = 4000
+#: The driven-length test: the length's centre and amplitude as shares of L0, its frequencies [Hz]
+#: (each for a quarter of the record), and the pressure command of each half [Pa].
+ACTUATOR_LENGTH = (0.89, 0.06)
+ACTUATOR_FREQUENCIES = (1.0, 3.0)
+ACTUATOR_PRESSURES = (200e3, 450e3)
+
+
+def _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution, kind,
+                    factor):
+    """The checks of the new kinds: :func:`_check_ranges`' ranges, for an output of ``kind``."""
+    _check_ranges("mechanism", seed, samples, rate, noise, factor, kind, input_noise, noise_tau,
+                  offset, resolution, True)
+    if not samples / rate <= LARGEST["time"]:
+        raise ParameterError(f"{samples} samples at {rate:g} Hz last {samples / rate:g} s, longer "
+                             f"than a record may ({LARGEST['time']:g} s)")
+
+
+def _split_known(known: dict | None, mechanism=None) -> tuple[dict, dict]:
+    """(the muscle's known values, the mechanism's own) of ``known``."""
+    known = dict(known or {})
+    own_names = mechanism.parameter_names if mechanism is not None else ()
+    own = {k: v for k, v in known.items() if k in own_names}
+    return {k: v for k, v in known.items() if k not in own}, own
+
+
+def mechanism_inputs(mechanism, samples: int = MECHANISM_SAMPLES, rate: float = DEFAULT_RATE,
+                     pressures=None):
+    """(time [s], commands [Pa], one array per muscle) of a mechanism record.
+
+    Each muscle held at its pressure (default :data:`MECHANISM_PRESSURE`), muscle 1's command
+    stepped by :data:`MECHANISM_STEPS`.
+    """
+    _check_samples(samples)
+    count = len(mechanism.muscles)
+    held = [MECHANISM_PRESSURE] * count if pressures is None else [float(p) for p in pressures]
+    if len(held) != count:
+        raise ParameterError(f"mechanism {mechanism.name} has {count} muscle(s) "
+                             f"({', '.join(mechanism.muscles)}); got {len(held)} pressure(s)")
+    largest = LARGEST["pressure"]
+    for value in held:
+        if not (np.isfinite(value) and 0 <= value <= largest):
+            raise ParameterError(f"pressure {value / 1e3:g} kPa is outside "
+                                 f"[0, {largest / 1e3:g}] kPa")
+    time = np.arange(samples) / rate
+    first = np.full(samples, held[0])
+    for fraction, factor in MECHANISM_STEPS:
+        first[time >= fraction * time[-1]] = held[0] * factor
+    return time, [first] + [np.full(samples, value) for value in held[1:]]
+
+
+def synthesize_mechanism(mechanism, hidden=None, known: dict | None = None,
+                         baseline: str = "model2", noise: float | None = None, seed: int = 0,
+                         samples: int | None = None, rate: float = DEFAULT_RATE, *, pressures=None,
+                         output: str | None = None, input_noise: float = 0.0,
+                         noise_tau: float = 0.0, offset: float = 0.0,
+                         declare_offset: bool = False, measured_pressures: bool = False,
+                         resolution: float = 0.0) -> SyntheticRecord:
+    """A mechanism record (model-spec 5d) made by the truth (baseline + hidden) on
+    :func:`mechanism_inputs`.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism (:func:`mkctl.analysis.mechanism_files.mechanism`).
+    hidden : list or dict
+        As :func:`synthesize` (the muscle's effects and parameters).
+    known : dict
+        Values written into the metadata: the muscle's (SI) and the mechanism's own (their units).
+    noise : float
+        Output noise [the output column's unit: mm or deg]; default :data:`DEFAULT_NOISE_MM`.
+    pressures : sequence of float, optional
+        Each muscle's holding pressure [Pa].
+    output : str
+        The output column, ``q_mm`` or ``q_deg`` (default: by the coordinate's unit).
+    measured_pressures : bool
+        Also write each muscle's measured pressure (``p1_kPa``, ...: the truth's, with
+        ``input_noise`` kPa of sensor noise).
+    baseline, seed, samples, rate, input_noise, noise_tau, offset, declare_offset, resolution
+        As :func:`synthesize`.
+
+    Returns
+    -------
+    SyntheticRecord
+        ``inputs`` ``p1_cmd``, ... (and ``p1``, ...), the coordinate [m or rad] as output.
+    """
+    from .compare import mechanism_output
+    from ..io.measurements import measurement_from_arrays
+
+    spec = experiment_columns("mechanism", mechanism)
+    column = output or f"{spec.output.name}_{spec.output.unit}"
+    quantity = _output_quantity(spec, column)
+    factor = UNIT_FACTORS[quantity.kind][quantity.unit]
+    noise = DEFAULT_NOISE_MM if noise is None else noise
+    samples = MECHANISM_SAMPLES if samples is None else samples
+    _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution,
+                    quantity.kind, factor)
+    if input_noise and not measured_pressures:
+        raise ParameterError("input noise is the noise of the measured pressures: a mechanism "
+                             "record has them only with --pressures")
+    muscle_known, own = _split_known(known, mechanism)
+    muscle_known, hidden, truth = _truth(muscle_known, hidden, baseline)
+    bound = mechanism.bind(truth, **own)  # the own values checked at once (a one-line error)
+    time, commands = mechanism_inputs(mechanism, samples, rate, pressures)
+    inputs = {f"p{i + 1}_cmd": c for i, c in enumerate(commands)}
+    time, inputs = as_written("mechanism", time, inputs, mechanism)
+    record = measurement_from_arrays("mechanism", time, inputs, np.zeros(time.size), params=own,
+                                     mechanism=mechanism, source="<synth>")
+    clean, _ = mechanism_output(record, truth)
+    rng = np.random.default_rng(seed)
+    clean_inputs = dict(inputs)
+    if measured_pressures:
+        from ..physics.mechanism import simulate_mechanism
+
+        held = tuple(inputs[f"p{i + 1}_cmd"] for i in range(len(commands)))
+        run = simulate_mechanism(time, held, mechanism, bound)
+        for i in range(len(commands)):
+            clean_inputs[f"p{i + 1}"] = run.P[:, i]
+            inputs[f"p{i + 1}"] = run.P[:, i] + _sensor_noise(rng, input_noise * 1e3, time.size)
+    measured = clean + colored_noise(rng, noise * factor, time, noise_tau)
+    if resolution > 0:
+        measured = np.round(measured / (resolution * factor)) * (resolution * factor)
+    return SyntheticRecord("mechanism", baseline, {**muscle_known, **own}, hidden, truth, time,
+                           inputs, clean, measured, noise, seed, column, "steps", input_noise,
+                           noise_tau, offset, declare_offset, clean_inputs, resolution, mechanism)
+
+
+def actuator_inputs(samples: int = ACTUATOR_SAMPLES, rate: float = DEFAULT_RATE,
+                    params: Params = Params()):
+    """(time [s], length [m], pressure command [Pa]) of a driven-length test.
+
+    A sine of :data:`ACTUATOR_LENGTH` at each frequency of :data:`ACTUATOR_FREQUENCIES` under each
+    pressure of :data:`ACTUATOR_PRESSURES` (a quarter of the record each), the phase continuous.
+    """
+    _check_samples(samples)
+    time = np.arange(samples) / rate
+    quarter = np.minimum((4 * np.arange(samples)) // samples, 3)
+    frequency = np.asarray(ACTUATOR_FREQUENCIES)[quarter % 2]
+    phase = np.concatenate([[0.0], np.cumsum(2 * np.pi * frequency[:-1] * np.diff(time))])
+    centre, amplitude = ACTUATOR_LENGTH
+    length = params.L0 * (centre + amplitude * np.sin(phase))
+    command = np.asarray(ACTUATOR_PRESSURES)[quarter // 2]
+    return time, length, command
+
+
+def synthesize_actuator(hidden=None, known: dict | None = None, baseline: str = "model2",
+                        noise: float | None = None, seed: int = 0, samples: int | None = None,
+                        rate: float = DEFAULT_RATE, *, input_noise: float = 0.0,
+                        noise_tau: float = 0.0, offset: float = 0.0, declare_offset: bool = False,
+                        measured_pressures: bool = False,
+                        resolution: float = 0.0) -> SyntheticRecord:
+    """A driven-length record (``experiment = actuator``, model-spec 5d) made by the truth on
+    :func:`actuator_inputs`: the tension with every effect
+    (:func:`mkctl.analysis.compare.actuator_output`).
+
+    ``noise``: the force noise [N] (default :data:`DEFAULT_NOISE_N`); ``measured_pressures``: write
+    the measured pressure ``pressure_kPa`` (the truth's, after any lag and dead time, with
+    ``input_noise`` kPa) in place of the command ``p_cmd_kPa``; others as :func:`synthesize`.
+    """
+    from .compare import actuator_output, commanded_pressure
+    from ..io.measurements import measurement_from_arrays
+
+    noise = DEFAULT_NOISE_N if noise is None else noise
+    samples = ACTUATOR_SAMPLES if samples is None else samples
+    _noise_settings(seed, samples, rate, noise, input_noise, noise_tau, offset, resolution,
+                    "force", 1.0)
+    if input_noise and not measured_pressures:
+        raise ParameterError("input noise is the noise of the measured pressure: an actuator "
+                             "record has it only with --pressures")
+    known, hidden, truth = _truth(known, hidden, baseline)
+    time, length, command = actuator_inputs(samples, rate, truth)
+    time, inputs = as_written("actuator", time, {"length": length, "p_cmd": command})
+    rng = np.random.default_rng(seed)
+    record = measurement_from_arrays("actuator", time, inputs, np.zeros(time.size),
+                                     source="<synth>")
+    clean, _ = actuator_output(record, truth)
+    clean_inputs = dict(inputs)
+    if measured_pressures:
+        pressure = commanded_pressure(time, inputs.pop("p_cmd"), truth)
+        clean_inputs["pressure"] = pressure
+        inputs["pressure"] = pressure + _sensor_noise(rng, input_noise * 1e3, time.size)
+    measured = clean + colored_noise(rng, noise, time, noise_tau)
+    if resolution > 0:
+        measured = np.round(measured / resolution) * resolution
+    return SyntheticRecord("actuator", baseline, known, hidden, truth, time, inputs, clean,
+                           measured, noise, seed, "force_N", "sines", input_noise, noise_tau,
+                           offset, declare_offset, clean_inputs, resolution)

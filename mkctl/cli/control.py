@@ -5,6 +5,11 @@ Common options: the posture (``--alpha`` deg or ``--X`` m, default alpha = 60 de
 the closed-form c for ``--zeta``, default 0.3), the lag (``--tau`` s), any parameter (``--set NAME=VALUE``,
 SI) and the folder for the PNGs (``--out``, checked before any work). Pressures are gauge pressures in kPa:
 below 0 is refused (a muscle under vacuum does not pull), above 10 MPa gets a note.
+
+``--mechanism NAME|FILE.py`` (model-spec 3b) analyses another mechanism (:mod:`mkctl.analysis.mechanism_control`):
+its rest under ``--pressure KPA`` (one per muscle, default 300 each) in place of the knee's posture options
+(``--alpha``, ``--X``, ``--pf``, ``--fmu``), its own parameters with ``--set NAME=VALUE`` like the muscle's; the
+same text and pictures, in the mechanism's coordinate and unit (mm or deg).
 """
 from __future__ import annotations
 
@@ -50,6 +55,8 @@ SHORTEST_TI, LONGEST_TI = 1e-6, 1e4
 SMALLEST_STEP_KPA = 1e-3
 #: Longest step response --duration takes [s].
 LONGEST_RESPONSE = 1000.0
+#: A mechanism's default pressure per muscle [kPa] (--mechanism without --pressure).
+MECHANISM_PRESSURE_KPA = 300.0
 
 
 def _add_common(parser, needs_damping: bool) -> None:
@@ -69,6 +76,12 @@ def _add_common(parser, needs_damping: bool) -> None:
     add_params_option(parser)
     parser.add_argument("--out", type=Path, default=Path("control_plots"), help="folder for the PNGs "
                         "(default %(default)s)")
+    parser.add_argument("--mechanism", metavar="NAME|FILE.py", default=None,
+                        help="analyse another mechanism (hanging_mass, pulley_joint, knee or a mechanism file, "
+                             "model-spec 3b) at its rest under --pressure; default: the paper's knee at --alpha")
+    parser.add_argument("--pressure", action="append", default=[], metavar="KPA",
+                        help="with --mechanism: each muscle's gauge pressure [kPa], one per muscle (comma-separated "
+                             f"or repeated; default {MECHANISM_PRESSURE_KPA:g} each)")
 
 
 def _add_fmu(parser) -> None:
@@ -191,6 +204,8 @@ def _scaled_error(sys, ref, op) -> float:
 # --- subcommands ------------------------------------------------------------------------------------
 
 def run_linearize(args) -> int:
+    if args.mechanism is not None:
+        return _mechanism_linearize(args)
     op = _setup(args, needs_damping=False)
     fmu = _fmu_path(args)
     p = op.params
@@ -231,6 +246,8 @@ def run_linearize(args) -> int:
 
 
 def run_rootlocus(args) -> int:
+    if args.mechanism is not None:
+        return _mechanism_rootlocus(args)
     if args.gain is not None and args.vary != "tau":
         raise UsageError(f"--gain applies only to --vary tau (with --vary {args.vary} "
                          + ("the gain itself is scanned)" if args.vary == "gain" else "there is no height loop)"))
@@ -278,6 +295,8 @@ def run_rootlocus(args) -> int:
 
 def run_step(args) -> int:
     t_step = control_defaults.STEP_TIME
+    if args.mechanism is not None:
+        return _mechanism_step(args)
     if not (math.isfinite(args.duration) and t_step < args.duration <= LONGEST_RESPONSE):
         raise UsageError(f"--duration {args.duration:g}: the response must last longer than the step time "
                          f"{t_step:g} s and at most {LONGEST_RESPONSE:g} s")
@@ -311,5 +330,172 @@ def run_step(args) -> int:
         else:
             print("  the nonlinear model does not move: no relative difference to show")
         path = mc.plot_step(result, op, args.out / f"step_{label}.png")
+        print(f"  wrote {path}")
+    return 0
+
+
+# --- any mechanism (--mechanism) ------------------------------------------------------------------------
+
+def _mechanism_setup(args, needs_damping: bool):
+    """The mechanism's operating point with c and tau applied, from the common options (checked first)."""
+    from ..analysis import mechanism_control as mm
+    from ..analysis.mechanism_files import mechanism
+    from .options import split_items
+
+    output_folder(args.out, "--out")
+    knee_only = [name for name, given in (("--alpha", args.alpha is not None), ("--X", args.X is not None),
+                                          ("--pf", args.pf != DEFAULT_PF / 1e3),
+                                          ("--fmu", getattr(args, "fmu", None) is not None)) if given]
+    if knee_only:
+        raise UsageError(f"{knee_only[0]} belongs to the knee; with --mechanism give each muscle's --pressure")
+    if not (math.isfinite(args.zeta) and 0 <= args.zeta <= LARGEST_ZETA):
+        raise UsageError(f"--zeta {args.zeta:g}: the damping ratio must lie in [0, {LARGEST_ZETA:g}]")
+    mech = mechanism(args.mechanism)
+    own, muscle_items = {}, []
+    for item in args.set:
+        name, _, text = item.partition("=")
+        if name.strip() in mech.parameter_names:
+            try:
+                own[name.strip()] = float(text)
+            except ValueError:
+                raise UsageError(f"--set {name.strip()}: {text.strip()!r} is not a number") from None
+        else:
+            muscle_items.append(item)
+    overrides = parse_assignments(muscle_items)
+    params = base_params(args).replace(**{k: v for k, v in overrides.items() if k not in ("c", "tau")})
+    texts = split_items(args.pressure) or [str(MECHANISM_PRESSURE_KPA)] * len(mech.muscles)
+    pressures = []
+    for text in texts:
+        try:
+            kpa = float(text)
+        except ValueError:
+            raise UsageError(f"--pressure {text}: not a number of kPa") from None
+        if not (math.isfinite(kpa) and 0 <= kpa <= LARGEST_KPA):
+            raise UsageError(f"--pressure {text}: outside [0, {LARGEST_KPA:g}] kPa (a gauge pressure)")
+        pressures.append(kpa * 1e3)
+    if len(pressures) != len(mech.muscles):
+        raise UsageError(f"--pressure: {mech.name} has {len(mech.muscles)} muscle(s) ({', '.join(mech.muscles)}); "
+                         f"got {len(pressures)} pressure(s)")
+    op = mm.operating_point(mech, pressures, mech.bind(params, **own))
+    tau = args.tau if args.tau is not None else overrides.get("tau", 0.0)
+    op = op.with_params(c=0.0, tau=tau)
+    c = args.c if args.c is not None else overrides.get("c")
+    if c is None:
+        c = mm.damping_for_zeta(args.zeta, op) if needs_damping else 0.0
+    return op.with_params(c=c)
+
+
+def _mechanism_linearize(args) -> int:
+    from ..analysis import mechanism_control as mm
+
+    op = _mechanism_setup(args, needs_damping=False)
+    unit, factor = mm.display_unit(op.mechanism)
+    rest = op.stability()
+    a1, a2 = rest.a1 + 0.0, rest.a2 + 0.0
+    print(f"operating point: {op.describe()}")
+    print(f"Eq. 18: a2 = {a2:.6g} 1/s^2 (Eq. 20 {'holds' if a2 < 0 else 'fails'}), "
+          f"a1 = {a1:.6g} 1/s (Eq. 19 {'holds' if a1 < 0 else 'fails'}): {rest.verdict}")
+    system = op.linear_system()
+    np.set_printoptions(precision=6, linewidth=120)
+    print(f"states {system.state_labels}, inputs {system.input_labels} (python-control state space)")
+    print("A =\n" + str(system.A) + "\nB =\n" + str(system.B))
+    poles = system.poles()
+    print(f"poles: {_fmt_poles(poles)}")
+    muscle_c = op.params.c
+    cases = {f"c = {muscle_c:.4g} N s/m" + (f", tau = {op.params.tau:g} s" if op.params.tau else ""): poles}
+    if a2 < 0:
+        zeta = mc.damping_ratio(a1, a2) + 0.0
+        print(f"natural frequency w_n = {math.sqrt(-a2):.5g} rad/s, damping ratio zeta = {zeta:.4g}")
+        c_zeta = mm.damping_for_zeta(args.zeta, op)
+        damped = op.with_params(c=c_zeta).linear_system().poles()
+        print(f"damping for zeta = {args.zeta:g}: c = {c_zeta:.6g} N s/m -> poles {_fmt_poles(damped)}")
+        cases[f"c = {c_zeta:.4g} N s/m (zeta = {args.zeta:g})"] = damped
+        if muscle_c != 0:
+            cases["c = 0"] = op.with_params(c=0.0).linear_system().poles()
+    else:
+        print("a2 >= 0: the rest is not held by a restoring force; no damping makes it stable")
+    print(f"static gain: {factor * 1e3 * float(np.real(_dcgain(system)[0, 0])):.6g} {unit} per kPa of "
+          f"{op.mechanism.muscles[0]}")
+    path = mc.plot_poles(cases, f"{op.mechanism.name}: poles at {op.mechanism.coordinate} = "
+                                f"{mm.shown(op.q * factor, 4)} {unit}", args.out / "poles.png")
+    print(f"wrote {path}")
+    return 0
+
+
+def _dcgain(system):
+    import control
+
+    return np.atleast_2d(control.dcgain(system))
+
+
+def _mechanism_rootlocus(args) -> int:
+    from ..analysis import mechanism_control as mm
+
+    if args.ti is not None or args.gain is not None:
+        raise UsageError("--ti and --gain belong to the knee's height loop; with --mechanism --vary gain scans the "
+                         "gain of u1 = K (q_ref - q) itself")
+    op = _mechanism_setup(args, needs_damping=True)
+    unit, factor = mm.display_unit(op.mechanism)
+    print(f"operating point: {op.describe()}")
+    if args.vary == "c":
+        c_one = mm.damping_for_zeta(1.0, op)
+        values = np.linspace(0.0, 1.5 * max(c_one, 1e-9), 300)
+        path = mm.plot_locus(op, values, mm.locus(op, "c", values), "c", "N s/m", args.out / "rootlocus_c.png",
+                             marked=op.params.c)
+        print(f"c for zeta = {args.zeta:g}: {mm.damping_for_zeta(args.zeta, op):.6g} N s/m; critical damping "
+              f"(zeta = 1): {c_one:.6g} N s/m")
+    elif args.vary == "tau":
+        values = np.geomspace(1e-3, 1.0, 200)
+        path = mm.plot_locus(op, values, mm.locus(op, "tau", values), "tau", "s", args.out / "rootlocus_tau.png")
+        for tau in (0.01, 0.03, 0.1, 0.3):
+            print(f"  tau = {tau:g} s: poles {_fmt_poles(op.with_params(tau=tau).linear_system().poles())}")
+    else:
+        # as the knee's: the loop with the record's lag, or with the default lag where it has none
+        lagged = op if op.params.tau > 0 else op.with_params(tau=control_defaults.DEFAULT_TAU)
+        kc = mm.critical_gain(lagged)
+        top = 3 * kc if math.isfinite(kc) and kc > 0 else 1e8
+        gains = np.concatenate([[0.0], np.geomspace(top * 1e-4, top, 400)])
+        per = "Pa/m" if op.mechanism.unit == "m" else "Pa/rad"
+        path = mm.plot_locus(lagged, gains, mm.gain_locus(lagged, gains), "K", per,
+                             args.out / "rootlocus_gain.png")
+        coordinate = op.mechanism.coordinate
+        for label, case in (("without lag", op.with_params(tau=0.0)), (f"tau = {lagged.params.tau:g} s", lagged)):
+            k = mm.critical_gain(case)
+            text = (f"{k:.6g} {per}" if math.isfinite(k) and k > 0 else "none (stable for every gain)"
+                    if not math.isfinite(k) else "0 (unstable at every gain: no damping)")
+            print(f"critical gain of u1 = K ({coordinate}_ref - {coordinate}), {label}: {text}")
+    print(f"wrote {path}")
+    return 0
+
+
+def _mechanism_step(args) -> int:
+    from ..analysis import mechanism_control as mm
+
+    t_step = control_defaults.STEP_TIME
+    if not (math.isfinite(args.duration) and t_step < args.duration <= LONGEST_RESPONSE):
+        raise UsageError(f"--duration {args.duration:g}: the response must last longer than the step time "
+                         f"{t_step:g} s and at most {LONGEST_RESPONSE:g} s")
+    if not (math.isfinite(args.dt) and 0 < args.dt < args.duration - t_step):
+        raise UsageError(f"--dt {args.dt:g}: the output interval must be positive and shorter than the response "
+                         f"after the step ({args.duration - t_step:g} s)")
+    op = _mechanism_setup(args, needs_damping=True)
+    unit, factor = mm.display_unit(op.mechanism)
+    print(f"operating point: {op.describe()}")
+    for label, kpa in (("small", args.small), ("large", args.large)):
+        if not (math.isfinite(kpa) and SMALLEST_STEP_KPA <= abs(kpa) <= LARGEST_KPA):
+            raise UsageError(f"--{label} {kpa:g}: the pressure step must be a non-zero number of kPa, at least "
+                             f"{SMALLEST_STEP_KPA:g} and at most {LARGEST_KPA:g} either way")
+        result = mm.step_responses(op, kpa * 1e3, duration=args.duration, t_step=t_step, dt=args.dt)
+        print(f"{label} step of {op.mechanism.muscles[0]}'s command by {kpa:+g} kPa:")
+        if result.end_stop:
+            print(f"  note: the nonlinear response hit {result.end_stop}: the linear model does not apply there")
+        for name in ("nonlinear", "linear"):
+            print(f"  {name:9s}: {mc.describe_response(result.info[name])}, final "
+                  f"{op.mechanism.coordinate} - op = {factor * result[name][-1]:+.4g} {unit}")
+        peak = np.abs(result.nonlinear).max()
+        if peak > 0:
+            print(f"  max difference linear vs nonlinear, relative to its peak: "
+                  f"{np.abs(result.linear - result.nonlinear).max() / peak:.3g}")
+        path = mm.plot_step(result, op, args.out / f"step_{label}.png")
         print(f"  wrote {path}")
     return 0

@@ -4,9 +4,11 @@
   ``--hidden c=45,tau=0.05``) writes a measurement file made by the model with
   hidden effects (and ``data.truth.json`` with what was hidden); ``--shape``, ``--input-noise``,
   ``--noise-tau``, ``--offset``/``--declare-offset``, ``--output-column beta_deg`` and ``--pressures``
-  make it as messy as a real rig.
+  make it as messy as a real rig. ``mkctl synth mechanism data.csv --mechanism pulley_joint`` (a built-in or a
+  FILE.py) and ``mkctl synth actuator data.csv`` (a driven-length test) write the records of model-spec 5d.
 - ``mkctl compare data.csv`` simulates the file's baseline on its inputs, prints RMSE and fit, and saves the
-  overlay and the residual as PNG.
+  overlay and the residual as PNG; a mechanism record naming a FILE.py needs ``--mechanism FILE.py`` (a record
+  never loads code by itself).
 - ``mkctl diagnose data.csv --json out.json`` finds the effects the baseline misses (see
   :mod:`mkctl.analysis.diagnose`), prints a summary and saves the JSON report and the pictures;
   ``--fit-offset`` fits a constant sensor offset; a record that cannot be this model's output (a unit or
@@ -43,10 +45,12 @@ def register(subparsers) -> None:
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
-    p.add_argument("experiment", choices=["knee", "isotonic", "isometric"],
+    p.add_argument("experiment", choices=["knee", "isotonic", "isometric", "mechanism", "actuator"],
                    help="what to simulate: knee (the robot leg driven by pressure steps), isotonic (one actuator "
-                        "under hanging loads, pressure swept) or isometric (a blocked-force bench: the muscle "
-                        "clamped at 4 lengths, pressure stepped up and down)")
+                        "under hanging loads, pressure swept), isometric (a blocked-force bench: the muscle "
+                        "clamped at 4 lengths, pressure stepped up and down), mechanism (--mechanism's, muscle 1's "
+                        "command stepped) or actuator (a driven-length test: the length imposed as sines under two "
+                        "pressures, the force measured)")
     p.add_argument("output", metavar="OUT.csv", help="the measurement file to write (<stem>.truth.json goes beside it)")
     p.add_argument("--hidden", action="append", default=[], metavar="EFFECT|NAME=VALUE",
                    help="an effect hidden in the data (repeatable, or comma-separated): an effect name (" + ", ".join(
@@ -84,6 +88,10 @@ def register(subparsers) -> None:
                    help="the output sensor's resolution [the output column's unit]: the output is rounded to it "
                         "(a 12-bit joint encoder: --output-column beta_deg --resolution 0.087890625); default 0")
     p.add_argument("--no-truth", action="store_true", help="do not write <stem>.truth.json")
+    _add_mechanism_option(p)
+    p.add_argument("--hold", action="append", default=[], metavar="KPA",
+                   help="mechanism: each muscle's holding pressure [kPa] (one per muscle, comma-separated or "
+                        "repeated; default 300 each)")
     add_params_option(p)
     p.set_defaults(func=run_synth)
 
@@ -93,6 +101,7 @@ def register(subparsers) -> None:
                     "|y - mean(y)|) and save <stem>_compare_overlay.png and <stem>_compare_residual.png.")
     p.add_argument("file", metavar="FILE.csv")
     p.add_argument("--out", metavar="DIR", default=None, help="folder for the PNGs (default: beside the file)")
+    _add_mechanism_option(p)
     add_params_option(p)
     p.set_defaults(func=run_compare)
 
@@ -121,9 +130,75 @@ def register(subparsers) -> None:
     p.set_defaults(func=run_diagnose)
 
 
+def _add_mechanism_option(parser) -> None:
+    parser.add_argument("--mechanism", metavar="NAME|FILE.py", default=None,
+                        help="the mechanism (model-spec 3b): hanging_mass, pulley_joint, knee or a mechanism file; "
+                             "a record's 'mechanism = FILE.py' is loaded only when given here too")
+
+
+def load_mechanism(args):
+    """The mechanism ``--mechanism`` names (loaded: the user asked), or None."""
+    if getattr(args, "mechanism", None) is None:
+        return None
+    from ..analysis.mechanism_files import mechanism
+
+    return mechanism(args.mechanism)
+
+
+def _own_values(args, items) -> dict:
+    """The --param items that set the mechanism's own parameters (synth mechanism), by name."""
+    if args.experiment != "mechanism" or args.mechanism is None:
+        return {}
+    names = load_mechanism(args).parameter_names
+    own = {}
+    for item in items:
+        name, _, text = item.partition("=")
+        if name.strip() in names:
+            try:
+                own[name.strip()] = float(text)
+            except ValueError:
+                raise UsageError(f"--param {name.strip()}: {text.strip()!r} is not a number") from None
+    return own
+
+
+def _synthesize(args, known: dict):
+    """The record ``mkctl synth`` asks for."""
+    from ..analysis.synth import synthesize, synthesize_actuator, synthesize_mechanism
+
+    mech = load_mechanism(args)
+    hold = split_items(args.hold)
+    if args.experiment != "mechanism":
+        if mech is not None or hold:
+            raise UsageError(f"--mechanism and --hold belong to 'synth mechanism', not '{args.experiment}'")
+    elif mech is None:
+        raise UsageError("synth mechanism needs --mechanism NAME|FILE.py (hanging_mass, pulley_joint, knee or a "
+                         "mechanism file)")
+    common = dict(noise=args.noise, seed=args.seed, samples=args.samples, rate=args.rate,
+                  input_noise=args.input_noise, noise_tau=args.noise_tau, offset=args.offset,
+                  declare_offset=args.declare_offset, measured_pressures=args.pressures, resolution=args.resolution)
+    if args.experiment in ("mechanism", "actuator") and args.shape is not None:
+        raise UsageError(f"--shape belongs to the knee and isotonic records; a {args.experiment} record has one")
+    if args.experiment == "mechanism":
+        try:
+            pressures = [float(v) * 1e3 for v in hold] or None
+        except ValueError:
+            raise UsageError(f"--hold {','.join(hold)}: each holding pressure must be a number of kPa") from None
+        return synthesize_mechanism(mech, split_items(args.hidden), known, args.baseline, pressures=pressures,
+                                    output=args.output_column, **common)
+    if args.experiment == "actuator":
+        if args.output_column not in (None, "force_N"):
+            raise UsageError(f"--output-column {args.output_column}: an actuator record's output is force_N")
+        return synthesize_actuator(split_items(args.hidden), known, args.baseline, **common)
+    return synthesize(args.experiment, split_items(args.hidden), known,
+                      args.baseline, args.noise, args.seed, args.samples, args.rate, shape=args.shape,
+                      output=args.output_column, input_noise=args.input_noise, noise_tau=args.noise_tau,
+                      offset=args.offset, declare_offset=args.declare_offset, pressures=args.pressures,
+                      resolution=args.resolution)
+
+
 def run_synth(args) -> int:
     from ..physics.params import UNITS
-    from ..analysis.synth import synthesize, write_synthetic
+    from ..analysis.synth import write_synthetic
 
     from ..analysis.synth import truth_path_for
 
@@ -131,16 +206,15 @@ def run_synth(args) -> int:
     if not args.no_truth:
         output_file(truth_path_for(args.output), "truth file")
     known = muscle_values(args)
-    known.update(parse_assignments(split_items(args.param), "--param"))
-    record = synthesize(args.experiment, split_items(args.hidden), known,
-                        args.baseline, args.noise, args.seed, args.samples, args.rate, shape=args.shape,
-                        output=args.output_column, input_noise=args.input_noise, noise_tau=args.noise_tau,
-                        offset=args.offset, declare_offset=args.declare_offset, pressures=args.pressures,
-                        resolution=args.resolution)
+    items = split_items(args.param)
+    own = _own_values(args, items)
+    known.update(parse_assignments([i for i in items if i.partition("=")[0].strip() not in own], "--param"))
+    record = _synthesize(args, {**known, **own})
     path, truth = write_synthetic(args.output, record, truth_file=not args.no_truth)
     hidden = ", ".join(f"{k} = {v:g} {UNITS[k]}" for k, v in record.hidden.items() if k != "model")
     effects = ", ".join(record.hidden_effects) or "none"
-    print(f"wrote {path}: {record.experiment}, {record.time.size} samples over {record.time[-1]:g} s, "
+    what = record.experiment + (f" ({record.mechanism.name})" if record.mechanism is not None else "")
+    print(f"wrote {path}: {what}, {record.time.size} samples over {record.time[-1]:g} s, "
           f"baseline {record.baseline}")
     print(f"hidden effects: {effects}" + (f" ({hidden})" if hidden else ""))
     unit = record.output_column.rsplit("_", 1)[1]
@@ -159,21 +233,27 @@ def run_synth(args) -> int:
 
 
 def run_compare(args) -> int:
-    from ..analysis.compare import compare, fit_text, plot_overlay, plot_residuals
+    from ..analysis.compare import (RECORD_OUTPUTS, compare, fit_text, plot_overlay, plot_record_overlay,
+                                    plot_residuals)
     from ..io.measurements import read_measurement
 
     folder = output_folder(args.out, "--out") if args.out else Path(args.file).resolve().parent
-    measurement = read_measurement(args.file, base=base_params(args))
+    measurement = read_measurement(args.file, base=base_params(args), mechanism=load_mechanism(args))
     if not args.out:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     result = compare(measurement)
     stem = Path(args.file).stem
     effects = ", ".join(measurement.params.effects) or "no effects"
-    print(f"{args.file}: {measurement.experiment}, {measurement.samples} samples, baseline {measurement.baseline} "
+    what = measurement.experiment + (f" ({measurement.mechanism.name})" if measurement.mechanism else "")
+    print(f"{args.file}: {what}, {measurement.samples} samples, baseline {measurement.baseline} "
           f"({effects})")
     print(f"RMSE {result.rmse:.4g} {measurement.output_unit}   {fit_text(result.fit_percent)}")
-    overlay = plot_overlay(measurement, {f"baseline {measurement.baseline}": result.simulated},
-                           folder / f"{stem}_compare_overlay.png", f"{stem}: baseline vs measurement")
+    if measurement.experiment in RECORD_OUTPUTS:
+        overlay = plot_record_overlay(measurement, {f"baseline {measurement.baseline}": result.simulated},
+                                      folder / f"{stem}_compare_overlay.png", f"{stem}: baseline vs measurement")
+    else:
+        overlay = plot_overlay(measurement, {f"baseline {measurement.baseline}": result.simulated},
+                               folder / f"{stem}_compare_overlay.png", f"{stem}: baseline vs measurement")
     residual = plot_residuals(measurement, {"measured - baseline": result.residual},
                               folder / f"{stem}_compare_residual.png")
     print(f"saved {overlay} and {residual}")
@@ -209,6 +289,10 @@ def run_diagnose(args) -> int:
     else:
         folder = Path(args.file).resolve().parent
     measurement = read_measurement(args.file, base=base_params(args))
+    if measurement.experiment in ("mechanism", "actuator"):
+        # model-spec 5d: their diagnosis is being built elsewhere; until then say so, rather than fail inside
+        raise UsageError(f"{args.file}: the diagnosis of {measurement.experiment} records is not built yet; "
+                         f"compare it with the baseline: mkctl compare {args.file}")
     if not args.out and not args.json:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))

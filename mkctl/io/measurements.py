@@ -28,6 +28,14 @@ then one row of numbers per sample::
 - An isometric file (blocked-force test) has ``length, pressure, force``, optionally ``time`` first and a
   ``branch`` column (``up``/``down``); without it the branch follows from the pressure's direction in time
   order within each length (which needs ``time``).
+- A mechanism record (``experiment = mechanism``, model-spec 5d) names its mechanism (``mechanism = hanging_mass``,
+  ``pulley_joint``, ``knee`` or ``FILE.py``) and has ``time``, a command per muscle (``p1_cmd``, ``p2_cmd`` or the
+  muscle's name, ``muscle1_cmd``), optional measured pressures (``p1`` or ``muscle1``) and the coordinate (``q`` or
+  its name, ``theta``, ``L``) in a length or angle unit (:func:`mechanism_experiment`). Its metadata may set the
+  mechanism's own parameters (``r_p = 0.025``) and ``q0`` (SI). A record never loads code: a ``FILE.py`` it names
+  is accepted only when the caller hands in that same file, loaded (``--mechanism FILE.py``: issue 30).
+- A driven-length record (``experiment = actuator``) has ``time, length``, the pressure measured (``pressure``) or
+  commanded (``p_cmd``), exactly one of them, and the force as output.
 - Every required cell must be a finite number and time must increase strictly. At least two rows.
 
 A file that breaks a rule raises :class:`mkctl.errors.MeasurementFileError` with a one-line message
@@ -44,7 +52,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..errors import MeasurementFileError, ParameterError
+from ..errors import MeasurementFileError, MkctlError, ParameterError
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
 from .text import read_user_text, write_text_atomic
 
@@ -66,6 +74,10 @@ class Experiment(NamedTuple):
     optional: tuple[Quantity, ...]  #: further measured columns a file may have
     description: str
     time_required: bool = True
+    #: other names a column may take for a quantity: ((alias, quantity), ...) (a mechanism's muscle names)
+    aliases: tuple = ()
+    #: quantities of which a file has exactly one (an actuator record's measured pressure or its command)
+    one_of: tuple = ()
 
     @property
     def output(self) -> Quantity:
@@ -100,7 +112,44 @@ EXPERIMENTS = {
         "a blocked-force test: the muscle clamped at fixed lengths, pressure stepped up and down, tension measured",
         time_required=False,
     ),
+    "actuator": Experiment(
+        "actuator",
+        (Quantity("time", "time", "s"), Quantity("length", "length", "mm")),
+        (Quantity("force", "force", "N"),),
+        (Quantity("pressure", "pressure", "kPa"), Quantity("p_cmd", "pressure", "kPa")),
+        "a driven-length test: the muscle's length imposed (a tensile machine), the tension measured; the pressure "
+        "measured (pressure) or commanded (p_cmd)",
+        one_of=("pressure", "p_cmd"),
+    ),
+    # the columns of a mechanism record depend on its mechanism: mechanism_experiment() makes them; this
+    # entry shows a two-muscle mechanism's with a coordinate in m
+    "mechanism": Experiment(
+        "mechanism",
+        (Quantity("time", "time", "s"), Quantity("p1_cmd", "pressure", "kPa"), Quantity("p2_cmd", "pressure", "kPa")),
+        (Quantity("q", "length", "mm"),),
+        (Quantity("p1", "pressure", "kPa"), Quantity("p2", "pressure", "kPa")),
+        "a mechanism of one coordinate (model-spec 3b) driven by one pressure command per muscle, starting at rest "
+        "in the equilibrium of the first commands (or at q0); measured: the coordinate q",
+    ),
 }
+
+
+def mechanism_experiment(mechanism) -> Experiment:
+    """The columns of a record of ``mechanism`` (model-spec 5d): ``time``, one command ``p<i>_cmd`` per muscle
+    (or ``<muscle>_cmd``), optional measured pressures ``p<i>`` (or ``<muscle>``), and the coordinate ``q`` (or its
+    own name, ``L`` for the hanging mass) in mm or deg (any length or angle unit)."""
+    count = len(mechanism.muscles)
+    kind, unit = ("length", "mm") if mechanism.unit == "m" else ("angle", "deg")
+    commands = tuple(Quantity(f"p{i + 1}_cmd", "pressure", "kPa") for i in range(count))
+    measured = tuple(Quantity(f"p{i + 1}", "pressure", "kPa") for i in range(count))
+    aliases = [(f"{m}_cmd", f"p{i + 1}_cmd") for i, m in enumerate(mechanism.muscles)]
+    aliases += [(m, f"p{i + 1}") for i, m in enumerate(mechanism.muscles)]
+    if mechanism.coordinate != "q":
+        aliases.append((mechanism.coordinate, "q"))
+    return Experiment(
+        "mechanism", (Quantity("time", "time", "s"), *commands), (Quantity("q", kind, unit),), measured,
+        f"the mechanism {mechanism.name}: {', '.join(mechanism.muscles)} driven by pressure commands; measured: "
+        f"{mechanism.coordinate} [{unit}]", aliases=tuple(aliases))
 
 #: Unit suffixes accepted for each kind of quantity, with the factor that converts to SI.
 UNIT_FACTORS = {
@@ -121,6 +170,8 @@ BASELINES = {"model1": 1, "model2": 2}
 
 #: Metadata keys besides the parameter names and the sensor offsets.
 METADATA_KEYS = ("experiment", "baseline")
+#: Further metadata keys of a mechanism record (and the mechanism's own parameter names).
+MECHANISM_KEYS = ("mechanism", "q0")
 
 #: Values of an isometric file's ``branch`` column, and the sign each one stands for (+1: pressure rising).
 BRANCHES = {"up": 1, "down": -1}
@@ -161,6 +212,14 @@ class Measurement:
     offsets: dict = field(default_factory=dict)
     branch: np.ndarray | None = None
     has_time: bool = True
+    mechanism: object = None  #: a mechanism record's :class:`~mkctl.physics.mechanism.Mechanism`
+    mechanism_values: dict = field(default_factory=dict)  #: its own parameters the file sets (their units)
+    q0: float | None = None  #: a mechanism record's initial coordinate [m or rad]; None: at rest in equilibrium
+
+    @property
+    def mechanism_params(self):
+        """A mechanism record's parameters: the muscle's (``params``) and the mechanism's own values."""
+        return self.mechanism.bind(self.params, **self.mechanism_values)
 
     def __post_init__(self):
         if not self.output_quantity:
@@ -182,14 +241,15 @@ class Measurement:
 
 # --- reading --------------------------------------------------------------------------------------
 
-def read_measurement(path, base: Params = DEFAULT) -> Measurement:
+def read_measurement(path, base: Params = DEFAULT, mechanism=None) -> Measurement:
     """Read a measurement file (model-spec section 5); raise MeasurementFileError for any broken rule.
 
     ``base``: the parameters the file's metadata overrides (default: the paper's; a muscle file's with
-    ``--params``).
+    ``--params``). ``mechanism``: the :class:`~mkctl.physics.mechanism.Mechanism` the user gave
+    (``--mechanism``), for a mechanism record (see :func:`parse_measurement`).
     """
     text = read_user_text(path, MeasurementFileError, "a measurement file")
-    return parse_measurement(text, str(path), base)
+    return parse_measurement(text, str(path), base, mechanism)
 
 
 class _Fail:
@@ -203,15 +263,22 @@ class _Fail:
         raise MeasurementFileError(f"{where}: {message}")
 
 
-def parse_measurement(text: str, source: str = "<text>", base: Params = DEFAULT) -> Measurement:
+def parse_measurement(text: str, source: str = "<text>", base: Params = DEFAULT, mechanism=None) -> Measurement:
     """Parse the text of a measurement file; ``source`` names it in error messages; ``base`` as in
-    :func:`read_measurement`."""
+    :func:`read_measurement`.
+
+    ``mechanism``: for a mechanism record, the mechanism the user gave on the command line (a value, already
+    loaded). Nothing in a record runs code (issue 30): its ``mechanism = NAME`` may name a built-in; its
+    ``mechanism = FILE.py`` (resolved against the record's folder) is accepted only when ``mechanism`` is that
+    same file, loaded by the user's ``--mechanism FILE.py``; a record without the line takes ``mechanism``.
+    """
     fail = _Fail(source)
     lines = text.splitlines()
     if not any(line.strip() for line in lines):
         fail(1, "the file is empty (no metadata, header or data)")
     metadata, header_index = _read_metadata(lines, fail)
-    experiment, baseline, params, overrides, offset_items = _check_metadata(metadata, header_index, base, fail)
+    experiment, baseline, params, overrides, offset_items, mech = _check_metadata(
+        metadata, header_index, base, fail, source, mechanism)
     columns, output, extra, header = _read_header(lines[header_index], header_index + 1, experiment, fail)
     offsets = _offsets(offset_items, experiment, columns, fail)
     data, branch, row_lines = _read_rows(lines, header_index, header, columns, experiment, fail)
@@ -230,7 +297,7 @@ def parse_measurement(text: str, source: str = "<text>", base: Params = DEFAULT)
         experiment=experiment.name, baseline=baseline, params=params, overrides=overrides, time=time,
         inputs=inputs, output=column(output.name), output_column=header[out_position], output_factor=out_factor,
         source=source, extra_columns=tuple(extra), output_quantity=output.name, offsets=offsets, branch=branch,
-        has_time=has_time,
+        has_time=has_time, **mech,
     )
 
 
@@ -241,8 +308,9 @@ _ONE_VALUE = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|[A-Za-z_][\w.+-]
 
 
 def known_metadata_key(key: str) -> bool:
-    """Whether key is metadata a file may give: experiment, baseline, a parameter name, an offset."""
-    return key in METADATA_KEYS or key in PARAMETER_NAMES or "_offset_" in key
+    """Whether key is metadata a file may give: experiment, baseline, a parameter name, an offset, or a mechanism
+    record's ``mechanism`` and ``q0`` (its own parameters are known once its mechanism is)."""
+    return key in METADATA_KEYS or key in MECHANISM_KEYS or key in PARAMETER_NAMES or "_offset_" in key
 
 
 def metadata_line(line: str) -> tuple[str, str] | None:
@@ -262,11 +330,11 @@ def metadata_line(line: str) -> tuple[str, str] | None:
     return None
 
 
-def _close_keys(key: str) -> str:
-    """Known keys a mistyped one could be (difflib), as a phrase."""
+def _close_keys(key: str, own: tuple = ()) -> str:
+    """Known keys a mistyped one could be (difflib), as a phrase; ``own``: a mechanism record's further keys."""
     import difflib
 
-    known = [*METADATA_KEYS, *(n for n in PARAMETER_NAMES if n != "model")]
+    known = [*METADATA_KEYS, *own, *(n for n in PARAMETER_NAMES if n != "model")]
     close = [k for k in known if k.lower() == key.lower()] or difflib.get_close_matches(key, known, n=3, cutoff=0.6)
     return f" (did you mean {' or '.join(repr(k) for k in close)}?)" if close else ""
 
@@ -289,13 +357,51 @@ def _read_metadata(lines, fail) -> tuple[dict, int]:
             fail(index + 1, f"metadata key {key!r} given twice (first on line {metadata[key][1]})")
         if key == "model":
             fail(index + 1, "choose the model with 'baseline = model1' or 'baseline = model2', not 'model'")
-        if not known_metadata_key(key):
-            fail(index + 1, f"unknown metadata key {key!r}{_close_keys(key)}; known: experiment, baseline, "
-                            f"<column>_offset_<unit> and the parameter names "
-                            f"{', '.join(n for n in PARAMETER_NAMES if n != 'model')} (a '#' line with '=' is "
-                            f"metadata when its key is one word and its value one number or word)")
+        # unknown keys are refused once the experiment is known (_check_keys): a mechanism record's own
+        # parameters are known only then
         metadata[key] = (value, index + 1)
     fail(len(lines) + 1, "no header row after the metadata (the file holds only '#' lines)")
+
+
+def _check_keys(metadata: dict, own: tuple, fail) -> None:
+    """Every key known: the general ones, a parameter, an offset, or (mechanism records) ``own``."""
+    for key, (_, line_number) in metadata.items():
+        if key in MECHANISM_KEYS and key not in own:
+            fail(line_number, f"metadata key {key!r} belongs to a mechanism record ('# experiment = mechanism')")
+        if not known_metadata_key(key) and key not in own:
+            extra = f", {', '.join(own)}" if own else ""
+            fail(line_number, f"unknown metadata key {key!r}{_close_keys(key, own)}; known: experiment, "
+                              f"baseline{extra}, <column>_offset_<unit> and the parameter names "
+                              f"{', '.join(n for n in PARAMETER_NAMES if n != 'model')} (a '#' line with '=' is "
+                              f"metadata when its key is one word and its value one number or word)")
+
+
+def _record_mechanism(metadata: dict, header_index: int, source: str, given, fail):
+    """The mechanism of a mechanism record: its ``mechanism`` line checked against the one the user gave."""
+    from ..physics.mechanism import BUILTIN
+
+    if "mechanism" not in metadata:
+        if given is None:
+            fail(header_index + 1, "a mechanism record needs '# mechanism = " + " | ".join(BUILTIN)
+                                   + " | FILE.py' before the header (or --mechanism on the command line)")
+        return given
+    value, line = metadata["mechanism"]
+    if value in BUILTIN:
+        if given is not None and given is not BUILTIN[value] and given != BUILTIN[value]:
+            fail(line, f"the record names the mechanism {value!r}, the command line {given.name!r}")
+        return BUILTIN[value]
+    if not value.endswith(".py"):
+        fail(line, f"unknown mechanism {value!r} (built-in: {', '.join(BUILTIN)}; or a FILE.py)")
+    folder = Path(".") if source.startswith("<") else Path(source).parent
+    wanted = (folder / value).resolve()
+    loaded = getattr(given, "reload", ())
+    if given is not None and len(loaded) >= 2 and Path(loaded[1]) != wanted:
+        fail(line, f"the record names the mechanism file {wanted}, the command line {loaded[1]}")
+    if given is None or len(loaded) < 2:
+        # a record is data: it never runs a file; the user loads it knowingly
+        fail(line, f"the record names the mechanism file {value!r}; a record cannot load code: give it with "
+                   f"--mechanism {wanted} (or mechanism(...) in Python)")
+    return given
 
 
 def table_default_hint(message: str, given=(), params: Params = DEFAULT) -> str:
@@ -316,21 +422,34 @@ def table_default_hint(message: str, given=(), params: Params = DEFAULT) -> str:
     return "; ".join(hints)
 
 
-def _check_metadata(metadata: dict, header_index: int, base: Params, fail):
+def _check_metadata(metadata: dict, header_index: int, base: Params, fail, source: str = "<text>",
+                    mechanism=None):
     """Experiment, baseline and parameters, checked as a whole after all metadata is read."""
     if "experiment" not in metadata:
+        _check_keys(metadata, (), fail)
         fail(header_index + 1, "metadata '# experiment = " + " | ".join(EXPERIMENTS) + "' is missing before "
                                "the header")
     name, name_line = metadata["experiment"]
     if name not in EXPERIMENTS:
+        _check_keys(metadata, (), fail)
         fail(name_line, f"unknown experiment {name!r} (known: {', '.join(EXPERIMENTS)})")
+    mech: dict = {}
+    own: tuple = ()
+    if name == "mechanism":
+        mech["mechanism"] = _record_mechanism(metadata, header_index, source, mechanism, fail)
+        own = (*MECHANISM_KEYS, *mech["mechanism"].parameter_names)
+    elif mechanism is not None:
+        fail(name_line, f"a mechanism ({getattr(mechanism, 'name', mechanism)}) was given, but this is "
+                        f"{'an' if name[0] in 'aeiou' else 'a'} {name} record, not 'experiment = mechanism'")
+    _check_keys(metadata, own, fail)
     baseline, baseline_line = metadata.get("baseline", ("model2", None))
     if baseline not in BASELINES:
         fail(baseline_line, f"unknown baseline {baseline!r} (known: {', '.join(BASELINES)})")
     overrides: dict[str, float] = {}
     offsets: dict[str, tuple[float, int, str]] = {}
+    own_values: dict[str, tuple[float, int]] = {}
     for key, (value, line_number) in metadata.items():
-        if key in METADATA_KEYS:
+        if key in METADATA_KEYS or key == "mechanism" and own:
             continue
         number = _to_float(value)
         what = "offset" if key not in PARAMETER_NAMES else "parameter"
@@ -340,6 +459,8 @@ def _check_metadata(metadata: dict, header_index: int, base: Params, fail):
             fail(line_number, f"{what} {key!r} is not a finite number: {value!r}")
         if key in PARAMETER_NAMES:
             overrides[key] = number
+        elif key in own:
+            own_values[key] = (number, line_number)
         else:
             offsets[key] = (number, line_number, key)
     try:
@@ -351,7 +472,26 @@ def _check_metadata(metadata: dict, header_index: int, base: Params, fail):
         fail(lines[0] if len(lines) == 1 else None,
              f"{error}" + (f" (set on lines {', '.join(map(str, lines))})" if len(lines) > 1 else "")
              + (f" ({hint})" if hint else ""))
-    return EXPERIMENTS[name], baseline, params, overrides, offsets
+    if name != "mechanism":
+        return EXPERIMENTS[name], baseline, params, overrides, offsets, mech
+    return (mechanism_experiment(mech["mechanism"]), baseline, params, overrides, offsets,
+            _mechanism_values(mech["mechanism"], params, own_values, fail))
+
+
+def _mechanism_values(mechanism, params: Params, values: dict, fail) -> dict:
+    """The mechanism, its own values (checked against their bounds) and q0 (inside its stops)."""
+    q0 = values.pop("q0", None)
+    own = {k: v for k, (v, _) in values.items()}
+    try:
+        bound = mechanism.bind(params, **own)
+        low, high = mechanism.stop_positions(bound)
+    except MkctlError as error:
+        lines = [line for k, (_, line) in values.items() if re.search(rf"\b{k}\b", str(error))]
+        fail(lines[0] if len(lines) == 1 else None, f"mechanism {mechanism.name}: {error}")
+    if q0 is not None and not low <= q0[0] <= high:
+        fail(q0[1], f"q0 = {q0[0]:g} {mechanism.unit} is outside the stops of {mechanism.name} "
+                    f"({low:g}, {high:g}) {mechanism.unit} (q0 is in SI: m or rad)")
+    return {"mechanism": mechanism, "mechanism_values": own, "q0": None if q0 is None else q0[0]}
 
 
 def _read_header(header_text: str, header_line: int, experiment: Experiment, fail):
@@ -365,6 +505,7 @@ def _read_header(header_text: str, header_line: int, experiment: Experiment, fai
     while len(header) > 1 and not header[-1]:  # a spreadsheet's trailing comma: no column there
         header.pop()
     kinds = {q.name: q.kind for q in experiment.quantities}
+    aliases = dict(experiment.aliases)
     columns: dict[str, tuple[int, float]] = {}
     extra = []
     for position, cell in enumerate(header):
@@ -376,9 +517,10 @@ def _read_header(header_text: str, header_line: int, experiment: Experiment, fai
             columns["branch"] = (position, 1.0)
             continue
         quantity, _, unit = cell.rpartition("_")
-        if cell in kinds:
+        quantity = aliases.get(quantity, quantity)
+        if cell in kinds or cell in aliases:
             fail(header_line, f"column {cell!r} has no unit suffix (for example "
-                              f"'{cell}_{_canonical_unit(experiment, cell)}')")
+                              f"'{cell}_{_canonical_unit(experiment, aliases.get(cell, cell))}')")
         if quantity not in kinds:
             extra.append(cell)
             continue
@@ -407,6 +549,14 @@ def _read_header(header_text: str, header_line: int, experiment: Experiment, fai
     if len(outputs) > 1:
         fail(header_line, f"two measured outputs {header[columns[outputs[0].name][0]]!r} and "
                           f"{header[columns[outputs[1].name][0]]!r}: a {experiment.name} file has one of them")
+    if experiment.one_of:
+        present = [name for name in experiment.one_of if name in columns]
+        wanted = " or ".join(f"{n}_{_canonical_unit(experiment, n)}" for n in experiment.one_of)
+        if len(present) != 1:
+            article = "an" if experiment.name[0] in "aeiou" else "a"
+            fail(header_line, (f"missing column {wanted}" if not present else
+                               f"two columns {' and '.join(header[columns[n][0]] for n in present)}")
+                 + f": {article} {experiment.name} file has exactly one of {wanted}")
     return columns, outputs[0], extra, header
 
 
@@ -547,7 +697,7 @@ def _to_float(text: str) -> float | None:
 
 def measurement_from_arrays(experiment: str, time, inputs: dict, output, output_column: str | None = None,
                             params: dict | None = None, baseline: str = "model2", branch=None,
-                            base: Params = DEFAULT, source: str = "<arrays>") -> Measurement:
+                            base: Params = DEFAULT, source: str = "<arrays>", mechanism=None) -> Measurement:
     """A :class:`Measurement` from SI arrays, checked by the same rules as a file (it is written to text and
     parsed, so nothing can differ from reading a file).
 
@@ -555,25 +705,29 @@ def measurement_from_arrays(experiment: str, time, inputs: dict, output, output_
     ``branch``); inputs {name: SI array} (``pressure, force``; ``pe_cmd, pf_cmd`` and optionally ``pe, pf``;
     ``length, pressure``); output, the measured output in SI; output_column, which output column it is
     (default the experiment's canonical one, e.g. ``x_mm``; ``beta_deg`` for a knee angle); params: known
-    parameters (SI) as in a file's metadata; branch: isometric +1/-1 (or "up"/"down") per row.
+    parameters (SI) as in a file's metadata; branch: isometric +1/-1 (or "up"/"down") per row; mechanism: a
+    mechanism record's :class:`~mkctl.physics.mechanism.Mechanism` (inputs ``p1_cmd``, ...; output ``q``).
     """
     import io
     text = io.StringIO()
     write_measurement(text, experiment, time, inputs, output, metadata=params, baseline=baseline,
-                      output_column=output_column, branch=branch)
-    return parse_measurement(text.getvalue(), source, base)
+                      output_column=output_column, branch=branch, mechanism=mechanism)
+    return parse_measurement(text.getvalue(), source, base, mechanism)
 
 
 def measurement_from_dataframe(frame, experiment: str, params: dict | None = None, baseline: str = "model2",
-                               base: Params = DEFAULT, source: str = "<DataFrame>") -> Measurement:
+                               base: Params = DEFAULT, source: str = "<DataFrame>", mechanism=None) -> Measurement:
     """A :class:`Measurement` from a pandas DataFrame whose columns are named as in a file (``time_s``,
-    ``pe_cmd_kPa``, ``x_mm``, ...; units from the suffixes), with metadata given as arguments."""
+    ``pe_cmd_kPa``, ``x_mm``, ...; units from the suffixes), with metadata given as arguments (``mechanism``: a
+    mechanism record's, loaded)."""
     lines = [f"# experiment = {experiment}", f"# baseline = {baseline}"]
+    if mechanism is not None:
+        lines.append(f"# mechanism = {mechanism_reference(mechanism)}")
     lines += [f"# {key} = {value!r}" for key, value in (params or {}).items()]
     lines.append(",".join(str(c) for c in frame.columns))
     for row in frame.itertuples(index=False):
         lines.append(",".join(repr(float(v)) if not isinstance(v, str) else v for v in row))
-    return parse_measurement("\n".join(lines) + "\n", source, base)
+    return parse_measurement("\n".join(lines) + "\n", source, base, mechanism)
 
 
 # --- writing --------------------------------------------------------------------------------------
@@ -602,20 +756,50 @@ def _quantity(experiment: Experiment, column: str) -> Quantity:
     raise MeasurementFileError(f"{column!r} is not an output of a {experiment.name} file (use {names})")
 
 
+def experiment_columns(experiment: str, mechanism=None) -> Experiment:
+    """The :class:`Experiment` of a record: :data:`EXPERIMENTS`'s, or a mechanism record's
+    (:func:`mechanism_experiment`)."""
+    if experiment not in EXPERIMENTS:
+        raise MeasurementFileError(f"unknown experiment {experiment!r} (known: {', '.join(EXPERIMENTS)})")
+    if experiment == "mechanism":
+        if mechanism is None:
+            raise MeasurementFileError("a mechanism record needs its mechanism")
+        return mechanism_experiment(mechanism)
+    return EXPERIMENTS[experiment]
+
+
+def mechanism_reference(mechanism, folder=None) -> str:
+    """What a record's ``mechanism = ...`` line says: a built-in's name, or the file's path relative to the
+    record's ``folder`` (absolute where there is none)."""
+    if not mechanism.reload:
+        return mechanism.name
+    import os
+
+    file = Path(mechanism.reload[1])
+    try:
+        reference = str(file) if folder is None else os.path.relpath(file, Path(folder).resolve())
+    except ValueError:  # another drive
+        reference = str(file)
+    if not reference.isprintable():  # one line of metadata, nothing more
+        raise MeasurementFileError(f"the mechanism file's path {reference!r} cannot be written into a record "
+                                   "(a control character); rename it")
+    return reference
+
+
 def write_measurement(path, experiment: str, time, inputs: dict, output, metadata: dict | None = None,
                       baseline: str | None = None, comments: tuple[str, ...] = (), output_column: str | None = None,
-                      branch=None):
+                      branch=None, mechanism=None):
     """Write a measurement file in the canonical units (s, kPa, N, mm, deg); arrays are SI.
 
     ``inputs`` maps the experiment's input names (``pressure, force``; ``pe_cmd, pf_cmd`` and optionally the
     measured ``pe, pf``; ``length, pressure``) to arrays; ``output_column`` picks the output (default the
     canonical one; ``beta_deg`` for a knee angle); ``metadata`` holds parameter overrides (SI) and offsets;
     ``comments`` become free ``#`` lines; ``time`` may be None for an isometric record with ``branch``
-    (+1/-1 or "up"/"down" per row). ``path`` may be an open text stream. Returns the path written.
+    (+1/-1 or "up"/"down" per row). ``path`` may be an open text stream. ``mechanism``: a mechanism record's
+    mechanism (written as ``mechanism = NAME`` or its file's path relative to the record). Returns the path
+    written.
     """
-    if experiment not in EXPERIMENTS:
-        raise MeasurementFileError(f"unknown experiment {experiment!r} (known: {', '.join(EXPERIMENTS)})")
-    spec = EXPERIMENTS[experiment]
+    spec = experiment_columns(experiment, mechanism)
     out = spec.output if output_column is None else _quantity(spec, output_column)
     quantities = [q for q in spec.inputs if q.name != "time" or time is not None]
     quantities += [q for q in spec.optional if q.name in inputs]
@@ -632,6 +816,9 @@ def write_measurement(path, experiment: str, time, inputs: dict, output, metadat
     number = "{:.%dg}" % DIGITS
     lines = [f"# {text}" for text in comments]
     lines.append(f"# experiment = {experiment}")
+    if experiment == "mechanism":
+        folder = None if hasattr(path, "write") else Path(path).parent
+        lines.append(f"# mechanism = {mechanism_reference(mechanism, folder)}")
     if baseline is not None:
         lines.append(f"# baseline = {baseline}")
     for key, value in (metadata or {}).items():
