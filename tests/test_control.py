@@ -279,6 +279,17 @@ def test_cli_linearize(tmp_path, capsys):
     assert (tmp_path / "poles.png").stat().st_size > 0
 
 
+def test_cli_linearize_with_a_dead_time(tmp_path, capsys):
+    """A dead time adds two Pade states to the analytic system; python-control's linearization has no delay, so
+    the two are compared without them (the fuzzer found this crashing with a traceback)."""
+    code, out, _ = run_cli(["linearize", "--out", str(tmp_path), "--no-fmu", "--set", "delay=0.03",
+                            "--set", "c=40"], capsys)
+    assert code == 0
+    assert len(printed_matrix(out, "A")) == 4  # X, V and the two commands' Pade states
+    error = float(re.search(r"linearize vs analytic: relative error (\S+)", out).group(1))
+    assert error < 1e-6 and "without the dead time's Pade states" in out
+
+
 @pytest.mark.parametrize("vary,png", [("c", "rootlocus_c.png"), ("tau", "rootlocus_tau.png"),
                                       ("gain", "rootlocus_gain.png")])
 def test_cli_rootlocus(vary, png, tmp_path, capsys):

@@ -43,7 +43,7 @@ import control as ct
 import numpy as np
 
 from . import fmu_probe as probe
-from ..physics import knee, stability
+from ..physics import actuator, knee, simulate, stability
 from ..errors import DomainError, MkctlError, check_memory
 from .fmu_probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
@@ -127,15 +127,17 @@ class KneeOperatingPoint:
         return knee.state_names(self.params)
 
     def with_params(self, **overrides) -> "KneeOperatingPoint":
-        """The same posture and pressures with other parameters that do not move the equilibrium (c, tau, Fc).
+        """The same posture and pressures with other parameters that do not move the equilibrium.
 
-        Damping, friction and lag act only when something moves, so the rest state is unchanged.
+        Damping, friction, a lag and a dead time act only when something moves or changes, so the rest
+        state is unchanged (:func:`mkctl.physics.simulate.rest_independent` reads which parameters those are
+        from the effects' definitions).
         """
-        bad = set(overrides) - {"c", "tau", "Fc", "vs"}
+        bad = set(overrides) - set(simulate.rest_independent())
         if bad:
             raise ControlAnalysisError(f"{sorted(bad)[0]} moves the equilibrium: find a new operating point")
         params = self.params.replace(**overrides)
-        lag = params.tau > 0
+        lag = actuator.has_pressure_states(params)
         states = np.array([self.X, 0.0, self.Pe, self.Pf] if lag else [self.X, 0.0])
         return KneeOperatingPoint(params, self.alpha, self.X, self.Pe, self.Pf, states, self.inputs.copy())
 
