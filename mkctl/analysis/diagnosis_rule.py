@@ -48,6 +48,8 @@ from typing import Callable
 
 import numpy as np
 
+from .statistics import bic, effective_samples  # the statistics are defined there, once
+
 
 @dataclass(frozen=True)
 class Rule:
@@ -94,25 +96,6 @@ class Rule:
 
 #: The rule the diagnosis uses.
 RULE = Rule()
-
-
-def bic(rss: float, n: int, k: int, n_effective: float | None = None) -> float:
-    """Bayesian information criterion ``m ln(RSS / n) + k ln m`` of a least-squares fit, m = n_effective or n.
-
-    Parameters: rss, the residual sum of squares (any unit, squared); n, the samples compared; k, the
-    parameters fitted; n_effective, the effective count of independent samples when the noise is correlated
-    (:func:`effective_samples`; None: n, white noise). A zero RSS is taken as 1e-300 (a finite, very low value).
-    """
-    m = float(n if n_effective is None else min(max(n_effective, 1.0), n))
-    return m * math.log(max(float(rss), 1e-300) / n) + k * math.log(m)
-
-
-def effective_samples(n: int, correlation: float) -> float:
-    """The effective count of independent samples among n whose noise is AR(1) with lag-one ``correlation``
-    phi: ``n (1 - phi) / (1 + phi)`` (the variance of a mean of AR(1) noise is that many times sigma^2 / n
-    larger); n for phi <= 0."""
-    phi = min(float(correlation), 0.99)
-    return float(n) if phi <= 0 else n * (1.0 - phi) / (1.0 + phi)
 
 
 @dataclass(frozen=True)

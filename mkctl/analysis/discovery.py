@@ -49,7 +49,6 @@ terms as an effect file (spec 4c).
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -61,6 +60,8 @@ from ..physics import actuator, knee
 from ..physics import effects as registry
 from ..physics.effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
+from .signals import delayed, lagged
+from .statistics import alternate_blocks, bic, covariance, integrated_effective_samples, standard_errors
 
 #: Contiguous blocks the samples are cut into; even blocks fit, odd blocks check.
 BLOCKS = 10
@@ -181,21 +182,6 @@ def _actuator_states(L, Ldot, P, params: Params, rate=None, delayed=_no_commands
             "static": actuator.static_tension(L, P, params)}
 
 
-def _delayed(time, values, delay: float):
-    """A signal held from each sample to the next, ``delay`` late (the first value held before)."""
-    seen = np.clip(np.searchsorted(time, time - delay + 1e-12, side="right") - 1, 0, time.size - 1)
-    return np.asarray(values, dtype=float)[seen]
-
-
-def _lag(time, values, tau: float):
-    """A signal held from each sample to the next, through the lag tau dP/dt = P_in - P, P(0) = P_in(0)."""
-    out = np.empty(time.size)
-    out[0] = values[0]
-    for k in range(1, time.size):
-        out[k] = actuator.lagged_pressure(out[k - 1], values[k - 1], tau, time[k] - time[k - 1])
-    return out
-
-
 def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
     """The pressures the model's actuators see at the samples: the measured ones, or the commands (through the
     lag, if any).
@@ -209,7 +195,7 @@ def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
         return np.asarray(m.inputs["pe"], dtype=float), np.asarray(m.inputs["pf"], dtype=float)
     pe, pf = (np.asarray(m.inputs[name], dtype=float) for name in ("pe_cmd", "pf_cmd"))
     if params.tau > 0:
-        return _lag(m.time, pe, params.tau), _lag(m.time, pf, params.tau)
+        return lagged(m.time, pe, params.tau), lagged(m.time, pf, params.tau)
     if not held_average:
         return pe, pf
     return tuple(np.r_[p[0], 0.5 * (p[1:] + p[:-1])] for p in (pe, pf))
@@ -265,8 +251,8 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
 
     def late_pressures(d):  # the commands d late, through the model's lag if it has one
         if d not in late:
-            shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": _delayed(m.time, m.inputs["pe_cmd"], d),
-                                                     "pf_cmd": _delayed(m.time, m.inputs["pf_cmd"], d)})
+            shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": delayed(m.time, m.inputs["pe_cmd"], d),
+                                                     "pf_cmd": delayed(m.time, m.inputs["pf_cmd"], d)})
             late[d] = _knee_pressures(shifted, params)
         return late[d]
 
@@ -274,7 +260,7 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
         if "held" not in slow:
             slow["held"] = _knee_pressures(m, params, held_average=False)
         if tau not in slow:
-            slow[tau] = tuple(_lag(m.time, p, tau) for p in slow["held"])
+            slow[tau] = tuple(lagged(m.time, p, tau) for p in slow["held"])
         return slow[tau]
 
     rates = (np.gradient(Pe, m.time), np.gradient(Pf, m.time))
@@ -329,23 +315,6 @@ def regressors(measurement: Measurement, params: Params, terms: list[Term] | Non
 
 # --- Sparse selection ------------------------------------------------------------------------------------
 
-def effective_samples(residual) -> float:
-    """n / (1 + 2 sum rho_k): the sample count of white noise that carries as much information as a
-    correlated residual (rho_k its autocorrelation, summed until it first falls below 0.05)."""
-    r = np.asarray(residual, dtype=float)
-    r = r - r.mean()
-    n = r.size
-    denominator = float(r @ r)
-    if n < 4 or denominator == 0:
-        return float(n)
-    spectrum = np.fft.rfft(r, 2 * n)
-    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:n] / denominator
-    below = np.flatnonzero(acf[1:] < 0.05)
-    stop = int(below[0]) + 1 if below.size else n
-    integrated = 1.0 + 2.0 * float(np.sum(acf[1:stop]))
-    return float(max(min(n / max(integrated, 1.0), n), 2.0))
-
-
 def _explained(y, prediction) -> float:
     total = float(y @ y)
     return 1.0 - float((y - prediction) @ (y - prediction)) / total if total > 0 else 0.0
@@ -372,7 +341,7 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
     A = np.column_stack(scaled)
     selected: list[int] = []
     rss = float(y[train] @ y[train])
-    n_eff = effective_samples(y[train])
+    n_eff = integrated_effective_samples(y[train])
     held, fitted = 0.0, 0.0
     steps = []
     reason = None
@@ -395,8 +364,10 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
         new_rss, coef, r, new_held = tried[j]
         alternatives = [labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
         cols = [*selected, j]
-        n_eff = effective_samples(r)
-        delta = n_eff * math.log(max(new_rss, 1e-300) / max(rss, 1e-300)) + math.log(max(n_eff, 2.0))
+        n_eff = integrated_effective_samples(r)
+        # one more term, both models counted at the new residual's effective samples (statistics.bic)
+        n_train = int(np.count_nonzero(train))
+        delta = bic(new_rss, n_train, len(cols), n_eff) - bic(rss, n_train, len(selected), n_eff)
         new_fitted = 1.0 - new_rss / float(y[train] @ y[train])
         step = {"term": labels[j], "delta_bic": delta, "explained_train": new_fitted,
                 "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives}
@@ -428,12 +399,7 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
 
 def _blocks(used) -> np.ndarray:
     """The fitting mask: the used samples in :data:`BLOCKS` contiguous blocks, even blocks fit."""
-    index = np.flatnonzero(used)
-    train = np.zeros(used.size, bool)
-    for b, part in enumerate(np.array_split(index, BLOCKS)):
-        if b % 2 == 0:
-            train[part] = True
-    return train
+    return alternate_blocks(used, BLOCKS)
 
 
 def discover(measurement: Measurement, params: Params | None = None, progress=None, effects=()) -> dict:
@@ -478,23 +444,24 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
               "steps": selection["steps"], "reason": selection["reason"],
               "explained_holdout": selection["explained_holdout"]}
     if not selection["selected"]:
-        result["effective_samples"] = effective_samples(y_used)
+        result["effective_samples"] = integrated_effective_samples(y_used)
         return result
     labels = selection["selected"]
     scales = np.array([float(np.sqrt(np.mean(cols[k] ** 2))) for k in labels])
     A = np.column_stack([cols[k] for k in labels]) / scales  # standardized: the terms' sizes differ by 1e15
     scaled, *_ = np.linalg.lstsq(A, y_used, rcond=None)
     r = y_used - A @ scaled
-    n_eff = effective_samples(r)
-    # s^2 (A^T A)^-1, widened by n / n_eff: correlated residuals carry the information of n_eff white samples
-    s2 = float(r @ r) / max(y_used.size - len(labels), 1)
-    cov = s2 * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff) / np.outer(scales, scales)
+    n_eff = integrated_effective_samples(r)
+    # s^2 (A^T A)^-1, widened by n / n_eff (statistics.covariance): correlated residuals carry the
+    # information of n_eff white samples
+    cov = covariance(A, r, n_effective=n_eff) / np.outer(scales, scales)
     coef = scaled / scales
+    errors = standard_errors(cov)
     units = {t.label: t.unit for t in terms}
     matches = {t.label: t.matches for t in terms}
     result.update({
         "explained": _explained(y_used, A @ scaled), "effective_samples": n_eff,
-        "terms": [{"term": k, "coefficient": float(c), "stderr": float(math.sqrt(max(cov[i, i], 0.0))),
+        "terms": [{"term": k, "coefficient": float(c), "stderr": float(errors[i]),
                    "unit": units[k], "matches": matches[k], "alternatives": selection["alternatives"].get(k, [])}
                   for i, (k, c) in enumerate(zip(labels, coef))],
     })
