@@ -113,23 +113,33 @@ def test_the_stepwise_engine_finds_the_terms_of_a_hand_built_problem():
     n = 400
     columns = {f"x{i}": rng.standard_normal(n) for i in range(1, 6)}
     y = 3.0 * columns["x1"] + 0.5 * columns["x3"] + rng.normal(0, 0.05, n)
+    selected = []
 
-    def try_with(names):
+    def rss_of(names):
+        if not names:
+            return float(y @ y)
         A = np.column_stack([columns[c] for c in names])
         coef, *_ = np.linalg.lstsq(A, y, rcond=None)
         r = y - A @ coef
         return float(r @ r)
 
-    def accept(name, rss, selected):
-        before = float(y @ y) if not selected else try_with(selected)
-        gain = statistics.bic(rss, n, len(selected) + 1) - statistics.bic(before, n, len(selected))
-        return None if gain < -10 else f"{name} gains only {gain:.1f}"
+    def judge(tried):
+        name = min(tried, key=tried.get)
+        gain = statistics.bic(tried[name], n, len(selected) + 1) - statistics.bic(rss_of(selected), n, len(selected))
+        return (True, name) if gain < -10 else (False, f"{name} gains only {gain:.1f}")
 
-    selected, rss, reason = statistics.forward_stepwise(list(columns), try_with, lambda tried: min(tried, key=tried.get),
-                                                        accept, max_terms=4)
+    ended = statistics.forward_stepwise(lambda: [c for c in columns if c not in selected],
+                                        lambda left: {c: rss_of([*selected, c]) for c in left}, judge,
+                                        selected.append, exhausted="nothing left")
     assert selected == ["x1", "x3"]
-    assert rss == pytest.approx(0.05 ** 2 * n, rel=0.2)
-    assert reason is not None and "gains only" in reason
+    assert rss_of(selected) == pytest.approx(0.05 ** 2 * n, rel=0.2)
+    assert ended.startswith("x") and "gains only" in ended
+    # with every term needed, it stops when nothing is left
+    everything = []
+    ended = statistics.forward_stepwise(lambda: [c for c in "abc" if c not in everything],
+                                        lambda left: {c: 0.0 for c in left}, lambda fits: (True, min(fits)),
+                                        everything.append, exhausted="nothing left")
+    assert everything == ["a", "b", "c"] and ended == "nothing left"
 
 
 def test_a_held_command_through_a_lag_is_the_exponential():

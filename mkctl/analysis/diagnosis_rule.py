@@ -48,7 +48,7 @@ from typing import Callable
 
 import numpy as np
 
-from .statistics import bic, effective_samples  # the statistics are defined there, once
+from .statistics import bic, effective_samples, forward_stepwise  # each defined there, once
 
 
 @dataclass(frozen=True)
@@ -262,24 +262,27 @@ def forward_selection(current: Score, remaining: Callable[[], list[str]],
     and returns the new current score. Returns the decision that ended the selection (``"stop"`` or
     ``"undecided"``; a ``"stop"`` without judgements when no candidate is left).
     """
-    while True:
-        left = remaining()
-        if not left:
-            return Decision("stop", reason="no candidate effect left for this experiment")
-        outcomes = {c.effect: c for c in fit_round(left)}
-        decision = decide(current, list(outcomes.values()), rule)
+    now = [current]  # the current model's score, replaced at each addition
+
+    def judge_round(round_outcomes: list[Candidate]) -> tuple[bool, Decision]:
+        outcomes = {c.effect: c for c in round_outcomes}
+        decision = decide(now[0], list(outcomes.values()), rule)
         tested: set = set()
         while null_test is not None and decision.verdict != "stop" and decision.effect not in tested:
             tested.add(decision.effect)
             outcomes[decision.effect] = null_test(outcomes[decision.effect])
-            decision = decide(current, list(outcomes.values()), rule)
+            decision = decide(now[0], list(outcomes.values()), rule)
         if decision.verdict == "undecided" and break_tie is not None:
             decision = break_tie(decision)
         if decision.verdict != "add" and decision.judgements and with_requirements is not None:
             decision = with_requirements(decision)
-        if decision.verdict != "add":
-            return decision
-        current = add(decision)
+        return decision.verdict == "add", decision
+
+    def adopt(decision: Decision) -> None:
+        now[0] = add(decision)
+
+    return forward_stepwise(remaining, fit_round, judge_round, adopt,
+                            Decision("stop", reason="no candidate effect left for this experiment"))
 
 
 def pair_needed(singles: list[Score], both: Score, rule: Rule = RULE) -> bool:

@@ -61,7 +61,8 @@ from ..physics import effects as registry
 from ..physics.effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
 from .signals import delayed, lagged
-from .statistics import alternate_blocks, bic, covariance, integrated_effective_samples, standard_errors
+from .statistics import (alternate_blocks, bic, covariance, forward_stepwise, integrated_effective_samples,
+                         standard_errors)
 
 #: Contiguous blocks the samples are cut into; even blocks fit, odd blocks check.
 BLOCKS = 10
@@ -320,6 +321,67 @@ def _explained(y, prediction) -> float:
     return 1.0 - float((y - prediction) @ (y - prediction)) / total if total > 0 else 0.0
 
 
+class _TermSelection:
+    """The discovery's selection on the stepwise engine (:func:`mkctl.analysis.statistics.forward_stepwise`):
+    the terms selected, the fitting blocks' RSS, the fractions explained, the steps."""
+
+    def __init__(self, y, A, labels: list, train, say):
+        self.y, self.A, self.labels, self.train, self.say = y, A, labels, train, say
+        self.selected: list[int] = []
+        self.rss = float(y[train] @ y[train])
+        self.held, self.fitted = 0.0, 0.0
+        self.steps: list[dict] = []
+
+    def remaining(self) -> list[int]:
+        if len(self.selected) >= MAX_TERMS:
+            return []
+        return [j for j in range(len(self.labels)) if j not in self.selected]
+
+    def fit_round(self, left: list[int]) -> dict:
+        """Each term added to the selected ones, fitted on the fitting blocks: (RSS, coefficients, residual,
+        held-out fraction explained)."""
+        y, A, train, test = self.y, self.A, self.train, ~self.train
+        tried = {}
+        for j in left:
+            cols = [*self.selected, j]
+            coef, *_ = np.linalg.lstsq(A[train][:, cols], y[train], rcond=None)
+            r = y[train] - A[train][:, cols] @ coef
+            tried[j] = (float(r @ r), coef, r, _explained(y[test], A[test][:, cols] @ coef))
+        return tried
+
+    def judge(self, tried: dict) -> tuple[bool, object]:
+        """The best term of the round (terms that fit nearly as well are rivals the fitting blocks cannot rank:
+        the checking blocks pick among them, the others are its alternatives) and whether it passes BIC and
+        the held-out gain: (True, the winner) or (False, the reason the selection stops)."""
+        least = min(v[0] for v in tried.values())
+        rivals = [j for j, v in tried.items() if v[0] <= RIVAL_FACTOR * least]
+        j = max(rivals, key=lambda i: (tried[i][3], -i))
+        new_rss, coef, r, new_held = tried[j]
+        label = self.labels[j]
+        alternatives = [self.labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
+        n_eff = integrated_effective_samples(r)
+        # one more term, both models counted at the new residual's effective samples (statistics.bic)
+        n_train = int(np.count_nonzero(self.train))
+        delta = bic(new_rss, n_train, len(self.selected) + 1, n_eff) - bic(self.rss, n_train, len(self.selected),
+                                                                          n_eff)
+        new_fitted = 1.0 - new_rss / float(self.y[self.train] @ self.y[self.train])
+        self.steps.append({"term": label, "delta_bic": delta, "explained_train": new_fitted,
+                           "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives})
+        self.say(f"  discovery: {label}: explains {new_fitted:.1%} fitted, {new_held:.1%} held out, "
+                 f"dBIC {delta:+.1f} (n_eff {n_eff:.0f})")
+        if not delta < -BIC_THRESHOLD:
+            return False, (f"the next term ({label}) changes the information criterion by only {delta:+.1f} "
+                           f"(needs < -{BIC_THRESHOLD:g} at {n_eff:.0f} effective samples)")
+        if not new_held - self.held >= MIN_HELDOUT_GAIN:
+            return False, (f"the next term ({label}) does not raise the held-out fraction explained by "
+                           f"{MIN_HELDOUT_GAIN:.0%} ({self.held:.1%} -> {new_held:.1%})")
+        return True, (j, new_rss, new_held, new_fitted)
+
+    def add(self, winner) -> None:
+        j, self.rss, self.held, self.fitted = winner
+        self.selected.append(j)
+
+
 def select_terms(y, columns: dict, train, say=None) -> dict:
     """Forward stepwise selection on standardized columns with the held-out check (module docstring).
 
@@ -328,7 +390,6 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
     "reason"}.
     """
     say = say or (lambda text: None)
-    test = ~train
     labels, scaled = [], []
     for label, column in columns.items():
         scale = float(np.sqrt(np.mean(column[train] ** 2)))
@@ -338,52 +399,9 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
     if not labels:
         return {"selected": [], "explained_train": 0.0, "explained_holdout": 0.0, "steps": [],
                 "reason": "no term of the library varies over this record"}
-    A = np.column_stack(scaled)
-    selected: list[int] = []
-    rss = float(y[train] @ y[train])
-    n_eff = integrated_effective_samples(y[train])
-    held, fitted = 0.0, 0.0
-    steps = []
-    reason = None
-    while len(selected) < MAX_TERMS:
-        tried = {}
-        for j in range(len(labels)):
-            if j in selected:
-                continue
-            cols = [*selected, j]
-            coef, *_ = np.linalg.lstsq(A[train][:, cols], y[train], rcond=None)
-            r = y[train] - A[train][:, cols] @ coef
-            tried[j] = (float(r @ r), coef, r, _explained(y[test], A[test][:, cols] @ coef))
-        if not tried:
-            break
-        # terms that fit (nearly) as well are rivals the fitting blocks cannot rank: the checking blocks pick
-        # among them, and the others are reported as alternatives
-        least = min(v[0] for v in tried.values())
-        rivals = [j for j, v in tried.items() if v[0] <= RIVAL_FACTOR * least]
-        j = max(rivals, key=lambda i: (tried[i][3], -i))
-        new_rss, coef, r, new_held = tried[j]
-        alternatives = [labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
-        cols = [*selected, j]
-        n_eff = integrated_effective_samples(r)
-        # one more term, both models counted at the new residual's effective samples (statistics.bic)
-        n_train = int(np.count_nonzero(train))
-        delta = bic(new_rss, n_train, len(cols), n_eff) - bic(rss, n_train, len(selected), n_eff)
-        new_fitted = 1.0 - new_rss / float(y[train] @ y[train])
-        step = {"term": labels[j], "delta_bic": delta, "explained_train": new_fitted,
-                "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives}
-        steps.append(step)
-        say(f"  discovery: {labels[j]}: explains {new_fitted:.1%} fitted, {new_held:.1%} held out, "
-            f"dBIC {delta:+.1f} (n_eff {n_eff:.0f})")
-        if not delta < -BIC_THRESHOLD:
-            reason = (f"the next term ({labels[j]}) changes the information criterion by only {delta:+.1f} "
-                      f"(needs < -{BIC_THRESHOLD:g} at {n_eff:.0f} effective samples)")
-            break
-        if not new_held - held >= MIN_HELDOUT_GAIN:
-            reason = (f"the next term ({labels[j]}) does not raise the held-out fraction explained by "
-                      f"{MIN_HELDOUT_GAIN:.0%} ({held:.1%} -> {new_held:.1%})")
-            break
-        selected.append(j)
-        rss, held, fitted = new_rss, new_held, new_fitted
+    selection = _TermSelection(y, np.column_stack(scaled), labels, train, say)
+    reason = forward_stepwise(selection.remaining, selection.fit_round, selection.judge, selection.add)
+    selected, held, fitted, steps = selection.selected, selection.held, selection.fitted, selection.steps
     if selected and not (held >= MIN_EXPLAINED and held >= HOLD_RATIO * fitted):
         reason = (f"the terms found ({', '.join(labels[j] for j in selected)}) explain {fitted:.1%} of the missing "
                   f"force where fitted but {held:.1%} held out (needs {MIN_EXPLAINED:.0%} and "

@@ -11,14 +11,15 @@
   correlation rho that is ``(1 + rho) / (1 - rho)``);
 - the held-out strategies: :func:`last_part` (in time: a prediction), :func:`every_kth` (interleaved points),
   :func:`alternate_blocks` (contiguous blocks, every other one fits);
-- :func:`forward_stepwise`: the greedy engine that adds the best of the remaining terms while an acceptance
-  test passes (the discovery's selection; the diagnosis's and the calibration's rule-based selection is
-  :func:`mkctl.analysis.diagnosis_rule.forward_selection`, which adds ties, null tests and requirements).
+- :func:`forward_stepwise`: the one forward stepwise engine (fit what is left, judge, add or stop), which the
+  diagnosis's and the calibration's :func:`mkctl.analysis.diagnosis_rule.forward_selection` (the rule's
+  criteria, null tests, ties, requirements) and the discovery's :func:`mkctl.analysis.discovery.select_terms`
+  run on, each with its own criteria.
 """
 from __future__ import annotations
 
 import math
-from typing import Callable, Hashable, Sequence
+from typing import Callable
 
 import numpy as np
 
@@ -171,37 +172,38 @@ def alternate_blocks(used, blocks: int) -> np.ndarray:
 
 # --- The stepwise engine -------------------------------------------------------------------------------
 
-def forward_stepwise(candidates: Sequence[Hashable], try_with: Callable, choose: Callable,
-                     accept: Callable, max_terms: int) -> tuple[list, object, str | None]:
-    """Greedy forward selection: add the best remaining candidate while ``accept`` passes.
+def forward_stepwise(remaining: Callable[[], list], fit_round: Callable[[list], object],
+                     judge: Callable[[object], tuple[bool, object]], add: Callable[[object], None],
+                     exhausted: object = None) -> object:
+    """The forward stepwise engine: round after round, fit what is left, judge, add the winner or stop.
+
+    The diagnosis and the calibration (:func:`mkctl.analysis.diagnosis_rule.forward_selection`: the rule's
+    criteria, null tests, ties and requirements in ``judge``) and the discovery
+    (:func:`mkctl.analysis.discovery.select_terms`: BIC at the effective samples and the held-out gain) run on
+    it; each brings its own criteria.
 
     Parameters
     ----------
-    candidates : sequence
-        What can be added.
-    try_with : callable
-        ``try_with(selected + [c])`` -> the fit of the model with candidate c added.
-    choose : callable
-        ``choose({c: fit})`` -> the candidate to judge next.
-    accept : callable
-        ``accept(c, fit, selected)`` -> None to add c, else the reason the selection stops.
-    max_terms : int
-        At most this many are added.
+    remaining : callable
+        ``remaining()`` -> what can still be added (asked each round: what was dropped may come back).
+    fit_round : callable
+        ``fit_round(left)`` -> this round's fits of each of ``left`` added to the current model.
+    judge : callable
+        ``judge(fits)`` -> (whether to add, the decision: what ``add`` adopts, or why the selection stops).
+    add : callable
+        ``add(decision)`` adopts the winner.
+    exhausted : optional
+        Returned when nothing is left.
 
     Returns
     -------
-    (selected, the last accepted fit or None, the reason it stopped or None)
+    The decision that ended the selection, or ``exhausted``.
     """
-    selected: list = []
-    last, reason = None, None
-    while len(selected) < max_terms:
-        tried = {c: try_with([*selected, c]) for c in candidates if c not in selected}
-        if not tried:
-            break
-        best = choose(tried)
-        reason = accept(best, tried[best], selected)
-        if reason is not None:
-            break
-        selected.append(best)
-        last = tried[best]
-    return selected, last, reason
+    while True:
+        left = remaining()
+        if not left:
+            return exhausted
+        accepted, decision = judge(fit_round(left))
+        if not accepted:
+            return decision
+        add(decision)
