@@ -1,9 +1,10 @@
 """The statistics and the sampled-signal operations of :mod:`mkctl.analysis.statistics` and
-:mod:`mkctl.analysis.signals`, each against an independent computation, and each defined once in mkctl.
+:mod:`mkctl.analysis.signals`, each against an independent computation, and each defined once.
 
-The references: AR(1) noise made with scipy.signal.lfilter (not mkctl's filter) and the spread of many of its
-realisations; BIC and the least-squares covariance by their textbook formulas with numpy's inverse; the median
-absolute deviation of scipy.stats; a held command through a lag against the exponential's closed form.
+The references: AR(1) noise made with scipy.signal.lfilter (not mkctl's filter) and the spread of
+many of its realisations; BIC and the least-squares covariance by their textbook formulas with
+numpy's inverse; the median absolute deviation of scipy.stats; a held command through a lag against
+the exponential's closed form.
 """
 from __future__ import annotations
 
@@ -49,7 +50,8 @@ def test_the_integrated_count_agrees_with_the_ar1_count_on_ar1_noise():
 
 
 def test_lag_one_correlation_is_capped_and_zero_for_a_constant():
-    assert statistics.lag_one_correlation(np.linspace(0, 1, 100)) == statistics.MAX_LAG_ONE_CORRELATION
+    ramp = np.linspace(0, 1, 100)
+    assert statistics.lag_one_correlation(ramp) == statistics.MAX_LAG_ONE_CORRELATION
     assert statistics.lag_one_correlation(np.ones(10)) == 0.0
 
 
@@ -66,7 +68,8 @@ def test_robust_sigma_is_the_normal_scaled_mad_and_ignores_outliers():
     rng = np.random.default_rng(4)
     x = rng.normal(5.0, 2.0, 5000)
     x[:50] = 1e4  # a few spoiled samples
-    assert statistics.robust_sigma(x) == pytest.approx(median_abs_deviation(x, scale="normal"), rel=1e-4)
+    mad = median_abs_deviation(x, scale="normal")
+    assert statistics.robust_sigma(x) == pytest.approx(mad, rel=1e-4)
     assert statistics.robust_sigma(x) == pytest.approx(2.0, rel=0.05)
 
 
@@ -79,7 +82,7 @@ def test_covariance_is_ordinary_least_squares_and_matches_the_spread_of_estimate
     r = y - A @ b
     expected = float(r @ r) / (n - 2) * np.linalg.inv(A.T @ A)
     np.testing.assert_allclose(statistics.covariance(A, r), expected, rtol=1e-10)
-    # the widening rule: AR(1) residuals of correlation phi widen by n / n_eff = (1 + phi) / (1 - phi)
+    # the widening rule: AR(1) residuals of correlation phi widen by n / n_eff = (1+phi) / (1-phi)
     phi = 0.5
     wide = statistics.covariance(A, r, n_effective=statistics.effective_samples(n, phi))
     np.testing.assert_allclose(wide, expected * (1 + phi) / (1 - phi), rtol=1e-10)
@@ -96,7 +99,8 @@ def test_covariance_is_ordinary_least_squares_and_matches_the_spread_of_estimate
 def test_covariance_of_one_estimate_and_a_given_rss():
     j = np.array([1.0, 2.0, 3.0, 4.0])
     r = np.array([0.1, -0.1, 0.2, 0.0])
-    assert statistics.covariance(j, r, parameters=2)[0, 0] == pytest.approx(float(r @ r) / 2 / float(j @ j))
+    one = statistics.covariance(j, r, parameters=2)[0, 0]
+    assert one == pytest.approx(float(r @ r) / 2 / float(j @ j))
     assert statistics.covariance(j, rss=0.6)[0, 0] == pytest.approx(0.6 / 3 / float(j @ j))
 
 
@@ -125,20 +129,22 @@ def test_the_stepwise_engine_finds_the_terms_of_a_hand_built_problem():
 
     def judge(tried):
         name = min(tried, key=tried.get)
-        gain = statistics.bic(tried[name], n, len(selected) + 1) - statistics.bic(rss_of(selected), n, len(selected))
+        k = len(selected)
+        gain = statistics.bic(tried[name], n, k + 1) - statistics.bic(rss_of(selected), n, k)
         return (True, name) if gain < -10 else (False, f"{name} gains only {gain:.1f}")
 
-    ended = statistics.forward_stepwise(lambda: [c for c in columns if c not in selected],
-                                        lambda left: {c: rss_of([*selected, c]) for c in left}, judge,
-                                        selected.append, exhausted="nothing left")
+    ended = statistics.forward_stepwise(
+        lambda: [c for c in columns if c not in selected],
+        lambda left: {c: rss_of([*selected, c]) for c in left}, judge, selected.append,
+        exhausted="nothing left")
     assert selected == ["x1", "x3"]
     assert rss_of(selected) == pytest.approx(0.05 ** 2 * n, rel=0.2)
     assert ended.startswith("x") and "gains only" in ended
     # with every term needed, it stops when nothing is left
     everything = []
-    ended = statistics.forward_stepwise(lambda: [c for c in "abc" if c not in everything],
-                                        lambda left: {c: 0.0 for c in left}, lambda fits: (True, min(fits)),
-                                        everything.append, exhausted="nothing left")
+    ended = statistics.forward_stepwise(
+        lambda: [c for c in "abc" if c not in everything], lambda left: {c: 0.0 for c in left},
+        lambda fits: (True, min(fits)), everything.append, exhausted="nothing left")
     assert everything == ["a", "b", "c"] and ended == "nothing left"
 
 
@@ -147,7 +153,8 @@ def test_a_held_command_through_a_lag_is_the_exponential():
     command = np.full(time.size, 1e5)
     command[100:] = 2e5  # held from t_100 on
     tau = 0.03
-    expected = np.where(np.arange(time.size) >= 100, 2e5 - 1e5 * np.exp(-(time - time[100]) / tau), 1e5)
+    rising = 2e5 - 1e5 * np.exp(-(time - time[100]) / tau)
+    expected = np.where(np.arange(time.size) >= 100, rising, 1e5)
     np.testing.assert_allclose(signals.lagged(time, command, tau), expected, rtol=1e-9)
     # the pressure path without a dead time and without an exhausting rate is the same lag
     np.testing.assert_allclose(signals.pressure_path(time, command, tau=tau), expected, rtol=1e-9)
@@ -157,7 +164,8 @@ def test_a_delay_shifts_the_held_signal_and_an_exhausting_lag_is_slower_going_do
     time = np.arange(10) * 0.01
     values = np.arange(10.0)
     assert signals.delayed(time, values, 0.03).tolist() == [0, 0, 0, 0, 1, 2, 3, 4, 5, 6]
-    np.testing.assert_array_equal(signals.pressure_path(time, values, delay=0.03), signals.delayed(time, values, 0.03))
+    np.testing.assert_array_equal(signals.pressure_path(time, values, delay=0.03),
+                                  signals.delayed(time, values, 0.03))
     down = np.linspace(0.0, 1.0, 1001)
     step = np.full(down.size, 1e5)
     step[100:] = 0.0
@@ -168,20 +176,21 @@ def test_a_delay_shifts_the_held_signal_and_an_exhausting_lag_is_slower_going_do
     assert slow[k] > fast[k]
 
 
-# --- Each statistic is defined once ------------------------------------------------------------------------
+# --- Each statistic is defined once -----------------------------------------------------------
 
 #: A definition's name -> the one module that may define it.
 DEFINED_ONCE = {
-    "effective_samples": "statistics", "integrated_effective_samples": "statistics", "bic": "statistics",
-    "robust_sigma": "statistics", "covariance": "statistics", "lag_one_correlation": "statistics",
+    "effective_samples": "statistics", "integrated_effective_samples": "statistics",
+    "bic": "statistics", "robust_sigma": "statistics", "covariance": "statistics", "lag_one_correlation": "statistics",
     "standard_errors": "statistics", "forward_stepwise": "statistics",
     "lagged": "signals", "delayed": "signals", "held_at": "signals", "pressure_path": "signals",
 }
 
 
-#: The names the copies had before (the discovery's lag and delay, the diagnosis's lag-one correlation).
-OLD_COPIES = {"_lag": "lagged", "_delayed": "delayed", "_lag_one_correlation": "lag_one_correlation",
-              "_robust_sigma": "robust_sigma"}
+#: The names the copies had before (the discovery's lag and delay, the diagnosis's lag-one
+#: correlation).
+OLD_COPIES = {"_lag": "lagged", "_delayed": "delayed",
+              "_lag_one_correlation": "lag_one_correlation", "_robust_sigma": "robust_sigma"}
 
 
 def module_functions(tree) -> list[str]:
@@ -195,8 +204,9 @@ def robust_sigma_copies(tree) -> list[int]:
     for node in ast.walk(tree):
         if isinstance(node, ast.Constant) and node.value == 1.4826:
             lines.append(node.lineno)
-        if isinstance(node, ast.Call) and getattr(node.func, "attr", None) == "median" and node.args \
-                and isinstance(node.args[0], ast.Call) and getattr(node.args[0].func, "attr", None) == "abs":
+        call = isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Call)
+        if call and getattr(node.func, "attr", None) == "median" \
+                and getattr(node.args[0].func, "attr", None) == "abs":
             lines.append(node.lineno)
         if isinstance(node, ast.Attribute) and node.attr == "pinv":
             lines.append(node.lineno)
@@ -214,12 +224,14 @@ def test_each_statistic_and_signal_operation_is_defined_once():
                 found.setdefault(name, []).append(where)
         if path.stem != "statistics":
             copies = robust_sigma_copies(tree)
-            assert not copies, f"{where}, lines {copies}: a robust sigma or covariance computed outside statistics.py"
+            assert not copies, f"{where}, lines {copies}: a robust sigma or covariance outside statistics"
     for name, module in DEFINED_ONCE.items():
-        assert found.get(name) == [f"mkctl/analysis/{module}.py"], f"{name} defined in {found.get(name)}"
+        where = found.get(name)
+        assert where == [f"mkctl/analysis/{module}.py"], f"{name} defined in {where}"
 
 
 def test_the_scan_sees_a_copy(tmp_path):
-    tree = ast.parse("import numpy as np\n\ndef s(x):\n    return 1.4826 * np.median(np.abs(x - np.median(x)))\n")
+    source = "import numpy as np\n\ndef s(x):\n    return 1.4826 * np.median(np.abs(x - np.median(x)))\n"
+    tree = ast.parse(source)
     assert robust_sigma_copies(tree) == [4, 4]
     assert module_functions(ast.parse("def bic(r, n, k):\n    return 0\n")) == ["bic"]

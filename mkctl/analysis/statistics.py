@@ -1,20 +1,22 @@
-"""The statistics of identification, each defined once: the diagnosis, the calibration and the discovery call these.
+"""The statistics of identification, each defined once: the diagnosis, the calibration and the
+discovery call these.
 
 - :func:`robust_sigma`: the standard deviation of the bulk of a sample, ``1.4826 MAD``;
-- :func:`lag_one_correlation`: a residual's lag-one autocorrelation (capped, for the widening below);
+- :func:`lag_one_correlation`: a residual's lag-one autocorrelation (capped, for the widening);
 - :func:`effective_samples`: how many independent samples n samples of AR(1) noise are worth,
-  ``n (1 - phi) / (1 + phi)``; :func:`integrated_effective_samples`: the same count read from a residual's
-  integrated autocorrelation, for a residual whose colour is not AR(1) (the discovery's; see its docstring);
+  ``n (1 - phi) / (1 + phi)``; :func:`integrated_effective_samples`: the same count read from a
+  residual's integrated autocorrelation, for a residual whose colour is not AR(1) (the discovery's;
+  see its docstring);
 - :func:`bic`: ``m ln(RSS / n) + k ln m``, m the effective sample count;
-- :func:`covariance` and :func:`standard_errors`: ``s^2 (J^T J)^+``, ``s^2 = RSS / (n - k)``, with the one
-  widening rule for correlated residuals: multiplied by ``n / n_eff`` (for AR(1) residuals of lag-one
-  correlation rho that is ``(1 + rho) / (1 - rho)``);
-- the held-out strategies: :func:`last_part` (in time: a prediction), :func:`every_kth` (interleaved points),
-  :func:`alternate_blocks` (contiguous blocks, every other one fits);
-- :func:`forward_stepwise`: the one forward stepwise engine (fit what is left, judge, add or stop), which the
-  diagnosis's and the calibration's :func:`mkctl.analysis.diagnosis_rule.forward_selection` (the rule's
-  criteria, null tests, ties, requirements) and the discovery's :func:`mkctl.analysis.discovery.select_terms`
-  run on, each with its own criteria.
+- :func:`covariance` and :func:`standard_errors`: ``s^2 (J^T J)^+``, ``s^2 = RSS / (n - k)``, with
+  the one widening rule for correlated residuals: multiplied by ``n / n_eff`` (for AR(1) residuals
+  of lag-one correlation rho that is ``(1 + rho) / (1 - rho)``);
+- the held-out strategies: :func:`last_part` (in time: a prediction), :func:`every_kth`
+  (interleaved points), :func:`alternate_blocks` (contiguous blocks, every other one fits);
+- :func:`forward_stepwise`: the one forward stepwise engine (fit what is left, judge, add or stop)
+  that the diagnosis's and the calibration's :func:`mkctl.analysis.diagnosis_rule.forward_selection`
+  (the rule's criteria, null tests, ties, requirements) and the discovery's
+  :func:`mkctl.analysis.discovery.select_terms` run on, each with its own criteria.
 """
 from __future__ import annotations
 
@@ -23,7 +25,8 @@ from typing import Callable
 
 import numpy as np
 
-#: 1 / Phi^-1(3/4): the median absolute deviation of Gaussian noise times this is its standard deviation.
+#: 1 / Phi^-1(3/4): the median absolute deviation of Gaussian noise times this is its standard
+#: deviation.
 MAD_TO_SIGMA = 1.4826
 #: The lag-one correlation :func:`lag_one_correlation` reports at most (the widening stays finite).
 MAX_LAG_ONE_CORRELATION = 0.95
@@ -41,8 +44,8 @@ def robust_sigma(x) -> float:
 
 
 def lag_one_correlation(residual, cap: float = MAX_LAG_ONE_CORRELATION) -> float:
-    """``sum r_k r_(k-1) / sum r_k^2`` of the residual less its mean, at most ``cap``; 0 for fewer than 3
-    samples or a constant residual."""
+    """``sum r_k r_(k-1) / sum r_k^2`` of the residual less its mean, at most ``cap``; 0 for fewer
+    than 3 samples or a constant residual."""
     r = np.asarray(residual, dtype=float) - np.mean(residual)
     denominator = float(r @ r)
     if r.size < 3 or denominator == 0:
@@ -51,21 +54,23 @@ def lag_one_correlation(residual, cap: float = MAX_LAG_ONE_CORRELATION) -> float
 
 
 def effective_samples(n: int, correlation: float) -> float:
-    """The effective count of independent samples among n whose noise is AR(1) with lag-one ``correlation``
-    phi: ``n (1 - phi) / (1 + phi)`` (the variance of a mean of AR(1) noise is that many times sigma^2 / n
-    larger); n for phi <= 0. phi is taken at most :data:`MAX_AR1_CORRELATION`."""
+    """The effective count of independent samples among n whose noise is AR(1) with lag-one
+    ``correlation`` phi: ``n (1 - phi) / (1 + phi)`` (the variance of a mean of AR(1) noise is that
+    many times sigma^2 / n larger); n for phi <= 0. phi is taken at most
+    :data:`MAX_AR1_CORRELATION`."""
     phi = min(float(correlation), MAX_AR1_CORRELATION)
     return float(n) if phi <= 0 else n * (1.0 - phi) / (1.0 + phi)
 
 
 def integrated_effective_samples(residual) -> float:
-    """``n / (1 + 2 sum rho_k)``: the effective samples of a residual from its autocorrelation rho_k, summed
-    until it first falls below 0.05; between 2 and n.
+    """``n / (1 + 2 sum rho_k)``: the effective samples of a residual from its autocorrelation
+    rho_k, summed until it first falls below 0.05; between 2 and n.
 
-    For AR(1) noise this is :func:`effective_samples` (``1 + 2 sum phi^k = (1 + phi) / (1 - phi)``). The
-    discovery's missing force is not AR(1) (it is the smoothed equation error: a Savitzky-Golay window
-    correlates it over the window), so its count is read from the whole autocorrelation; the AR(1) form from
-    its lag-one correlation moves its pinned selections (measured: see docs/diagnosis.md), so both stay.
+    For AR(1) noise this is :func:`effective_samples` (``1 + 2 sum phi^k = (1 + phi) / (1 - phi)``).
+    The discovery's missing force is not AR(1) (it is the smoothed equation error: a Savitzky-Golay
+    window correlates it over the window), so its count is read from the whole autocorrelation; the
+    AR(1) form from its lag-one correlation moves its pinned selections (measured: see
+    docs/diagnosis.md), so both stay.
     """
     r = np.asarray(residual, dtype=float)
     r = r - r.mean()
@@ -82,7 +87,8 @@ def integrated_effective_samples(residual) -> float:
 
 
 def bic(rss: float, n: int, k: int, n_effective: float | None = None) -> float:
-    """Bayesian information criterion ``m ln(RSS / n) + k ln m`` of a least-squares fit, m = n_effective or n.
+    """Bayesian information criterion ``m ln(RSS / n) + k ln m`` of a least-squares fit, m the
+    effective samples (n_effective, else n).
 
     Parameters
     ----------
@@ -93,8 +99,8 @@ def bic(rss: float, n: int, k: int, n_effective: float | None = None) -> float:
     k : int
         The parameters fitted.
     n_effective : float, optional
-        The effective count of independent samples when the noise is correlated (:func:`effective_samples`),
-        kept within [1, n]; None: n (white noise).
+        The effective count of independent samples when the noise is correlated
+        (:func:`effective_samples`), kept within [1, n]; None: n (white noise).
 
     Returns
     -------
@@ -104,13 +110,13 @@ def bic(rss: float, n: int, k: int, n_effective: float | None = None) -> float:
     return m * math.log(max(float(rss), 1e-300) / n) + k * math.log(m)
 
 
-def covariance(jacobian, residual=None, parameters: int | None = None, n_effective: float | None = None,
-               rss: float | None = None) -> np.ndarray:
+def covariance(jacobian, residual=None, parameters: int | None = None,
+               n_effective: float | None = None, rss: float | None = None) -> np.ndarray:
     """Covariance of least-squares estimates: ``s^2 (J^T J)^+ n / n_eff``, ``s^2 = RSS / (n - k)``.
 
-    The one widening rule: correlated residuals carry the information of n_eff independent samples, so the
-    covariance of white residuals is multiplied by ``n / n_eff`` (AR(1) of lag-one correlation rho:
-    ``(1 + rho) / (1 - rho)``, :func:`effective_samples`).
+    The one widening rule: correlated residuals carry the information of n_eff independent samples,
+    so the covariance of white residuals is multiplied by ``n / n_eff`` (AR(1) of lag-one
+    correlation rho: ``(1 + rho) / (1 - rho)``, :func:`effective_samples`).
 
     Parameters
     ----------
@@ -147,10 +153,11 @@ def standard_errors(cov) -> np.ndarray:
     return np.sqrt(np.clip(np.diag(np.atleast_2d(cov)), 0.0, None))
 
 
-# --- Held-out strategies -------------------------------------------------------------------------------
+# --- Held-out strategies ----------------------------------------------------------------------
 
 def last_part(time, fraction: float) -> np.ndarray:
-    """Training mask of a record whose last ``fraction`` of the time span is held out (a prediction)."""
+    """Training mask of a record whose last ``fraction`` of the time span is held out (a
+    prediction)."""
     t = np.asarray(time, dtype=float)
     return t <= t[0] + (1.0 - fraction) * (t[-1] - t[0])
 
@@ -170,26 +177,29 @@ def alternate_blocks(used, blocks: int) -> np.ndarray:
     return train
 
 
-# --- The stepwise engine -------------------------------------------------------------------------------
+# --- The stepwise engine ----------------------------------------------------------------------
 
 def forward_stepwise(remaining: Callable[[], list], fit_round: Callable[[list], object],
                      judge: Callable[[object], tuple[bool, object]], add: Callable[[object], None],
                      exhausted: object = None) -> object:
-    """The forward stepwise engine: round after round, fit what is left, judge, add the winner or stop.
+    """The forward stepwise engine: round after round, fit what is left, judge, add the winner or
+    stop.
 
-    The diagnosis and the calibration (:func:`mkctl.analysis.diagnosis_rule.forward_selection`: the rule's
-    criteria, null tests, ties and requirements in ``judge``) and the discovery
-    (:func:`mkctl.analysis.discovery.select_terms`: BIC at the effective samples and the held-out gain) run on
-    it; each brings its own criteria.
+    The diagnosis and the calibration (:func:`mkctl.analysis.diagnosis_rule.forward_selection`: the
+    rule's criteria, null tests, ties and requirements in ``judge``) and the discovery
+    (:func:`mkctl.analysis.discovery.select_terms`: BIC at the effective samples and the held-out
+    gain) run on it; each brings its own criteria.
 
     Parameters
     ----------
     remaining : callable
-        ``remaining()`` -> what can still be added (asked each round: what was dropped may come back).
+        ``remaining()`` -> what can still be added (asked each round: what was dropped may come
+        back).
     fit_round : callable
         ``fit_round(left)`` -> this round's fits of each of ``left`` added to the current model.
     judge : callable
-        ``judge(fits)`` -> (whether to add, the decision: what ``add`` adopts, or why the selection stops).
+        ``judge(fits)`` -> (whether to add, the decision: what ``add`` adopts, or why the selection
+        stops).
     add : callable
         ``add(decision)`` adopts the winner.
     exhausted : optional

@@ -50,14 +50,15 @@ For the knee, fits are evaluated on every ``stride``-th sample (about :data:`FIT
 :data:`MAX_FIT_SPACING` apart), so n in BIC is the number of those samples. RMSE in the steps and before/after
 is over every sample. All RMSE are in the units of the file's output column; parameters are SI.
 
-The package's modules are the stages: :mod:`.candidates` (what a record can show), :mod:`.preparation`
-(measured inputs, smoothing, commands, gaps, sanity), :mod:`.noise` (the output's AR(1) noise, the inputs' noise
-through the model), :mod:`.pressure_path` (the lag judged on measured pressures), :mod:`.problem` (the fit
-problem, evaluation, one and joint fits), :mod:`.search` (forward selection and the wider search),
-:mod:`.signatures`, :mod:`.alternatives` (a tie as whole models), :mod:`.result` (the result and the verdict) and
-:mod:`.run` (:func:`diagnose`). The acceptance rule is :mod:`mkctl.analysis.diagnosis_rule`; the statistics are
-:mod:`mkctl.analysis.statistics`, the sampled-signal operations :mod:`mkctl.analysis.signals`. This module
-re-exports the public API only.
+The package's modules are the stages: :mod:`.candidates` (what a record can show),
+:mod:`.preparation` (measured inputs, smoothing, commands, gaps, sanity), :mod:`.noise` (the
+output's AR(1) noise, the inputs' noise), :mod:`.pressure_path` (the lag judged on measured
+pressures), :mod:`.problem` (the fit problem, evaluation, one and joint fits), :mod:`.search`
+(forward selection and the wider search), :mod:`.signatures`, :mod:`.alternatives` (a tie as whole
+models), :mod:`.result` (the result and the verdict) and :mod:`.run` (:func:`diagnose`). The
+acceptance rule is :mod:`mkctl.analysis.diagnosis_rule`; the statistics are
+:mod:`mkctl.analysis.statistics`, the sampled-signal operations :mod:`mkctl.analysis.signals`. This
+module re-exports the public API only.
 """
 from __future__ import annotations
 
@@ -80,15 +81,16 @@ from .search import WIDER_SEARCH_FACTOR
 from .signatures import signatures
 
 __all__ = [
-    "CANDIDATES", "DISCRIMINATING_EXPERIMENTS", "FIT_POINTS", "FIT_XATOL", "GAP_FACTOR", "INPUT_NOISE_FLOOR",
-    "INPUT_SMOOTHING_SAMPLES", "ISOTONIC_SMOOTHING_SAMPLES", "KNEE_SMOOTHING_S", "MAX_COMMAND_CHANGES",
-    "MAX_FIT_SPACING", "MAX_NOISE_CORRELATION", "MAX_NOISE_WINDOW", "NOISE_WINDOW", "NOISE_WINDOWS_NEEDED",
-    "NOISE_WINDOW_PER_TIME", "PLATEAU_NOISE_FACTOR", "PRESSURE_PATH", "QUASI_STATIC",
-    "QUASI_STATIC_NULL_REALISATIONS", "SIGNAL_LEAK_CORRELATION", "VERDICTS", "WHITE_NOISE_CORRELATION",
-    "WIDER_SEARCH_FACTOR", "Candidate", "DiagnosisResult", "NoiseModel", "block_commands", "candidates_for",
+    "CANDIDATES", "DISCRIMINATING_EXPERIMENTS", "FIT_POINTS", "FIT_XATOL", "GAP_FACTOR",
+    "INPUT_NOISE_FLOOR", "INPUT_SMOOTHING_SAMPLES", "ISOTONIC_SMOOTHING_SAMPLES",
+    "KNEE_SMOOTHING_S", "MAX_COMMAND_CHANGES", "MAX_FIT_SPACING", "MAX_NOISE_CORRELATION",
+    "MAX_NOISE_WINDOW", "NOISE_WINDOW", "NOISE_WINDOWS_NEEDED", "NOISE_WINDOW_PER_TIME",
+    "PLATEAU_NOISE_FACTOR", "PRESSURE_PATH", "QUASI_STATIC", "QUASI_STATIC_NULL_REALISATIONS",
+    "SIGNAL_LEAK_CORRELATION", "VERDICTS", "WHITE_NOISE_CORRELATION", "WIDER_SEARCH_FACTOR",
+    "Candidate", "DiagnosisResult", "NoiseModel", "block_commands", "candidates_for",
     "command_changes", "diagnose", "experiment_to_separate", "gap_note", "input_noise",
-    "input_noise_through_model", "lag_from_pressures", "measured_inputs", "noise_model", "output_noise",
-    "output_quantity", "output_range", "prepare_inputs", "pressure_path", "public", "quantization_step",
-    "renoised_inputs", "sanity_problems", "saturation_note", "save_pictures", "signatures", "smooth_input",
-    "summary", "time_gaps", "verdict_of",
+    "input_noise_through_model", "lag_from_pressures", "measured_inputs", "noise_model",
+    "output_noise", "output_quantity", "output_range", "prepare_inputs", "pressure_path",
+    "public", "quantization_step", "renoised_inputs", "sanity_problems", "saturation_note",
+    "save_pictures", "signatures", "smooth_input", "summary", "time_gaps", "verdict_of",
 ]

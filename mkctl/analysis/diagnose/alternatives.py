@@ -38,7 +38,7 @@ def _best_alternative(alternatives: list) -> tuple[list, Adequacy] | None:
     return best
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Alternative:
     """One explanation of a tie as a whole model: the final model refitted on the whole record with
     one effect from each tie (``rivals``): its effects, values, standard errors, simulation over

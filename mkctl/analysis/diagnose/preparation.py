@@ -351,7 +351,7 @@ def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, sa
         baseline, True
 
 
-@dataclass
+@dataclass(frozen=True)
 class Record:
     """The record as prepared for the search: the inputs the model is driven by, the baseline's simulation,
     the output noise, and what the report says about them."""

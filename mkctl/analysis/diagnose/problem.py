@@ -38,7 +38,7 @@ _LN10 = math.log(10.0)
 _FAILED = object()
 
 
-@dataclass
+@dataclass(frozen=True)
 class Problem:
     """The record as the fits see it: (smoothed, blocked) inputs, the samples compared, the split, and
     whether a constant sensor offset is profiled out of every residual."""
@@ -110,7 +110,7 @@ def fit_problem(measurement: Measurement, fit_offset: bool, rule: Rule = RULE, n
     return Problem(measurement, grid, train, n_train, fit_offset, correlation)
 
 
-@dataclass
+@dataclass(frozen=True)
 class Fit:
     """A model on the problem: its parameters, score and simulation (SI, on the grid)."""
 

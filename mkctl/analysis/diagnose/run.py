@@ -106,7 +106,7 @@ def _select(problem: Problem, record: Record, rule: Rule, say):
     return state, first.offset
 
 
-@dataclass
+@dataclass(frozen=True)
 class _Final:
     """The final model: the added effects (with a lag judged on pressures first), their values and standard
     errors from the joint fit on the whole record, its offset and its simulation over every sample [SI]."""
