@@ -67,10 +67,13 @@ def integrated_effective_samples(residual) -> float:
     rho_k, summed until it first falls below 0.05; between 2 and n.
 
     For AR(1) noise this is :func:`effective_samples` (``1 + 2 sum phi^k = (1 + phi) / (1 - phi)``).
-    The discovery's missing force is not AR(1) (it is the smoothed equation error: a Savitzky-Golay
-    window correlates it over the window), so its count is read from the whole autocorrelation; the
-    AR(1) form from its lag-one correlation moves its pinned selections (measured: see
-    docs/diagnosis.md), so both stay.
+    The discovery's missing force is not AR(1): it is the smoothed equation error, which a
+    Savitzky-Golay window correlates over the whole window, so its lag-one correlation alone
+    misjudges how much it holds. Measured: with the AR(1) count (at the residual's lag-one
+    correlation) in :func:`mkctl.analysis.discovery.select_terms` the discovery proposes nothing
+    for a threshold pressure (``test_a_threshold_pressure_is_named_and_its_p0_estimated`` in
+    ``tests/test_discovery.py`` fails), so the discovery keeps this definition and the diagnosis,
+    whose output noise is AR(1) (:func:`mkctl.analysis.diagnose.noise_model`), the other.
     """
     r = np.asarray(residual, dtype=float)
     r = r - r.mean()
