@@ -3,11 +3,16 @@
 Each case is one ``mkctl`` command run in this process through :func:`mkctl.cli.main` (stdout and stderr
 captured, warnings recorded, a time limit per case) on a file or an option made bad in one way: a metadata line
 added or changed, a cell, a row, the header or the bytes of a measurement file; a value, a key or the structure of
-a muscle file; one option of synth, step, rootlocus, linearize or sweep. The contract (issue 20) is:
+a muscle file; one option of synth, step, rootlocus, linearize or sweep; a hostile name (issue 30: quotes, triple
+quotes, line breaks, ``</script>``, ``&``, ``%``, backslashes, non-ASCII, control characters, a payload that
+creates ``PWNED`` if ever run as code) as a record's file name, a metadata value, a comment, a column name, or an
+effect file's description and unit. The contract (issues 20 and 30) is:
 
 - a refusal is one line on stderr and a non-zero exit, with no warning printed before it;
 - an accepted run exits 0 and writes and prints only finite numbers;
-- never a traceback, never a hang.
+- never a traceback, never a hang;
+- nothing of the input runs as code: every Python file the case wrote is compiled and run in a fresh process,
+  and no ``PWNED`` file appears; every JSON file written parses.
 
 Each case gets one outcome of :data:`OUTCOMES`; the first two are the contract kept, the others break it.
 Usage::
@@ -36,7 +41,7 @@ from pathlib import Path
 
 #: Outcomes: the contract kept (refused, accepted) or broken (the rest).
 OUTCOMES = ("refused", "accepted", "traceback", "hang", "warnings", "not one line", "non-finite written",
-            "non-finite printed")
+            "non-finite printed", "code executed", "broken file written")
 #: Seconds a case may take before it counts as a hang.
 CASE_TIMEOUT_S = 300
 
@@ -47,6 +52,15 @@ HOSTILE_NUMBERS = ("0", "-0", "-1", "1", "0.5", "-0.5", "1e308", "-1e308", "1e-3
 
 #: Numbers the model may accept (so that not every case is refused at once).
 PLAUSIBLE = ("0.01", "0.1", "0.5", "2", "10", "45", "100", "300")
+
+#: Names a hostile colleague gives a record, a column, a metadata value or an effect's description (issue 30).
+#: PAYLOAD creates the file PWNED in the working folder if it is ever run as code.
+PAYLOAD = 'x""";__import__("os").system("touch PWNED");"""y'
+HOSTILE_NAMES = (PAYLOAD, "x';__import__('os').system('touch PWNED');'", "it's \"quoted\"", "line\nbreak",
+                 "cr\rreturn", "</script><script>alert(1)</script>", "a & b &amp; <c>", "100 % %s %n %.6g",
+                 "back\\slash\\", "ünïcødé µ² 中文", "ctrl\x01\x07\x1b[31m", "\udcff undecodable", "tab\there",
+                 "[x](javascript:alert(1)) *em* `code`", "=HYPERLINK(\"http://x\")", "-rf", " ",
+                 "*/ /* ??= \\n", "$x^{$ \\frac{1}{0} $_$")
 
 FLOAT_WORD = re.compile(r"(?<![A-Za-z_])[-+]?(nan|inf|infinity)(?![A-Za-z_])", re.IGNORECASE)
 
@@ -86,7 +100,10 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     folder.mkdir(parents=True, exist_ok=True)
     for name, content in case.files.items():
         path = folder / name
-        (path.write_bytes if isinstance(content, bytes) else lambda t: path.write_text(t, encoding="utf-8"))(content)
+        if isinstance(content, bytes):
+            path.write_bytes(content)
+        else:  # a lone surrogate (an undecodable name) as the byte it stands for
+            path.write_text(content, encoding="utf-8", errors="surrogateescape")
     before = {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
     out, err = io.StringIO(), io.StringIO()
     status, error = None, None
@@ -118,10 +135,16 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
             os.chdir(cwd)
+            _unregister_effects(folder, case)
     seconds = time.perf_counter() - start
     stdout, stderr = out.getvalue(), err.getvalue()
     result = Result(case, "", status, stdout, stderr, seconds=seconds)
-    if status == "hang":
+    executed, broken_file = _code_executed(folder, before), _broken_files(folder, before)
+    if executed:
+        result.outcome, result.detail = "code executed", executed
+    elif broken_file and status not in ("hang", "traceback"):
+        result.outcome, result.detail = "broken file written", broken_file
+    elif status == "hang":
         result.outcome, result.detail = "hang", f"over {timeout:g} s"
     elif status == "traceback":
         result.outcome, result.detail = "traceback", error
@@ -145,6 +168,55 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
         else:
             result.outcome = "accepted"
     return result
+
+
+def _unregister_effects(folder: Path, case: Case) -> None:
+    """Unregister what the case's effect files registered (``--effects`` registers in this process): each case
+    starts from the same registry, and so does whatever runs in this process after the fuzzer."""
+    from mkctl.analysis.effect_files import EffectFileError, unregister_effect_file
+
+    for name in case.files:
+        if name.endswith(".py"):
+            with contextlib.suppress(EffectFileError):
+                unregister_effect_file(folder / name)
+
+
+def _written(folder: Path, before: dict, suffix: str) -> list:
+    return [p for p in sorted(folder.rglob(f"*{suffix}")) if p.is_file() and before.get(p) != p.stat().st_mtime_ns]
+
+
+def _code_executed(folder: Path, before: dict) -> str:
+    """Run every Python file the case wrote (a suggested effect file) in a fresh process, as ``--effects`` would;
+    then 'what ran' if a PWNED file exists (the payload ran, here or there), else ''."""
+    import subprocess
+
+    problems = []
+    for path in _written(folder, before, ".py"):
+        try:
+            compile(path.read_bytes(), str(path), "exec")
+        except SyntaxError as error:
+            problems.append(f"{path.name} is not valid Python ({error.msg}, line {error.lineno})")
+            continue
+        subprocess.run([sys.executable, "-c", "import runpy, sys; runpy.run_path(sys.argv[1])", str(path)],
+                       cwd=folder, capture_output=True, timeout=120)
+    if any(folder.rglob("PWNED")):
+        return "PWNED exists: the payload ran" + (f" ({'; '.join(problems)})" if problems else "")
+    return ""
+
+
+def _broken_files(folder: Path, before: dict) -> str:
+    """'file: why' for a JSON file the case wrote that does not parse, or a Python file that does not compile."""
+    for path in _written(folder, before, ".json"):
+        try:
+            json.loads(path.read_text(encoding="utf-8"))
+        except (ValueError, UnicodeDecodeError) as error:
+            return f"{path.name}: {type(error).__name__}: {str(error)[:100]}"
+    for path in _written(folder, before, ".py"):
+        try:
+            compile(path.read_bytes(), str(path), "exec")
+        except SyntaxError as error:
+            return f"{path.name}: not valid Python: {error.msg} (line {error.lineno})"
+    return ""
 
 
 #: Written tables whose non-finite cells are documented in words (mkctl.analysis.sweep: settling time inf =
@@ -345,10 +417,78 @@ def option_case(rng: random.Random, files: dict) -> Case:
     return Case("option", f"{command} {option}{value[:20]}", argv)
 
 
-GENERATORS = {"measurement": measurement_case, "muscle": muscle_case, "option": option_case}
+#: An effect file whose description and unit a case makes hostile (its name and parameter stay identifiers).
+HOSTILE_EFFECT = '''
+def hostile_drag(L, Ldot, P, p, xp):
+    return p.c_hostile * Ldot
 
 
-def cases(count: int, seed: int, files: dict, weights=(0.45, 0.15, 0.40)) -> list[Case]:
+EFFECTS = [{"name": "hostile_drag", "description": @DESCRIPTION@,
+            "parameters": [{"name": "c_hostile", "unit": @UNIT@, "off": 0.0, "lower": 0.0, "upper": 1e4,
+                            "typical": 10.0}],
+            "term": hostile_drag}]
+'''
+
+
+def _legal_file_name(text: str) -> str:
+    """text as a file name this system can hold: no '/', no NUL, not '.' or '..', a suffix kept short."""
+    name = text.replace("/", "_").replace("\x00", "")[:120]
+    return name if name.strip(".") else f"dots{name}"
+
+
+def hostile_case(rng: random.Random, files: dict) -> Case:
+    """A hostile name where mkctl writes user text into code or markup (issue 30): a record's file name through
+    compare, diagnose (with --suggest, then the suggested file is run) or a batch (CSV and JSON); a metadata
+    value or comment; a column name; an effect file's description and unit."""
+    text = rng.choice(HOSTILE_NAMES)
+    base = rng.choice(("knee.csv", "isotonic.csv", "isometric.csv"))
+    content = files[base]
+    what = rng.randrange(6)
+    if what <= 1:  # the record's name
+        name = _legal_file_name(text) + ".csv"
+        choice = rng.randrange(3)
+        if choice == 0:
+            argv = ["compare", name, "--out", "out"]
+        elif choice == 1:
+            argv = ["diagnose", name, "--suggest", "mine.py", "--json", "report.json", "--out", "out", "--quiet"]
+        else:
+            argv = ["diagnose", name, "other.csv", "--jobs", "0", "--out", "out", "--quiet"]
+        extra = {"other.csv": content} if choice == 2 else {}
+        return Case("hostile", f"{argv[0]} record named {text!r}", argv, {name: content, **extra})
+    lines = content.splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    one_line = " ".join(text.splitlines()) or "x"
+    if what == 2:  # a metadata value, or a comment
+        key = rng.choice(("experiment", "baseline", "c", "comment", "note", ""))
+        lines.insert(header, f"# {key} = {one_line}" if key else f"# {one_line}")
+        label = f"metadata {key or 'comment'} = {one_line!r}"
+    elif what == 3:  # a column name: an extra column (ignored), or one of the columns renamed
+        if rng.random() < 0.5:
+            cell = '"' + one_line.replace('"', '""') + '"'
+            lines[header] += "," + cell
+            for row in range(header + 1, len(lines)):
+                lines[row] += ",1"
+        else:
+            cells = lines[header].split(",")
+            cells[rng.randrange(len(cells))] = one_line.replace(",", ";")
+            lines[header] = ",".join(cells)
+        label = f"column named {one_line!r}"
+    else:  # an effect file's description and unit
+        effect = HOSTILE_EFFECT.replace("@DESCRIPTION@", repr(text)).replace(
+            "@UNIT@", repr(rng.choice((text, "N s/m"))))
+        command = rng.choice((["compare", base, "--out", "out"], ["diagnose", base, "--out", "out", "--quiet"]))
+        return Case("hostile", f"{command[0]} effect described {text!r}", [*command, "--effects", "hostile.py"],
+                    {base: content, "hostile.py": effect})
+    command = ["compare", base, "--out", "out"] if rng.random() < 0.7 else \
+        ["diagnose", base, "--json", "report.json", "--out", "out", "--quiet"]
+    return Case("hostile", f"{command[0]} {base}: {label}", command, {base: "\n".join(lines) + "\n"})
+
+
+GENERATORS = {"measurement": measurement_case, "muscle": muscle_case, "option": option_case,
+              "hostile": hostile_case}
+
+
+def cases(count: int, seed: int, files: dict, weights=(0.40, 0.12, 0.33, 0.15)) -> list[Case]:
     """``count`` cases from a generator seeded with ``seed`` (the same seed gives the same cases)."""
     rng = random.Random(seed)
     kinds = rng.choices(list(GENERATORS), weights=weights, k=count)

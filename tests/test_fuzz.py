@@ -1,4 +1,5 @@
-"""The fuzzer of bench/fuzz.py on a small fixed budget: bad measurement files, muscle files and options.
+"""The fuzzer of bench/fuzz.py on a small fixed budget: bad measurement files, muscle files, options and hostile
+names (issue 30: record names, metadata values, comments, column names, effect descriptions and units).
 
 The contract (issue 20): a refusal is one line on stderr with a non-zero exit and no warning before it; an
 accepted run writes and prints only finite numbers; never a traceback, never a hang. The generator is seeded, so
@@ -20,7 +21,7 @@ sys.modules[spec.name] = fuzz  # its dataclasses look their module up there
 spec.loader.exec_module(fuzz)
 
 #: Cases per kind in the suite: about twenty seconds in all on one core.
-BUDGET = {"measurement": 24, "muscle": 12, "option": 16}
+BUDGET = {"measurement": 24, "muscle": 12, "option": 16, "hostile": 16}
 
 
 @pytest.fixture(scope="module")
@@ -39,6 +40,9 @@ def test_fuzzed_input_is_refused_in_one_line_or_accepted_with_finite_numbers(kin
               for r in results if r.outcome not in ("refused", "accepted")]
     assert not broken, "\n".join(broken)
     assert any(r.outcome == "refused" for r in results)  # the generator does make bad input
+    if kind == "hostile":  # hostile names are mostly legal: most runs are accepted, none runs the payload
+        assert sum(r.outcome == "accepted" for r in results) >= len(results) // 3
+        assert not list(tmp_path.rglob("PWNED"))
 
 
 def test_the_fuzzer_sees_a_broken_contract(tmp_path, monkeypatch):
@@ -60,14 +64,20 @@ def test_the_fuzzer_sees_a_broken_contract(tmp_path, monkeypatch):
         if what == "nan":
             Path("out.csv").write_text("time_s,x_mm\n0,nan\n")
             return 0
+        if what == "inject":  # a generated file that runs a name pasted into it
+            Path("mine.py").write_text(f'"""for {fuzz.PAYLOAD}.csv"""\n')
+            return 0
+        if what == "json":
+            Path("report.json").write_text('{"file": "a"b"}')
+            return 0
         print("RMSE inf mm")
         return 0
 
     monkeypatch.setattr(mkctl.cli, "main", fake)
     outcomes = {w: fuzz.run_case(fuzz.Case("option", w, [w]), tmp_path / w).outcome
-                for w in ("raise", "warn", "two", "nan", "print")}
+                for w in ("raise", "warn", "two", "nan", "print", "inject", "json")}
     assert outcomes == {"raise": "traceback", "warn": "warnings", "two": "not one line", "nan": "non-finite written",
-                        "print": "non-finite printed"}
+                        "print": "non-finite printed", "inject": "code executed", "json": "broken file written"}
 
 
 @pytest.mark.parametrize("args", [

@@ -106,17 +106,62 @@ def _call(function: Callable, item, effect_files=()) -> tuple:
     return value, error, time.perf_counter() - start
 
 
-def _client(jobs: int | None, scheduler: str | None, dashboard: str | None = None):
+#: Dask's configuration keys of a client's TLS files (what :class:`distributed.security.Security` reads), by the
+#: ``--tls-*`` option that sets each.
+TLS_CONFIG = {"ca": "distributed.comm.tls.ca-file", "cert": "distributed.comm.tls.client.cert",
+              "key": "distributed.comm.tls.client.key"}
+
+
+def tls_config(ca=None, cert=None, key=None) -> dict:
+    """Dask configuration for a ``tls://`` scheduler from the ``--tls-ca/--tls-cert/--tls-key`` files (PEM): the
+    keys of :data:`TLS_CONFIG` (absolute paths) and ``distributed.comm.require-encryption``; {} with none given
+    (then Dask's own configuration counts: ``~/.config/dask/*.yaml`` or ``DASK_DISTRIBUTED__COMM__TLS__...``).
+    Use it as ``with dask.config.set(tls_config(...)):``. Raises :class:`BatchError` for a file that is missing."""
+    values = {}
+    for what, path in (("ca", ca), ("cert", cert), ("key", key)):
+        if path is None:
+            continue
+        if not Path(path).is_file():
+            raise BatchError(f"--tls-{what} {path}: no such file")
+        values[TLS_CONFIG[what]] = str(Path(path).resolve())
+    if values:
+        values["distributed.comm.require-encryption"] = True
+    return values
+
+
+def scheduler_security(scheduler: str, security=None):
+    """The :class:`distributed.security.Security` of a connection to ``scheduler``: ``security`` as given, else
+    Dask's configuration (:func:`tls_config`). A ``tls://`` address needs a CA and a client certificate (the
+    scheduler checks who connects, the client checks the scheduler); a ``tcp://`` address with encryption
+    required is refused rather than sent in clear text. Raises :class:`BatchError` in one line."""
+    from distributed.security import Security
+
+    security = Security() if security is None else security
+    if scheduler.startswith("tls://"):
+        missing = [what for what, value in (("--tls-ca", security.tls_ca_file),
+                                            ("--tls-cert", security.tls_client_cert)) if not value]
+        if missing:
+            raise BatchError(f"the scheduler {scheduler} speaks TLS: give {' and '.join(missing)} (and --tls-key "
+                             f"unless the certificate file holds the key), or set Dask's distributed.comm.tls "
+                             f"configuration (docs/batch.md)")
+    elif security.require_encryption:
+        raise BatchError(f"TLS certificates are given but the scheduler address {scheduler} is not tls://: "
+                         f"write tls://HOST:PORT (a tcp:// connection is clear text)")
+    return security
+
+
+def _client(jobs: int | None, scheduler: str | None, dashboard: str | None = None, security=None):
     """A distributed.Client on a new LocalCluster of ``jobs`` processes (scheduler, workers and the scheduler's HTTP
     server on loopback; ``dashboard``: where that server listens instead, ``HOST:PORT`` or ``PORT`` on loopback),
-    or on the scheduler at ``scheduler``."""
+    or on the scheduler at ``scheduler`` (``tcp://`` or ``tls://``, see :func:`scheduler_security`)."""
     import dask
     from distributed import Client, LocalCluster
 
     if scheduler:
+        security = scheduler_security(scheduler, security)
         try:
             with dask.config.set({"distributed.comm.timeouts.connect": f"{CONNECT_TIMEOUT_S}s"}):
-                client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+                client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s", security=security)
         except (OSError, TimeoutError, ValueError) as error:
             detail = str(error).strip().splitlines()[0] if str(error).strip() else type(error).__name__
             raise BatchError(f"cannot reach the Dask scheduler at {scheduler} within {CONNECT_TIMEOUT_S:g} s "
@@ -178,7 +223,7 @@ def _workers_ignore_interrupts():
 
 def run_batch(function: Callable, items: Iterable, jobs: int | None = None, scheduler: str | None = None,
               progress: bool = True, on_result: Callable[[Outcome], None] | None = None,
-              description: str = "items", dashboard: str | None = None) -> list[Outcome]:
+              description: str = "items", dashboard: str | None = None, security=None) -> list[Outcome]:
     """``function(item)`` for every item, in parallel on Dask; the outcomes in the items' order.
 
     Parameters
@@ -188,8 +233,9 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     jobs : worker processes of the local cluster (default: the cores, :func:`default_jobs`). Ignored with
         ``scheduler``. ``jobs=0``: no Dask, one item after the other in this process (for debugging, and
         for batches too small to pay for starting workers, about 2 s).
-    scheduler : address of a running Dask scheduler (``tcp://HOST:PORT``); default: a new LocalCluster
-        of processes, closed at the end.
+    scheduler : address of a running Dask scheduler (``tcp://HOST:PORT``, or ``tls://HOST:PORT`` with
+        certificates: ``security`` or Dask's configuration, :func:`scheduler_security`); default: a new
+        LocalCluster of processes, closed at the end.
     progress : show a progress bar (tqdm, on stderr).
     on_result : called in this process with each :class:`Outcome` as soon as it completes (in completion
         order): write results down here, so that nothing finished is lost if the batch stops later.
@@ -197,6 +243,8 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     dashboard : serve Dask's dashboard of the local cluster at this address (``PORT`` on loopback, or
         ``HOST:PORT``; its link is printed on stderr); default None: a free port on loopback, not printed.
         The scheduler and the workers of the local cluster listen on loopback only.
+    security : a :class:`distributed.security.Security` for ``scheduler`` (default: Dask's configuration,
+        which :func:`tls_config` sets from the command line's ``--tls-*`` files).
 
     Returns a list of :class:`Outcome`, one per item, in the items' order. An item whose function raised
     has ``error`` set (one line) and does not stop the others; so has an item whose worker died more often
@@ -212,7 +260,7 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     from distributed import as_completed
     from tqdm import tqdm
 
-    client, cluster = _client(jobs, scheduler, dashboard)
+    client, cluster = _client(jobs, scheduler, dashboard, security)
     if cluster is not None and dashboard is not None:
         print(f"Dask dashboard: {client.dashboard_link}", file=sys.stderr)
     bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr,
@@ -405,16 +453,35 @@ def write_summary_csv(path, rows: list[dict], parameters: list[str]) -> Path:
     return write_rows(path, rows, summary_columns(parameters))
 
 
+#: First characters that make a spreadsheet read a cell as a formula (CSV injection): a text cell that starts with
+#: one (a record named "=HYPERLINK(...).csv") is written with a leading apostrophe, as spreadsheets do.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def csv_cell(value):
+    """A value as a CSV cell: None empty; a text that a spreadsheet would run as a formula prefixed with "'"
+    (a number stays a number); quotes, commas and line breaks are the csv module's to quote."""
+    if value is None:
+        return ""
+    if isinstance(value, str) and value.startswith(FORMULA_STARTS):
+        try:
+            float(value)
+        except ValueError:
+            return "'" + value
+    return value
+
+
 def write_rows(path, rows: list[dict], columns: list[str] | None = None) -> Path:
-    """Write table rows as CSV, atomically (columns: given, or the first row's keys); None is an empty cell."""
+    """Write table rows as CSV (UTF-8; an undecodable file name's bytes as backslash escapes), atomically
+    (columns: given, or the first row's keys); None is an empty cell; see :func:`csv_cell`."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     temporary = path.with_name(path.name + ".tmp")
-    with temporary.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns or list(rows[0]))
+    with temporary.open("w", newline="", encoding="utf-8", errors="backslashreplace") as handle:
+        writer = csv.DictWriter(handle, fieldnames=[csv_cell(c) for c in columns or list(rows[0])])
         writer.writeheader()
         for row in rows:
-            writer.writerow({k: ("" if v is None else v) for k, v in row.items()})
+            writer.writerow({csv_cell(k): csv_cell(v) for k, v in row.items()})
     os.replace(temporary, path)
     return path
 
@@ -459,6 +526,22 @@ def format_table(rows: list[dict], parameters: list[str]) -> str:
     return "\n".join(out)
 
 
+#: The longest record name a figure's axis shows, in characters (longer ones end in an ellipsis).
+TICK_LABEL_CHARACTERS = 28
+
+
+def tick_label(name: str) -> str:
+    """A record's name as an axis label: on one line, what the font cannot draw as escapes
+    (:func:`mkctl.io.plotting.drawable`), '$' escaped (no mathtext), at most :data:`TICK_LABEL_CHARACTERS`
+    characters."""
+    from ..io.plotting import drawable
+
+    text = drawable(" ".join(str(name).splitlines()))
+    if len(text) > TICK_LABEL_CHARACTERS:
+        text = text[:TICK_LABEL_CHARACTERS - 1] + "\u2026"
+    return text.replace("$", r"\$")
+
+
 def plot_parameters(rows: list[dict], parameters: list[str], path=None):
     """One panel per parameter: its value with the standard error as error bar, one point per record.
 
@@ -467,7 +550,7 @@ def plot_parameters(rows: list[dict], parameters: list[str], path=None):
     from ..io.plotting import new_figure, save_png
     from ..physics.params import UNITS
 
-    names = [Path(row["file"]).name for row in rows]
+    names = [tick_label(Path(row["file"]).name) for row in rows]
     panels = parameters or [None]
     fig, axes = new_figure(len(panels), 1, figsize=(max(5.0, 0.45 * len(rows) + 2.5), 2.6 * len(panels)),
                            squeeze=False)
@@ -670,6 +753,8 @@ def calibrate_batch(files: Iterable, out, jobs: int | None = None, scheduler: st
         if outcome.ok:
             report = dict(outcome.value)
             reports[file] = report
+            for assumption in report.get("assumed", []):  # a default taken for this muscle: said on stderr too
+                print(f"mkctl calibrate: warning: {Path(file).name}: {assumption}", file=sys.stderr)
             muscle = {k: v for k, v in report.items() if k != "params"}
             write_muscle(out / names[file], params_from_values(report["params"], file), **muscle)
         else:

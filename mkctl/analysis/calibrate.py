@@ -233,9 +233,33 @@ def merged_metadata(records: list[ForceRecord]) -> dict:
         for name, value in r.overrides.items():
             if name in merged and not math.isclose(merged[name], value, rel_tol=1e-9):
                 raise CalibrationError(f"{r.source} gives {name} = {value:g} but {where[name]} gives {merged[name]:g}: "
-                                       "calibrate fits one muscle, its files must agree")
+                                       "files of different muscles; calibrate fits one muscle, its files must "
+                                       "agree (calibrate each on its own with --each)")
             merged[name], where[name] = value, r.source
     return merged
+
+
+#: How a note of a default assumed for what the files did not give begins (:attr:`CalibrationResult.assumed`).
+ASSUMED = "assumed: "
+
+#: The shortest a braid can pull a muscle, as a fraction of b: cos of the braid angle 54.7 deg (arctan sqrt 2),
+#: where a McKibben muscle's force vanishes at any pressure (model-spec section 2: L = b cos theta).
+SHORTEST_FRACTION = 1.0 / math.sqrt(3.0)
+
+
+def check_one_muscle(records: list[ForceRecord]) -> None:
+    """Refuse (one line) lengths no single muscle spans: one braid holds force only between b cos 54.7 deg and b,
+    so the longest measured length over the shortest is below sqrt(3) = 1.73 for one muscle. Files of different
+    muscles (a 300 mm and a 510 mm one) given together fail this; the line names the two files."""
+    shortest = min(records, key=lambda r: float(r.length.min()))
+    longest = max(records, key=lambda r: float(r.length.max()))
+    low, high = float(shortest.length.min()), float(longest.length.max())
+    if low > 0 and high * SHORTEST_FRACTION > low:
+        where = (f"{shortest.source} and {longest.source}" if shortest is not longest else shortest.source)
+        raise CalibrationError(
+            f"lengths from {low:g} m to {high:g} m ({where}) cannot belong to one muscle: a braid holds force "
+            f"only down to cos 54.7 deg = {SHORTEST_FRACTION:.3f} of its length b (ratio {high / low:.3g} > "
+            f"{1 / SHORTEST_FRACTION:.3f}); calibrate each muscle on its own (--each) or check the length units")
 
 
 def is_offset(name: str) -> bool:
@@ -423,6 +447,12 @@ class CalibrationResult(Result):
     records: list = field(repr=False, default_factory=list)
     curves: dict = field(repr=False, default_factory=dict)  #: step label -> (Params, each record's offset [N])
 
+    @property
+    def assumed(self) -> list[str]:
+        """The defaults assumed for what the files did not give (L0, D0, t0 from Table I): each a warning the
+        command line prints on stderr, and the muscle file's ``assumed``."""
+        return [note.removeprefix(ASSUMED) for note in self.notes if note.startswith(ASSUMED)]
+
     def summary_lines(self) -> list[str]:
         fitted = ", ".join(f"{k} = {v:.4g}" + (f" +- {self.stderr[k]:.2g}" if k in self.stderr else "")
                            for k, v in self.fitted.items())
@@ -462,6 +492,7 @@ class CalibrationResult(Result):
             "sources": list(self.sources),
             "points": self.points,
             "notes": list(self.notes),
+            "assumed": self.assumed,
             "stopped": self.stopped,
             "steps": [{k: v for k, v in s.items()} for s in self.steps],
         })
@@ -632,11 +663,20 @@ def _starting_muscle(records: list[ForceRecord], params: Params | None, extra: t
     names fitted; notes what was not given."""
     metadata = merged_metadata(records)
     start = (params or Params())
+    longest = max(float(r.length.max()) for r in records)
+    check_one_muscle(records)
+    # L0 is given by a file's metadata, --fit L0, or a muscle file (--params) with a length of its own
+    l0_given = "L0" in metadata or "L0" in extra or (params is not None and params.L0 != Params().L0)
+    if not l0_given and longest > Params().b:
+        raise CalibrationError(
+            f"the muscle's length at rest L0 is not given and the measured lengths reach {longest:g} m, beyond "
+            f"Table I's braid length b = {Params().b:g} m: this is not Table I's muscle, whose L0 = "
+            f"{Params().L0:g} m would be assumed; give its L0 with '# L0 = ...' in each file (or --params "
+            f"MUSCLE.json, or fit it with --fit L0)")
     for name in ("L0", "D0", "t0"):
         if params is None and name not in metadata and name not in extra:
-            notes.append(f"{name} not given (metadata or --params): Table I's {getattr(Params(), name):g} "
-                         f"{UNITS[name]} used")
-    longest = max(float(r.length.max()) for r in records)
+            notes.append(f"{ASSUMED}{name} not given (metadata '# {name} = ...' or --params): Table I's "
+                         f"{getattr(Params(), name):g} {UNITS[name]} used")
     values = {**metadata, "model": 2, "Fc": 0.0, "slack": 0}
     if "b" not in metadata:  # the start's braid must fit around these lengths (the fit moves it anyway)
         values["b"] = max(start.b, 1.15 * max(metadata.get("L0", start.L0), longest))
@@ -649,9 +689,12 @@ def _starting_muscle(records: list[ForceRecord], params: Params | None, extra: t
             notes.append("one force offset per isometric file: " + ", ".join(
                 f"{n} for {Path(r.source).name}" for n, r in zip(offset_names(records), records) if n))
     if "L0" not in names and longest >= start.L0 * B_OVER_L0:
+        default = "L0" not in metadata and (params is None or params.L0 == Params().L0)
         raise CalibrationError(f"a measured length {longest:g} m is not below the braid length b of any physical braid "
                                f"with L0 = {start.L0:g} m (b < L0 / cos {MAX_BRAID_ANGLE:g} deg = "
-                               f"{start.L0 * B_OVER_L0:.4g} m): check the length unit and L0")
+                               f"{start.L0 * B_OVER_L0:.4g} m): check the length unit and L0"
+                               + (f" (L0 = {start.L0:g} m is Table I's length at rest, a default: give yours with "
+                                  f"'# L0 = ...')" if default else ""))
     return start, names
 
 

@@ -58,7 +58,7 @@ from ..errors import MkctlError
 from ..io.measurements import Measurement
 from ..physics import actuator, knee
 from ..physics import effects as registry
-from ..physics.effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
+from ..physics.builtin_effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
 from .signals import delayed, lagged
 from .statistics import (alternate_blocks, bic, covariance, forward_stepwise, integrated_effective_samples,

@@ -51,12 +51,14 @@ is harmless; another effect under a name already taken is a one-line error.
 """
 from __future__ import annotations
 
+import ast
 import hashlib
 import inspect
 import json
 import keyword
 import math
 import runpy
+import shlex
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -64,6 +66,8 @@ from typing import Callable
 import numpy as np
 
 from ..errors import MkctlError
+from ..fmi.xml import xml_forbidden
+from ..io.report import visible
 from ..physics import effects as registry
 from ..physics.actuator import MATH_FUNCTIONS, symbolic_math
 from ..physics.params import BASE_NAMES, DEFAULT, PARAMETER_NAMES, Params
@@ -195,8 +199,9 @@ def _check_effect(entry, number: int, where: str, params: Params) -> UserEffect:
     if not isinstance(entry, dict):
         raise EffectFileError(f"{where}: EFFECTS[{number - 1}] is not a dict")
     name = entry.get("name")
-    if not isinstance(name, str) or not name.isidentifier() or keyword.iskeyword(name):
-        raise EffectFileError(f"{where}: EFFECTS[{number - 1}] has no valid name (a Python identifier), got {name!r}")
+    if not isinstance(name, str) or not name.isascii() or not name.isidentifier() or keyword.iskeyword(name):
+        raise EffectFileError(f"{where}: EFFECTS[{number - 1}] has no valid name (an ASCII Python identifier: it "
+                              f"names C functions too), got {name!r}")
     fail = lambda text: EffectFileError(f"{where}: effect '{name}': {text}")  # noqa: E731
     if name in built_in_effects():
         raise fail("the name of a built-in effect; choose another")
@@ -219,9 +224,22 @@ def _check_effect(entry, number: int, where: str, params: Params) -> UserEffect:
             signature = "(L, Ldot, P, p, xp)" if key == "term" else "(P, P_cmd, p, xp)"
             raise fail(f"'{key}' takes {count} arguments; it must take {signature}")
     parameters = _check_parameters(entry.get("parameters"), fail)
-    effect = UserEffect(name, parameters, term, rate, str(entry.get("description", "")), where)
+    description = entry.get("description", "")
+    if not isinstance(description, str):
+        raise fail(f"'description' must be a text, got {type(description).__name__}")
+    _check_text(description, "'description'", fail)
+    effect = UserEffect(name, parameters, term, rate, description, where)
     _check_traceable(effect, params, fail)
     return effect
+
+
+def _check_text(text: str, what: str, fail) -> None:
+    """A text that goes into the FMUs' modelDescription.xml and C sources: characters XML 1.0 cannot carry (a
+    control character, a lone surrogate) are refused, by position; everything else is escaped where written."""
+    bad = xml_forbidden(text)
+    if bad is not None:
+        raise fail(f"{what} has a character that an FMU's modelDescription.xml cannot carry "
+                   f"({text[bad]!r} at position {bad + 1}); remove it")
 
 
 def _check_parameters(raw, fail) -> tuple:
@@ -235,8 +253,9 @@ def _check_parameters(raw, fail) -> tuple:
         if missing:
             raise fail(f"parameter {item.get('name', '?')!r} lacks '{missing[0]}'")
         pname = item["name"]
-        if not isinstance(pname, str) or not pname.isidentifier() or pname.startswith("_"):
-            raise fail(f"parameter name {pname!r} is not a Python identifier")
+        if (not isinstance(pname, str) or not pname.isascii() or not pname.isidentifier() or pname.startswith("_")
+                or keyword.iskeyword(pname)):
+            raise fail(f"parameter name {pname!r} is not an ASCII Python identifier (it names C variables too)")
         if pname in names:
             raise fail(f"parameter '{pname}' is named twice")
         if pname in reserved_parameters():
@@ -257,7 +276,10 @@ def _check_parameters(raw, fail) -> tuple:
         if not values["lower"] <= values["typical"] <= values["upper"]:
             raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its typical "
                        f"value {values['typical']:g}")
-        out.append(EffectParameter(pname, str(item["unit"]), values["off"], values["lower"], values["upper"],
+        if not isinstance(item["unit"], str):
+            raise fail(f"parameter '{pname}': unit must be a text, got {type(item['unit']).__name__}")
+        _check_text(item["unit"], f"parameter '{pname}': unit", fail)
+        out.append(EffectParameter(pname, item["unit"], values["off"], values["lower"], values["upper"],
                                    values["typical"]))
     return tuple(out)
 
@@ -305,6 +327,25 @@ def _check_traceable(effect: UserEffect, params: Params, fail) -> None:
 
 
 # --- Writing a discovery's suggestion --------------------------------------------------------------------
+
+def docstring_literal(text: str) -> str:
+    """A triple-quoted Python string literal whose value is ``text``, exactly: backslashes and double quotes
+    escaped, every character that is not printable (a control character, a lone surrogate of an undecodable file
+    name) written as its escape; line breaks kept, so that the docstring reads as prose. Nothing in ``text`` can
+    end the literal or run as code (checked: the literal is parsed back)."""
+    body = []
+    for character in text:
+        if character in '\\"':
+            body.append("\\" + character)
+        elif character == "\n" or character.isprintable():
+            body.append(character)
+        else:
+            body.append(character.encode("unicode_escape").decode("ascii"))
+    literal = '"""' + "".join(body) + '"""'
+    if ast.literal_eval(literal) != text:  # cannot happen; a guard, not a fallback
+        raise EffectFileError(f"cannot write {text!r} as a docstring")
+    return literal
+
 
 def effect_source(name: str, parameter: str, unit: str, expression: str, coefficient: float, description: str) -> tuple:
     """(function source, EFFECTS entry source) of one effect whose term is ``expression`` (Python, with
@@ -372,7 +413,11 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
             continue
         if matches:
             name = f"found_{matches}"
-        description = (f"{label}, found by mkctl's discovery" + (f" in {source}" if source else "")
+        if not (name.isascii() and name.isidentifier() and parameter.isascii() and parameter.isidentifier()):
+            raise EffectFileError(f"cannot write an effect named {name!r} with parameter {parameter!r}: not "
+                                  f"Python identifiers")
+        # the description goes into the FMUs' XML: a control character of the record's name as its escape
+        description = (f"{label}, found by mkctl's discovery" + (f" in {visible(source)}" if source else "")
                        + (f"; the form of the spec's effect {matches}" if matches else "")
                        + f": coefficient {term['coefficient']:.4g} +- {term['stderr']:.2g} {term['unit']}")
         function, entry = effect_source(name, parameter, term["unit"], expression.format(k=parameter),
@@ -381,13 +426,14 @@ def write_suggestion(path, found: dict, source: str = "", registered=()) -> Path
         entries.append(entry)
     if not entries:
         return None
-    header = (f"\"\"\"Effect file suggested by mkctl diagnose (model-spec section 4c)"
-              + (f" for {source}" if source else "") + ".\n\n"
-              f"The force the model lacks follows the terms below: {found['explained']:.0%} of it explained "
-              f"({found.get('explained_holdout', 0.0):.0%} on held-out blocks). Add them with\n"
-              f"    mkctl diagnose {source or 'RECORD.csv'} --effects {path.name}\n"
-              + "".join(f"Not written: {note}.\n" for note in notes)
-              + "\"\"\"\n\n")
+    command = f"mkctl diagnose {shlex.quote(source or 'RECORD.csv')} --effects {shlex.quote(path.name)}"
+    docstring = (f"Effect file suggested by mkctl diagnose (model-spec section 4c)"
+                 + (f" for {source}" if source else "") + ".\n\n"
+                 f"The force the model lacks follows the terms below: {found['explained']:.0%} of it explained "
+                 f"({found.get('explained_holdout', 0.0):.0%} on held-out blocks). Add them with\n"
+                 f"    {command}\n"
+                 + "".join(f"Not written: {note}.\n" for note in notes))
+    header = docstring_literal(docstring) + "\n\n"
     text = header + "\n\n".join(functions) + "\n\nEFFECTS = [\n" + "".join(entries) + "]\n"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text, encoding="utf-8")

@@ -8,10 +8,12 @@
   of :mod:`mkctl.cli.measure`, which calls :func:`run_diagnose_batch` when it gets more than one file.
 
 Both run on a LocalCluster of ``--jobs`` processes (default: the cores) or on the Dask cluster whose
-scheduler is ``--scheduler tcp://HOST:PORT``.
+scheduler is ``--scheduler tcp://HOST:PORT``, or ``--scheduler tls://HOST:PORT`` with ``--tls-ca``, ``--tls-cert``
+and ``--tls-key`` (or Dask's own ``distributed.comm.tls`` configuration; docs/batch.md).
 """
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 
@@ -25,10 +27,30 @@ def add_engine_options(parser) -> None:
     parser.add_argument("--scheduler", metavar="ADDRESS", default=None,
                         help="run on the Dask cluster of this scheduler instead, e.g. tcp://10.0.0.5:8786 "
                              "(workers need mkctl installed and the files under the same paths)")
+    add_tls_options(parser)
     parser.add_argument("--dashboard", metavar="[HOST:]PORT", default=None,
                         help="serve Dask's dashboard of the local cluster here and print its link (PORT alone: on "
                              "127.0.0.1; 0: any free port; HOST:PORT to offer it to the network). Default: a free "
                              "port on 127.0.0.1; the local scheduler and workers listen on 127.0.0.1 only")
+
+
+def add_tls_options(parser) -> None:
+    """``--tls-ca``, ``--tls-cert``, ``--tls-key``: the PEM files of a ``tls://`` scheduler's connection."""
+    for what, text in (("ca", "the certificate authority that signed the scheduler's certificate"),
+                       ("cert", "this client's certificate (signed by that authority)"),
+                       ("key", "this client's private key (if not in the --tls-cert file)")):
+        parser.add_argument(f"--tls-{what}", metavar="FILE.pem", default=None,
+                            help=f"with --scheduler tls://HOST:PORT: {text}; or set Dask's "
+                                 f"distributed.comm.tls configuration instead (docs/batch.md)")
+
+
+def tls_settings(args):
+    """A context in which Dask's configuration holds the ``--tls-*`` files (nothing changes without them)."""
+    import dask
+
+    from ..analysis.batch import tls_config
+    values = tls_config(*(getattr(args, f"tls_{what}", None) for what in ("ca", "cert", "key")))
+    return dask.config.set(values) if values else contextlib.nullcontext()
 
 
 def _check_jobs(args) -> None:
@@ -109,8 +131,10 @@ def run_sweep(args) -> int:
             raise UsageError("nothing to sweep: give --grid NAME=START:STOP:COUNT ... or --random N --range ...")
         grid = dict(parse_axis(item) for item in args.grid)
         ranges = None
-    result = sweep(grid, random=args.random, ranges=ranges, fixed=fixed, seed=args.seed, jobs=args.jobs,
-                   scheduler=args.scheduler, progress=not args.quiet, chunk=args.chunk, dashboard=args.dashboard)
+    with tls_settings(args):
+        result = sweep(grid, random=args.random, ranges=ranges, fixed=fixed, seed=args.seed, jobs=args.jobs,
+                       scheduler=args.scheduler, progress=not args.quiet, chunk=args.chunk,
+                       dashboard=args.dashboard)
     print(repr(result))
     paths = result.save(folder)
     names = list(result.axes)
@@ -146,9 +170,11 @@ def run_diagnose_batch(args) -> int:
             what = f"error: {error}" if error else "missing: " + (", ".join(report["missing"]) or "nothing")
             tqdm.write(f"{Path(file).name}: {what}", file=sys.stderr)
 
-    result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
-                            on_record=said, base=base_params(args), fit_offset=getattr(args, "fit_offset", False),
-                            dashboard=getattr(args, "dashboard", None))
+    with tls_settings(args):
+        result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
+                                on_record=said, base=base_params(args),
+                                fit_offset=getattr(args, "fit_offset", False),
+                                dashboard=getattr(args, "dashboard", None))
     print(repr(result))
     print(f"reports: {folder}/<record>.diagnosis.json; table: {folder / SUMMARY_CSV}; figure: {folder / SUMMARY_PNG}")
     refused = [f for f, r in result.reports.items() if r.get("verdict") == "not diagnosed"]

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import sys
 
+from .batch import add_tls_options, tls_settings
 from .options import UsageError, add_params_option, base_params, output_file, output_folder, split_items
 
 
@@ -43,7 +44,9 @@ def register(subparsers) -> None:
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="with --each: worker processes "
                    "(default: the cores; 0: one after the other in this process)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
-                   help="with --each: a running Dask scheduler (tcp://HOST:PORT) instead of local processes")
+                   help="with --each: a running Dask scheduler (tcp://HOST:PORT, or tls://HOST:PORT with --tls-ca, "
+                        "--tls-cert, --tls-key) instead of local processes")
+    add_tls_options(p)
     p.add_argument("--fit", action="append", default=[], metavar="NAMES",
                    help=f"also fit these (comma-separated): {', '.join(OPTIONAL)} (offset: a force sensor's zero "
                         "offset, one per isometric file) - else L0, D0, t0 come from the files' metadata")
@@ -96,6 +99,8 @@ def run_calibrate(args) -> int:
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))
     result = calibrate(measurements, fit=split_items(args.fit), params=start, link_n=args.link_n, effects=effects,
                        max_evaluations=args.max_evaluations, progress=progress)
+    for assumption in result.assumed:  # a default taken for the user's muscle: said, and kept in the muscle file
+        print(f"mkctl calibrate: warning: {assumption}", file=sys.stderr)
     for line in summary(result):
         print(line)
     stem = out.stem
@@ -117,9 +122,10 @@ def run_calibrate_each(args) -> int:
     if args.jobs is not None and args.jobs < 0:
         raise UsageError(f"--jobs must be 0 or more, got {args.jobs}")
     effects = candidate_effects(args)
-    rows = calibrate_batch(args.files, out, jobs=args.jobs, scheduler=args.scheduler, progress=not args.quiet,
-                           base=base_params(args) if args.params is not None else None,
-                           fit=split_items(args.fit), link_n=args.link_n, effects=effects)
+    with tls_settings(args):
+        rows = calibrate_batch(args.files, out, jobs=args.jobs, scheduler=args.scheduler,
+                               progress=not args.quiet, base=base_params(args) if args.params is not None else None,
+                               fit=split_items(args.fit), link_n=args.link_n, effects=effects)
     print(f"{'file':<28} {'effects':<26} {'b [m]':>16} {'n':>14} {'NRMS':>15} error")
     for row in rows:
         b = "-" if row["b"] is None else f"{row['b']:.4g}" + (f" +-{row['b_se']:.1g}" if row["b_se"] else "")

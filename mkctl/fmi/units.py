@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from xml.etree import ElementTree as ET
 
+from ..errors import MkctlError
+
 #: FMI unit names for the unit strings of mkctl that are not valid FMI names as they are.
 FMI_UNIT_NAMES = {"N s/m": "N.s/m", "m/s^2": "m/s2"}
 #: SI base-unit exponents of every FMI unit the FMUs use.
@@ -19,6 +21,10 @@ FMI_BASE_UNITS = {
 #: SI base-unit exponents of the unit symbols a unit string may combine (an effect's own unit, "N/Pa").
 _SYMBOLS = {"m": {"m": 1}, "s": {"s": 1}, "kg": {"kg": 1}, "rad": {"rad": 1}, "N": {"kg": 1, "m": 1, "s": -2},
             "Pa": {"kg": 1, "m": -1, "s": -2}}
+
+
+class UnitError(MkctlError, ValueError):
+    """A unit an FMU cannot declare (no base-unit definition)."""
 
 
 def fmi_unit(unit: str) -> str:
@@ -48,12 +54,14 @@ def base_units(unit: str) -> dict | None:
 def unit_definitions(units) -> ET.Element:
     """``<UnitDefinitions>`` for the FMI unit names ``units`` (sorted, each once), with their base units.
 
-    Raises ValueError naming the units that have no base-unit definition in :data:`FMI_BASE_UNITS`.
+    Raises :class:`UnitError` (a ValueError) naming the units that have no base-unit definition in
+    :data:`FMI_BASE_UNITS`.
     """
     used = sorted(set(units))
     unknown = [u for u in used if base_units(u) is None]
     if unknown:
-        raise ValueError(f"no base-unit definition for unit(s) {unknown}")
+        raise UnitError(f"no base-unit definition for unit(s) {unknown}: an FMU's units are products and "
+                        f"quotients of N, Pa, m, s, kg, rad with integer powers (e.g. 'N s/m', 'N/Pa')")
     definitions = ET.Element("UnitDefinitions")
     for unit in used:
         node = ET.SubElement(definitions, "Unit", name=unit)

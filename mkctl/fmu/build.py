@@ -40,9 +40,9 @@ import sys
 import tempfile
 import zipfile
 from pathlib import Path
-from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
+from ..fmi.xml import xml_bytes
 from ..errors import MkctlError
 from ..physics.params import DEFAULT, Params
 from ..fmi.units import fmi_unit, unit_definitions
@@ -208,7 +208,7 @@ def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
         initial = ET.SubElement(structure, "InitialUnknowns")
         for index in outputs:
             ET.SubElement(initial, "Unknown", index=str(index))
-    return parseString(ET.tostring(root, "UTF-8")).toprettyxml(encoding="UTF-8")
+    return xml_bytes(root)
 
 
 def _complete_fmu(fmu: Path, target: Path, units: dict[str, str], fix_exit: bool) -> None:

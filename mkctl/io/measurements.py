@@ -234,8 +234,46 @@ def parse_measurement(text: str, source: str = "<text>", base: Params = DEFAULT)
     )
 
 
+#: A metadata line: ``# key = value`` with key an identifier (offsets: ``x_offset_mm``).
+_METADATA_LINE = re.compile(r"#\s*([A-Za-z_]\w*)\s*=\s*(.*?)\s*$")
+#: A value that makes a line with an unknown key metadata (to be refused) rather than prose: one number or word.
+_ONE_VALUE = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|[A-Za-z_][\w.+-]*")
+
+
+def known_metadata_key(key: str) -> bool:
+    """Whether key is metadata a file may give: experiment, baseline, a parameter name, an offset."""
+    return key in METADATA_KEYS or key in PARAMETER_NAMES or "_offset_" in key
+
+
+def metadata_line(line: str) -> tuple[str, str] | None:
+    """(key, value) of a ``#`` line that is metadata, or None for a comment.
+
+    The rule (docs/calibrate.md, "Comments and metadata"): a line is metadata when it reads ``# key = value`` with
+    key an identifier that is a known key (its value is then checked), or an unknown identifier followed by one
+    number or one word (a mistyped key: refused, naming the keys it could be). Every other ``#`` line is a comment:
+    one with no ``=``, a key that is not an identifier (``# supply - drop = 50 kPa``), or an unknown key followed by
+    prose (``# pressure = supply minus drop``)."""
+    match = _METADATA_LINE.fullmatch(line.strip())
+    if match is None:
+        return None
+    key, value = match.groups()
+    if known_metadata_key(key) or key == "model" or _ONE_VALUE.fullmatch(value):
+        return key, value
+    return None
+
+
+def _close_keys(key: str) -> str:
+    """Known keys a mistyped one could be (difflib), as a phrase."""
+    import difflib
+
+    known = [*METADATA_KEYS, *(n for n in PARAMETER_NAMES if n != "model")]
+    close = [k for k in known if k.lower() == key.lower()] or difflib.get_close_matches(key, known, n=3, cutoff=0.6)
+    return f" (did you mean {' or '.join(repr(k) for k in close)}?)" if close else ""
+
+
 def _read_metadata(lines, fail) -> tuple[dict, int]:
-    """The ``# key = value`` lines before the header: {key: (value, line number)}, and the header's index."""
+    """The ``# key = value`` lines before the header (:func:`metadata_line`): {key: (value, line number)}, and the
+    header's index."""
     metadata: dict[str, tuple[str, int]] = {}
     for index, raw in enumerate(lines):
         line = raw.strip()
@@ -243,21 +281,39 @@ def _read_metadata(lines, fail) -> tuple[dict, int]:
             continue
         if not line.startswith("#"):
             return metadata, index
-        body = line[1:].strip()
-        if "=" not in body:
-            continue  # a free comment
-        key, value = (part.strip() for part in body.split("=", 1))
-        if not key:
-            fail(index + 1, "metadata line has no key before '='")
+        parsed = metadata_line(line)
+        if parsed is None:
+            continue  # a comment
+        key, value = parsed
         if key in metadata:
             fail(index + 1, f"metadata key {key!r} given twice (first on line {metadata[key][1]})")
         if key == "model":
             fail(index + 1, "choose the model with 'baseline = model1' or 'baseline = model2', not 'model'")
-        if key not in METADATA_KEYS and key not in PARAMETER_NAMES and "_offset_" not in key:
-            fail(index + 1, f"unknown metadata key {key!r} (known: experiment, baseline, <column>_offset_<unit> "
-                            f"and the parameter names {', '.join(n for n in PARAMETER_NAMES if n != 'model')})")
+        if not known_metadata_key(key):
+            fail(index + 1, f"unknown metadata key {key!r}{_close_keys(key)}; known: experiment, baseline, "
+                            f"<column>_offset_<unit> and the parameter names "
+                            f"{', '.join(n for n in PARAMETER_NAMES if n != 'model')} (a '#' line with '=' is "
+                            f"metadata when its key is one word and its value one number or word)")
         metadata[key] = (value, index + 1)
     fail(len(lines) + 1, "no header row after the metadata (the file holds only '#' lines)")
+
+
+def table_default_hint(message: str, given=(), params: Params = DEFAULT) -> str:
+    """What a refusal owes to the paper's defaults: for each parameter of Table I or II that ``message`` names,
+    that was not ``given`` and still has the table's value in ``params``, the sentence that says so and how to
+    give one's own (``# b = ...`` in the file, or ``--params``); "" when there is none."""
+    from ..physics.params import TABLE_I, TABLE_II
+
+    hints = []
+    for table, entries in (("Table I", TABLE_I), ("Table II", TABLE_II)):
+        for name, quantity in entries.items():
+            if (name in given or not re.search(rf"\b{re.escape(name)} = ", message)
+                    or not math.isclose(getattr(params, name), quantity.value, rel_tol=1e-12)):
+                continue
+            hints.append(f"{name} = {quantity.value:g} {quantity.unit} is {table}'s {quantity.description} "
+                         f"{name}, a default: give your muscle's with '# {name} = ...' in the file (or in the "
+                         f"muscle file of --params MUSCLE.json)")
+    return "; ".join(hints)
 
 
 def _check_metadata(metadata: dict, header_index: int, base: Params, fail):
@@ -291,8 +347,10 @@ def _check_metadata(metadata: dict, header_index: int, base: Params, fail):
     except ParameterError as error:
         # name the lines that set the parameters the error speaks of, so that a pair (L0 and b) is found
         lines = sorted(metadata[k][1] for k in overrides if re.search(rf"\b{k}\b", str(error)))
+        hint = table_default_hint(str(error), overrides, base)
         fail(lines[0] if len(lines) == 1 else None,
-             f"{error}" + (f" (set on lines {', '.join(map(str, lines))})" if len(lines) > 1 else ""))
+             f"{error}" + (f" (set on lines {', '.join(map(str, lines))})" if len(lines) > 1 else "")
+             + (f" ({hint})" if hint else ""))
     return EXPERIMENTS[name], baseline, params, overrides, offsets
 
 

@@ -8,6 +8,7 @@ the notebook chose.
 """
 from __future__ import annotations
 
+import functools
 from pathlib import Path
 
 #: Keywords of :func:`new_figure` that go to ``Figure.subplots``; the others go to ``Figure``.
@@ -25,6 +26,7 @@ def _figure_class():
             import io
 
             buffer = io.BytesIO()
+            drawable_texts(self)
             self.savefig(buffer, format="png", dpi=100)
             return buffer.getvalue()
 
@@ -73,9 +75,67 @@ def plain_log_ticks(axis) -> None:
 PNG_COMPRESS_LEVEL = 3
 
 
+def _glyphs(properties) -> frozenset:
+    """The code points the font matplotlib picks for these font properties can draw."""
+    from matplotlib import font_manager
+
+    return _font_glyphs(font_manager.findfont(properties))
+
+
+@functools.lru_cache(maxsize=8)
+def _font_glyphs(path: str) -> frozenset:
+    from matplotlib import ft2font
+
+    return frozenset(ft2font.FT2Font(path).get_charmap())
+
+
+def drawable(content: str, properties=None) -> str:
+    """content as the font of ``properties`` (default: matplotlib's) can draw it: unprintable characters (a tab,
+    a control character, a lone surrogate) and letters the font has no glyph for (a CJK name in DejaVu Sans) as
+    their escapes; line breaks kept."""
+    from matplotlib.font_manager import FontProperties
+
+    from .report import visible
+
+    if not content.replace("\n", "").isprintable():
+        content = visible(content, keep="\n")
+    if not content.isascii():
+        glyphs = _glyphs(properties if properties is not None else FontProperties())
+        content = "".join(c if c.isascii() or ord(c) in glyphs else c.encode("unicode_escape").decode("ascii")
+                          for c in content)
+    return content
+
+
+def drawable_texts(fig) -> None:
+    """Make every text of fig drawable whatever a user's name put in it (a record named ``a$x^{$.csv`` in a
+    title): what its font cannot draw as escapes (:func:`drawable`), and a text whose ``$...$`` is not valid
+    mathtext drawn as plain text instead of raising when the figure is saved. Tick labels of a fixed list are
+    made later, at drawing: write them with :func:`drawable` yourself."""
+    from matplotlib.mathtext import MathTextParser
+    from matplotlib.text import Text
+
+    parser = None
+    for text in fig.findobj(Text):
+        content = text.get_text()
+        if not isinstance(content, str) or not content:
+            continue
+        drawn = drawable(content, text.get_fontproperties())
+        if drawn != content:
+            content = drawn
+            text.set_text(content)
+        if content.count("$") - content.count(r"\$") >= 2 and text.get_parse_math():
+            parser = parser or MathTextParser("path")
+            try:
+                parser.parse(content)
+            except ValueError:
+                text.set_parse_math(False)
+
+
 def save_png(fig, path, dpi: int = 120) -> Path:
-    """Save fig as a PNG at path (folders created) and return the path."""
+    """Save fig as a PNG at path (folders created) and return the path; its texts made drawable first
+    (:func:`drawable_texts`)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
+    drawable_texts(fig)
     fig.savefig(path, dpi=dpi, pil_kwargs={"compress_level": PNG_COMPRESS_LEVEL})
     return path

@@ -27,9 +27,9 @@ import tempfile
 import uuid
 import zipfile
 from pathlib import Path
-from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
+from ..fmi.xml import xml_bytes
 from ..physics.params import Params
 from . import fmu as fmi2
 from .fmu import C_DIR, MODEL_NAMES, Interface, NativeBuildError
@@ -136,7 +136,7 @@ def model_description(interface: Interface, token: str, event_indicators: int) -
                                 ("InitialUnknown", initial), ("EventIndicator", indicators)):
         for reference in references:
             ET.SubElement(structure, section, valueReference=str(reference))
-    return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
+    return xml_bytes(root)
 
 
 def build_description(model_name: str, units: list[str]) -> bytes:
@@ -148,7 +148,7 @@ def build_description(model_name: str, units: list[str]) -> bytes:
     files = ET.SubElement(configuration, "SourceFileSet", language="C99", compilerOptions=flags)
     for name in units:
         ET.SubElement(files, "SourceFile", name=name)
-    return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
+    return xml_bytes(root)
 
 
 def write_sources(interface: Interface, token: str, dest: Path, model_source: Path | None = None) -> list[str]:

@@ -51,9 +51,9 @@ import tempfile
 import uuid
 import zipfile
 from pathlib import Path
-from xml.dom.minidom import parseString
 from xml.etree import ElementTree as ET
 
+from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
 from ..fmi.interface import MODELS
 from ..fmi.units import fmi_unit, unit_definitions
@@ -280,11 +280,25 @@ def model_description(interface: Interface, guid: str, source_files: list[str], 
         node = ET.SubElement(structure, section)
         for position in indices:
             ET.SubElement(node, "Unknown", index=position)
-    return parseString(ET.tostring(root, "UTF-8")).toprettyxml(indent="\t", encoding="UTF-8")
+    return xml_bytes(root)
 
 
 def _c_string(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    """A C string literal of text's UTF-8 bytes, built from the bytes: printable ASCII as it is, every other byte
+    (a quote, a backslash, '?' of a trigraph, a line break, a control character, non-ASCII) as a 3-digit octal
+    escape, so that no text (a user's unit) can end the literal or the line."""
+    plain = set(b" !#$&'()*+,-./0123456789:;<=>@ABCDEFGHIJKLMNOPQRSTUVWXYZ[]^_`abcdefghijklmnopqrstuvwxyz{|}~%")
+    data = text.encode("utf-8", "backslashreplace")
+    return '"' + "".join(chr(b) if b in plain else f"\\{b:03o}" for b in data) + '"'
+
+
+def _value_format(message: str) -> str:
+    """A printf format of a message with one marker \\001 where the value goes: every other '%' (a user's unit
+    "%") doubled, the marker "%.6g"; exactly one marker, or the build stops."""
+    pieces = message.split("\001")
+    if len(pieces) != 2:
+        raise NativeBuildError(f"cannot make a C format of the message {message!r}")
+    return "%.6g".join(piece.replace("%", "%%") for piece in pieces)
 
 
 def _c_double(value: float) -> str:
@@ -296,7 +310,7 @@ def _c_double(value: float) -> str:
 def c_identifier(name: str) -> str:
     """The C name of a variable in ``VR_<name>``: ``der(X)`` becomes ``der_X``."""
     text = name.replace("(", "_").replace(")", "")
-    if not text.isidentifier():
+    if not (text.isascii() and text.isidentifier()):
         raise NativeBuildError(f"variable name {name!r} has no C identifier")
     return text
 
@@ -365,8 +379,9 @@ def variables_source(interface: Interface) -> str:
     pressures = [v.vr for v in interface.variables if v.causality == "input" and v.unit == "Pa"]
     integer_rules = [(v.vr, *integer_rule(v.name)) for v in interface.variables
                      if v.causality == "parameter" and v.type == "Integer"]
-    range_rules = [(v.vr, *domain, outside_domain_message(v.name, "%.6g", *domain, UNITS.get(v.name, "1")).replace("%", "%%")
-                    .replace("%%.6g", "%.6g")) for v in interface.variables
+    range_rules = [(v.vr, *domain,
+                    _value_format(outside_domain_message(v.name, "\001", *domain, UNITS.get(v.name, "1"))))
+                   for v in interface.variables
                    if v.causality == "parameter" and v.type == "Real" and v.name != "n"  # n: checked only when given
                    and (domain := domain_of(v.name)) is not None]
     states = ME_STATES[interface.model_name]
@@ -448,7 +463,7 @@ def _fault_template(check) -> str:
 
 
 def _c_template(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"').replace("\001", '\\001""') + '"'
+    return _c_string(text)  # the marker \001 becomes the octal escape \001 like any control character
 
 
 #: core_source's texts in this process, by the key of what they are generated from (the effect registry included:

@@ -1,0 +1,208 @@
+"""The experiment that tells two effects apart, once for each pair (model-spec sections 4, 4b, 6).
+
+When the diagnosis finds two effects that explain a record equally well, it says which experiment
+would settle it: the text here for that pair (keyed by the pair, in either order). A user's effect
+may bring its own (``Effect.separation``).
+"""
+
+from __future__ import annotations
+
+SEPARATIONS = {
+    ("viscous_damping", "pressure_lag"): (
+        "a pressure step with the leg clamped (a lag delays the force even without motion, "
+        "damping needs "
+        "motion), or a slow command ramp followed by a fast step (damping grows with speed, a lag "
+        "delays "
+        "both by tau); with measured bladder pressures (pe_kPa, pf_kPa) the lag shows directly"
+    ),
+    ("viscous_damping", "coulomb_friction"): (
+        "a pressure step instead of a ramp, or sweeps at two rates: friction leaves a "
+        "rate-independent "
+        "hysteresis loop (and stops a step's ringing at a fixed amplitude), damping's loop "
+        "shrinks to "
+        "nothing at low rates (and its ringing decays in proportion)"
+    ),
+    ("coulomb_friction", "pressure_lag"): (
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag "
+        "only "
+        "delays the response by tau"
+    ),
+    ("elasticity", "viscous_damping"): (
+        "an isotonic test held at constant pressures under several loads: elasticity changes "
+        "where the "
+        "length settles, damping only how fast it gets there"
+    ),
+    ("elasticity", "coulomb_friction"): (
+        "an isotonic sweep down to low pressure under several loads: elasticity bends the "
+        "contraction-pressure curve (most at low pressure), friction shifts up- and down-sweeps "
+        "apart"
+    ),
+    (
+        "elasticity",
+        "pressure_lag",
+    ): "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
+    ("elasticity", "slack"): (
+        "a blocked-force test at a short length from zero pressure up: slack reads zero until the "
+        "tension turns "
+        "positive, elasticity bends the whole curve"
+    ),
+    ("coulomb_friction", "slack"): (
+        "a blocked-force test with the pressure stepped up and back down: friction separates the "
+        "branches "
+        "everywhere, slack only flattens them at zero"
+    ),
+    ("viscous_damping", "slack"): (
+        "a blocked-force test at a short length: slack reads zero at low pressure with nothing "
+        "moving, damping "
+        "needs motion"
+    ),
+    ("pressure_lag", "slack"): (
+        "settled readings at a short length from zero pressure up: slack reads zero until the "
+        "tension turns "
+        "positive, a lag only delays each reading"
+    ),
+    # model-spec section 4b: every pair of diagnosis candidates has an experiment (the pairs with
+    # their nearest neighbour are in the effects' own definitions below)
+    ("pressure_friction", "elasticity"): (
+        "an isotonic sweep down to low pressure in both directions: pressure friction separates "
+        "the up- and "
+        "down-sweeps by an amount that grows with pressure, elasticity bends both the same way"
+    ),
+    ("pressure_friction", "viscous_damping"): (
+        "sweeps at two rates: friction's hysteresis loop is the same at both rates (and widens "
+        "with pressure), "
+        "damping's shrinks to nothing at low rates"
+    ),
+    ("pressure_friction", "pressure_lag"): (
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag "
+        "only delays the "
+        "response by tau"
+    ),
+    ("pressure_friction", "slack"): (
+        "a blocked-force test stepped up and back down: pressure friction separates the branches "
+        "in proportion "
+        "to the pressure, slack only flattens them at zero"
+    ),
+    ("pressure_friction", "pressure_threshold"): (
+        "a blocked-force test stepped up and back down at several pressures: pressure friction "
+        "opens the branches "
+        "apart, a threshold lowers both together (most at low pressure)"
+    ),
+    ("pressure_friction", "asymmetric_lag"): (
+        "a slow ramp of the pressure command up and back down: friction makes the leg stick and "
+        "then slip both "
+        "ways, an asymmetric lag only delays the fall more than the rise"
+    ),
+    ("pressure_friction", "dead_time"): (
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a dead "
+        "time only "
+        "shifts the response by the delay"
+    ),
+    ("pressure_threshold", "viscous_damping"): (
+        "slow steady states at several pressures: a threshold changes where the length settles, "
+        "damping only "
+        "how fast it gets there"
+    ),
+    ("pressure_threshold", "coulomb_friction"): (
+        "a blocked-force test stepped up and back down: a threshold lowers both branches together "
+        "(most at low "
+        "pressure), friction separates them"
+    ),
+    (
+        "pressure_threshold",
+        "pressure_lag",
+    ): "slow steady states at several pressures: a threshold changes them, a lag cannot",
+    ("pressure_threshold", "slack"): (
+        "a blocked-force test at a long length from zero pressure up: the threshold bends the "
+        "force-pressure "
+        "curve at low pressure where the tension stays positive, slack acts only where it would "
+        "be negative"
+    ),
+    (
+        "pressure_threshold",
+        "asymmetric_lag",
+    ): "slow steady states at several pressures: a threshold changes them, a lag cannot",
+    (
+        "pressure_threshold",
+        "dead_time",
+    ): "slow steady states at several pressures: a threshold changes them, a dead time cannot",
+    (
+        "asymmetric_lag",
+        "elasticity",
+    ): "slow steady states at several pressures (isotonic): elasticity changes them, a lag cannot",
+    ("asymmetric_lag", "viscous_damping"): (
+        "pressure steps up and down with the leg clamped and the bladder pressure measured: the "
+        "lag fills and "
+        "exhausts at different rates without motion, damping needs motion"
+    ),
+    ("asymmetric_lag", "coulomb_friction"): (
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a lag "
+        "only delays the "
+        "response"
+    ),
+    ("asymmetric_lag", "slack"): (
+        "settled readings at a short length from zero pressure up: slack reads zero until the "
+        "tension turns "
+        "positive, a lag only delays each reading"
+    ),
+    ("asymmetric_lag", "dead_time"): (
+        "a step of the command down with the bladder pressure measured: a dead time leaves it "
+        "flat for the delay "
+        "and then moves at once, an exhausting lag starts at once and approaches exponentially"
+    ),
+    ("dead_time", "elasticity"): (
+        "slow steady states at several pressures (isotonic): elasticity changes them, a dead time "
+        "cannot"
+    ),
+    ("dead_time", "viscous_damping"): (
+        "a pressure step with the leg clamped and the bladder pressure (or force) measured: a "
+        "dead time delays "
+        "it even without motion, damping needs motion"
+    ),
+    ("dead_time", "coulomb_friction"): (
+        "a slow ramp of the pressure command: friction makes the leg stick and then slip, a dead "
+        "time only "
+        "shifts the response by the delay"
+    ),
+    ("dead_time", "slack"): (
+        "settled readings at a short length from zero pressure up: slack reads zero until the "
+        "tension turns "
+        "positive, a dead time only delays each reading"
+    ),
+    ("pressure_friction", "coulomb_friction"): (
+        "a blocked-force test stepped up and back down at several pressures: "
+        "constant friction keeps the branches 2 Fc apart at every pressure, "
+        "pressure friction opens them in proportion to the pressure"
+    ),
+    ("pressure_threshold", "elasticity"): (
+        "a blocked-force test at two lengths from zero pressure up: the threshold bends "
+        "the force-pressure curve at low pressure at every length, elasticity shifts it "
+        "by a length-dependent constant"
+    ),
+    ("asymmetric_lag", "pressure_lag"): (
+        "pressure steps up and down of the same size (best with measured bladder "
+        "pressures): a symmetric lag follows both at the same rate, an asymmetric "
+        "one fills and exhausts at different rates"
+    ),
+    ("dead_time", "pressure_lag"): (
+        "a step of the command with the bladder pressure measured: a dead time "
+        "leaves it flat for the delay and then moves at once, a lag starts at once "
+        "and approaches exponentially"
+    ),
+}
+
+
+def separations_of(name: str) -> dict[str, str]:
+    """The experiments of :data:`SEPARATIONS` that involve an effect, by the other effect.
+
+    Parameters
+    ----------
+    name : str
+        The effect's name.
+
+    Returns
+    -------
+    dict of str to str
+        For each other effect paired with it, the experiment that tells the two apart.
+    """
+    return {b if a == name else a: text for (a, b), text in SEPARATIONS.items() if name in (a, b)}
