@@ -10,6 +10,7 @@ import dataclasses
 import pytest
 
 from mkctl.analysis import diagnose as dg
+from mkctl.analysis.diagnose.problem import fit_problem
 from mkctl.analysis.calibrate import calibrate, isometric_record
 from mkctl.analysis.diagnosis_rule import RULE, Rule
 from mkctl.analysis.synth import synthesize, synthesize_isometric, write_synthetic
@@ -87,7 +88,7 @@ def test_the_held_out_share_is_the_rules(friction_record):
     assert_flags_follow(half, Rule(holdout_fraction=0.5))
     m = friction_record
     for fraction in (0.3, 0.5):
-        problem = dg._problem(m, False, Rule(holdout_fraction=fraction))
+        problem = fit_problem(m, False, Rule(holdout_fraction=fraction))
         split = m.time[problem.n_train - 1]
         assert split <= m.time[0] + (1 - fraction) * (m.time[-1] - m.time[0]) < m.time[problem.n_train]
 

@@ -21,7 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from mkctl.analysis.diagnose import _dependent_start, _dependents, diagnose, save_pictures, summary
+from mkctl.analysis.diagnose import diagnose, save_pictures, summary
+from mkctl.analysis.diagnose.search import dependent_start as _dependent_start, dependents as _dependents
 from mkctl.analysis.diagnosis_rule import Score, extension_needed
 from mkctl.analysis.synth import synthesize
 from mkctl.io.measurements import measurement_from_arrays

@@ -4,6 +4,7 @@ the candidates cannot explain is never called "nothing missing"."""
 import numpy as np
 
 from mkctl.analysis import diagnose as dg
+from mkctl.analysis.diagnose.problem import knee_stride
 from mkctl.analysis.synth import synthesize
 from mkctl.io.measurements import measurement_from_arrays, read_measurement, write_measurement
 
@@ -50,11 +51,11 @@ def test_a_minute_long_record_is_fitted_on_samples_close_enough_to_see_its_trans
     path = write_measurement(tmp_path / "long.csv", "knee", record.time, record.inputs, record.output,
                              metadata=record.known, baseline="model2")
     measurement = read_measurement(path)
-    assert dg._knee_stride(measurement.time) == 20  # 3000 samples, 20 ms apart
+    assert knee_stride(measurement.time) == 20  # 3000 samples, 20 ms apart
     result = dg.diagnose(measurement)
     assert result.verdict == "diagnosed" and result.missing == ["viscous_damping"]
     assert abs(result.params["c"] - 30.0) < 4 * result.uncertainty["c"]
-    assert dg._knee_stride(np.arange(3000) * 1e-3) == 15  # the bench's 3 s records: about 200 samples, as before
+    assert knee_stride(np.arange(3000) * 1e-3) == 15  # the bench's 3 s records: about 200 samples, as before
 
 
 def test_a_model_far_from_the_data_is_never_nothing_missing(tmp_path):

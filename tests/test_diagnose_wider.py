@@ -1,8 +1,9 @@
 """The wider search's choice among combinations of candidates, on hand-built scores (no simulation).
 
-:meth:`mkctl.analysis.diagnose._Search.wider` fits every pair and every three of the candidates and adopts the
+:meth:`mkctl.analysis.diagnose.search.Search.wider` fits every pair and every three of the candidates and adopts the
 best by BIC when it passes the rule against the current model and beats, on the held-out part, every other
-combination that is neither part of it nor contains it. The joint fits are replaced here by a table of scores.
+combination that is neither part of it nor contains it. The joint fits are replaced here by a table of scores,
+passed to the search as its fitting callables (:class:`mkctl.analysis.diagnose.search.Fitting`).
 """
 from types import SimpleNamespace
 
@@ -10,6 +11,8 @@ import numpy as np
 import pytest
 
 from mkctl.analysis import diagnose as dg
+from mkctl.analysis.diagnose.problem import Fit
+from mkctl.analysis.diagnose.search import Fitting, Search
 from mkctl.analysis.diagnosis_rule import RULE, Score
 from mkctl.physics.params import Params
 
@@ -20,8 +23,8 @@ def score(rmse: float, holdout: float, k: int) -> Score:
     return Score(rmse * rmse * N, N, k, holdout)
 
 
-def search(table: dict, monkeypatch) -> dg._Search:
-    """A _Search over damping, friction and lag whose joint fits return the scores of ``table``."""
+def search(table: dict, monkeypatch) -> Search:
+    """A Search over damping, friction and lag whose joint fits return the scores of ``table``."""
     names = ["viscous_damping", "coulomb_friction", "pressure_lag"]
 
     def joint_fit(problem, base, effects, start, train_only, rough=False):
@@ -30,16 +33,13 @@ def search(table: dict, monkeypatch) -> dg._Search:
 
     def evaluate(problem, params, values):
         combo, _ = params
-        return dg._Fit(Params(), values, table[combo], 0.0, np.zeros(3))
+        return Fit(Params(), values, table[combo], 0.0, np.zeros(3))
 
-    monkeypatch.setattr(dg, "_joint_fit", joint_fit)
-    monkeypatch.setattr(dg, "_evaluate", evaluate)
     problem = SimpleNamespace(measurement=SimpleNamespace(experiment="knee"))
-    state = dg._Search(problem, Params(), names, RULE, 1.0, lambda text: None)
-    state.individual = {"viscous_damping": 30.0, "coulomb_friction": 1.0, "pressure_lag": 0.03}
-    state.current = dg._Fit(Params(), {}, score(1.0, 1.0, 0), 0.0, np.zeros(3))
-    state._refit = lambda fit: fit
-    return state
+    return Search(problem, Params(), names, RULE, 1.0, lambda text: None,
+                  individual={"viscous_damping": 30.0, "coulomb_friction": 1.0, "pressure_lag": 0.03},
+                  current=Fit(Params(), {}, score(1.0, 1.0, 0), 0.0, np.zeros(3)),
+                  fitting=Fitting(joint=joint_fit, evaluate=evaluate))
 
 
 def combos(best_three: Score, **pairs) -> dict:

@@ -72,6 +72,7 @@ from ..physics import actuator, effects
 from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, LiveMapping, Params
 from ..results import Result, plain
+from .statistics import covariance, robust_sigma, standard_errors
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_selection, judge
 
 #: Parameters always fitted (model-spec section 5b: the ones a user cannot measure).
@@ -161,7 +162,7 @@ def motion_direction(time, length, window: int = 11):
     whole window around the point (near a start or a stop of the motion the window straddles both, and
     the point counts as not moving: its load may lie anywhere in the friction band).
     """
-    from scipy.signal import savgol_filter
+    from .filters import savgol_filter
 
     time, length = np.asarray(time, float), np.asarray(length, float)
     n = length.size
@@ -172,7 +173,7 @@ def motion_direction(time, length, window: int = 11):
     dt = float(np.median(np.diff(time)))
     slope = savgol_filter(length, window, 1, deriv=1, delta=dt)
     scatter = length - savgol_filter(length, window, 1)
-    sigma = 1.4826 * float(np.median(np.abs(scatter - np.median(scatter))))
+    sigma = robust_sigma(scatter)
     slope_noise = sigma * math.sqrt(12.0 / (window ** 3 - window)) / dt
     threshold = max(3.0 * slope_noise, 1e-12)
     sign = np.where(slope > threshold, 1.0, np.where(slope < -threshold, -1.0, 0.0))
@@ -1065,8 +1066,9 @@ def _covariance(fit: _Fit, model: _Model):
     # the Jacobian of the residual on every point (least_squares's may be of the training part only)
     if J.shape[0] != n:
         J = _jacobian(model, fit.result.x)
-    cov_x = fit.rss / (n - k) * np.linalg.pinv(J.T @ J)
-    return cov_x, np.sqrt(np.clip(np.diag(cov_x), 0.0, None))
+    # white residuals: independent force points, no widening (statistics.covariance)
+    cov_x = covariance(J, parameters=k, rss=fit.rss)
+    return cov_x, standard_errors(cov_x)
 
 
 def _standard_errors(fit: _Fit, model: _Model) -> dict:

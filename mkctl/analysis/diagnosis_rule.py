@@ -48,6 +48,8 @@ from typing import Callable
 
 import numpy as np
 
+from .statistics import bic, effective_samples, forward_stepwise  # each defined there, once
+
 
 @dataclass(frozen=True)
 class Rule:
@@ -94,25 +96,6 @@ class Rule:
 
 #: The rule the diagnosis uses.
 RULE = Rule()
-
-
-def bic(rss: float, n: int, k: int, n_effective: float | None = None) -> float:
-    """Bayesian information criterion ``m ln(RSS / n) + k ln m`` of a least-squares fit, m = n_effective or n.
-
-    Parameters: rss, the residual sum of squares (any unit, squared); n, the samples compared; k, the
-    parameters fitted; n_effective, the effective count of independent samples when the noise is correlated
-    (:func:`effective_samples`; None: n, white noise). A zero RSS is taken as 1e-300 (a finite, very low value).
-    """
-    m = float(n if n_effective is None else min(max(n_effective, 1.0), n))
-    return m * math.log(max(float(rss), 1e-300) / n) + k * math.log(m)
-
-
-def effective_samples(n: int, correlation: float) -> float:
-    """The effective count of independent samples among n whose noise is AR(1) with lag-one ``correlation``
-    phi: ``n (1 - phi) / (1 + phi)`` (the variance of a mean of AR(1) noise is that many times sigma^2 / n
-    larger); n for phi <= 0."""
-    phi = min(float(correlation), 0.99)
-    return float(n) if phi <= 0 else n * (1.0 - phi) / (1.0 + phi)
 
 
 @dataclass(frozen=True)
@@ -279,24 +262,27 @@ def forward_selection(current: Score, remaining: Callable[[], list[str]],
     and returns the new current score. Returns the decision that ended the selection (``"stop"`` or
     ``"undecided"``; a ``"stop"`` without judgements when no candidate is left).
     """
-    while True:
-        left = remaining()
-        if not left:
-            return Decision("stop", reason="no candidate effect left for this experiment")
-        outcomes = {c.effect: c for c in fit_round(left)}
-        decision = decide(current, list(outcomes.values()), rule)
+    now = [current]  # the current model's score, replaced at each addition
+
+    def judge_round(round_outcomes: list[Candidate]) -> tuple[bool, Decision]:
+        outcomes = {c.effect: c for c in round_outcomes}
+        decision = decide(now[0], list(outcomes.values()), rule)
         tested: set = set()
         while null_test is not None and decision.verdict != "stop" and decision.effect not in tested:
             tested.add(decision.effect)
             outcomes[decision.effect] = null_test(outcomes[decision.effect])
-            decision = decide(current, list(outcomes.values()), rule)
+            decision = decide(now[0], list(outcomes.values()), rule)
         if decision.verdict == "undecided" and break_tie is not None:
             decision = break_tie(decision)
         if decision.verdict != "add" and decision.judgements and with_requirements is not None:
             decision = with_requirements(decision)
-        if decision.verdict != "add":
-            return decision
-        current = add(decision)
+        return decision.verdict == "add", decision
+
+    def adopt(decision: Decision) -> None:
+        now[0] = add(decision)
+
+    return forward_stepwise(remaining, fit_round, judge_round, adopt,
+                            Decision("stop", reason="no candidate effect left for this experiment"))
 
 
 def pair_needed(singles: list[Score], both: Score, rule: Rule = RULE) -> bool:

@@ -49,7 +49,6 @@ terms as an effect file (spec 4c).
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -61,6 +60,9 @@ from ..physics import actuator, knee
 from ..physics import effects as registry
 from ..physics.builtin_effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
+from .signals import delayed, lagged
+from .statistics import (alternate_blocks, bic, covariance, forward_stepwise, integrated_effective_samples,
+                         standard_errors)
 
 #: Contiguous blocks the samples are cut into; even blocks fit, odd blocks check.
 BLOCKS = 10
@@ -181,21 +183,6 @@ def _actuator_states(L, Ldot, P, params: Params, rate=None, delayed=_no_commands
             "static": actuator.static_tension(L, P, params)}
 
 
-def _delayed(time, values, delay: float):
-    """A signal held from each sample to the next, ``delay`` late (the first value held before)."""
-    seen = np.clip(np.searchsorted(time, time - delay + 1e-12, side="right") - 1, 0, time.size - 1)
-    return np.asarray(values, dtype=float)[seen]
-
-
-def _lag(time, values, tau: float):
-    """A signal held from each sample to the next, through the lag tau dP/dt = P_in - P, P(0) = P_in(0)."""
-    out = np.empty(time.size)
-    out[0] = values[0]
-    for k in range(1, time.size):
-        out[k] = actuator.lagged_pressure(out[k - 1], values[k - 1], tau, time[k] - time[k - 1])
-    return out
-
-
 def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
     """The pressures the model's actuators see at the samples: the measured ones, or the commands (through the
     lag, if any).
@@ -209,7 +196,7 @@ def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
         return np.asarray(m.inputs["pe"], dtype=float), np.asarray(m.inputs["pf"], dtype=float)
     pe, pf = (np.asarray(m.inputs[name], dtype=float) for name in ("pe_cmd", "pf_cmd"))
     if params.tau > 0:
-        return _lag(m.time, pe, params.tau), _lag(m.time, pf, params.tau)
+        return lagged(m.time, pe, params.tau), lagged(m.time, pf, params.tau)
     if not held_average:
         return pe, pf
     return tuple(np.r_[p[0], 0.5 * (p[1:] + p[:-1])] for p in (pe, pf))
@@ -265,8 +252,8 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
 
     def late_pressures(d):  # the commands d late, through the model's lag if it has one
         if d not in late:
-            shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": _delayed(m.time, m.inputs["pe_cmd"], d),
-                                                     "pf_cmd": _delayed(m.time, m.inputs["pf_cmd"], d)})
+            shifted = dataclasses.replace(m, inputs={**m.inputs, "pe_cmd": delayed(m.time, m.inputs["pe_cmd"], d),
+                                                     "pf_cmd": delayed(m.time, m.inputs["pf_cmd"], d)})
             late[d] = _knee_pressures(shifted, params)
         return late[d]
 
@@ -274,7 +261,7 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
         if "held" not in slow:
             slow["held"] = _knee_pressures(m, params, held_average=False)
         if tau not in slow:
-            slow[tau] = tuple(_lag(m.time, p, tau) for p in slow["held"])
+            slow[tau] = tuple(lagged(m.time, p, tau) for p in slow["held"])
         return slow[tau]
 
     rates = (np.gradient(Pe, m.time), np.gradient(Pf, m.time))
@@ -329,26 +316,70 @@ def regressors(measurement: Measurement, params: Params, terms: list[Term] | Non
 
 # --- Sparse selection ------------------------------------------------------------------------------------
 
-def effective_samples(residual) -> float:
-    """n / (1 + 2 sum rho_k): the sample count of white noise that carries as much information as a
-    correlated residual (rho_k its autocorrelation, summed until it first falls below 0.05)."""
-    r = np.asarray(residual, dtype=float)
-    r = r - r.mean()
-    n = r.size
-    denominator = float(r @ r)
-    if n < 4 or denominator == 0:
-        return float(n)
-    spectrum = np.fft.rfft(r, 2 * n)
-    acf = np.fft.irfft(spectrum * np.conj(spectrum))[:n] / denominator
-    below = np.flatnonzero(acf[1:] < 0.05)
-    stop = int(below[0]) + 1 if below.size else n
-    integrated = 1.0 + 2.0 * float(np.sum(acf[1:stop]))
-    return float(max(min(n / max(integrated, 1.0), n), 2.0))
-
-
 def _explained(y, prediction) -> float:
     total = float(y @ y)
     return 1.0 - float((y - prediction) @ (y - prediction)) / total if total > 0 else 0.0
+
+
+class _TermSelection:
+    """The discovery's selection on the stepwise engine (:func:`mkctl.analysis.statistics.forward_stepwise`):
+    the terms selected, the fitting blocks' RSS, the fractions explained, the steps."""
+
+    def __init__(self, y, A, labels: list, train, say):
+        self.y, self.A, self.labels, self.train, self.say = y, A, labels, train, say
+        self.selected: list[int] = []
+        self.rss = float(y[train] @ y[train])
+        self.held, self.fitted = 0.0, 0.0
+        self.steps: list[dict] = []
+
+    def remaining(self) -> list[int]:
+        if len(self.selected) >= MAX_TERMS:
+            return []
+        return [j for j in range(len(self.labels)) if j not in self.selected]
+
+    def fit_round(self, left: list[int]) -> dict:
+        """Each term added to the selected ones, fitted on the fitting blocks: (RSS, coefficients, residual,
+        held-out fraction explained)."""
+        y, A, train, test = self.y, self.A, self.train, ~self.train
+        tried = {}
+        for j in left:
+            cols = [*self.selected, j]
+            coef, *_ = np.linalg.lstsq(A[train][:, cols], y[train], rcond=None)
+            r = y[train] - A[train][:, cols] @ coef
+            tried[j] = (float(r @ r), coef, r, _explained(y[test], A[test][:, cols] @ coef))
+        return tried
+
+    def judge(self, tried: dict) -> tuple[bool, object]:
+        """The best term of the round (terms that fit nearly as well are rivals the fitting blocks cannot rank:
+        the checking blocks pick among them, the others are its alternatives) and whether it passes BIC and
+        the held-out gain: (True, the winner) or (False, the reason the selection stops)."""
+        least = min(v[0] for v in tried.values())
+        rivals = [j for j, v in tried.items() if v[0] <= RIVAL_FACTOR * least]
+        j = max(rivals, key=lambda i: (tried[i][3], -i))
+        new_rss, coef, r, new_held = tried[j]
+        label = self.labels[j]
+        alternatives = [self.labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
+        n_eff = integrated_effective_samples(r)
+        # one more term, both models counted at the new residual's effective samples (statistics.bic)
+        n_train = int(np.count_nonzero(self.train))
+        delta = bic(new_rss, n_train, len(self.selected) + 1, n_eff) - bic(self.rss, n_train, len(self.selected),
+                                                                          n_eff)
+        new_fitted = 1.0 - new_rss / float(self.y[self.train] @ self.y[self.train])
+        self.steps.append({"term": label, "delta_bic": delta, "explained_train": new_fitted,
+                           "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives})
+        self.say(f"  discovery: {label}: explains {new_fitted:.1%} fitted, {new_held:.1%} held out, "
+                 f"dBIC {delta:+.1f} (n_eff {n_eff:.0f})")
+        if not delta < -BIC_THRESHOLD:
+            return False, (f"the next term ({label}) changes the information criterion by only {delta:+.1f} "
+                           f"(needs < -{BIC_THRESHOLD:g} at {n_eff:.0f} effective samples)")
+        if not new_held - self.held >= MIN_HELDOUT_GAIN:
+            return False, (f"the next term ({label}) does not raise the held-out fraction explained by "
+                           f"{MIN_HELDOUT_GAIN:.0%} ({self.held:.1%} -> {new_held:.1%})")
+        return True, (j, new_rss, new_held, new_fitted)
+
+    def add(self, winner) -> None:
+        j, self.rss, self.held, self.fitted = winner
+        self.selected.append(j)
 
 
 def select_terms(y, columns: dict, train, say=None) -> dict:
@@ -359,7 +390,6 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
     "reason"}.
     """
     say = say or (lambda text: None)
-    test = ~train
     labels, scaled = [], []
     for label, column in columns.items():
         scale = float(np.sqrt(np.mean(column[train] ** 2)))
@@ -369,50 +399,9 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
     if not labels:
         return {"selected": [], "explained_train": 0.0, "explained_holdout": 0.0, "steps": [],
                 "reason": "no term of the library varies over this record"}
-    A = np.column_stack(scaled)
-    selected: list[int] = []
-    rss = float(y[train] @ y[train])
-    n_eff = effective_samples(y[train])
-    held, fitted = 0.0, 0.0
-    steps = []
-    reason = None
-    while len(selected) < MAX_TERMS:
-        tried = {}
-        for j in range(len(labels)):
-            if j in selected:
-                continue
-            cols = [*selected, j]
-            coef, *_ = np.linalg.lstsq(A[train][:, cols], y[train], rcond=None)
-            r = y[train] - A[train][:, cols] @ coef
-            tried[j] = (float(r @ r), coef, r, _explained(y[test], A[test][:, cols] @ coef))
-        if not tried:
-            break
-        # terms that fit (nearly) as well are rivals the fitting blocks cannot rank: the checking blocks pick
-        # among them, and the others are reported as alternatives
-        least = min(v[0] for v in tried.values())
-        rivals = [j for j, v in tried.items() if v[0] <= RIVAL_FACTOR * least]
-        j = max(rivals, key=lambda i: (tried[i][3], -i))
-        new_rss, coef, r, new_held = tried[j]
-        alternatives = [labels[i] for i in sorted(rivals, key=lambda i: -tried[i][3]) if i != j]
-        cols = [*selected, j]
-        n_eff = effective_samples(r)
-        delta = n_eff * math.log(max(new_rss, 1e-300) / max(rss, 1e-300)) + math.log(max(n_eff, 2.0))
-        new_fitted = 1.0 - new_rss / float(y[train] @ y[train])
-        step = {"term": labels[j], "delta_bic": delta, "explained_train": new_fitted,
-                "explained_holdout": new_held, "effective_samples": n_eff, "alternatives": alternatives}
-        steps.append(step)
-        say(f"  discovery: {labels[j]}: explains {new_fitted:.1%} fitted, {new_held:.1%} held out, "
-            f"dBIC {delta:+.1f} (n_eff {n_eff:.0f})")
-        if not delta < -BIC_THRESHOLD:
-            reason = (f"the next term ({labels[j]}) changes the information criterion by only {delta:+.1f} "
-                      f"(needs < -{BIC_THRESHOLD:g} at {n_eff:.0f} effective samples)")
-            break
-        if not new_held - held >= MIN_HELDOUT_GAIN:
-            reason = (f"the next term ({labels[j]}) does not raise the held-out fraction explained by "
-                      f"{MIN_HELDOUT_GAIN:.0%} ({held:.1%} -> {new_held:.1%})")
-            break
-        selected.append(j)
-        rss, held, fitted = new_rss, new_held, new_fitted
+    selection = _TermSelection(y, np.column_stack(scaled), labels, train, say)
+    reason = forward_stepwise(selection.remaining, selection.fit_round, selection.judge, selection.add)
+    selected, held, fitted, steps = selection.selected, selection.held, selection.fitted, selection.steps
     if selected and not (held >= MIN_EXPLAINED and held >= HOLD_RATIO * fitted):
         reason = (f"the terms found ({', '.join(labels[j] for j in selected)}) explain {fitted:.1%} of the missing "
                   f"force where fitted but {held:.1%} held out (needs {MIN_EXPLAINED:.0%} and "
@@ -428,12 +417,7 @@ def select_terms(y, columns: dict, train, say=None) -> dict:
 
 def _blocks(used) -> np.ndarray:
     """The fitting mask: the used samples in :data:`BLOCKS` contiguous blocks, even blocks fit."""
-    index = np.flatnonzero(used)
-    train = np.zeros(used.size, bool)
-    for b, part in enumerate(np.array_split(index, BLOCKS)):
-        if b % 2 == 0:
-            train[part] = True
-    return train
+    return alternate_blocks(used, BLOCKS)
 
 
 def discover(measurement: Measurement, params: Params | None = None, progress=None, effects=()) -> dict:
@@ -478,23 +462,24 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
               "steps": selection["steps"], "reason": selection["reason"],
               "explained_holdout": selection["explained_holdout"]}
     if not selection["selected"]:
-        result["effective_samples"] = effective_samples(y_used)
+        result["effective_samples"] = integrated_effective_samples(y_used)
         return result
     labels = selection["selected"]
     scales = np.array([float(np.sqrt(np.mean(cols[k] ** 2))) for k in labels])
     A = np.column_stack([cols[k] for k in labels]) / scales  # standardized: the terms' sizes differ by 1e15
     scaled, *_ = np.linalg.lstsq(A, y_used, rcond=None)
     r = y_used - A @ scaled
-    n_eff = effective_samples(r)
-    # s^2 (A^T A)^-1, widened by n / n_eff: correlated residuals carry the information of n_eff white samples
-    s2 = float(r @ r) / max(y_used.size - len(labels), 1)
-    cov = s2 * np.linalg.pinv(A.T @ A) * (y_used.size / n_eff) / np.outer(scales, scales)
+    n_eff = integrated_effective_samples(r)
+    # s^2 (A^T A)^-1, widened by n / n_eff (statistics.covariance): correlated residuals carry the
+    # information of n_eff white samples
+    cov = covariance(A, r, n_effective=n_eff) / np.outer(scales, scales)
     coef = scaled / scales
+    errors = standard_errors(cov)
     units = {t.label: t.unit for t in terms}
     matches = {t.label: t.matches for t in terms}
     result.update({
         "explained": _explained(y_used, A @ scaled), "effective_samples": n_eff,
-        "terms": [{"term": k, "coefficient": float(c), "stderr": float(math.sqrt(max(cov[i, i], 0.0))),
+        "terms": [{"term": k, "coefficient": float(c), "stderr": float(errors[i]),
                    "unit": units[k], "matches": matches[k], "alternatives": selection["alternatives"].get(k, [])}
                   for i, (k, c) in enumerate(zip(labels, coef))],
     })

@@ -12,6 +12,7 @@ from ..io.measurements import Measurement
 from ..physics import actuator, knee
 from ..physics.isometric import isometric_tension
 from ..physics.params import Params
+from .signals import lagged
 
 #: Savitzky-Golay smoothing window for the signatures: the knee's in seconds, the isotonic test's in samples.
 KNEE_SMOOTHING_S = 0.1
@@ -74,13 +75,3 @@ def model_pressures(m: Measurement, params: Params):
     if params.tau <= 0:
         return pe, pf
     return lagged(m.time, pe, params.tau), lagged(m.time, pf, params.tau)
-
-
-def lagged(time, command, tau):
-    """A command held from each sample to the next, through the lag tau dP/dt = P_cmd - P, P(0) = P_cmd(0)."""
-    out = np.empty(time.size)
-    out[0] = command[0]
-    dt = np.diff(time)
-    for k in range(1, time.size):
-        out[k] = actuator.lagged_pressure(out[k - 1], command[k - 1], tau, dt[k - 1])
-    return out

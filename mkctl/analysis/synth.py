@@ -422,11 +422,14 @@ def colored_noise(rng, std: float, time, tau: float = 0.0) -> np.ndarray:
     white = rng.normal(0.0, 1.0, time.size)
     if tau <= 0:
         return std * white
-    from scipy.signal import lfilter
+    from .filters import ar1_filter
 
     dt = float(np.mean(np.diff(time)))
     a = math.exp(-dt / tau)
-    e = lfilter([math.sqrt(1 - a * a)], [1.0, -a], white, zi=[a * white[0]])[0]
+    # lfilter([sqrt(1 - a^2)], [1, -a], white, zi=[a white_0]): the first innovation carries the state a white_0
+    innovations = math.sqrt(1 - a * a) * white
+    innovations[0] += a * white[0]
+    e = ar1_filter(innovations, a)
     e[0] = white[0]
     return std * e
 
