@@ -8,7 +8,8 @@ import pytest
 from mkctl.analysis import control as mc
 from mkctl.analysis.diagnose import diagnose
 from mkctl.analysis.synth import synthesize
-from mkctl.io.diagnosis_report import (LAG_PICTURE_TAU, _lag_regressor, error_bars, input_panels, output_label, parameter_text,
+from mkctl.physics import effects
+from mkctl.io.diagnosis_report import (LAG_PICTURE_TAU, _pressure_deficit, error_bars, input_panels, output_label, parameter_text,
                                        save_pictures, summary)
 from mkctl.io.measurements import read_measurement
 from mkctl.analysis.synth import write_synthetic
@@ -36,7 +37,7 @@ def test_each_signature_is_against_its_effects_own_regressor(damped):
     # slack: the smaller muscle tension of the model, positive everywhere in this record (nothing goes slack)
     assert sigs["slack"]["x"].min() > 1.0 and np.ptp(sigs["slack"]["x"]) > 1.0
     # the lag: the extensor's pressure behind its command at the first round's fitted tau, zero between transients
-    behind, label = _lag_regressor(measurement, result)
+    behind, label = _pressure_deficit(measurement, result, effects.get("pressure_lag"))
     fitted = next(r["params"]["tau"] for r in result.steps[0]["candidates"] if r["effect"] == "pressure_lag")
     tau = fitted or LAG_PICTURE_TAU
     assert f"tau = {tau:.3g} s" in label and behind.shape == measurement.time.shape

@@ -31,7 +31,6 @@ STILL_BRANCHING = {
     "mkctl/analysis/diagnose/pressure_path.py": 34,
     "mkctl/analysis/diagnose/result.py": 1,
     "mkctl/analysis/diagnose/signatures.py": 14,
-    "mkctl/io/diagnosis_report.py": 10,
 }
 
 

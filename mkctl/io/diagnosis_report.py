@@ -14,22 +14,20 @@ import numpy as np
 
 from ..errors import MkctlError
 from ..physics import effects
-from ..physics.actuator import lagged_pressure
+from ..physics.xp import math_for
 from ..physics.isometric import isometric_tension
-from ..physics.params import INTEGER_PARAMETERS, UNITS, LiveMapping
+from ..physics.params import INTEGER_PARAMETERS, UNITS, LiveMapping, LiveSequence
 from .plotting import fixed_layout, new_figure, plain_log_ticks, save_png
 
 #: How the signature pictures label their x axis: each effect's own regressor (the registry's
 #: ``signature_axis``; see :func:`mkctl.analysis.diagnose.signatures`; the lag's is drawn here from its fitted
-#: tau, :func:`_lag_regressor`), with the experiments whose regressor differs.
+#: tau, :func:`_pressure_deficit`), with the experiments whose regressor differs (its ``signature_axes``).
 SIGNATURE_AXIS = LiveMapping(lambda: {
     **{e.name: e.signature_axis or e.regressor for e in effects.all_effects()},
-    ("isotonic", "coulomb_friction"): "direction of motion tanh(Ldot / vs): -1 shortening, +1 lengthening",
-    ("isometric", "slack"): "the model's tension [N] (slack acts below 0)",
-    ("isometric", "coulomb_friction"): "friction's sign at a clamped length: -1 rising, +1 falling pressure"})
+    **{(experiment, e.name): label for e in effects.all_effects() for experiment, label in e.signature_axes.items()}})
 
 #: Effects whose signature slope is not a value of their parameter (see :func:`summary`).
-NO_SLOPE_HINT = ("pressure_lag", "slack")
+NO_SLOPE_HINT = LiveSequence(lambda: [e.name for e in effects.all_effects() if not e.slope_hint])
 
 #: At most this many measured samples are marked on an overlay (evenly spaced): more would hide the curves.
 OVERLAY_MARKERS = 300
@@ -39,10 +37,12 @@ OUTPUT_QUANTITY = {"x": "hip height X", "beta": "knee angle beta", "length": "mu
 
 
 def parameter_text(name: str, value: float) -> str:
-    """``"c = 45.02 N s/m"``; a switch (``slack``, ``model``) as ``"slack = 1 (on)"`` / ``"slack = 0 (off)"``."""
+    """``"c = 45.02 N s/m"``; an on/off switch (off at 0: ``slack``) as ``"slack = 1 (on)"`` / ``"slack = 0 (off)"``,
+    a choice (``model``) as ``"model = 2"``."""
     if name in INTEGER_PARAMETERS:
-        if name == "slack":
-            return f"slack = {int(round(value))} ({'on' if value > 0 else 'off'})"
+        owner = effects.effect_of(name)
+        if owner is not None and owner.switch_parameter.name == name and owner.switch_parameter.off == 0:
+            return f"{name} = {int(round(value))} ({'on' if value > 0 else 'off'})"
         return f"{name} = {int(round(value))}"
     return f"{name} = {value:.4g} {UNITS[name]}"
 
@@ -210,23 +210,28 @@ def _binned(x, y, bins: int = 12, by_value: bool = False):
 LAG_PICTURE_TAU = 0.05
 
 
-def _lag_regressor(measurement, result):
-    """The lag's own regressor for its signature panel: how far the extensor's pressure stays behind its command
-    through a lag, ``pe_cmd - pe`` [kPa], at the first round's fitted tau (or :data:`LAG_PICTURE_TAU` when that fit
-    found none); None for a record without a pressure command. Returns (values, axis label)."""
+def _pressure_deficit(measurement, result, effect):
+    """An effect's own regressor for its signature panel (its definition's ``pressure_deficit_axis``: a lag): how
+    far the extensor's pressure stays behind its command through the effect's exact pressure step,
+    ``pe_cmd - pe`` [kPa], at the first round's fitted value of its parameter (or :data:`LAG_PICTURE_TAU` when that
+    fit found none); None for a record without a pressure command. Returns (values, axis label)."""
     if "pe_cmd" not in measurement.inputs:
         return None
     first = (result.steps[0] if result.steps else result.stopped) or {}
-    taus = [row["params"].get("tau") for row in first.get("candidates", []) if row.get("effect") == "pressure_lag"]
-    fitted = bool(taus and taus[0])
-    tau = float(taus[0]) if fitted else LAG_PICTURE_TAU
+    found = [row["params"].get(effect.fitted) for row in first.get("candidates", [])
+             if row.get("effect") == effect.name]
+    fitted = bool(found and found[0])
+    value = float(found[0]) if fitted else LAG_PICTURE_TAU
+    p = measurement.params.replace(**{effect.fitted: value})
     time, command = measurement.time, measurement.inputs["pe_cmd"]
-    lagged = np.empty(time.size)
-    lagged[0] = command[0]
+    behind = np.empty(time.size)
+    behind[0] = command[0]
     for k in range(1, time.size):  # the command held from each sample to the next, as the simulation holds it
-        lagged[k] = lagged_pressure(lagged[k - 1], command[k - 1], tau, time[k] - time[k - 1])
+        behind[k] = effect.pressure_step(behind[k - 1], float(command[k - 1]), float(time[k] - time[k - 1]), p,
+                                         math_for(1.0))
     which = "the fitted" if fitted else "a trial (none fitted):"
-    return (command - lagged) / 1e3, f"extensor pressure behind its command, lag at {which} tau = {tau:.3g} s [kPa]"
+    return ((command - behind) / 1e3, f"extensor pressure behind its command, lag at {which} "
+                                      f"{effect.fitted} = {value:.3g} s [kPa]")
 
 
 def _step_label(step: dict) -> str:
@@ -319,20 +324,21 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
         for ax, name in zip(axes[0], names):
             sig = sigs[name]
             x, label = sig["x"], SIGNATURE_AXIS.get((measurement.experiment, name), SIGNATURE_AXIS[name])
-            lag = _lag_regressor(measurement, result) if name == "pressure_lag" else None
-            if lag is not None and np.size(lag[0]) == np.size(sig["missing"]):
-                x, label = lag
-            two_sided = name == "coulomb_friction"
+            view = effects.get(name)
+            deficit = _pressure_deficit(measurement, result, view) if view.pressure_deficit_axis else None
+            if deficit is not None and np.size(deficit[0]) == np.size(sig["missing"]):
+                x, label = deficit
+            two_sided = view.two_sided
             ax.plot(x, sig["missing"], "o", ms=2, mew=0, color="0.45", alpha=0.35)
             ax.plot(*_binned(x, sig["missing"], by_value=two_sided), "o-", color="tab:red", ms=4,
                     label="mean in bins of x")
             ax.axhline(0, color="k", lw=0.5)
-            if name == "slack":  # where the model's tension turns negative, a slack muscle carries nothing
+            if view.acts_below_zero:  # where the model's tension turns negative, a slack muscle carries nothing
                 ax.axvspan(min(np.min(x), -0.15 * np.ptp(x), -1.0) * 1.05, 0.0, color="tab:orange", alpha=0.15, lw=0,
-                           label="slack region (tension < 0)")
+                           label=f"{name} region (tension < 0)")
                 ax.axvline(0, color="tab:orange", lw=1)
                 if np.min(x) >= 0:
-                    ax.text(0.98, 0.04, f"no sample goes slack\n(least tension {np.min(x):.3g} N)",
+                    ax.text(0.98, 0.04, f"no sample goes {name}\n(least tension {np.min(x):.3g} N)",
                             transform=ax.transAxes, ha="right", va="bottom", fontsize=7)
             ax.set_xlabel(label, fontsize=7)
             ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)

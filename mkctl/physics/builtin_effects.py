@@ -240,6 +240,11 @@ BUILTIN = (
         experiments={"isotonic": (1e-3, 100.0), "knee": (1e-3, 100.0), "isometric": (1e-3, 100.0)},
         regressor="the friction force per N at the measured direction of motion",
         signature_axis="direction of motion tanh(v / vs): -1 down, +1 up",
+        signature_axes={
+            "isotonic": "direction of motion tanh(Ldot / vs): -1 shortening, +1 lengthening",
+            "isometric": "friction's sign at a clamped length: -1 rising, +1 falling pressure",
+        },
+        two_sided=True,
         separation=_separations("coulomb_friction"),
         calibrate=True,
     ),
@@ -267,6 +272,10 @@ BUILTIN = (
         experiments={"knee": (1e-3, 2.0)},
         regressor="the force a lag of 1 s takes away at the measured pressure-command rate",
         signature_axis="extensor pressure rate (smoothed) [kPa/s]",
+        # the first-order term (tau times the smoothed command rate) is not linear in tau for step commands
+        # (its slope disagreed with the fitted tau by tenfold): no hint; the picture shows the pressure deficit
+        slope_hint=False,
+        pressure_deficit_axis=True,
         separation=_separations("pressure_lag"),
     ),
     Effect(
@@ -299,6 +308,9 @@ BUILTIN = (
             "the model's tension, where it is negative (a slack muscle carries nothing there)"
         ),
         signature_axis="the smaller muscle tension of the model [N] (slack acts below 0)",
+        signature_axes={"isometric": "the model's tension [N] (slack acts below 0)"},
+        slope_hint=False,  # a switch: no value to suggest
+        acts_below_zero=True,
         separation=_separations("slack"),
         calibrate=True,
     ),
