@@ -30,7 +30,6 @@ STILL_BRANCHING = {
     "mkctl/analysis/diagnose/preparation.py": 1,
     "mkctl/analysis/diagnose/pressure_path.py": 34,
     "mkctl/analysis/diagnose/result.py": 1,
-    "mkctl/analysis/diagnose/signatures.py": 14,
 }
 
 

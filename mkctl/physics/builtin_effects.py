@@ -171,6 +171,7 @@ BUILTIN = (
         reference=None,
         regressor="the rubber's tension (model 2 minus model 1) at the measured length",
         signature_axis="rubber tension of the model's C1, C2 [N]",
+        signature_x=lambda axes: axes.term,
         separation=_separations("elasticity"),
     ),
     Effect(
@@ -245,6 +246,7 @@ BUILTIN = (
             "isometric": "friction's sign at a clamped length: -1 rising, +1 falling pressure",
         },
         two_sided=True,
+        signature_x=lambda axes: axes.direction,
         separation=_separations("coulomb_friction"),
         calibrate=True,
     ),
@@ -272,10 +274,12 @@ BUILTIN = (
         experiments={"knee": (1e-3, 2.0)},
         regressor="the force a lag of 1 s takes away at the measured pressure-command rate",
         signature_axis="extensor pressure rate (smoothed) [kPa/s]",
-        # the first-order term (tau times the smoothed command rate) is not linear in tau for step commands
-        # (its slope disagreed with the fitted tau by tenfold): no hint; the picture shows the pressure deficit
+        # the first-order term (tau times the smoothed command rate) is not linear in tau for step
+        # commands (its slope disagreed with the fitted tau by tenfold): no hint; the picture shows
+        # the pressure deficit
         slope_hint=False,
         pressure_deficit_axis=True,
+        first_order_rate=lambda rate: rate,
         separation=_separations("pressure_lag"),
     ),
     Effect(
@@ -309,6 +313,7 @@ BUILTIN = (
         ),
         signature_axis="the smaller muscle tension of the model [N] (slack acts below 0)",
         signature_axes={"isometric": "the model's tension [N] (slack acts below 0)"},
+        signature_x=lambda axes: axes.tension,  # slack acts where the (smaller) tension is < 0
         slope_hint=False,  # a switch: no value to suggest
         acts_below_zero=True,
         separation=_separations("slack"),
@@ -350,6 +355,7 @@ BUILTIN = (
             "the friction force per N/Pa (the gauge pressure) at the measured direction of motion"
         ),
         signature_axis="gauge pressure times the direction of motion tanh(v / vs) [kPa]",
+        signature_x=lambda axes: axes.pressure * axes.direction,
         separation=_separations("pressure_friction"),
         calibrate=True,
     ),
@@ -383,6 +389,7 @@ BUILTIN = (
         },  # below the domain's 4e5: 10**log10 rounds up
         regressor="the tension a threshold of 1 Pa takes away at the measured pressure and length",
         signature_axis="gauge pressure [kPa]",
+        signature_x=lambda axes: axes.pressure,
         separation=_separations("pressure_threshold"),
         calibrate=True,
     ),
@@ -411,6 +418,7 @@ BUILTIN = (
             "the pressure"
         ),
         signature_axis="extensor pressure rate while exhausting (smoothed) [kPa/s]",
+        first_order_rate=lambda rate: np.minimum(rate, 0.0),  # tau_exhaust acts only while it falls
         separation=_separations("asymmetric_lag"),
     ),
     Effect(
@@ -441,6 +449,7 @@ BUILTIN = (
             "-delay dP_cmd/dt)"
         ),
         signature_axis="extensor command rate (smoothed) [kPa/s]",
+        first_order_rate=lambda rate: rate,
         separation=_separations("dead_time"),
     ),
 )

@@ -191,17 +191,28 @@ class Effect:
     reference: float | None = 1.0
     regressor: str = ""  #: the force term its signature is checked against
     signature_axis: str = ""  #: what the signature picture's x axis shows
+    #: its signature picture's x axis: (axes) -> array, from what the diagnosis offers (``speed``,
+    #: ``direction``, ``pressure``, ``tension``, ``term``:
+    #: mkctl.analysis.diagnose.signatures.SignatureAxes); None: the speed
+    signature_x: Callable | None = None
+    #: on the pressure path, to first order: (dP_cmd/dt) -> the share its parameter multiplies, so
+    #: that ``P = P_cmd - T share(dP_cmd/dt)`` (a lag, a dead time: all of it; an exhausting lag:
+    #: where it falls)
+    first_order_rate: Callable | None = None
     #: the picture's x axis in the experiments where it is another quantity: experiment -> words
     signature_axes: Mapping[str, str] = dataclasses.field(default_factory=dict)
-    #: whether its signature's slope estimates its parameter (False where its force is not linear in it, or
-    #: for a switch: the report then gives no hint)
+    #: whether its signature's slope estimates its parameter (False where its force is not linear in
+    #: it, or for a switch: the report then gives no hint)
     slope_hint: bool = True
-    #: the picture's x axis runs both ways, -1 to 1 (a direction of motion): its means are binned by value
+    #: the picture's x axis runs both ways, -1 to 1 (a direction of motion): its means are binned by
+    #: value
     two_sided: bool = False
-    #: the picture shades x < 0, where it acts (a slack muscle carries nothing where its tension is < 0)
+    #: the picture shades x < 0, where it acts (a slack muscle carries nothing where its tension is
+    #: < 0)
     acts_below_zero: bool = False
-    #: the picture's x axis is how far the extensor's pressure stays behind its command through this effect's
-    #: own exact pressure step at its fitted value (a lag: what it acts through, better than a rate)
+    #: the picture's x axis is how far the extensor's pressure stays behind its command through this
+    #: effect's own exact pressure step at its fitted value (a lag: what it acts through, better
+    #: than a rate)
     pressure_deficit_axis: bool = False
     #: other effect -> experiment
     separation: Mapping[str, str] = dataclasses.field(default_factory=dict)

@@ -18,6 +18,69 @@ _REFERENCE = LiveMapping(lambda: {e.fitted: e.reference for e in effects.all_eff
                                   if e.fitted is not None and e.reference is not None})
 
 
+class SignatureAxes:
+    """What a signature picture's x axis can show, at the measured states (each computed when first read).
+
+    An effect's definition picks its axis with ``signature_x(axes)``: ``speed`` [mm/s] (the muscle's rate in the
+    isotonic test, the hip's on the knee), ``direction`` (tanh(speed / vs); at a clamped length, friction's sign:
+    -1 rising, +1 falling pressure), ``pressure`` [kPa] (the muscle's, the extensor's on the knee), ``tension``
+    [N] (the model's; on the knee the smaller of the two muscles'), ``term`` [N] (its own force term).
+    """
+
+    def __init__(self, measurement: Measurement, params: Params, states: dict, term):
+        self._m, self._params, self._states, self.term = measurement, params, states, term
+
+    @property
+    def speed(self):
+        s = self._states
+        return (s["Ldot"] if self._m.experiment == "isotonic" else s["V"]) * 1e3
+
+    @property
+    def direction(self):
+        if self._m.experiment == "isometric":
+            return -self._states["branch"]
+        return np.tanh(self.speed / (self._params.vs * 1e3))
+
+    @property
+    def pressure(self):
+        s = self._states
+        return (s["Pe"] if self._m.experiment == "knee" else s["P"]) / 1e3
+
+    @property
+    def tension(self):
+        s, p = self._states, self._params
+        if self._m.experiment == "isometric":
+            return isometric_tension(s["L"], s["P"], s["branch"], p)
+        if self._m.experiment == "knee":
+            forces = knee.knee_force(knee.geometry_at_X(s["X"], p), s["V"], s["Pe"], s["Pf"], p)
+            return np.minimum(forces.fe, forces.ff)
+        return actuator.tension(s["L"], s["P"], s["Ldot"], p)
+
+
+def _reference(effect, params: Params) -> float:
+    """The value of an effect's fitted parameter its unit term is taken at: its definition's ``reference``, or
+    the model's own value where that is None (elasticity: the model's C1)."""
+    return getattr(params, effect.fitted) if effect.reference is None else _REFERENCE.get(effect.fitted, 1.0)
+
+
+def _term(m: Measurement, params: Params, states: dict, effect, ref: float):
+    """A candidate's own force term at the measured states, per reference value of its parameter [N]; for an
+    effect on the pressure path, to first order (``P = P_cmd - T share(dP_cmd/dt)``)."""
+    if m.experiment == "isometric":  # its change of the tension at the clamped points
+        args = (states["L"], states["P"], states["branch"])
+        return isometric_tension(*args, CANDIDATES[effect.name].apply(params, ref)) - isometric_tension(*args, params)
+    share = effect.first_order_rate
+    if share is not None:
+        rate_e, rate_f = share(states["Pe_rate"]), share(states["Pf_rate"])
+        return (knee_force_at(states, params, states["Pe"] - ref * rate_e, states["Pf"] - ref * rate_f)
+                - knee_force_at(states, params))
+    with_effect = CANDIDATES[effect.name].apply(params, ref)
+    if m.experiment == "isotonic":
+        return (actuator.tension(states["L"], states["P"], states["Ldot"], with_effect)
+                - actuator.tension(states["L"], states["P"], states["Ldot"], params))
+    return knee_force_at(states, with_effect) - knee_force_at(states, params)
+
+
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
     """Each candidate's signature in the force the model lacks (see :func:`missing_force`).
 
@@ -26,53 +89,26 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
     commands smoothed like the acceleration),
     elasticity: model 2 minus model 1 at the model's C1), the correlation of the missing force with that
     term, and the parameter the slope suggests (``estimate``: an equation-error value, for comparison
-    only). ``x`` and ``missing`` are arrays for the pictures.
+    only). ``x`` (what its definition's ``signature_x`` picks of :class:`SignatureAxes`; the pressure's rate
+    for an effect on the pressure path; else its speed, or its own term at a clamped length) and ``missing``
+    are arrays for the pictures.
     """
     m = measurement
     missing, states = missing_force(m, params)
-    isotonic = m.experiment == "isotonic"
     out = {}
-    if m.experiment == "isometric":  # the candidate's change of the tension at the clamped points
-        for name in names:
-            cand = CANDIDATES[name]
-            ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
-            args = (states["L"], states["P"], states["branch"])
-            term = isometric_tension(*args, cand.apply(params, ref)) - isometric_tension(*args, params)
-            x = (-states["branch"] if name == "coulomb_friction"
-                 else isometric_tension(*args, params) if name == "slack" else term)  # slack: where it acts, < 0
-            out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
-        return out
-    speed = (states["Ldot"] if isotonic else states["V"]) * 1e3
     for name in names:
-        cand = CANDIDATES[name]
-        ref = params.C1 if name == "elasticity" else _REFERENCE.get(cand.parameter, 1.0)
-        if name in ("pressure_lag", "dead_time", "asymmetric_lag"):  # first order: P = P_cmd - T dP_cmd/dt
-            rate_e, rate_f = states["Pe_rate"], states["Pf_rate"]
-            if name == "asymmetric_lag":  # tau_exhaust acts only while the pressure falls
-                rate_e, rate_f = np.minimum(rate_e, 0.0), np.minimum(rate_f, 0.0)
-            term = knee_force_at(states, params, states["Pe"] - ref * rate_e, states["Pf"] - ref * rate_f) \
-                - knee_force_at(states, params)
-            x = rate_e / 1e3
+        effect = effects.get(name)
+        ref = _reference(effect, params)
+        term = _term(m, params, states, effect, ref)
+        axes = SignatureAxes(m, params, states, term)
+        if m.experiment != "isometric" and effect.first_order_rate is not None:
+            x = effect.first_order_rate(states["Pe_rate"]) / 1e3
+        elif effect.signature_x is not None:
+            x = effect.signature_x(axes)
         else:
-            with_effect = cand.apply(params, ref)
-            if isotonic:
-                term = (actuator.tension(states["L"], states["P"], states["Ldot"], with_effect)
-                        - actuator.tension(states["L"], states["P"], states["Ldot"], params))
-            else:
-                term = knee_force_at(states, with_effect) - knee_force_at(states, params)
-            if name == "coulomb_friction":  # friction acts through the direction of motion
-                x = np.tanh(speed / (params.vs * 1e3))
-            elif name == "slack" and not isotonic:  # the smaller tension: slack acts where it would be < 0
-                forces = knee.knee_force(knee.geometry_at_X(states["X"], params), states["V"], states["Pe"],
-                                         states["Pf"], params)
-                x = np.minimum(forces.fe, forces.ff)
-            elif name == "pressure_threshold":  # its picture's axis: the gauge pressure (the extensor's on the knee)
-                x = (states["P"] if isotonic else states["Pe"]) / 1e3
-            elif name == "pressure_friction":  # friction as strong as the pressure, through the direction of motion
-                x = (states["P"] if isotonic else states["Pe"]) / 1e3 * np.tanh(speed / (params.vs * 1e3))
-            else:
-                x = term if name in ("elasticity", "slack") else speed
-        out[name] = {"against": cand.regressor, **_fit_line(missing, term, ref), "x": x, "missing": missing}
+            x = term if m.experiment == "isometric" else axes.speed
+        out[name] = {"against": CANDIDATES[name].regressor, **_fit_line(missing, term, ref), "x": x,
+                     "missing": missing}
     return out
 
 
