@@ -23,15 +23,18 @@ class Candidate:
     @property
     def switch(self) -> bool:
         """An effect that is on or off (slack): its search interval is one point, never a bound it hits."""
-        return self.effect == "slack"
+        return effects.get(self.effect).is_switch
 
     def apply(self, params: Params, value: float) -> Params:
-        """params with this effect switched on at ``value``."""
-        if self.effect == "elasticity":
-            return params.replace(model=2, C1=value)
-        if self.effect == "slack":  # a switch: any value searched (its bounds are [1, 1 + 1e-6]) means on
-            return params.replace(slack=1 if value > 0 else 0)
-        return params.replace(**{self.parameter: value})
+        """params with this effect switched on at ``value`` (a whole-number switch that chooses the model, as
+        elasticity's ``model``, at its on value beside it)."""
+        q = effects.get(self.effect).switch_parameter
+        if self.switch:  # any value searched (its bounds are [1, 1 + 1e-6]) means on
+            return params.replace(**{q.name: q.on_value if value > 0 else q.off})
+        values = {self.parameter: value}
+        if q.switch and q.name != self.parameter:
+            values[q.name] = q.on_value
+        return params.replace(**values)
 
 
 #: The candidates, in the registry's order (:mod:`mkctl.physics.effects`: every effect with a fitted parameter and
