@@ -6,7 +6,11 @@ added or changed, a cell, a row, the header or the bytes of a measurement file; 
 a muscle file; one option of synth, step, rootlocus, linearize or sweep; a hostile name (issue 30: quotes, triple
 quotes, line breaks, ``</script>``, ``&``, ``%``, backslashes, non-ASCII, control characters, a payload that
 creates ``PWNED`` if ever run as code) as a record's file name, a metadata value, a comment, a column name, or an
-effect file's description and unit. The contract (issues 20 and 30) is:
+effect file's description and unit; and issue 30's new surfaces: a mechanism or actuator record (model-spec
+5d) made bad, or naming a mechanism file that creates ``PWNED`` if it runs (a record never loads code by itself);
+a mechanism file broken, untraceable, out of 0 < L < b or with hostile names, given with ``--mechanism`` to synth,
+compare, linearize, rootlocus or step; and :func:`mkctl.physics.pneumatics.simulate_muscle_pressure` (no CLI:
+its Python API, run as a CLI would by :func:`run_pneumatic`) at its extremes. The contract (issues 20 and 30) is:
 
 - a refusal is one line on stderr and a non-zero exit, with no warning printed before it;
 - an accepted run exits 0 and writes and prints only finite numbers;
@@ -17,7 +21,7 @@ effect file's description and unit. The contract (issues 20 and 30) is:
 Each case gets one outcome of :data:`OUTCOMES`; the first two are the contract kept, the others break it.
 Usage::
 
-    python bench/fuzz.py                     # 2000 cases, seed 0, counts per outcome
+    python bench/fuzz.py                     # 2000 cases, seed 0, counts per outcome and kind
     python bench/fuzz.py --cases 300 --seed 4 --show 5
 
 The suite's tests/test_fuzz.py runs the same generator on a small fixed budget.
@@ -180,8 +184,10 @@ def _unregister_effects(folder: Path, case: Case) -> None:
     starts from the same registry, and so does whatever runs in this process after the fuzzer."""
     from mkctl.analysis.effect_files import EffectFileError, unregister_effect_file
 
-    for name in case.files:
-        if name.endswith(".py"):
+    argv = [str(a) for a in case.argv]
+    given = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--effects"}
+    for name in case.files:  # only the files given with --effects: unregistering reads (runs) the file,
+        if name in given:    # and a file a record merely names (evil.py) must never run
             with contextlib.suppress(EffectFileError):
                 unregister_effect_file(folder / name)
 

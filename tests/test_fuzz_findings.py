@@ -8,6 +8,8 @@
 - A mechanism file whose length overflows (q**10**6), or is so short (1e-300 m) that the tension divides
   by zero, printed numpy's RuntimeWarning before its
   one-line refusal; now only the refusal.
+- A mechanism file that raises SystemExit at import ended mkctl with status 0 and nothing done; now a
+  one-line refusal.
 """
 from __future__ import annotations
 
@@ -107,3 +109,16 @@ def test_a_mechanism_length_too_short_for_a_finite_tension_is_refused_at_load(tm
         load_mechanism_file(path)
     assert load_mechanism_file(ROOT / "docs" / "examples" / "cam_lever.py").name == "cam_lever"
     assert not no_warning, [str(w.message) for w in no_warning]
+
+
+@pytest.mark.parametrize("exit_code", ["0", "3", "'bye'"])
+def test_a_mechanism_file_that_exits_at_import_is_refused_not_a_silent_success(tmp_path, exit_code):
+    """Before: ``raise SystemExit(0)`` in the file ended ``mkctl rootlocus --mechanism`` with status 0 and
+    nothing done; now a one-line MechanismFileError."""
+    from mkctl.analysis.mechanism_files import load_mechanism_file
+
+    text = (ROOT / "docs" / "examples" / "cam_lever.py").read_text(encoding="utf-8")
+    path = tmp_path / "exits.py"
+    path.write_text(f"raise SystemExit({exit_code})\n" + text, encoding="utf-8")
+    with pytest.raises(MkctlError, match="running it failed: SystemExit"):
+        load_mechanism_file(path)

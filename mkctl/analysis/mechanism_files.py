@@ -90,7 +90,8 @@ def _run_file(path: Path, where: str) -> dict:
     except SyntaxError as error:
         raise MechanismFileError(f"{where} line {error.lineno}: not valid Python: "
                                  f"{error.msg}") from None
-    except Exception as error:  # the user's code: any failure is theirs, in one line
+    except (Exception, SystemExit) as error:  # the user's code: any failure is theirs, in one
+        # line (sys.exit in it would end mkctl with status 0 and nothing done)
         raise MechanismFileError(f"{where}: running it failed: {type(error).__name__}: "
                                  f"{error}") from None
 
