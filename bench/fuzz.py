@@ -123,6 +123,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     previous = signal.signal(signal.SIGALRM, alarm)
     signal.setitimer(signal.ITIMER_REAL, timeout)
     cwd = os.getcwd()
+    limit = sys.getrecursionlimit()  # a mechanism file's code may change it: the next case starts afresh
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -144,6 +145,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
             os.chdir(cwd)
+            sys.setrecursionlimit(limit)
             _unregister_effects(folder, case)
     seconds = time.perf_counter() - start
     stdout, stderr = out.getvalue(), err.getvalue()
