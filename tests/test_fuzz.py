@@ -21,7 +21,7 @@ fuzz = importlib.util.module_from_spec(spec)
 sys.modules[spec.name] = fuzz  # its dataclasses look their module up there
 spec.loader.exec_module(fuzz)
 
-#: Cases per kind in the suite: about twenty seconds in all on one core.
+#: Cases per kind in the suite: about forty seconds in all on one core.
 BUDGET = {"measurement": 24, "muscle": 12, "option": 16, "hostile": 16,
           # issue 30's new surfaces: mechanism and actuator records (one naming a file that writes PWNED if
           # run), broken and hostile mechanism files, the pneumatics' Python API at its extremes
