@@ -122,3 +122,14 @@ def test_a_mechanism_file_that_exits_at_import_is_refused_not_a_silent_success(t
     path.write_text(f"raise SystemExit({exit_code})\n" + text, encoding="utf-8")
     with pytest.raises(MkctlError, match="running it failed: SystemExit"):
         load_mechanism_file(path)
+
+
+def test_a_mechanism_parameter_too_large_for_a_float_is_one_line(tmp_path):
+    """Before: a default of 10**400 (a Python int) raised OverflowError with a traceback."""
+    from mkctl.analysis.mechanism_files import load_mechanism_file
+
+    text = (ROOT / "docs" / "examples" / "cam_lever.py").read_text(encoding="utf-8")
+    path = tmp_path / "big.py"
+    path.write_text(text.replace('"default": 0.15', '"default": 10**400'), encoding="utf-8")
+    with pytest.raises(MkctlError, match="default must be a finite number"):
+        load_mechanism_file(path)

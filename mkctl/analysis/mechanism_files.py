@@ -211,6 +211,8 @@ def _parameters(raw, fail) -> tuple:
         for key in ("default", "lower", "upper"):
             value = item[key]
             number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if number and isinstance(value, int) and abs(value) > 1e308:  # 10**400: no float
+                number = False
             if not (number and math.isfinite(value)):
                 raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
             values[key] = float(value)
