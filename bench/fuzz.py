@@ -6,7 +6,11 @@ added or changed, a cell, a row, the header or the bytes of a measurement file; 
 a muscle file; one option of synth, step, rootlocus, linearize or sweep; a hostile name (issue 30: quotes, triple
 quotes, line breaks, ``</script>``, ``&``, ``%``, backslashes, non-ASCII, control characters, a payload that
 creates ``PWNED`` if ever run as code) as a record's file name, a metadata value, a comment, a column name, or an
-effect file's description and unit. The contract (issues 20 and 30) is:
+effect file's description and unit; and issue 30's new surfaces: a mechanism or actuator record (model-spec
+5d) made bad, or naming a mechanism file that creates ``PWNED`` if it runs (a record never loads code by itself);
+a mechanism file broken, untraceable, out of 0 < L < b or with hostile names, given with ``--mechanism`` to synth,
+compare, linearize, rootlocus or step; and :func:`mkctl.physics.pneumatics.simulate_muscle_pressure` (no CLI:
+its Python API, run as a CLI would by :func:`run_pneumatic`) at its extremes. The contract (issues 20 and 30) is:
 
 - a refusal is one line on stderr and a non-zero exit, with no warning printed before it;
 - an accepted run exits 0 and writes and prints only finite numbers;
@@ -17,7 +21,7 @@ effect file's description and unit. The contract (issues 20 and 30) is:
 Each case gets one outcome of :data:`OUTCOMES`; the first two are the contract kept, the others break it.
 Usage::
 
-    python bench/fuzz.py                     # 2000 cases, seed 0, counts per outcome
+    python bench/fuzz.py                     # 2000 cases, seed 0, counts per outcome and kind
     python bench/fuzz.py --cases 300 --seed 4 --show 5
 
 The suite's tests/test_fuzz.py runs the same generator on a small fixed budget.
@@ -39,6 +43,8 @@ import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
+#: The repository (docs/examples holds a valid mechanism file).
+ROOT = Path(__file__).resolve().parents[1]
 #: Outcomes: the contract kept (refused, accepted) or broken (the rest).
 OUTCOMES = ("refused", "accepted", "traceback", "hang", "warnings", "not one line", "non-finite written",
             "non-finite printed", "code executed", "broken file written")
@@ -73,6 +79,8 @@ class Case:
     label: str
     argv: list
     files: dict = field(default_factory=dict)  #: {name: text or bytes} written into the case's folder first
+    #: what runs argv instead of :func:`mkctl.cli.main` (a surface without a CLI: the pneumatics' Python API)
+    runner: object = None
 
 
 @dataclass
@@ -97,6 +105,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     import os
     from mkctl.cli import main
 
+    main = case.runner or main
     folder.mkdir(parents=True, exist_ok=True)
     for name, content in case.files.items():
         path = folder / name
@@ -114,6 +123,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     previous = signal.signal(signal.SIGALRM, alarm)
     signal.setitimer(signal.ITIMER_REAL, timeout)
     cwd = os.getcwd()
+    limit = sys.getrecursionlimit()  # a mechanism file's code may change it: the next case starts afresh
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -135,6 +145,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
             os.chdir(cwd)
+            sys.setrecursionlimit(limit)
             _unregister_effects(folder, case)
     seconds = time.perf_counter() - start
     stdout, stderr = out.getvalue(), err.getvalue()
@@ -175,8 +186,10 @@ def _unregister_effects(folder: Path, case: Case) -> None:
     starts from the same registry, and so does whatever runs in this process after the fuzzer."""
     from mkctl.analysis.effect_files import EffectFileError, unregister_effect_file
 
-    for name in case.files:
-        if name.endswith(".py"):
+    argv = [str(a) for a in case.argv]
+    given = {argv[i + 1] for i, a in enumerate(argv[:-1]) if a == "--effects"}
+    for name in case.files:  # only the files given with --effects: unregistering reads (runs) the file,
+        if name in given:    # and a file a record merely names (evil.py) must never run
             with contextlib.suppress(EffectFileError):
                 unregister_effect_file(folder / name)
 
@@ -257,7 +270,31 @@ def base_files(folder: Path) -> dict:
         path, _ = write_synthetic(folder / name, synthesize(experiment, hidden, seed=1, **options), truth_file=False)
         files[name] = path.read_text(encoding="utf-8")
     files["muscle.json"] = write_muscle(folder / "muscle.json", DEFAULT).read_text(encoding="utf-8")
+    # model-spec 5d: mechanism records (a mechanism file's and a built-in's) and an actuator record
+    files["cam_lever.py"] = (ROOT / "docs" / "examples" / "cam_lever.py").read_text(encoding="utf-8")
+    (folder / "cam_lever.py").write_text(files["cam_lever.py"], encoding="utf-8")
+    for name, argv in (("mech_cam.csv", ["mechanism", "--mechanism", "cam_lever.py", "--samples", "200"]),
+                       ("mech_hang.csv", ["mechanism", "--mechanism", "hanging_mass", "--samples", "200"]),
+                       ("actuator.csv", ["actuator", "--samples", "150"])):
+        _in_folder(folder, ["synth", argv[0], name, *argv[1:], "--no-truth"])
+        files[name] = (folder / name).read_text(encoding="utf-8")
     return files
+
+
+def _in_folder(folder: Path, argv: list) -> None:
+    """Run one valid mkctl command in folder (its output unseen; a failure stops the fuzzer)."""
+    import os
+    from mkctl.cli import main
+
+    cwd = os.getcwd()
+    try:
+        os.chdir(folder)
+        with contextlib.redirect_stdout(io.StringIO()):
+            status = main(argv)
+    finally:
+        os.chdir(cwd)
+    if status != 0:
+        raise RuntimeError(f"mkctl {' '.join(argv)} failed: the fuzzer's base files are not made")
 
 
 def _number(rng: random.Random) -> str:
@@ -268,17 +305,20 @@ def _number(rng: random.Random) -> str:
     return rng.choice(HOSTILE_NUMBERS)
 
 
-def measurement_case(rng: random.Random, files: dict) -> Case:
-    """A measurement file made bad in one way, through compare (mostly) or diagnose."""
+def measurement_case(rng: random.Random, files: dict, name: str = None, command=None) -> Case:
+    """A measurement file made bad in one way, through compare (mostly) or diagnose (``command(rng, name,
+    content, label)`` makes the case: :func:`_measurement_command` unless given)."""
     from mkctl.physics.params import PARAMETER_NAMES
 
-    name = rng.choice(("knee.csv", "isotonic.csv", "isometric.csv"))
+    make = command or _measurement_command
+    name = name or rng.choice(("knee.csv", "isotonic.csv", "isometric.csv"))
     lines = files[name].splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     rows = list(range(header + 1, len(lines)))
     what = rng.randrange(12)
     if what <= 2:  # a metadata line: a parameter, an offset or a key of its own, with a hostile value
-        quantity = {"knee.csv": "x", "isotonic.csv": "length", "isometric.csv": "force"}[name]
+        quantity = {"knee.csv": "x", "isotonic.csv": "length", "isometric.csv": "force",
+                    "actuator.csv": "force"}.get(name, "q")
         key = rng.choice((*PARAMETER_NAMES, f"{quantity}_offset_{'N' if quantity == 'force' else 'mm'}",
                           "experiment", "baseline", "model", "", "x y", "m" * 300))
         lines.insert(header, f"# {key} = {_number(rng)}")
@@ -307,12 +347,12 @@ def measurement_case(rng: random.Random, files: dict) -> Case:
         data = "\n".join(lines).encode()
         cut = rng.randrange(len(data))
         data = data[:cut] if rng.random() < 0.5 else data[:cut] + bytes(rng.randrange(256) for _ in range(20)) + data[cut:]
-        return _measurement_command(rng, name, data, f"bytes changed at {cut}")
+        return make(rng, name, data, f"bytes changed at {cut}")
     elif what == 9:  # separators and line ends
         text = "\n".join(lines)
         text = rng.choice((text.replace(",", ";"), text.replace("\n", "\r\n"), text.replace("\n", "\r"),
                            "\ufeff" + text, text.replace(".", ","), text + "\n" * 5 + "1,2,3,4"))
-        return _measurement_command(rng, name, text, "separators changed")
+        return make(rng, name, text, "separators changed")
     elif what == 10:  # a long value
         lines.insert(header, f"# m = {'1' * rng.choice((100, 10_000, 1_000_000))}")
         label = "a long metadata value"
@@ -327,7 +367,7 @@ def measurement_case(rng: random.Random, files: dict) -> Case:
                 pass
             lines[row] = ",".join(cells)
         label = f"column {column + 1} times {factor:g}"
-    return _measurement_command(rng, name, "\n".join(lines) + "\n", label)
+    return make(rng, name, "\n".join(lines) + "\n", label)
 
 
 def _measurement_command(rng, name, content, label) -> Case:
@@ -484,11 +524,254 @@ def hostile_case(rng: random.Random, files: dict) -> Case:
     return Case("hostile", f"{command[0]} {base}: {label}", command, {base: "\n".join(lines) + "\n"})
 
 
+# --- model-spec 5d records, mechanism files and the pneumatics (issue 30) -------------------------------
+
+#: Code that creates PWNED when it runs: a mechanism file holding it may be named by a record, never loaded
+#: because of it (a record never loads code by itself).
+MARKER_CODE = 'import pathlib\npathlib.Path("PWNED").write_text("ran")\n'
+
+
+def _record_command(rng, name, content, label) -> Case:
+    """compare (mostly, with --mechanism cam_lever.py for the record that names it) or diagnose (which
+    refuses mechanism and actuator records in one line) on a mutated 5d record."""
+    files = {name: content}
+    if rng.random() < 0.2:
+        argv = ["diagnose", name, "--out", "out", "--quiet"]
+    else:
+        argv = ["compare", name, "--out", "out"]
+        if name == "mech_cam.csv" or rng.random() < 0.1:
+            argv += ["--mechanism", "cam_lever.py"]
+            files["cam_lever.py"] = CAM_LEVER_TEXT[0]
+    return Case("record", f"{argv[0]} {name}: {label}", argv, files)
+
+
+#: cam_lever.py's text, set by record_case from the base files (the command maker sees no files).
+CAM_LEVER_TEXT = [""]
+
+
+def record_case(rng: random.Random, files: dict) -> Case:
+    """A mechanism or actuator record (model-spec 5d) made bad in one way, as measurement_case does, or one
+    whose ``# mechanism =`` names something hostile: a missing file, a hostile name, a file that writes PWNED
+    when run (present beside the record, never named with --mechanism: it must not run)."""
+    CAM_LEVER_TEXT[0] = files["cam_lever.py"]
+    name = rng.choice(("mech_cam.csv", "mech_hang.csv", "actuator.csv"))
+    if rng.random() < 0.7:
+        return measurement_case(rng, files, name, _record_command)
+    lines = files[name].splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    lines = [line for line in lines[:header] if not line.startswith("# mechanism")] + lines[header:]
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    named = rng.choice(("evil.py", "./evil.py", "pulley_joint", "knee", "missing.py", "hanging_mass",
+                        " ".join(rng.choice(HOSTILE_NAMES).splitlines()) or "x", "cam_lever.py", ""))
+    lines.insert(header, f"# mechanism = {named}")
+    experiment = rng.choice(("mechanism", "actuator", "knee", "Mechanism", "mechanism "))
+    lines = [f"# experiment = {experiment}" if line.startswith("# experiment") else line for line in lines]
+    command = rng.choice((["compare", name, "--out", "out"], ["diagnose", name, "--out", "out", "--quiet"],
+                          ["diagnose", name, "--suggest", "mine.py", "--out", "out", "--quiet"],
+                          ["compare", name, "--out", "out", "--mechanism", "cam_lever.py"]))
+    case_files = {name: "\n".join(lines) + "\n", "evil.py": MARKER_CODE + files["cam_lever.py"],
+                  "cam_lever.py": files["cam_lever.py"]}
+    return Case("record", f"{command[0]} {name}: experiment = {experiment!r}, mechanism = {named!r}", command,
+                case_files)
+
+
+#: Ways to break a mechanism file: (label, old text, new text) on docs/examples/cam_lever.py; @V@ is a value.
+MECHANISM_EDITS = (
+    ("default L_top", '"default": 0.2, "lower": 0.05', '"default": @V@, "lower": 0.05'),
+    ("bounds of L_top", '"default": 0.2, "lower": 0.05, "upper": 1.0', '"default": 0.2, "lower": @V@, "upper": @V@'),
+    ("default r0", '"default": 0.02', '"default": @V@'),
+    ("default J_lever", '"default": 0.15', '"default": @V@'),
+    ("default m_lever", '"default": 3.0', '"default": @V@'),
+    ("stop q_high", '"default": 1.2', '"default": @V@'),
+    ("stop q_low", '"default": -0.3', '"default": @V@'),
+    ("the length", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return (@V@,)"),
+    ("the inertia", "return p.J_lever\n", "return @V@\n"),
+)
+#: Lengths that leave 0 < L < b (the paper's b is 0.241 m), or are not a number.
+BAD_LENGTHS = ("0.0", "-0.1", "0.241", "0.3", "1e308", "float('nan')", "float('inf')", "1e-300", "p.L_top * 0",
+               "p.L_top + q * 10", "p.b", "p.b - 1e-15")
+#: Function bodies a tracer cannot follow, or that fail, or that return the wrong thing.
+UNTRACEABLE = (
+    ("an if on q", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)",
+     "return (p.L_top if q > 0 else p.L_top - 0.01,)"),
+    ("float(q)", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return (p.L_top - p.r0 * float(q),)"),
+    ("math.sin", "xp.sin(q)", "__import__('math').sin(q)"),
+    ("numpy on a symbol", "xp.sin(q)", "__import__('numpy').sin(q)"),
+    ("a raise", "return p.J_lever\n", "raise ValueError('no inertia')\n"),
+    ("a ZeroDivisionError", "return p.J_lever\n", "return p.J_lever / 0\n"),
+    ("a string length", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return ('0.2',)"),
+    ("two lengths for one muscle", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)",
+     "return (p.L_top, p.L_top)"),
+    ("no tuple", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return None"),
+    ("an unknown parameter", "p.J_lever\n", "p.J_nothing\n"),
+    ("an unknown xp name", "xp.sin(q)", "xp.sinh2(q)"),
+    ("a free variable", "return p.J_lever\n", "return p.J_lever * undefined_name\n"),
+    ("stops reversed", "return (p.q_low, p.q_high)", "return (p.q_high, p.q_low)"),
+    ("stops not numbers", "return (p.q_low, p.q_high)", "return ('a', None)"),
+    ("one stop", "return (p.q_low, p.q_high)", "return (p.q_low,)"),
+    ("a syntax error", "def inertia(q, p, xp):", "def inertia(q, p, xp)"),
+    ("no MECHANISM", "MECHANISM = {", "NOT_MECHANISM = {"),
+    ("MECHANISM a list", "MECHANISM = {", "MECHANISM = [{"),
+    ("a parameter named g", '{"name": "r0"', '{"name": "g"'),
+    ("a parameter twice", '{"name": "r0"', '{"name": "L_top"'),
+    ("a parameter named class", '{"name": "r0"', '{"name": "class"'),
+    ("no muscles", '"muscles": ["muscle"]', '"muscles": []'),
+    ("three muscles", '"muscles": ["muscle"]', '"muscles": ["a", "b", "c"]'),
+    ("unit furlong", '"unit": "rad"}', '"unit": "furlong"}'),
+    ("load not callable", '"load": load', '"load": 3.0'),
+    ("no lengths", '"lengths": lengths, ', ''),
+    ("a huge exponent", "0.5 * p.k_cam * q**2", "0.5 * p.k_cam * q**10**6"),
+    ("an import error", "def lengths", "import no_such_module_mkctl\n\n\ndef lengths"),
+)
+#: The mechanism's texts a hostile colleague sets: name, description, coordinate, a muscle, a unit.
+NAMED_FIELDS = (('"name": "cam_lever"', '"name": @S@'), ('"description": "a lever lifted by one muscle over a cam"',
+                 '"description": @S@'), ('{"name": "phi", "unit": "rad"}', '{"name": @S@, "unit": "rad"}'),
+                ('"muscles": ["muscle"]', '"muscles": [@S@]'), ('"unit": "m/rad"', '"unit": @S@'),
+                ('"name": "cam_lever"', '"name": "knee"'), ('"name": "cam_lever"', '"name": "hanging_mass"'))
+
+
+def mechanism_file_case(rng: random.Random, files: dict) -> Case:
+    """A mechanism file made bad in one way (a hostile value, a length outside 0 < L < b, code that cannot be
+    traced or fails, hostile names) given with --mechanism to synth, compare, linearize, rootlocus or step; or
+    a built-in mechanism with a hostile --pressure."""
+    text = files["cam_lever.py"]
+    what = rng.randrange(10)
+    if what <= 2:
+        label, old, new = rng.choice(MECHANISM_EDITS)
+        value = rng.choice(BAD_LENGTHS) if label == "the length" else rng.choice(
+            ("float('nan')", "float('inf')", "1e308", "-1e308", "1e-320", "0", "-1", "None", "'0.2'", "True",
+             "[0.2]", "10**400", *PLAUSIBLE))
+        text, label = text.replace(old, new.replace("@V@", value)), f"{label} = {value}"
+    elif what <= 5:
+        label, old, new = rng.choice(UNTRACEABLE)
+        text = text.replace(old, new, 1)
+    elif what <= 7:
+        old, new = rng.choice(NAMED_FIELDS)
+        name = rng.choice(HOSTILE_NAMES)
+        shown = repr(name) if "@S@" in new else new
+        text, label = text.replace(old, new.replace("@S@", repr(name))), f"{old[:14]}... = {shown}"
+    elif what == 8:
+        text, label = rng.choice((("", "empty"), ("\x00\x01", "binary"), ("MECHANISM = None", "MECHANISM None"),
+                                  (text[:rng.randrange(len(text))], "cut short"),
+                                  ("raise SystemExit(0)\n" + text, "SystemExit at import"),
+                                  ("import sys\nsys.setrecursionlimit(50)\n" + text, "recursion limit")))
+    else:  # a built-in (or the file) with a hostile --pressure
+        mech = rng.choice(("hanging_mass", "pulley_joint", "cam_lever.py", "knee"))
+        pressure = rng.choice((_number(rng), f"{_number(rng)},{_number(rng)}", "300,300,300", "-200", ""))
+        command = rng.choice(("linearize", "rootlocus", "step"))
+        argv = {"linearize": ["linearize", "--no-fmu", "--out", "out"], "rootlocus": ["rootlocus", "--out", "out"],
+                "step": ["step", "--no-fmu", "--out", "out", "--duration", "0.3"]}[command]
+        argv += ["--mechanism", mech, "--pressure", pressure]
+        return Case("mechfile", f"{command} --mechanism {mech} --pressure {pressure[:30]}", argv,
+                    {"cam_lever.py": files["cam_lever.py"]})
+    command = rng.choice(("synth", "compare", "linearize", "rootlocus", "step"))
+    argv = {"synth": ["synth", "mechanism", "out/s.csv", "--mechanism", "cam_lever.py", "--samples", "100"],
+            "compare": ["compare", "mech_cam.csv", "--mechanism", "cam_lever.py", "--out", "out"],
+            "linearize": ["linearize", "--no-fmu", "--mechanism", "cam_lever.py", "--out", "out"],
+            "rootlocus": ["rootlocus", "--mechanism", "cam_lever.py", "--out", "out"],
+            "step": ["step", "--no-fmu", "--mechanism", "cam_lever.py", "--out", "out", "--duration", "0.3"]}[command]
+    return Case("mechfile", f"{command} mechanism file: {label}", argv,
+                {"cam_lever.py": text, "mech_cam.csv": files["mech_cam.csv"]})
+
+
+#: AirParams fields at their extremes (issue 30: a closed valve, a leak that empties the muscle, a volume near
+#: zero, ...), and values outside their bounds or not numbers.
+AIR_EXTREMES = {
+    "C_fill": (1e-11, 1e-11, 1e-6, 1e-6, 5e-9, 0.0, 1e-3), "C_exhaust": (0.0, 1e-11, 1e-6, 1e-6, 1e-12, -1.0),
+    "P_supply": (1.0, 1e3, 1e5, 3e5, 1e7, 1e7, 0.0, 1e9), "band": (1e3, 1e3, 1e6, 1e6, 1.0),
+    "b_cr": (0.0, 0.0, 0.9, 0.9, 0.5, 1.0), "m_sub": (0.3, 1.5, 0.3, 1.5, 3.0), "k_poly": (1.0, 1.4, 1.0, 1.4, 2.0),
+    "V_dead": (0.0, 0.0, 1e-15, 1e-12, 1e-3, 1.0), "T_air": (1e-6, 1.0, 1000.0, 1000.0, 5000.0, 0.0),
+    "C_leak": (0.0, 1e-9, 1e-6, 1e-6, 1e-7, 1e-3), "tau_heat": (1e-6, 1e-6, 1e-3, 1e4, 1e4, 1e6, -1.0),
+}
+NOT_NUMBERS = (float("nan"), float("inf"), -float("inf"), None, "1", True, 1e308, -1e308)
+#: How often a value is one of NOT_NUMBERS.
+NOT_NUMBER_SHARE = 0.04
+
+
+def _pneumatic_value(rng, choices):
+    return rng.choice(NOT_NUMBERS) if rng.random() < NOT_NUMBER_SHARE else rng.choice(choices)
+
+
+def pneumatic_case(rng: random.Random, files: dict) -> Case:
+    """simulate_muscle_pressure (no CLI yet: its Python API, run by :func:`run_pneumatic`) with AirParams at
+    their extremes, a command above the supply or below absolute zero, openings outside [-1, 1], a length
+    near 0 or b, a free muscle's load, NaN and inf in the inputs."""
+    spec = {"air": {}, "kwargs": {}}
+    for name in rng.sample(sorted(AIR_EXTREMES), rng.choice((0, 1, 1, 2, 3))):
+        spec["air"][name] = _pneumatic_value(rng, AIR_EXTREMES[name])
+    duration = rng.choice((0.01, 0.1, 0.5, 2.0, 2.0, 1e-9, 1e3))
+    samples = rng.choice((2, 10, 50, 50, 200, 1000)) if rng.random() < 0.97 else 1
+    spec["time"] = "linspace" if rng.random() < 0.9 else rng.choice(("reversed", "repeated", "nan"))
+    spec["duration"], spec["samples"] = duration, samples
+    if rng.random() < 0.5:
+        key, values = "command", (0.0, 3e5, 6e5, 2.5e6, 1e9, -1e5, -101325.0, -2e5, 1e308)
+    else:
+        key, values = "opening", (0.0, 1.0, -1.0, 0.5, -0.5, 1.0000001, -1.5, 2.0, 1e300)
+    if rng.random() < 0.5:
+        spec["kwargs"][key] = _pneumatic_value(rng, values)
+    else:  # a record: steps between two values, one perhaps not a number
+        spec["kwargs"][key] = [_pneumatic_value(rng, values), _pneumatic_value(rng, values)]
+    where = rng.randrange(6)
+    if where == 0:
+        spec["kwargs"]["length"] = _pneumatic_value(rng, (0.0, 1e-9, 0.1, 0.2, 0.2409999, 0.241, 0.3, -0.1))
+    elif where == 1:
+        spec["kwargs"]["length"] = ["ramp", _pneumatic_value(rng, (0.0, 0.15, 0.2, 0.24, 0.3)),
+                                    _pneumatic_value(rng, (0.1, 0.2, 0.2409, 0.5))]
+    elif where == 2:
+        spec["kwargs"]["load"] = _pneumatic_value(rng, (0.0, 10.0, 50.0, 500.0, 1e4, -50.0, 1e9))
+    if rng.random() < 0.3:
+        spec["kwargs"]["P_start"] = _pneumatic_value(rng, (0.0, -101325.0, -2e5, 1e5, 2e6, 1e9, -1e9))
+    if rng.random() < 0.15:
+        spec["kwargs"]["method"] = rng.choice(("Radau", "BDF", "RK45", "", "lsoda"))
+    label = json.dumps(spec, default=str)
+    return Case("pneumatic", f"simulate_muscle_pressure {label[:160]}", ["pneumatic", label],
+                runner=run_pneumatic)
+
+
+def run_pneumatic(argv) -> int:
+    """Run one pneumatic case (argv: ["pneumatic", JSON spec]) as a CLI would: a MkctlError is one line on
+    stderr and status 2; a result is written to pressure.csv (every output, time first) and summarized."""
+    import numpy as np
+
+    from mkctl.errors import MkctlError
+    from mkctl.physics.pneumatics import AirParams, simulate_muscle_pressure
+
+    spec = json.loads(argv[1])
+    n, duration = spec["samples"], spec["duration"]
+    time = {"linspace": np.linspace(0.0, duration, n), "reversed": np.linspace(duration, 0.0, n),
+            "repeated": np.zeros(n), "nan": np.full(n, np.nan)}[spec["time"]]
+    kwargs = dict(spec["kwargs"])
+    for key in ("command", "opening"):
+        if isinstance(kwargs.get(key), list):  # two values, switching halfway
+            first, second = kwargs[key]
+            kwargs[key] = [first] * (n // 2) + [second] * (n - n // 2)
+    if isinstance(kwargs.get("length"), list):
+        _, start, stop = kwargs["length"]
+        kwargs["length"] = [start + (stop - start) * i / max(n - 1, 1) for i in range(n)] \
+            if None not in (start, stop) and not isinstance(start, str) and not isinstance(stop, str) else [start, stop]
+    try:
+        air = AirParams(**spec["air"])
+        result = simulate_muscle_pressure(time, air=air, **kwargs)
+    except MkctlError as error:
+        print(f"mkctl: error: {error}", file=sys.stderr)
+        return 2
+    table = result.table()
+    with open("pressure.csv", "w", encoding="utf-8") as out:
+        out.write(",".join(table) + "\n")
+        for row in zip(*table.values()):
+            out.write(",".join(repr(float(v)) for v in row) + "\n")
+    print("\n".join(result.summary_lines()))
+    return 0
+
+
 GENERATORS = {"measurement": measurement_case, "muscle": muscle_case, "option": option_case,
-              "hostile": hostile_case}
+              "hostile": hostile_case, "record": record_case, "mechfile": mechanism_file_case,
+              "pneumatic": pneumatic_case}
+#: Each kind's share of the cases.
+WEIGHTS = (0.22, 0.07, 0.18, 0.08, 0.15, 0.15, 0.15)
 
 
-def cases(count: int, seed: int, files: dict, weights=(0.40, 0.12, 0.33, 0.15)) -> list[Case]:
+def cases(count: int, seed: int, files: dict, weights=WEIGHTS) -> list[Case]:
     """``count`` cases from a generator seeded with ``seed`` (the same seed gives the same cases)."""
     rng = random.Random(seed)
     kinds = rng.choices(list(GENERATORS), weights=weights, k=count)
@@ -524,10 +807,15 @@ def main(argv=None) -> int:
     parser.add_argument("--keep", metavar="DIR", default=None, help="keep the cases' folders here")
     args = parser.parse_args(argv)
     start = time.perf_counter()
+    seen = {}
 
     def progress(i, result):
+        seen[result.outcome] = seen.get(result.outcome, 0) + 1
+        if result.outcome not in ("refused", "accepted"):
+            print(f"  {result.outcome}: {result.case.label}: {' '.join(map(str, result.case.argv))[:300]}\n"
+                  f"      {result.detail[:300]}", file=sys.stderr, flush=True)
         if (i + 1) % 100 == 0:
-            print(f"{i + 1} cases, {time.perf_counter() - start:.0f} s", file=sys.stderr, flush=True)
+            print(f"{i + 1} cases, {time.perf_counter() - start:.0f} s: {seen}", file=sys.stderr, flush=True)
 
     with tempfile.TemporaryDirectory(prefix="mkctl-fuzz-") as temporary:
         folder = Path(args.keep) if args.keep else Path(temporary)

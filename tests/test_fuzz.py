@@ -1,5 +1,6 @@
 """The fuzzer of bench/fuzz.py on a small fixed budget: bad measurement files, muscle files, options and hostile
-names (issue 30: record names, metadata values, comments, column names, effect descriptions and units).
+names (issue 30: record names, metadata values, comments, column names, effect descriptions and units), and
+issue 30's new surfaces: mechanism and actuator records, mechanism files, simulate_muscle_pressure's extremes.
 
 The contract (issue 20): a refusal is one line on stderr with a non-zero exit and no warning before it; an
 accepted run writes and prints only finite numbers; never a traceback, never a hang. The generator is seeded, so
@@ -20,8 +21,11 @@ fuzz = importlib.util.module_from_spec(spec)
 sys.modules[spec.name] = fuzz  # its dataclasses look their module up there
 spec.loader.exec_module(fuzz)
 
-#: Cases per kind in the suite: about twenty seconds in all on one core.
-BUDGET = {"measurement": 24, "muscle": 12, "option": 16, "hostile": 16}
+#: Cases per kind in the suite: about forty seconds in all on one core.
+BUDGET = {"measurement": 24, "muscle": 12, "option": 16, "hostile": 16,
+          # issue 30's new surfaces: mechanism and actuator records (one naming a file that writes PWNED if
+          # run), broken and hostile mechanism files, the pneumatics' Python API at its extremes
+          "record": 12, "mechfile": 12, "pneumatic": 30}
 
 
 @pytest.fixture(scope="module")
@@ -40,6 +44,10 @@ def test_fuzzed_input_is_refused_in_one_line_or_accepted_with_finite_numbers(kin
               for r in results if r.outcome not in ("refused", "accepted")]
     assert not broken, "\n".join(broken)
     assert any(r.outcome == "refused" for r in results)  # the generator does make bad input
+    if kind in ("record", "mechfile"):  # a record names code, never runs it
+        assert not list(tmp_path.rglob("PWNED"))
+    if kind == "pneumatic":  # some integrate (a finite pressure.csv written), not all are refused
+        assert any(r.outcome == "accepted" for r in results)
     if kind == "hostile":  # hostile names are mostly legal: most runs are accepted, none runs the payload
         assert sum(r.outcome == "accepted" for r in results) >= len(results) // 3
         assert not list(tmp_path.rglob("PWNED"))

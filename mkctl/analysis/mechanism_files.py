@@ -59,6 +59,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import MkctlError
+from ..physics import actuator
 from ..physics.effects import Parameter
 from ..physics.mechanism import BUILTIN, Mechanism, kinematics, trace
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
@@ -89,7 +90,8 @@ def _run_file(path: Path, where: str) -> dict:
     except SyntaxError as error:
         raise MechanismFileError(f"{where} line {error.lineno}: not valid Python: "
                                  f"{error.msg}") from None
-    except Exception as error:  # the user's code: any failure is theirs, in one line
+    except (Exception, SystemExit) as error:  # the user's code: any failure is theirs, in one
+        # line (sys.exit in it would end mkctl with status 0 and nothing done)
         raise MechanismFileError(f"{where}: running it failed: {type(error).__name__}: "
                                  f"{error}") from None
 
@@ -209,6 +211,8 @@ def _parameters(raw, fail) -> tuple:
         for key in ("default", "lower", "upper"):
             value = item[key]
             number = isinstance(value, (int, float)) and not isinstance(value, bool)
+            if number and isinstance(value, int) and abs(value) > 1e308:  # 10**400: no float
+                number = False
             if not (number and math.isfinite(value)):
                 raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
             values[key] = float(value)
@@ -263,7 +267,10 @@ def _check_range(mechanism: Mechanism, params: Params, fail) -> None:
                    f"(q_min, q_max)") from None
     q = np.linspace(low, high, SAMPLES)
     try:
-        lengths, arms, M, Q = kinematics(mechanism, q, p)
+        # an overflow (q**10**6) is a length, arm or load that is not finite: refused below in one
+        # line, not a RuntimeWarning printed before it
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            lengths, arms, M, Q = kinematics(mechanism, q, p)
     except Exception as error:
         raise fail(f"lengths or inertia fail with numpy arrays ({type(error).__name__}: "
                    f"{error})") from None
@@ -278,6 +285,14 @@ def _check_range(mechanism: Mechanism, params: Params, fail) -> None:
         if not np.isfinite(arm).all():
             raise fail(f"muscle '{muscle}': its moment arm dL/d{mechanism.coordinate} is not "
                        f"finite between the stops")
+        with np.errstate(all="ignore"):  # a length so short (1e-300 m) that L**3 underflows
+            rest = np.zeros_like(L)
+            tension = (actuator.static_tension(L, rest, params),
+                       actuator.static_tension_dL(L, rest, params))
+        if not all(np.isfinite(t).all() for t in tension):
+            i = int(np.argmax(~(np.isfinite(tension[0]) & np.isfinite(tension[1]))))
+            raise fail(f"muscle '{muscle}' has length L = {L[i]:.6g} m at {mechanism.coordinate} = "
+                       f"{q[i]:.6g} {mechanism.unit}, too short for the model's tension to be finite")
     if not np.isfinite(Q).all():
         raise fail("load is not finite between the stops at rest")
     bad = ~(np.isfinite(M) & (M > 0))

@@ -967,8 +967,9 @@ def simulate_muscle_pressure(
     ------
     DomainError
         For sample times that are not increasing, both or neither of command and opening, both
-        length and load, an unknown method, an opening outside [-1, 1], a record of the wrong
-        length or with a value that is not finite, or a length outside 0 < L < b.
+        length and load, an unknown method, an opening outside [-1, 1], a command or a start
+        pressure at or below absolute zero (-P_ATM gauge), a record of the wrong length or with a
+        value that is not finite, or a length outside 0 < L < b.
 
     References
     ----------
@@ -1002,6 +1003,23 @@ def simulate_muscle_pressure(
     if load is not None and length is not None:
         raise DomainError("give either length (held or moving) or load (a free muscle), not both")
     P0 = float(driven[0]) if P_start is None and command is not None else float(P_start or 0.0)
+    # absolute pressure at or below zero: the orifice's pressure ratio and the gas law divide by it;
+    # above the largest supply the model knows, the arithmetic overflows before the valve matters
+    highest = next(q.upper for q in VALVE_FLOW_PARAMETERS if q.name == "P_supply")
+    if command is not None and np.any(driven <= -P_ATM):
+        raise DomainError(
+            f"a command of {driven.min():g} Pa gauge is at or below absolute zero (-{P_ATM:g} Pa)"
+        )
+    if command is not None and np.any(driven > highest):
+        raise DomainError(
+            f"a command of {driven.max():g} Pa is above the largest supply pressure the model "
+            f"knows ({highest:g} Pa)"
+        )
+    if not math.isfinite(P0) or not -P_ATM < P0 <= highest:
+        raise DomainError(
+            f"the start pressure P_start = {P0:g} Pa gauge must lie above absolute zero "
+            f"(-{P_ATM:g} Pa) and at most {highest:g} Pa"
+        )
     free = load is not None
     spline = None
     if free:
@@ -1010,6 +1028,7 @@ def simulate_muscle_pressure(
         L_start = muscle.L0 if length is None else float(length)
     else:
         L_samples = _check_record(time, length, "length")
+        actuator.check_length(L_samples, b)  # every sample: the air's volume is that of 0 < L < b
         rates = (
             np.gradient(L_samples, time)
             if length_rate is None
