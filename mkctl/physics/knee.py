@@ -717,7 +717,10 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
 
     ``dX/dt = V``, ``dV/dt = (F(X, V, Pe, Pf) + F_stop(X, V)) / m - g``, and with pressure dynamics
     (a lag) ``dP/dt`` of each actuator (:func:`mkctl.physics.actuator.pressure_derivative`, e.g.
-    ``tau dP/dt = P_cmd - P``). Without them the pressures are the commands.
+    ``tau dP/dt = P_cmd - P``). Without them the pressures are the commands. With the air
+    (``valve_flow``, model-spec 4d) each pressure follows its muscle's mass balance
+    (:func:`mkctl.physics.actuator.air_pressure_derivative`) at its length and its lengthening
+    rate ``Le_dot = -G_e V``, ``Lf_dot = G_f V``: the motion squeezes or expands the air.
 
     Parameters
     ----------
@@ -756,13 +759,18 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
     rates = [V, dV]
-    if lag:
+    if lag and actuator.air_is_on(p):
+        # the air (model-spec 4d): each pressure from its mass balance, the volume from the motion
+        geo = geometry_at_X(X, p, derivatives=False)
+        rates += [actuator.air_pressure_derivative(Pe, pe_cmd, geo.Le, -geo.G_e * V, p),
+                  actuator.air_pressure_derivative(Pf, pf_cmd, geo.Lf, geo.G_f * V, p)]
+    elif lag:
         rates += [actuator.pressure_derivative(Pe, pe_cmd, p),
                   actuator.pressure_derivative(Pf, pf_cmd, p)]
     return rates if actuator.is_symbolic(dV) else np.array(rates, dtype=float)
 
 
-def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
+def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT, sealed: bool = False):
     """(A, B) of Eq. 17 linearized at rest (V = 0), end stops excluded.
 
     Without pressure dynamics ``A = [[0, 1], [a2, a1]]`` (Eq. 18) and
@@ -782,11 +790,16 @@ def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
         Commanded pressures [Pa] (they matter with pressure dynamics).
     params : Params
         The model.
+    sealed : bool
+        With the air on (``valve_flow``): the valves closed (u = 0, the inputs are then the
+        openings ue, uf): each muscle's air mass is constant but for a leak, an air spring.
 
     Returns
     -------
     A : numpy.ndarray
         State matrix, states as :func:`linearization_state_names` ([1/s], [1/s^2], ... in SI units).
+        With the air the pressure rows hold the mass balance's partials
+        (:func:`air_linearization`).
     B : numpy.ndarray
         Input matrix, inputs (pe_cmd, pf_cmd) [Pa].
 
@@ -801,10 +814,13 @@ def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
     .. [2] model-spec sections 4 and 4b (the dead time's Pade approximation).
     """
     p = params
-    d = knee_force_partials(geometry_at_X(X, p), 0.0, Pe, Pf, p)
+    geo = geometry_at_X(X, p)
+    d = knee_force_partials(geo, 0.0, Pe, Pf, p)
     row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
     gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
-    if not actuator.has_pressure_states(p):
+    if actuator.air_is_on(p):
+        A, B = air_linearization(geo, row, gains, (Pe, Pf), (pe_cmd, pf_cmd), p, sealed)
+    elif not actuator.has_pressure_states(p):
         A, B = np.array([[0.0, 1.0], row]), np.array([[0.0, 0.0], gains])
     else:
         ee, ec = actuator.pressure_derivative_partials(Pe, pe_cmd, p)
@@ -814,6 +830,99 @@ def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT):
         B = np.array([[0.0, 0.0], [0.0, 0.0], [ec, 0.0], [0.0, fc]])
     delay = float(actuator.command_delay(p))
     return pade_delay(A, B, delay) if delay > 0 else (A, B)
+
+
+def air_pressure_rows(lengths, arms, pressures, commands, params, sealed: bool = False):
+    """The pressure rows of a linearization at rest with the air on (model-spec 4d), any mechanism.
+
+    Muscle i's pressure rate depends on its pressure, its command, its length ``L_i(q)`` and its
+    rate ``Ldot_i = (dL_i/dq) qdot``; at rest (qdot = 0)
+
+    ``d(dP_i/dt)/dq = dPdot/dL dL_i/dq``, ``d(dP_i/dt)/dqdot = dPdot/dLdot dL_i/dq``,
+    ``d(dP_i/dt)/dP_i = dPdot/dP``, ``d(dP_i/dt)/du_i = dPdot/dcommand``
+
+    (:func:`mkctl.physics.actuator.air_pressure_partials`; the regulator on its filling side).
+    ``dPdot/dLdot = -k_poly p (dV_b/dL) / V`` is the air spring: sealed, it integrates to
+    :func:`mkctl.physics.pneumatics.sealed_stiffness`.
+
+    Parameters
+    ----------
+    lengths, arms : sequence of float
+        Each muscle's length [m] and dL_i/dq [m/m or m/rad].
+    pressures, commands : sequence of float
+        Each muscle's gauge pressure and set-point [Pa] (sealed: ignored, the openings are 0).
+    params : Params
+        The muscle's parameters.
+    sealed : bool
+        Valves closed: the inputs are the openings, held at 0.
+
+    Returns
+    -------
+    rows : numpy.ndarray
+        k x (2 + k): d(dP_i/dt) by (q, qdot, P_1, ..., P_k).
+    inputs : numpy.ndarray
+        k x k: d(dP_i/dt) by each muscle's input (set-point [1/s], or opening [Pa/s]).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18.
+    .. [2] model-spec section 4d.
+    """
+    k = len(lengths)
+    rows, inputs = np.zeros((k, 2 + k)), np.zeros((k, k))
+    for i in range(k):
+        command = 0.0 if sealed else commands[i]
+        dP, dc, dL, dLdot = actuator.air_pressure_partials(pressures[i], command, lengths[i], 0.0,
+                                                           params, opening=sealed)
+        rows[i, 0], rows[i, 1], rows[i, 2 + i] = dL * arms[i], dLdot * arms[i], dP
+        inputs[i, i] = dc
+    return rows, inputs
+
+
+def air_linearization(geo: KneeGeometry, row, gains, pressures, commands, params: Params,
+                      sealed: bool = False):
+    """(A, B) of the knee at rest with the air's pressure states (model-spec 4d).
+
+    ``A = [[0, 1, 0, 0], [a2, a1, dF/dPe/m, dF/dPf/m], [pressure rows]]`` with the pressure rows of
+    :func:`air_pressure_rows` (dLe/dX = -G_e, dLf/dX = G_f).
+
+    Parameters
+    ----------
+    geo : KneeGeometry
+        The posture.
+    row : sequence of float
+        (a2, a1): dF/dX / m [1/s^2], dF/dV / m [1/s].
+    gains : sequence of float
+        dF/dPe / m, dF/dPf / m [m/(s^2 Pa)].
+    pressures, commands : sequence of float
+        (Pe, Pf) and (pe_cmd, pf_cmd) [Pa].
+    params : Params
+        The model.
+    sealed : bool
+        Valves closed (the inputs are the openings).
+
+    Returns
+    -------
+    A : numpy.ndarray
+        4 x 4.
+    B : numpy.ndarray
+        4 x 2.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17-18.
+    .. [2] model-spec section 4d.
+    """
+    rows, inputs = air_pressure_rows((float(geo.Le), float(geo.Lf)),
+                                     (-float(geo.G_e), float(geo.G_f)), pressures, commands,
+                                     params, sealed)
+    A = np.zeros((4, 4))
+    A[0, 1] = 1.0
+    A[1] = [*row, *gains]
+    A[2:] = rows
+    B = np.zeros((4, 2))
+    B[2:] = inputs
+    return A, B
 
 
 def pade_delay(A, B, delay: float):

@@ -694,7 +694,11 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     if stops is not None:
         F = F + knee.end_stop_force(q, qdot, _Inertia(force.M), stops)
     rates = [qdot, F / force.M]
-    if lag:
+    if lag and actuator.air_is_on(muscle):
+        # the air (model-spec 4d): each pressure from its mass balance at its length and rate
+        rates += [actuator.air_pressure_derivative(pressures[i], commands[i], force.L[i],
+                                                   force.Ldot[i], muscle) for i in range(k)]
+    elif lag:
         rates += [actuator.pressure_derivative(pressures[i], commands[i], muscle)
                   for i in range(k)]
     return rates if actuator.is_symbolic(rates[1]) else np.array(rates, dtype=float)
@@ -881,7 +885,8 @@ def equilibrium_stability(mechanism: Mechanism, pressures, params=DEFAULT,
                               tuple(complex(s) for s in _poles(a1, a2)), str(_verdict(a1, a2)))
 
 
-def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFAULT):
+def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFAULT,
+                  sealed: bool = False):
     """(A, B) of the equation of motion linearized at rest at q, stops excluded.
 
     States :func:`state_names`, inputs the pressure commands. Without pressure dynamics
@@ -904,11 +909,15 @@ def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFA
         Each muscle's pressure command [Pa]; default the pressures (a steady state).
     params : Params or MechanismParams
         The muscle's parameters (and the mechanism's own values).
+    sealed : bool
+        With the air on (``valve_flow``, model-spec 4d): the valves closed, the inputs the
+        openings held at 0 (:func:`mkctl.physics.knee.air_pressure_rows`).
 
     Returns
     -------
     A : numpy.ndarray
-        State matrix, (n, n) [SI per second].
+        State matrix, (n, n) [SI per second]. With the air the pressure rows hold the mass
+        balance's partials, coupled to q and qdot through each muscle's volume.
     B : numpy.ndarray
         Input matrix, (n, muscles) [state units per s per Pa].
 
@@ -932,7 +941,16 @@ def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFA
     d = force_partials(mechanism, float(q), 0.0, pressures, p)
     row = [float(d.dF_dq) / d.M, float(d.dF_dqdot) / d.M]
     gains = [float(g) / d.M for g in d.dF_dP]
-    if not actuator.has_pressure_states(muscle):
+    if actuator.air_is_on(muscle):
+        L, arms, _, _ = kinematics(mechanism, float(q), p)
+        A = np.zeros((2 + k, 2 + k))
+        A[0, 1] = 1.0
+        A[1, :2], A[1, 2:] = row, gains
+        A[2:], B = knee.air_pressure_rows(tuple(float(x) for x in L),
+                                          tuple(float(a) for a in arms), pressures, commands,
+                                          muscle, sealed)
+        B = np.vstack([np.zeros((2, k)), B])
+    elif not actuator.has_pressure_states(muscle):
         A = np.array([[0.0, 1.0], row])
         B = np.array([[0.0] * k, gains])
     else:
@@ -1141,6 +1159,7 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     """The record loop: one integration per run of held commands, the samples read off the dense
     output."""
     muscle = muscle_params(p)
+    actuator.check_air_supported(muscle)
     lag = actuator.has_pressure_states(muscle)
     k = commands.shape[1]
     stop_positions = mechanism.stop_positions(p) if stops else None

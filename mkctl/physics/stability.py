@@ -81,6 +81,60 @@ def routh_hurwitz_coefficients(X, Pe, Pf, V=0.0, params: Params = DEFAULT):
     return partials.dF_dV / params.m, partials.dF_dX / params.m
 
 
+def sealed_coefficients(X, Pe, Pf, params: Params = DEFAULT):
+    """Eq. 18's a1, a2 of the knee whose valves are closed: sealed muscles, air springs.
+
+    With both valves closed (u = 0) and no leak each muscle's air mass is constant, so its pressure
+    follows its length, ``dP/dL = -k_poly p (dV_b/dL) / V``
+    (:func:`mkctl.physics.pneumatics.sealed_stiffness`, model-spec 4d). Through ``dLe/dX = -G_e``
+    and ``dLf/dX = G_f`` this adds to Eq. 23's ``h`` (and to a2):
+
+    .. math:: a_2^{sealed} = a_2 - \\frac{1}{m}\\left(G_e^2 \\frac{\\partial f_e}{\\partial P}
+              \\frac{dP_e}{dL} + G_f^2 \\frac{\\partial f_f}{\\partial P} \\frac{dP_f}{dL}\\right)
+
+    more negative than with the pressures held in the working range (dP/dL > 0, df/dP > 0): the
+    sealed knee is stiffer. a1 is unchanged. The linearization with the pressure states and the
+    valves closed (:func:`mkctl.physics.knee.linearization` with ``sealed``) has the poles of
+    ``s^2 - a1 s - a2_sealed`` and two at 0 (each muscle's air mass, conserved).
+
+    Parameters
+    ----------
+    X : float
+        Hip height [m].
+    Pe, Pf : float
+        Extensor and flexor gauge pressures at the moment the valves close [Pa].
+    params : Params
+        The model; section 4d's k_poly, V_dead.
+
+    Returns
+    -------
+    a1 : float
+        Velocity coefficient [1/s].
+    a2 : float
+        Position coefficient with the air springs [1/s^2].
+
+    Raises
+    ------
+    DomainError
+        Where X, a pressure or an actuator length is outside the model's domain.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
+       Eq. 18-23; its conclusion (the air's dynamics, left open there).
+    .. [2] model-spec section 4d (the sealed muscle).
+    """
+    from .pneumatics import sealed_stiffness
+    p = params
+    geo = knee.geometry_at_X(X, p)
+    d = knee.knee_force_partials(geo, 0.0, Pe, Pf, p)
+    stiff_e = sealed_stiffness(geo.Le, Pe, p.b, p.n, p.V_dead, p.k_poly)
+    stiff_f = sealed_stiffness(geo.Lf, Pf, p.b, p.n, p.V_dead, p.k_poly)
+    # dF/dPe dPe/dX + dF/dPf dPf/dX, dPe/dX = stiff_e dLe/dX = -G_e stiff_e, dPf/dX = G_f stiff_f
+    spring = d.dF_dPe * (-geo.G_e * stiff_e) + d.dF_dPf * (geo.G_f * stiff_f)
+    return float(d.dF_dV / p.m), float((d.dF_dX + spring) / p.m)
+
+
 def h_function(alpha, Pe, Pf, params: Params = DEFAULT):
     """The position condition in the paper's form: ``h = d/dalpha (G_e f_e - G_f f_f)`` at V = 0.
 
