@@ -114,7 +114,9 @@ def register(subparsers) -> None:
                               description="Root locus against the damping c (exact velocity feedback), a sweep "
                                           "of the lag tau (open and closed loop), or the gain of a height "
                                           "controller through pe_cmd with and without the lag.")
-    p.add_argument("--vary", choices=("c", "tau", "gain"), default="gain", help="what varies (default gain)")
+    p.add_argument("--vary", choices=("c", "tau", "gain", "C_fill", "V_dead", "band"), default="gain",
+                   help="what varies (default gain); C_fill, V_dead or band: the air's valve, dead volume or "
+                        "regulator band, with the pressures as states (model-spec 4d, the air switched on)")
     _add_common(p, needs_damping=True)
     p.add_argument("--gain", type=float, metavar="PA_PER_M",
                    help="only with --vary tau: the height gain K > 0 of the closed loop swept against tau "
@@ -211,6 +213,9 @@ def run_linearize(args) -> int:
     op = _setup(args, needs_damping=False)
     fmu = _fmu_path(args)
     p = op.params
+    if fmu is not None and _air_on(p):
+        print("note: the FMUs do not carry the air yet (model-spec 7d); FMU part skipped")
+        fmu = None
     lin = mc.analytic_linearization(op)
     a2, a1 = lin.A[1, 0] + 0.0, lin.A[1, 1] + 0.0  # + 0.0: print 0, not -0
     print(f"operating point (python-control find_operating_point): {_describe(op)}")
@@ -238,6 +243,9 @@ def run_linearize(args) -> int:
     print(f"python-control linearize vs analytic: relative error {_scaled_error(numerical, lin, op):.2g} "
           "(scaled [A B]" + ("; without the dead time's Pade states, which python-control's has not)"
                              if numerical.nstates != lin.nstates else ")"))
+    if _air_on(p):
+        print("note: with the air the regulators sit at u = 0, where the valve's slope jumps: the analytic "
+              "linearization takes the filling side, python-control's forward step (+1 Pa) the exhausting one")
     if fmu is not None:
         fmu_lin = mc.fmu_linearization(op, fmu)
         print(f"FMU linearization (flow-map Jacobian, logm) vs analytic: relative error "
@@ -259,7 +267,9 @@ def run_rootlocus(args) -> int:
     op = _setup(args, needs_damping=True)
     print(f"operating point: {_describe(op)}")
     out = args.out
-    if args.vary == "c":
+    if args.vary in mc.AIR_SWEEPS:
+        path = _air_rootlocus(args, op)
+    elif args.vary == "c":
         c_zeta1 = mc.damping_for_zeta(1.0, op)
         c_values = np.linspace(0.0, 1.5 * c_zeta1, 400)
         path = mc.plot_damping_locus(op, c_values, op.params.c, out / "rootlocus_c.png")
@@ -294,6 +304,34 @@ def run_rootlocus(args) -> int:
             print(f"critical gain, {label}: {text}")
     print(f"wrote {path}")
     return 0
+
+
+def _air_on(params) -> bool:
+    from ..physics import knee
+
+    return knee.air_is_on(params)
+
+
+def _air_rootlocus(args, op):
+    """``--vary C_fill|V_dead|band``: the knee's poles with the air's pressure states as one of its values
+    sweeps the spec's range, the pressures-held and sealed limits marked (model-spec 4d)."""
+    name = args.vary
+    unit, (low, high) = mc.AIR_SWEEPS[name]
+    values = np.geomspace(max(low, high * 1e-3), high, 240)
+    if low == 0:
+        values = np.concatenate([[0.0], values])
+    sweep = mc.air_pole_sweep(op, name, values)
+    air = mc.with_air(op).params
+    print(f"the air on (model-spec 4d): C_fill = {air.C_fill:g} m^3/(s Pa), V_dead = {air.V_dead:g} m^3, "
+          f"band = {air.band:g} Pa, P_supply = {air.P_supply:g} Pa, k_poly = {air.k_poly:g}")
+    print(f"pressures held (Eq. 18): a2 = {sweep.a2_held:.6g} 1/s^2, poles {_fmt_poles(sweep.held)}")
+    print(f"valves closed (sealed muscles, air springs): a2 = {sweep.a2_sealed:.6g} 1/s^2 "
+          f"({sweep.a2_sealed / sweep.a2_held:.3g} times), poles {_fmt_poles(sweep.sealed)}")
+    for i in np.unique(np.linspace(0, values.size - 1, 5).round().astype(int)):
+        print(f"  {name} = {values[i]:.4g} {unit}: poles {_fmt_poles(sweep.poles[i])}")
+    title = (f"Poles with the air against {name}, alpha = {math.degrees(op.alpha):.4g} deg, "
+             f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m")
+    return mc.plot_air_poles(sweep, title, args.out / f"rootlocus_{name}.png")
 
 
 def run_step(args) -> int:
@@ -434,6 +472,9 @@ def _dcgain(system):
 def _mechanism_rootlocus(args) -> int:
     from ..analysis import mechanism_control as mm
 
+    if args.vary in mc.AIR_SWEEPS:
+        raise UsageError(f"--vary {args.vary} is the knee's for now (the air's pole map); a mechanism's "
+                         "linearization with the air: mkctl.physics.mechanism.linearization")
     if args.ti is not None or args.gain is not None:
         raise UsageError("--ti and --gain belong to the knee's height loop; with --mechanism --vary gain scans the "
                          "gain of u1 = K (q_ref - q) itself")

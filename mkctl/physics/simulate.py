@@ -164,7 +164,7 @@ class KneeSimulator:
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0,
                  pf0: float = 0.0, stops: bool = True, rtol: float = 1e-10,
                  delay_commands: bool = True):
-        actuator.check_air_supported(params)
+        knee.check_air_supported(params)
         self.params = params
         #: the commands as the actuators see them, a dead time late (None without one, or when the
         #: caller hands in commands already delayed: delay_commands False)
@@ -763,7 +763,7 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
 def _core(params):
     """The compiled core for params, or None: the air's pressure path (model-spec 4d) runs in
     Python (the generated core does not carry the mass balance yet)."""
-    return None if actuator.air_is_on(params) else backend.compiled_core(params)
+    return None if knee.air_is_on(params) else backend.compiled_core(params)
 
 
 def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT,
