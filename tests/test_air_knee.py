@@ -2,10 +2,10 @@
 (model-spec 4d), the linearization with them, sealed muscles, the lag as the small-signal limit.
 
 The references are independent of mkctl's air path: the knee's geometry and tension of
-tests/independent_rig.py, the ISO 6358 flow, volume and regulator of tests/independent_pneumatics.py,
-and the mass balance written here, ``dp/dt = (k / V) (R T q - p dV/dt)`` with ``dV/dt = (dV_b/dL)
-Ldot``, integrated by scipy's solve_ivp (Radau); the sealed muscle's pressure from ``p V^k`` constant
-written here; finite differences of the right-hand side.
+tests/independent_rig.py, the ISO 6358 flow, volume and regulator of
+tests/independent_pneumatics.py, and the mass balance written here, ``dp/dt = (k / V) (R T q - p
+dV/dt)`` with ``dV/dt = (dV_b/dL) Ldot``, integrated by scipy's solve_ivp (Radau); the sealed
+muscle's pressure from ``p V^k`` constant written here; finite differences of the right-hand side.
 """
 from __future__ import annotations
 
@@ -62,7 +62,8 @@ def _air_rate(P, command, L, Ldot, a, n, b):
     u = ip.opening("command", command, P, a)
     q = ip.net_flow(u, P, a, a["T_air"])
     V = ip.volume(L, b, n, a["V_dead"])
-    return a["k_poly"] / V * (ip.R * a["T_air"] * q - (P + ip.P_ATM) * ip.volume_slope(L, b, n) * Ldot)
+    dV_dt = ip.volume_slope(L, b, n) * Ldot
+    return a["k_poly"] / V * (ip.R * a["T_air"] * q - (P + ip.P_ATM) * dV_dt)
 
 
 def independent_knee(time, pe_cmd, pf_cmd, p: Params, a: dict):
@@ -147,7 +148,8 @@ def test_rest_linearization_is_the_filling_side_and_the_regulators_lag():
     y0 = np.array([X, 0.0, Pe, Pf])
     # one-sided difference below the set-point (the valve fills): the pressure rows' diagonal
     h = 1e-3
-    for i, (P, L) in enumerate(((Pe, knee.geometry_at_X(X, p).Le), (Pf, knee.geometry_at_X(X, p).Lf))):
+    geo = knee.geometry_at_X(X, p)
+    for i, (P, L) in enumerate(((Pe, geo.Le), (Pf, geo.Lf))):
         low = y0.copy()
         low[2 + i] -= h
         slope = (knee.knee_derivatives(y0, Pe, Pf, p)[2 + i]

@@ -57,8 +57,8 @@ __all__ = [
     "damping_ratio", "natural_frequency", "damping_for_zeta", "damping_loop", "damping_root_locus",
     "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
     "step_responses", "StepResponses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
-    "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE", "AIR_SWEEPS", "AirPoleSweep", "with_air",
-    "air_pole_sweep", "plot_air_poles",
+    "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE", "AIR_SWEEPS", "AirPoleSweep",
+    "with_air", "air_pole_sweep", "plot_air_poles",
 ]
 
 #: Input names of every system built here.
@@ -224,10 +224,11 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: f
 
 
 def _air_operating_point(alpha, X, pf, params: Params) -> KneeOperatingPoint:
-    """The rest state with the air on (model-spec 4d): the regulators hold their set-points at rest (u = 0,
-    P = P_cmd), so it is the rest with the pressures held, found with the air off (the regulator's clipped
-    opening has no slope outside its band: python-control's solver stalls there from a far guess); with a
-    leak the regulator holds a small error that feeds it, polished from there by ``find_operating_point``."""
+    """The rest state with the air on (model-spec 4d): the regulators hold their set-points at rest
+    (u = 0, P = P_cmd), so it is the rest with the pressures held, found with the air off (the
+    regulator's clipped opening has no slope outside its band: python-control's solver stalls there
+    from a far guess); with a leak the regulator holds a small error that feeds it, polished from
+    there by ``find_operating_point``."""
     from ..physics import pneumatics
 
     switch = next(q for q in pneumatics.VALVE_FLOW_PARAMETERS if q.switch)
@@ -241,15 +242,18 @@ def _air_operating_point(alpha, X, pf, params: Params) -> KneeOperatingPoint:
     sys = knee_nlsys(params, stops=False, scale=LINEARIZE_SCALE)
     sx = np.array([LINEARIZE_SCALE[s] for s in knee.state_names(params)])
     su = np.array([LINEARIZE_SCALE[s] for s in INPUT_NAMES])
-    found = ct.find_operating_point(sys, op.states / sx, op.inputs / su, y0=op.states / sx, iy=[0], iu=[1],
-                                    return_result=True)
-    residual = np.abs(sys.dynamics(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
+    found = ct.find_operating_point(sys, op.states / sx, op.inputs / su, y0=op.states / sx, iy=[0],
+                                    iu=[1], return_result=True)
+    residual = (np.abs(sys.dynamics(0.0, found.states, found.inputs)).max()
+                if found.states is not None else np.inf)
     if not found.result.success or residual > 1e-9:
-        raise ControlAnalysisError(f"no operating point with the air at alpha = {math.degrees(held.alpha):.4g} deg, "
-                                   f"pf = {pf / 1e3:g} kPa ({found.result.message.strip()})")
+        raise ControlAnalysisError(f"no operating point with the air at alpha = "
+                                   f"{math.degrees(held.alpha):.4g} deg, pf = {pf / 1e3:g} kPa "
+                                   f"({found.result.message.strip()})")
     states, inputs = np.asarray(found.states) * sx, np.asarray(found.inputs) * su
     states[0] = held.X
-    return KneeOperatingPoint(params, held.alpha, held.X, float(states[2]), float(states[3]), states, inputs)
+    return KneeOperatingPoint(params, held.alpha, held.X, float(states[2]), float(states[3]),
+                              states, inputs)
 
 
 # --- Linearizations ------------------------------------------------------------------------------
@@ -823,8 +827,9 @@ def plot_poles(cases: dict, title: str, path=None):
 
 # --- The air: the pressures as states of the muscles' mass balance (model-spec 4d) ---------------
 
-#: The air's parameters ``mkctl rootlocus --vary`` sweeps, with their unit and the range swept (within
-#: the spec's bounds: the valve's conductance, the tubing's dead volume, the regulator's band).
+#: The air's parameters ``mkctl rootlocus --vary`` sweeps, with their unit and the range swept
+#: (within the spec's bounds: the valve's conductance, the tubing's dead volume, the regulator's
+#: band).
 AIR_SWEEPS = {"C_fill": ("m^3/(s Pa)", (2e-11, 1e-6)), "V_dead": ("m^3", (0.0, 1e-4)),
               "band": ("Pa", (1e3, 1e6))}
 
@@ -857,9 +862,9 @@ def with_air(op: KneeOperatingPoint, **values) -> KneeOperatingPoint:
 
 @dataclass(frozen=True, repr=False, eq=False)
 class AirPoleSweep(Result):
-    """The knee's poles as one of the air's parameters varies (model-spec 4d), and the two limits the
-    paper's question asks about: the pressures held (Eq. 18, the paper's assumption) and the valves
-    closed (sealed muscles, air springs)."""
+    """The knee's poles as one of the air's parameters varies (model-spec 4d), and the two limits
+    the paper's question asks about: the pressures held (Eq. 18, the paper's assumption) and the
+    valves closed (sealed muscles, air springs)."""
 
     name: str  #: the parameter varied
     unit: str  #: its unit
@@ -880,7 +885,8 @@ class AirPoleSweep(Result):
         """
         return [f"{self.name} from {self.values[0]:.4g} to {self.values[-1]:.4g} {self.unit} "
                 f"({self.values.size} values)",
-                f"a2 = {self.a2_held:.6g} 1/s^2 with the pressures held, {self.a2_sealed:.6g} sealed"]
+                f"a2 = {self.a2_held:.6g} 1/s^2 with the pressures held, "
+                f"{self.a2_sealed:.6g} sealed"]
 
     def table(self) -> dict[str, np.ndarray]:
         """The value and each pole's real and imaginary part.
@@ -892,7 +898,8 @@ class AirPoleSweep(Result):
         """
         columns = {self.name: self.values}
         for i in range(self.poles.shape[1]):
-            columns[f"pole{i}_re"], columns[f"pole{i}_im"] = self.poles[:, i].real, self.poles[:, i].imag
+            columns[f"pole{i}_re"] = self.poles[:, i].real
+            columns[f"pole{i}_im"] = self.poles[:, i].imag
         return columns
 
 
@@ -900,8 +907,8 @@ def air_pole_sweep(op: KneeOperatingPoint, name: str, values) -> AirPoleSweep:
     """The knee's poles at op with the air on, one of its parameters swept (model-spec 4d).
 
     Each linearization is :func:`mkctl.physics.knee.linearization` with the pressure states (the
-    regulators on their filling side at rest); the held and sealed limits are Eq. 18's poles and those
-    of :func:`mkctl.physics.stability.sealed_coefficients`.
+    regulators on their filling side at rest); the held and sealed limits are Eq. 18's poles and
+    those of :func:`mkctl.physics.stability.sealed_coefficients`.
 
     Parameters
     ----------
@@ -931,17 +938,19 @@ def air_pole_sweep(op: KneeOperatingPoint, name: str, values) -> AirPoleSweep:
     air = with_air(op)
     poles = np.empty((values.size, 4), dtype=complex)
     for i, value in enumerate(values):
-        A, _ = knee.linearization(op.X, op.Pe, op.Pf, *op.inputs, air.params.replace(**{name: value}))
+        varied = air.params.replace(**{name: value})
+        A, _ = knee.linearization(op.X, op.Pe, op.Pf, *op.inputs, varied)
         poles[i] = np.sort_complex(np.linalg.eigvals(A))
     a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0, air.params)
     s1, s2 = stability.sealed_coefficients(op.X, op.Pe, op.Pf, air.params)
-    return AirPoleSweep(name, AIR_SWEEPS[name][0], values, poles, stability.poles(float(a1), float(a2)),
-                        stability.poles(s1, s2), float(a2), s2)
+    held = stability.poles(float(a1), float(a2))
+    return AirPoleSweep(name, AIR_SWEEPS[name][0], values, poles, held, stability.poles(s1, s2),
+                        float(a2), s2)
 
 
 def plot_air_poles(sweep: AirPoleSweep, title: str = "", path=None):
-    """Two pole maps of an :class:`AirPoleSweep`: every pole (the air's on a logarithmic real axis) and the
-    motion's poles near the origin, with the pressures-held and the sealed poles marked.
+    """Two pole maps of an :class:`AirPoleSweep`: every pole (the air's on a logarithmic real axis)
+    and the motion's poles near the origin, with the pressures-held and the sealed poles marked.
 
     Parameters
     ----------
@@ -967,8 +976,10 @@ def plot_air_poles(sweep: AirPoleSweep, title: str = "", path=None):
     real_axis = sweep.poles.real.ravel()
     colour = np.where(flat.ravel() > 0, flat.ravel(), positive.min() if positive.size else 1.0)
     for ax in (every, motion):
-        sc = ax.scatter(real_axis, sweep.poles.imag.ravel(), c=colour, s=7, cmap="viridis", norm=norm)
-        ax.plot(sweep.held.real, sweep.held.imag, "rx", ms=10, mew=2, label="pressures held (Eq. 18)")
+        sc = ax.scatter(real_axis, sweep.poles.imag.ravel(), c=colour, s=7, cmap="viridis",
+                        norm=norm)
+        ax.plot(sweep.held.real, sweep.held.imag, "rx", ms=10, mew=2,
+                label="pressures held (Eq. 18)")
         ax.plot(sweep.sealed.real, sweep.sealed.imag, "ks", mfc="none", ms=10, mew=1.5,
                 label="valves closed (sealed: air springs)")
     fig.colorbar(sc, ax=motion, label=f"{sweep.name} [{sweep.unit}]")

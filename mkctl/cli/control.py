@@ -114,9 +114,11 @@ def register(subparsers) -> None:
                               description="Root locus against the damping c (exact velocity feedback), a sweep "
                                           "of the lag tau (open and closed loop), or the gain of a height "
                                           "controller through pe_cmd with and without the lag.")
-    p.add_argument("--vary", choices=("c", "tau", "gain", "C_fill", "V_dead", "band"), default="gain",
-                   help="what varies (default gain); C_fill, V_dead or band: the air's valve, dead volume or "
-                        "regulator band, with the pressures as states (model-spec 4d, the air switched on)")
+    p.add_argument("--vary", choices=("c", "tau", "gain", "C_fill", "V_dead", "band"),
+                   default="gain",
+                   help="what varies (default gain); C_fill, V_dead or band: the air's valve, "
+                        "dead volume or regulator band, with the pressures as states (model-spec "
+                        "4d, the air switched on)")
     _add_common(p, needs_damping=True)
     p.add_argument("--gain", type=float, metavar="PA_PER_M",
                    help="only with --vary tau: the height gain K > 0 of the closed loop swept against tau "
@@ -244,8 +246,9 @@ def run_linearize(args) -> int:
           "(scaled [A B]" + ("; without the dead time's Pade states, which python-control's has not)"
                              if numerical.nstates != lin.nstates else ")"))
     if _air_on(p):
-        print("note: with the air the regulators sit at u = 0, where the valve's slope jumps: the analytic "
-              "linearization takes the filling side, python-control's forward step (+1 Pa) the exhausting one")
+        print("note: with the air the regulators sit at u = 0, where the valve's slope jumps: "
+              "the analytic linearization takes the filling side, python-control's forward step "
+              "(+1 Pa) the exhausting one")
     if fmu is not None:
         fmu_lin = mc.fmu_linearization(op, fmu)
         print(f"FMU linearization (flow-map Jacobian, logm) vs analytic: relative error "
@@ -313,8 +316,9 @@ def _air_on(params) -> bool:
 
 
 def _air_rootlocus(args, op):
-    """``--vary C_fill|V_dead|band``: the knee's poles with the air's pressure states as one of its values
-    sweeps the spec's range, the pressures-held and sealed limits marked (model-spec 4d)."""
+    """``--vary C_fill|V_dead|band``: the knee's poles with the air's pressure states as one of
+    its values sweeps the spec's range, the pressures-held and sealed limits marked (model-spec
+    4d)."""
     name = args.vary
     unit, (low, high) = mc.AIR_SWEEPS[name]
     values = np.geomspace(max(low, high * 1e-3), high, 240)
@@ -322,9 +326,11 @@ def _air_rootlocus(args, op):
         values = np.concatenate([[0.0], values])
     sweep = mc.air_pole_sweep(op, name, values)
     air = mc.with_air(op).params
-    print(f"the air on (model-spec 4d): C_fill = {air.C_fill:g} m^3/(s Pa), V_dead = {air.V_dead:g} m^3, "
-          f"band = {air.band:g} Pa, P_supply = {air.P_supply:g} Pa, k_poly = {air.k_poly:g}")
-    print(f"pressures held (Eq. 18): a2 = {sweep.a2_held:.6g} 1/s^2, poles {_fmt_poles(sweep.held)}")
+    print(f"the air on (model-spec 4d): C_fill = {air.C_fill:g} m^3/(s Pa), V_dead = "
+          f"{air.V_dead:g} m^3, band = {air.band:g} Pa, P_supply = {air.P_supply:g} Pa, "
+          f"k_poly = {air.k_poly:g}")
+    print(f"pressures held (Eq. 18): a2 = {sweep.a2_held:.6g} 1/s^2, "
+          f"poles {_fmt_poles(sweep.held)}")
     print(f"valves closed (sealed muscles, air springs): a2 = {sweep.a2_sealed:.6g} 1/s^2 "
           f"({sweep.a2_sealed / sweep.a2_held:.3g} times), poles {_fmt_poles(sweep.sealed)}")
     for i in np.unique(np.linspace(0, values.size - 1, 5).round().astype(int)):
@@ -473,8 +479,9 @@ def _mechanism_rootlocus(args) -> int:
     from ..analysis import mechanism_control as mm
 
     if args.vary in mc.AIR_SWEEPS:
-        raise UsageError(f"--vary {args.vary} is the knee's for now (the air's pole map); a mechanism's "
-                         "linearization with the air: mkctl.physics.mechanism.linearization")
+        raise UsageError(f"--vary {args.vary} is the knee's for now (the air's pole map); a "
+                         "mechanism's linearization with the air: "
+                         "mkctl.physics.mechanism.linearization")
     if args.ti is not None or args.gain is not None:
         raise UsageError("--ti and --gain belong to the knee's height loop; with --mechanism --vary gain scans the "
                          "gain of u1 = K (q_ref - q) itself")
