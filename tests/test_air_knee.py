@@ -309,3 +309,22 @@ def test_mkctl_rootlocus_vary_C_fill_draws_the_poles(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "valves closed" in out and "a2 = -150.806" in out and "a2 = -117.51" in out
     assert (tmp_path / "rootlocus_C_fill.png").stat().st_size > 10_000
+
+
+def test_sealed_mechanisms_match_their_linearization_and_the_knee():
+    p = air_params()
+    X, Pe, Pf = _rest(p)
+    knee_mechanism = mechanism.builtin_mechanism("knee")
+    assert mechanism.sealed_coefficients(knee_mechanism, X, (Pe, Pf), p) == pytest.approx(
+        stability.sealed_coefficients(X, Pe, Pf, p), rel=1e-9)
+    pulley = mechanism.builtin_mechanism("pulley_joint")
+    bound = pulley.bind(p)
+    pressures = (4e5, 3e5)
+    q = mechanism.equilibrium(pulley, pressures, bound)
+    a1, a2 = mechanism.stability_coefficients(pulley, q, pressures, bound)
+    s1, s2 = mechanism.sealed_coefficients(pulley, q, pressures, bound)
+    assert s2 < float(a2) and s1 == pytest.approx(float(a1))
+    A, _ = mechanism.linearization(pulley, q, pressures, params=bound, sealed=True)
+    eig = np.sort_complex(np.linalg.eigvals(A))
+    expected = np.sort_complex(np.concatenate([np.roots([1.0, -s1, -s2]), [0.0, 0.0]]))
+    assert np.allclose(eig, expected, atol=1e-8 * abs(s2))

@@ -812,6 +812,55 @@ def stability_coefficients(mechanism: Mechanism, q, pressures, params=DEFAULT, q
     return d.dF_dqdot / d.M, d.dF_dq / d.M
 
 
+def sealed_coefficients(mechanism: Mechanism, q, pressures, params=DEFAULT):
+    """(a1, a2) with every valve closed: sealed muscles, air springs (model-spec 4d), any mechanism.
+
+    Each muscle's air mass is constant, so its pressure follows its length,
+    ``dP_i/dL = -k_poly p (dV_b/dL) / V`` (:func:`mkctl.physics.pneumatics.sealed_stiffness`), and
+
+    ``a2_sealed = (dF/dq + sum_i dF/dP_i dP_i/dL (dL_i/dq)) / M``, ``a1 = (dF/dqdot) / M``
+
+    (for the knee :func:`mkctl.physics.stability.sealed_coefficients`). In the working range a
+    muscle's spring adds ``-(dL_i/dq)^2 df_i/dP dP_i/dL / M < 0``: a2 more negative than with the
+    pressures held.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q : float
+        The coordinate [m or rad].
+    pressures : sequence of float
+        Each muscle's gauge pressure as its valve closes [Pa].
+    params : Params or MechanismParams
+        The muscle's parameters (section 4d's k_poly, V_dead) and the mechanism's own values.
+
+    Returns
+    -------
+    a1 : float
+        Velocity coefficient [1/s].
+    a2 : float
+        Position coefficient with the air springs [1/s^2].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-23.
+    .. [2] model-spec sections 3b and 4d (the sealed muscle).
+    """
+    from .pneumatics import sealed_stiffness
+
+    p = mechanism.bind(params)
+    muscle = muscle_params(p)
+    pressures = tuple(float(P) for P in _pressures(mechanism, pressures))
+    d = force_partials(mechanism, float(q), 0.0, pressures, p)
+    L, arms, _, _ = kinematics(mechanism, float(q), p)
+    dF_dq = float(d.dF_dq)
+    for i, P in enumerate(pressures):
+        spring = sealed_stiffness(float(L[i]), P, muscle.b, muscle.n, muscle.V_dead, muscle.k_poly)
+        dF_dq += float(d.dF_dP[i]) * float(spring) * float(arms[i])
+    return float(d.dF_dqdot) / float(d.M), dF_dq / float(d.M)
+
+
 @dataclasses.dataclass(frozen=True, repr=False)
 class MechanismStability(Result):
     """The stability analysis (Eq. 18-20) at one state of a mechanism."""
