@@ -26,7 +26,7 @@ def test_the_builtins_are_the_spec_section_4_effects_in_its_order():
     assert dict(EFFECT_PARAMETERS)["coulomb_friction"] == ("Fc", "vs")
     assert dict(EFFECT_PARAMETERS)["elasticity"] == ("C1", "C2")
     assert tuple(PARAMETER_NAMES)[18:24] == ("model", "c", "Fc", "vs", "tau", "slack")  # then section 4b's
-    assert tuple(INTEGER_PARAMETERS) == ("model", "slack")
+    assert tuple(INTEGER_PARAMETERS) == ("model", "slack", "valve_flow")  # section 4d: the air's switch
     assert UNITS["tau"] == "s" and UNITS["Fc"] == "N"
     from mkctl import effects as public
     assert public.register is effects.register  # model-spec section 4c: mkctl.effects.register

@@ -60,11 +60,14 @@ POSTURE_NAMES = {"alpha_deg": ("deg", math.degrees(stability.DEFAULT_ALPHA), "po
 SWEEP_NAMES = LiveSequence(lambda: tuple(name for name in PARAMETER_NAMES if name != "n") + tuple(POSTURE_NAMES))
 #: The settling band of :func:`step_metrics` (as python-control's ``step_info``).
 SETTLING_BAND = 0.02
-#: What each computed column holds (name: (unit, meaning)).
-QUANTITIES = {
+#: What each computed column of the knee's rest holds (name: (unit, meaning)).
+KNEE_REST = {
     "X_m": ("m", "hip height of the posture"),
     "pe_kPa": ("kPa", "extensor pressure that holds the posture at rest"),
     "holdable": ("", "pe >= 0 (a muscle cannot push)"),
+}
+#: What each computed column of the linear dynamics at rest holds, for the knee and any mechanism.
+DYNAMICS = {
     "a1": ("1/s", "velocity coefficient of Eq. 18 (a1 < 0: Eq. 19 holds)"),
     "a2": ("1/s^2", "position coefficient of Eq. 18 (a2 < 0: Eq. 20 holds)"),
     "verdict": ("", "Routh-Hurwitz: stable, marginal (a1 = 0), unstable; undefined where the model is"),
@@ -79,6 +82,8 @@ QUANTITIES = {
     "overshoot_percent": ("%", "overshoot of X after a pe_cmd step (linear model); NaN if not stable"),
     "error": ("", "why the model is undefined at this point (empty where it is defined)"),
 }
+#: What each computed column of a knee sweep holds (name: (unit, meaning)).
+QUANTITIES = {**KNEE_REST, **DYNAMICS}
 _VERDICT_CODES = {"stable": 0, "marginal": 1, "unstable": 2, "undefined": 3}
 
 
@@ -88,16 +93,18 @@ class SweepError(MkctlError, ValueError):
 
 # --- What to sweep ----------------------------------------------------------------------------------
 
-def _check_name(name: str) -> None:
-    if name not in SWEEP_NAMES:
-        raise SweepError(f"cannot sweep {name!r}: not a parameter, alpha_deg or pf_kPa "
-                         f"(known: {', '.join(SWEEP_NAMES)})")
+def _check_name(name: str, names=None) -> None:
+    """Refuse a name that cannot be swept: ``names`` (default :data:`SWEEP_NAMES`, the knee's) lists those
+    that can."""
+    if name not in (SWEEP_NAMES if names is None else names):
+        what = "not a parameter, alpha_deg or pf_kPa" if names is None else "not a name of this sweep"
+        raise SweepError(f"cannot sweep {name!r}: {what} (known: {', '.join(names or SWEEP_NAMES)})")
 
 
-def grid_values(name: str, spec) -> np.ndarray:
+def grid_values(name: str, spec, names=None) -> np.ndarray:
     """The values of one grid axis, sorted: a tuple ``(start, stop, count)`` (evenly spaced, ends included)
-    or a list (or array) of values."""
-    _check_name(name)
+    or a list (or array) of values; ``names`` as in :func:`_check_name`."""
+    _check_name(name, names)
     if isinstance(spec, tuple) and len(spec) == 3:
         start, stop, count = spec
         if not (math.isfinite(count) and int(count) == count and count >= 1):
@@ -113,15 +120,15 @@ def grid_values(name: str, spec) -> np.ndarray:
     return np.unique(values)
 
 
-def parse_axis(text: str, random: bool = False):
+def parse_axis(text: str, random: bool = False, names=None):
     """``"c=0:200:21"`` -> ("c", (0, 200, 21)); ``"c=0,10,40"`` -> ("c", [0, 10, 40]); with ``random``,
-    ``"c=0:200"`` -> ("c", (0, 200)) (uniform between the two)."""
+    ``"c=0:200"`` -> ("c", (0, 200)) (uniform between the two); ``names`` as in :func:`_check_name`."""
     name, sep, spec = text.partition("=")
     name = name.strip()
     form = "NAME=LOW:HIGH" if random else "NAME=START:STOP:COUNT or NAME=V1,V2,..."
     if not sep or not name or not spec.strip():
         raise SweepError(f"expected {form}, got {text!r}")
-    _check_name(name)
+    _check_name(name, names)
     try:
         if random:
             low, high = (float(part) for part in spec.split(":"))
@@ -136,16 +143,16 @@ def parse_axis(text: str, random: bool = False):
         raise SweepError(f"{name}: expected {form} with numbers, got {spec!r}") from None
 
 
-def grid_points(grid: dict) -> dict:
+def grid_points(grid: dict, names=None) -> dict:
     """Every combination of the axes' values (the first axis varies slowest): {name: array of points}."""
+    axes = [grid_values(name, grid[name], names) for name in grid]
     names = list(grid)
-    axes = [grid_values(name, grid[name]) for name in names]
     _check_points_memory(math.prod(a.size for a in axes), len(names))
     mesh = np.meshgrid(*axes, indexing="ij")
     return {name: m.ravel() for name, m in zip(names, mesh)}
 
 
-def random_points(ranges: dict, count: int, seed: int = 0) -> dict:
+def random_points(ranges: dict, count: int, seed: int = 0, names=None) -> dict:
     """``count`` points drawn uniformly in the ranges {name: (low, high)} (numpy ``default_rng(seed)``)."""
     if int(count) != count or count < 1:
         raise SweepError(f"--random needs a whole number of points >= 1, got {count!r}")
@@ -154,7 +161,7 @@ def random_points(ranges: dict, count: int, seed: int = 0) -> dict:
     rng = np.random.default_rng(seed)
     points = {}
     for name, bounds in ranges.items():
-        _check_name(name)
+        _check_name(name, names)
         try:
             low, high = (float(v) for v in bounds)
         except (TypeError, ValueError):
@@ -249,11 +256,34 @@ def evaluate_points(points: dict, fixed: dict | None = None) -> dict:
                     X[i], pe[i], a1[i], a2[i] = (float(v) for v in _mechanics(float(alpha[i]), float(pf[i]), params))
                 except MkctlError as exc:
                     error[i] = str(exc)
-    return _derived(X, pe, a1, a2, tau, error)
+    with np.errstate(invalid="ignore"):
+        rest = {"X_m": X, "pe_kPa": pe / 1e3, "holdable": (error == "") & (pe >= 0)}
+    return {**rest, **dynamics_columns(a1, a2, tau, error)}
 
 
-def _derived(X, pe, a1, a2, tau, error) -> dict:
-    """The columns that follow from the equilibrium, a1, a2 and tau (vectorized)."""
+def dynamics_columns(a1, a2, tau, error) -> dict:
+    """The columns of :data:`DYNAMICS` that follow from a1, a2 and tau at rest (vectorized).
+
+    Parameters
+    ----------
+    a1 : numpy.ndarray
+        Velocity coefficient of Eq. 18 [1/s] (NaN where undefined).
+    a2 : numpy.ndarray
+        Position coefficient of Eq. 18 [1/s^2].
+    tau : numpy.ndarray
+        Pressure lag time constant [s] (0: none).
+    error : numpy.ndarray of str
+        Why the model is undefined at a point ("" where it is defined).
+
+    Returns
+    -------
+    dict
+        {column: array} for every name of :data:`DYNAMICS`.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
+    """
     from .control import damping_ratio, natural_frequency
 
     defined = error == ""
@@ -276,7 +306,7 @@ def _derived(X, pe, a1, a2, tau, error) -> dict:
     settling[~defined] = np.nan
     with np.errstate(invalid="ignore"):
         return {
-            "X_m": X, "pe_kPa": pe / 1e3, "holdable": defined & (pe >= 0), "a1": a1, "a2": a2,
+            "a1": a1, "a2": a2,
             "verdict": verdict.astype(object), "pole1_re": pair[:, 0].real, "pole1_im": pair[:, 0].imag,
             "pole2_re": pair[:, 1].real, "pole2_im": pair[:, 1].imag, "lag_pole": lag,
             "damping_ratio": damping_ratio(a1, a2), "natural_frequency_hz": natural_frequency(a2) / (2 * np.pi),
@@ -426,9 +456,45 @@ def _chunks(points: dict, count: int, chunk: int | None, jobs: int) -> list[tupl
 
 
 def _evaluate_chunk(payload):
-    """A chunk on a worker: (start, points, fixed) -> (start, columns)."""
-    start, points, fixed = payload
-    return start, evaluate_points(points, fixed)
+    """A chunk on a worker: (start, points, fixed, subject) -> (start, columns)."""
+    start, points, fixed, subject = payload
+    return start, subject.evaluate_points(points, fixed)
+
+
+class KneeSweep:
+    """What a sweep of the knee varies and computes (the default subject of :func:`sweep`).
+
+    A subject names what can be swept (``names``), what is computed (``quantities``: {column: (unit,
+    meaning)}), the unit of a name (``unit``), and evaluates points (``evaluate_points``) and checks the
+    ranges' corners (``check_domain``); :class:`mkctl.analysis.mechanism_sweep.MechanismSweep` is any
+    mechanism's.
+    """
+
+    title = ""  #: what the maps' titles begin with (the knee's: nothing, as before)
+
+    @property
+    def names(self) -> tuple:
+        return tuple(SWEEP_NAMES)
+
+    @property
+    def quantities(self) -> dict:
+        return QUANTITIES
+
+    def unit(self, name: str) -> str:
+        """The unit of a swept name ("" for none)."""
+        return POSTURE_NAMES[name][0] if name in POSTURE_NAMES else UNITS.get(name, "")
+
+    def evaluate_points(self, points: dict, fixed: dict | None = None) -> dict:
+        return evaluate_points(points, fixed)
+
+    def check_domain(self, points: dict, fixed: dict) -> None:
+        check_domain(points, fixed)
+
+    def __eq__(self, other):
+        return type(other) is KneeSweep
+
+    def __hash__(self):
+        return hash(KneeSweep)
 
 
 @dataclass(repr=False)
@@ -447,6 +513,7 @@ class SweepResult(Result):
     columns: dict = field(default_factory=dict)
     seconds: float = 0.0
     workers: str = ""
+    subject: object = field(default_factory=KneeSweep)  #: what was swept (KneeSweep or MechanismSweep)
 
     def __getattr__(self, name):
         columns = self.__dict__.get("columns", {})
@@ -504,16 +571,20 @@ class SweepResult(Result):
         if self.fixed:
             lines.append("fixed: " + ", ".join(f"{k} = {v:g}" for k, v in self.fixed.items()))
         lines.append("verdicts: " + ", ".join(f"{k} {v}" for k, v in self.counts.items()))
-        for name in ("pe_kPa", "damping_ratio", "settling_time_s", "overshoot_percent"):
+        quantities = self.subject.quantities
+        for name in [*list(quantities)[:2], "damping_ratio", "settling_time_s", "overshoot_percent"]:
+            if quantities[name][0] == "":  # a flag or a text
+                continue
             v = self.columns[name][np.isfinite(self.columns[name])]
             if v.size:
-                lines.append(f"{name:<18} {v.min():.4g} .. {v.max():.4g} {QUANTITIES[name][0]}")
+                lines.append(f"{name:<18} {v.min():.4g} .. {v.max():.4g} {quantities[name][0]}")
         return lines
 
 
 def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict | None = None,
           fixed: dict | None = None, seed: int = 0, jobs: int | None = None, scheduler: str | None = None,
-          progress: bool = True, chunk: int | None = None, dashboard: str | None = None) -> SweepResult:
+          progress: bool = True, chunk: int | None = None, dashboard: str | None = None,
+          subject=None) -> SweepResult:
     """The model over a grid or a random sample of parameters, postures and pressures.
 
     Parameters
@@ -528,10 +599,13 @@ def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict |
         by default a sweep that fits in one chunk runs in this process too).
     chunk : points per task (default: a few tasks per worker, 2000 to 20000 points each).
     dashboard : Dask's dashboard of the local cluster, as in :func:`mkctl.analysis.batch.run_batch`.
+    subject : what is swept (default the knee, :class:`KneeSweep`; any mechanism:
+        :func:`mkctl.analysis.mechanism_sweep.sweep_mechanism`), with its own names and quantities.
 
     Returns a :class:`SweepResult`. Raises :class:`SweepError` for an unknown name, a bad range, or a range
     outside the model's domain (checked at the corners of the ranges before any work).
     """
+    subject = KneeSweep() if subject is None else subject
     fixed = {k: float(v) for k, v in (fixed or {}).items()}
     if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1):
         raise SweepError(f"chunk must be a whole number of points >= 1, got {chunk!r}")
@@ -541,17 +615,17 @@ def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict |
     if grid is not None:
         if not grid:
             raise SweepError("the grid has no axis: give at least one NAME=START:STOP:COUNT")
-        axes = {name: grid_values(name, spec) for name, spec in grid.items()}
-        points, kind = grid_points(axes), "grid"
+        axes = {name: grid_values(name, spec, subject.names) for name, spec in grid.items()}
+        points, kind = grid_points(axes, subject.names), "grid"
     else:
         if not ranges:
             raise SweepError("a random sample needs at least one range NAME=LOW:HIGH")
-        points, kind = random_points(ranges, random, seed), "random"
+        points, kind = random_points(ranges, random, seed, subject.names), "random"
         axes = {name: (float(min(b)), float(max(b))) for name, b in ranges.items()}
     overlap = sorted(set(points) & set(fixed))
     if overlap:
         raise SweepError(f"{overlap[0]} is both swept and fixed")
-    check_domain(points, fixed)
+    subject.check_domain(points, fixed)
     count = len(next(iter(points.values())))
     workers = 1 if jobs == 0 else (default_jobs() if jobs is None else jobs)
     chunks = _chunks(points, count, chunk, workers)
@@ -560,30 +634,28 @@ def sweep(grid: dict | None = None, *, random: int | None = None, ranges: dict |
     from . import control  # noqa: F401 - imported before the clock starts (fmpy, python-control: a second)
 
     start = time.perf_counter()
-    outcomes = run_batch(_evaluate_chunk, [(s, p, fixed) for s, p in chunks], jobs=jobs, scheduler=scheduler,
+    outcomes = run_batch(_evaluate_chunk, [(s, p, fixed, subject) for s, p in chunks], jobs=jobs, scheduler=scheduler,
                          progress=progress, description="chunks", dashboard=dashboard)
     failed = [o for o in outcomes if not o.ok]
     if failed:
         raise SweepError(f"a chunk of the sweep failed: {failed[0].error}")
     parts = sorted((o.value for o in outcomes), key=lambda part: part[0])
     columns = {name: np.asarray(values) for name, values in points.items()}
-    for name in QUANTITIES:
+    for name in subject.quantities:
         columns[name] = np.concatenate([part[1][name] for part in parts])
     seconds = time.perf_counter() - start
     where = ("this process" if jobs == 0 else f"the scheduler at {scheduler}" if scheduler
              else f"{workers} local processes")
-    return SweepResult(axes, fixed, kind, columns, seconds, where)
+    return SweepResult(axes, fixed, kind, columns, seconds, where, subject)
 
 
 # --- Maps --------------------------------------------------------------------------------------------
 
-def _label(name: str) -> str:
+def _label(name: str, subject) -> str:
     if name in POSTURE_NAMES:
         return f"{name.rsplit('_', 1)[0]} [{POSTURE_NAMES[name][0]}]"
-    if name in QUANTITIES:
-        unit = QUANTITIES[name][0]
-        return f"{name} [{unit}]" if unit else name
-    return f"{name} [{UNITS.get(name, '')}]"
+    unit = subject.quantities[name][0] if name in subject.quantities else subject.unit(name)
+    return f"{name} [{unit}]" if unit else name
 
 
 def plot_map(result: SweepResult, quantity: str = "damping_ratio", x: str | None = None, y: str | None = None,
@@ -595,7 +667,7 @@ def plot_map(result: SweepResult, quantity: str = "damping_ratio", x: str | None
 
     names = list(result.axes)
     if quantity not in result.columns:
-        raise SweepError(f"no quantity {quantity!r} to map (known: {', '.join(QUANTITIES)})")
+        raise SweepError(f"no quantity {quantity!r} to map (known: {', '.join(result.subject.quantities)})")
     x = x or names[0]
     y = y if y is not None else (names[1] if len(names) > 1 and names[1] != x else None)
     for name in (x, y):
@@ -615,7 +687,7 @@ def plot_map(result: SweepResult, quantity: str = "damping_ratio", x: str | None
             from matplotlib.colors import LogNorm
 
             norm = LogNorm(finite.min(), finite.max())
-    title = f"{quantity}" + ("" if categorical or np.isfinite(values).all() else " (blank: never settles or undefined)")
+    title = f"{result.subject.title}{quantity}" + ("" if categorical or np.isfinite(values).all() else " (blank: never settles or undefined)")
     keep = np.ones(values.size, dtype=bool)
     if result.kind == "grid":
         held = []
@@ -633,7 +705,7 @@ def plot_map(result: SweepResult, quantity: str = "damping_ratio", x: str | None
         xs = result.columns[x][keep]
         order = np.argsort(xs)
         ax.plot(xs[order], values[keep][order], ".-")
-        ax.set_ylabel(_label(quantity) if not categorical else "verdict")
+        ax.set_ylabel(_label(quantity, result.subject) if not categorical else "verdict")
         if categorical:
             ax.set_yticks(list(_VERDICT_CODES.values()), list(_VERDICT_CODES))
     else:
@@ -651,9 +723,9 @@ def plot_map(result: SweepResult, quantity: str = "damping_ratio", x: str | None
         if categorical:
             bar.set_ticks(list(_VERDICT_CODES.values()), labels=list(_VERDICT_CODES))
         else:
-            bar.set_label(_label(quantity))
-        ax.set_ylabel(_label(y))
-    ax.set_xlabel(_label(x))
+            bar.set_label(_label(quantity, result.subject))
+        ax.set_ylabel(_label(y, result.subject))
+    ax.set_xlabel(_label(x, result.subject))
     ax.set_title(title, fontsize=9)
     if path is not None:
         save_png(fig, path)

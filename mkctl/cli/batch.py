@@ -2,7 +2,8 @@
 
 - ``mkctl sweep --grid c=0:200:21 m=2:10:5 --out sweep/`` computes the equilibrium, a1/a2, the verdict,
   the poles, the damping ratio, settling time and overshoot over every combination (or ``--random N
-  --range c=0:200 --range m=2:10``), writes ``sweep.csv`` (and ``sweep.parquet`` with pyarrow) and maps.
+  --range c=0:200 --range m=2:10``), writes ``sweep.csv`` (and ``sweep.parquet`` with pyarrow) and maps;
+  ``--mechanism NAME|FILE.py`` sweeps any mechanism instead (:mod:`mkctl.analysis.mechanism_sweep`).
 - ``mkctl diagnose a.csv b.csv data/ 'runs/*.csv' --out results/`` diagnoses every record in parallel
   (:func:`mkctl.analysis.batch.diagnose_batch`); ``mkctl diagnose FILE`` alone stays the one-record command
   of :mod:`mkctl.cli.measure`, which calls :func:`run_diagnose_batch` when it gets more than one file.
@@ -67,7 +68,7 @@ COMMANDS = {
 
 def register(subparsers) -> None:
     """Add ``sweep`` to the `mkctl` parser."""
-    from ..analysis.sweep import QUANTITIES
+    from ..analysis.sweep import DYNAMICS, QUANTITIES
 
     p = subparsers.add_parser(
         "sweep", help=COMMANDS["sweep"],
@@ -75,7 +76,10 @@ def register(subparsers) -> None:
                     "and the flexor pressure pf_kPa [kPa]) compute the extensor pressure that holds the posture, "
                     "a1 and a2 of Eq. 18 and the Routh-Hurwitz verdict, the poles, the damping ratio, and the "
                     "settling time and overshoot of the hip height after a pe_cmd step (linear model). Writes "
-                    "sweep.csv (sweep.parquet with pyarrow) and PNG maps of chosen quantities.")
+                    "sweep.csv (sweep.parquet with pyarrow) and PNG maps of chosen quantities. With --mechanism, "
+                    "any mechanism instead: its own parameters, the muscle's and each muscle's pressure p1_kPa, "
+                    "p2_kPa [kPa] (default 300) give the stable rest of its coordinate between its stops, and the "
+                    "same dynamics.")
     p.add_argument("--grid", nargs="+", action="extend", default=[], metavar="NAME=START:STOP:COUNT",
                    help="an axis of the grid (every combination is computed): NAME=START:STOP:COUNT (evenly "
                         "spaced, ends included) or NAME=V1,V2,...; e.g. --grid c=0:200:21 m=2:10:5")
@@ -86,9 +90,13 @@ def register(subparsers) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the random sample (default 0)")
     p.add_argument("--set", nargs="+", action="extend", default=[], metavar="NAME=VALUE", dest="fixed",
                    help="a value held for every point (SI; alpha_deg in deg, pf_kPa in kPa), e.g. --set tau=0.05")
-    p.add_argument("--map", action="append", default=None, metavar="QUANTITY", choices=list(QUANTITIES),
+    p.add_argument("--map", action="append", default=None, metavar="QUANTITY",
                    help="a quantity to map (repeatable; default: verdict, damping_ratio, settling_time_s); "
-                        "one of " + ", ".join(QUANTITIES))
+                        "one of " + ", ".join(QUANTITIES) + " (with --mechanism: the coordinate at rest, "
+                        "e.g. theta_rad, and " + ", ".join(DYNAMICS) + ")")
+    p.add_argument("--mechanism", metavar="NAME|FILE.py", default=None,
+                   help="sweep this mechanism instead of the knee (model-spec 3b): hanging_mass, pulley_joint or "
+                        "a mechanism file")
     p.add_argument("--axes", nargs=2, default=None, metavar=("X", "Y"),
                    help="the two swept names the maps are drawn over (default: the first two)")
     p.add_argument("--out", metavar="DIR", default="sweep", help="folder for the table and maps (default: sweep)")
@@ -106,11 +114,27 @@ def _number(text: str, option: str, name: str) -> float:
         raise UsageError(f"{option} {name}: {text.strip()!r} is not a number") from None
 
 
+def _subject(args):
+    """What ``mkctl sweep`` sweeps: the knee, or the mechanism ``--mechanism`` names (loaded: the user asked)."""
+    from ..analysis.sweep import KneeSweep
+
+    if args.mechanism is None:
+        return KneeSweep()
+    from ..analysis.mechanism_files import mechanism
+    from ..analysis.mechanism_sweep import MechanismSweep
+    return MechanismSweep(mechanism(args.mechanism))
+
+
 def run_sweep(args) -> int:
     from ..analysis.sweep import SweepError, parse_axis, sweep
 
     _check_jobs(args)
     folder = output_folder(args.out, "--out")
+    subject = _subject(args)
+    for quantity in args.map or ():
+        if quantity not in subject.quantities:
+            raise UsageError(f"--map {quantity}: not a quantity of this sweep (known: "
+                             f"{', '.join(subject.quantities)})")
     fixed = {}
     for item in args.fixed:
         name, sep, text = item.partition("=")
@@ -120,7 +144,7 @@ def run_sweep(args) -> int:
     if args.random is not None:
         if args.grid:
             raise UsageError("give either --grid or --random with --range, not both")
-        ranges = dict(parse_axis(item, random=True) for item in args.ranges)
+        ranges = dict(parse_axis(item, random=True, names=subject.names) for item in args.ranges)
         if not ranges:
             raise UsageError("--random needs at least one --range NAME=LOW:HIGH")
         grid = None
@@ -129,12 +153,12 @@ def run_sweep(args) -> int:
             raise UsageError("--range goes with --random N; a grid takes --grid NAME=START:STOP:COUNT")
         if not args.grid:
             raise UsageError("nothing to sweep: give --grid NAME=START:STOP:COUNT ... or --random N --range ...")
-        grid = dict(parse_axis(item) for item in args.grid)
+        grid = dict(parse_axis(item, names=subject.names) for item in args.grid)
         ranges = None
     with tls_settings(args):
         result = sweep(grid, random=args.random, ranges=ranges, fixed=fixed, seed=args.seed, jobs=args.jobs,
                        scheduler=args.scheduler, progress=not args.quiet, chunk=args.chunk,
-                       dashboard=args.dashboard)
+                       dashboard=args.dashboard, subject=subject)
     print(repr(result))
     paths = result.save(folder)
     names = list(result.axes)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Mapping, Sequence
 
+from ..errors import ParameterError
 from ..physics import effects
 from ..physics.params import (DEFAULT, EFFECTS_TABLE, INTEGER_PARAMETERS, RATED_PRESSURE, TABLE_I, TABLE_II, UNITS,
                               LiveMapping, LiveSequence, Params)
@@ -32,6 +33,30 @@ N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 c
 #: Description of the parameter ``P_rated``, common to both FMUs.
 P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
                        "excursion); the model itself has no limit")
+def carried(effect) -> bool:
+    """Whether the FMUs carry an effect: not yet the air's (model-spec 4d, 7d: an effect that moves
+    the air), whose parameters would do nothing there."""
+    return not effect.moves_air
+
+
+def check_carried(params: Params) -> None:
+    """Refuse, in one line, a parameter set that switches on an effect the FMUs do not carry.
+
+    Raises
+    ------
+    ParameterError
+        Naming the first such effect.
+    """
+    for effect in effects.all_effects():
+        if effect.is_on(params) and not carried(effect):
+            raise ParameterError(f"the FMUs do not carry the effect {effect.name} yet (the air in the "
+                                 f"muscle, model-spec 7d): switch it off to build them")
+
+
+#: The Integer parameters of the FMUs: the switches of the effects they carry.
+FMU_INTEGER_PARAMETERS = LiveSequence(lambda: [q.name for e in effects.all_effects() if carried(e)
+                                               for q in e.parameters if q.switch])
+
 #: Descriptions of the Integer parameters (the effects' switches, from their definitions) that a model's own
 #: descriptions leave out.
 INTEGER_DESCRIPTIONS = LiveMapping(lambda: {q.name: f"{q.description}; no unit" for q in effects.parameters()
@@ -86,7 +111,7 @@ class Model:
 
     def start_values(self, params: Params = DEFAULT) -> dict:
         """The start value of every settable variable of an FMU built for params (JSON-ready)."""
-        values = {name: getattr(params, name) for name in (*self.parameters, *INTEGER_PARAMETERS)}
+        values = {name: getattr(params, name) for name in (*self.parameters, *FMU_INTEGER_PARAMETERS)}
         values["P_rated"] = RATED_PRESSURE
         values.update(self.derived_starts(params))
         return values
@@ -105,7 +130,7 @@ class Model:
         starts = None if params is None else self.start_values(params)
         kinds = ([(name, "Real", "input", "continuous") for name in self.inputs]
                  + [(name, "Real", "parameter", "fixed") for name in self.parameters]
-                 + [(name, "Integer", "parameter", "fixed") for name in INTEGER_PARAMETERS]
+                 + [(name, "Integer", "parameter", "fixed") for name in FMU_INTEGER_PARAMETERS]
                  + [(name, "Real", "parameter", "fixed") for name in self.extra_parameters]
                  + [(name, "Boolean", "output", "discrete") if name in self.boolean_outputs
                     else (name, "Real", "output", "continuous") for name in self.outputs])
@@ -120,12 +145,13 @@ class Model:
 
     def settable(self) -> tuple[str, ...]:
         """The names of the variables a host can set (inputs and parameters), in the order of the value references."""
-        return (*self.inputs, *self.parameters, *INTEGER_PARAMETERS, *self.extra_parameters)
+        return (*self.inputs, *self.parameters, *FMU_INTEGER_PARAMETERS, *self.extra_parameters)
 
 
 def _effect_reals() -> list[str]:
-    """The Real parameters of every registered effect, in the registry's order (switches are Integers)."""
-    return [q.name for q in effects.parameters() if not q.switch]
+    """The Real parameters of every registered effect the FMUs carry, in the registry's order (switches are
+    Integers)."""
+    return [q.name for e in effects.all_effects() if carried(e) for q in e.parameters if not q.switch]
 
 
 #: The actuator's Real parameters of Table I, n second (model-spec section 7).

@@ -44,6 +44,7 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError
+from ..fmi.interface import check_carried
 from ..physics.params import DEFAULT, Params
 from ..fmi.units import fmi_unit, unit_definitions
 
@@ -293,6 +294,7 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
     effect_files = [Path(f).resolve() for f in effects or ()]
     register_effect_files(effect_files)
     params = DEFAULT if params is None else params
+    check_carried(params)  # the FMUs do not carry the air yet: refused, not silently dropped
     out = Path(out).resolve()  # the checks run in another folder
     out.mkdir(parents=True, exist_ok=True)
     built = {}

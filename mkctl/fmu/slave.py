@@ -56,7 +56,8 @@ from pythonfmu.enums import Fmi2Status
 from ..analysis.effect_files import register_effect_files
 from ..errors import MkctlError
 from ..fmi.interface import Model, negative_pressure_message, non_finite_output_message
-from ..physics.params import DEFAULT, INTEGER_PARAMETERS, Params
+from ..fmi.interface import FMU_INTEGER_PARAMETERS
+from ..physics.params import DEFAULT, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
@@ -203,7 +204,7 @@ class McKibbenSlave(Fmi2Slave):
 
     # --- helpers ---
     def _params(self) -> Params:
-        values = {name: getattr(self, name) for name in (*self.interface.parameters, *INTEGER_PARAMETERS)}
+        values = {name: getattr(self, name) for name in (*self.interface.parameters, *FMU_INTEGER_PARAMETERS)}
         geometry = ("b", "L0", "D0")
         if values["n"] == self._starts["n"] and any(values[k] != self._starts[k] for k in geometry):
             values["n"] = None  # derived from the changed b, L0, D0 (model-spec section 2)

@@ -180,15 +180,25 @@ class Core:
         return n - 1 if rc == 0 else int(fault.sample)
 
 
+#: Why params with the air on take the Python path (model-spec 4d, 7d: the core does not carry it yet).
+AIR_NOT_CARRIED = "the compiled core does not carry the air in the muscle yet"
+
 _cores: dict[tuple[int, Variant], Core | None] = {}
 _reasons: dict[tuple[int, Variant], str] = {}
 _lock = threading.Lock()
+
+
+def moves_air(params: Params) -> bool:
+    """Whether params switch on an effect that moves the air (model-spec 4d), which the core does not carry."""
+    return any(e.moves_air for e in effects.all_effects() if e.is_on(params))
 
 
 def core_for(params: Params) -> Core | None:
     """The compiled core for params' structure, built on first use; None when it is not available."""
     # keyed by the registry's generation too: an effect registered since (a user's, spec 4c) changes the
     # parameter vector and the traced terms even where the structure is the same
+    if moves_air(params):
+        return None  # the core does not carry the air yet: the Python path
     variant = (effects.generation(), Variant.of(params))
     core = _cores.get(variant, False)
     if core is not False and build.enabled():
@@ -213,6 +223,8 @@ def status(params: Params | None = None) -> str:
     params = Params() if params is None else params
     if not build.enabled():
         return f"python (switched off by {build.ENV_SWITCH})"
+    if moves_air(params):
+        return f"python ({AIR_NOT_CARRIED})"
     core = core_for(params)
     if core is None:
         return f"python ({_reasons.get((effects.generation(), Variant.of(params)), 'unavailable')})"

@@ -55,7 +55,7 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
-from ..fmi.interface import MODELS
+from ..fmi.interface import MODELS, check_carried
 from ..fmi.units import fmi_unit, unit_definitions
 from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
@@ -154,6 +154,11 @@ def slave_interface(model_name: str, params: Params | None = None) -> Interface:
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
     model = MODELS[model_name]
+    if params is not None:
+        try:
+            check_carried(params)
+        except ParameterError as error:
+            raise NativeBuildError(str(error)) from None
     variables = tuple(Variable(v.name, v.vr, v.type, v.causality, v.variability, v.description,
                                fmi_unit(v.unit) if v.type == "Real" else None, v.start)
                       for v in model.variables(DEFAULT if params is None else params))

@@ -1,4 +1,4 @@
-"""The built-in effects of model-spec sections 4 and 4b, each defined once: its parameters, its
+"""The built-in effects of model-spec sections 4, 4b and 4d, each defined once: its parameters, its
 terms, its quasi-static limit, how the diagnosis sees it and its columns in the discovery's library.
 
 :mod:`mkctl.physics.effects` registers them, in this order (the spec's), when it is imported.
@@ -16,6 +16,15 @@ import numpy as np
 
 from .braid import pressure_gain, strain_energy_gradient
 from .effect import DiscoveryColumn, Effect, Parameter
+from .air import (
+    AIR_HEAT_PARAMETERS,
+    LEAK_PARAMETERS,
+    VALVE_FLOW_PARAMETERS,
+    air_heat_rates,
+    leak_mass_flow,
+    regulator_opening,
+    valve_mass_flow,
+)
 from .separations import separations_of as _separations
 
 # --- the built-in effects (model-spec section 4)
@@ -65,6 +74,26 @@ def _asymmetric_step(P, P_cmd, dt, p, xp):
     branch holds: ``P_cmd + (P - P_cmd) exp(-dt / tau_b)``, tau_b = tau_exhaust while P_cmd < P,
     else tau."""
     return P_cmd + (P - P_cmd) * xp.exp(-dt / xp.where(P_cmd < P, p.tau_exhaust, p.tau))
+
+
+def _valve_flow(P, T, u, p, xp):
+    """The valve's net mass flow into the muscle [kg/s] (:func:`~.pneumatics.valve_mass_flow`)."""
+    return valve_mass_flow(u, P, p.P_supply, p.C_fill, p.C_exhaust, p.b_cr, p.m_sub, p.T_air, T)
+
+
+def _regulator_opening(P, P_cmd, p, xp):
+    """The pressure regulator's opening (:func:`~.pneumatics.regulator_opening`)."""
+    return regulator_opening(P_cmd, P, p.band)
+
+
+def _leak_flow(P, T, u, p, xp):
+    """The laminar leak's mass flow into the muscle [kg/s] (:func:`~.pneumatics.leak_mass_flow`)."""
+    return leak_mass_flow(P, p.C_leak)
+
+
+def _air_heat(P, T, V, dV_dt, q_m, p, xp):
+    """The open chamber's pressure and temperature rates (:func:`~.pneumatics.air_heat_rates`)."""
+    return air_heat_rates(P, T, V, dV_dt, q_m, p.T_air, p.tau_heat)
 
 
 def _slack_limit(f, p, xp):
@@ -271,7 +300,7 @@ BUILTIN = (
         pressure_step=_lag_step,
         fitted="tau",
         discovery=_lag_columns,
-        experiments={"knee": (1e-3, 2.0)},
+        experiments={"knee": (1e-3, 2.0), "pressure": (1e-4, 100.0)},
         regressor="the force a lag of 1 s takes away at the measured pressure-command rate",
         signature_axis="extensor pressure rate (smoothed) [kPa/s]",
         # the first-order term (tau times the smoothed command rate) is not linear in tau for step
@@ -412,7 +441,7 @@ BUILTIN = (
         pressure_step=_asymmetric_step,
         requires=("pressure_lag",),
         fitted="tau_exhaust",
-        experiments={"knee": (1e-3, 2.0)},
+        experiments={"knee": (1e-3, 2.0), "pressure": (1e-4, 100.0)},
         regressor=(
             "the force an exhausting lag of 1 s takes away where the command falls below "
             "the pressure"
@@ -443,7 +472,7 @@ BUILTIN = (
         structural=False,
         fitted="delay",
         discovery=_delay_columns,
-        experiments={"knee": (1e-3, 0.5)},
+        experiments={"knee": (1e-3, 0.5), "pressure": (1e-4, 0.5)},
         regressor=(
             "the force the command's change over 1 s of delay takes away (first order: "
             "-delay dP_cmd/dt)"
@@ -451,5 +480,58 @@ BUILTIN = (
         signature_axis="extensor command rate (smoothed) [kPa/s]",
         first_order_rate=lambda rate: rate,
         separation=_separations("dead_time"),
+    ),
+    # --- model-spec section 4d: the air in the muscle ---
+    # Not structural yet: the compiled core and the native FMUs do not carry the air (the core
+    # answers None, a native build refuses it, the FMUs do not offer these parameters); the knee
+    # with the air makes them structural when it carries them.
+    Effect(
+        "valve_flow",
+        "the pressure from the air's mass balance: ISO 6358 flow through a valve from the supply "
+        "and to the exhaust into the muscle's volume (Eq. 6 plus V_dead), u = clip((P_cmd - P) / "
+        "band, -1, 1) for pressure commands; replaces the section 4 pressure path",
+        why="the air flows through a valve (ISO 6358: choked, then subsonic) into the muscle",
+        parameters=VALVE_FLOW_PARAMETERS,
+        switched_by="valve_flow",
+        air_flow=_valve_flow,
+        valve_opening=_regulator_opening,
+        structural=False,
+        fitted="C_fill",
+        experiments={"pressure": (1e-11, 1e-6)},
+        regressor="the pressure the valve's flow gives",
+        signature_axis="gauge pressure [kPa]",
+        slope_hint=False,
+        separation=_separations("valve_flow"),
+    ),
+    Effect(
+        "leak",
+        "needs valve_flow: a laminar leak, q_m -= rho0 C_leak P (an exponential leak-down)",
+        why="q_m -= rho0 C_leak P: the closed muscle's pressure decays exponentially",
+        parameters=LEAK_PARAMETERS,
+        air_flow=_leak_flow,
+        requires=("valve_flow",),
+        structural=False,
+        fitted="C_leak",
+        experiments={"pressure": (1e-15, 1e-8)},
+        regressor="the pressure a leak of 1 m^3/(s Pa) takes away",
+        signature_axis="gauge pressure [kPa]",
+        slope_hint=False,
+        separation=_separations("leak"),
+    ),
+    Effect(
+        "air_heat",
+        "needs valve_flow: the air's temperature is a state (the open chamber's energy balance), "
+        "relaxing to T_air with time constant tau_heat; the pressure sags as a fast fill cools",
+        why="the air's temperature relaxes to T_air: after a fast fill the pressure sags",
+        parameters=AIR_HEAT_PARAMETERS,
+        air_temperature=_air_heat,
+        requires=("valve_flow",),
+        structural=False,
+        fitted="tau_heat",
+        experiments={"pressure": (0.01, 1e3)},
+        regressor="the pressure the air's cooling takes away",
+        signature_axis="gauge pressure [kPa]",
+        slope_hint=False,
+        separation=_separations("air_heat"),
     ),
 )

@@ -89,6 +89,9 @@ class Parameter:
     fit_range: tuple[float, float] | None = None
     #: a value other than 0 must be at least this (1e-320 s is no lag; 1/tau overflows)
     smallest_on: float = 0.0
+    #: a number of the rig (a supply pressure, a dead volume): a record that gives it states a
+    #: known value and does not switch its effect on, as giving any other of its values does
+    rig: bool = False
 
     @property
     def start(self) -> float:
@@ -178,6 +181,16 @@ class Effect:
     final: Callable | None = None  #: limit(f, p, xp) applied last to the whole tension
     #: delay(p) [s] of the pressure commands (a transport dead time)
     command_delay: Callable | None = None
+    #: the air in the muscle (model-spec 4d; see :attr:`moves_air`): a mass flow it adds into each
+    #: muscle, ``air_flow(P, T, u, p, xp)`` [kg/s] at gauge pressure P [Pa], the air's temperature T
+    #: [K] and the valve's opening u [-] (valve_flow: the valve; leak: the laminar leak)
+    air_flow: Callable | None = None
+    #: the opening a pressure command gives the valve, ``valve_opening(P, P_cmd, p, xp)`` in [-1, 1]
+    #: (valve_flow: the pressure regulator); a record driven by openings gives u itself
+    valve_opening: Callable | None = None
+    #: the air's temperature as a state instead of the polytropic law: ``air_temperature(P, T, V,
+    #: dV_dt, q_m, p, xp)`` -> (dP/dt [Pa/s], dT/dt [K/s]) (air_heat)
+    air_temperature: Callable | None = None
     quasi_static: str | None = None  #: "static", "play", "viscous" or None
     play: Callable | None = None  #: half-width of the play band (P, p, xp) [N]
     viscous: Callable | None = None  #: damping coefficient (p) [N s/m]
@@ -220,6 +233,13 @@ class Effect:
     #: (params) -> its :class:`DiscoveryColumn` s of the discovery's library
     discovery: Callable | None = None
     builtin: bool = False
+
+    @property
+    def moves_air(self) -> bool:
+        """Whether it changes the air's mass balance (``air_flow``, ``valve_opening`` or
+        ``air_temperature``): with such an effect on, the pressure comes from the air (model-spec 4d)
+        instead of the section 4 pressure path, which it replaces."""
+        return any(f is not None for f in (self.air_flow, self.valve_opening, self.air_temperature))
 
     @property
     def parameter_names(self) -> tuple[str, ...]:

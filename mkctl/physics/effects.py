@@ -156,10 +156,11 @@ def _check_effect(effect: Effect) -> None:
         and effect.pressure_rate is None
         and effect.final is None
         and effect.command_delay is None
+        and not effect.moves_air
     ):
         raise EffectError(
-            f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate, final or "
-            "command_delay)"
+            f"effect {effect.name!r}: it changes nothing (give tension, pressure_rate, final, "
+            "command_delay, air_flow, valve_opening or air_temperature)"
         )
     unknown = [name for name in effect.requires if name not in _REGISTRY]
     if unknown:
@@ -234,6 +235,12 @@ def _check_term(effect: Effect) -> None:
                 effect.final(f, p, xp)
             if effect.command_delay is not None:
                 effect.command_delay(p)
+            if effect.air_flow is not None:
+                effect.air_flow(P, 293.15 + L, 0.5, p, xp)
+            if effect.valve_opening is not None:
+                effect.valve_opening(P, P * 1.1, p, xp)
+            if effect.air_temperature is not None:
+                effect.air_temperature(P, 293.15 + L, 3e-5, Ldot * 1e-4, 1e-4, p, xp)
         except (
             Exception
         ) as error:  # any failure of user code: say which effect and why, in one line

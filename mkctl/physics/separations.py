@@ -189,6 +189,53 @@ SEPARATIONS = {
         "leaves it flat for the delay and then moves at once, a lag starts at once "
         "and approaches exponentially"
     ),
+    # model-spec section 4d: the air in the muscle, against the symptoms of sections 4 and 4b
+    ("valve_flow", "pressure_lag"): (
+        "a large step of the command (most of the supply) with the bladder pressure measured: "
+        "the valve chokes and the pressure rises nearly linearly, at a rate set by C_fill / V, "
+        "then bends near the target; a lag rises exponentially at once, and the same for a small "
+        "step (where the valve is itself a lag)"
+    ),
+    ("valve_flow", "asymmetric_lag"): (
+        "large fill and exhaust steps with the bladder pressure measured: the valve's fill and "
+        "exhaust rates are nearly constant while it chokes and depend on the supply and the "
+        "pressure, an asymmetric lag's are exponential with two fixed time constants"
+    ),
+    ("valve_flow", "dead_time"): (
+        "a step of the command with the bladder pressure measured at a fast rate: a dead time "
+        "leaves it flat for the delay, the valve starts at once at its choked rate"
+    ),
+    ("leak", "pressure_lag"): (
+        "a leak-down: fill the muscle, close the valve (or hold the command) and log for minutes: "
+        "a leak decays exponentially to the atmosphere, a lag settles at the command and stays"
+    ),
+    ("leak", "asymmetric_lag"): (
+        "a leak-down: fill the muscle, close the valve and log for minutes: a leak decays to the "
+        "atmosphere, a lag of either direction settles at the command and stays"
+    ),
+    ("leak", "dead_time"): (
+        "a leak-down: fill the muscle, close the valve and log for minutes: a leak decays to the "
+        "atmosphere, a dead time only shifts the response by the delay"
+    ),
+    ("air_heat", "pressure_lag"): (
+        "a fast fill followed by a closed valve, logged for ten seconds: the cooling air sags the "
+        "pressure by kilopascals within seconds after the valve closes, a lag does nothing once "
+        "the pressure has settled"
+    ),
+    ("air_heat", "asymmetric_lag"): (
+        "a fast fill followed by a closed valve, logged for ten seconds: the cooling air sags the "
+        "pressure within seconds after the valve closes, a lag does nothing once it has settled"
+    ),
+    ("air_heat", "dead_time"): (
+        "a fast fill followed by a closed valve, logged for ten seconds: the cooling air sags the "
+        "pressure within seconds after the valve closes, a dead time does nothing once it has "
+        "settled"
+    ),
+    ("air_heat", "leak"): (
+        "a leak-down logged for minutes after a fast fill: the heat's sag is over within a few "
+        "tau_heat and is larger after a faster fill, the leak's decay goes on exponentially to "
+        "the atmosphere and does not depend on how fast the muscle was filled"
+    ),
 }
 
 
