@@ -19,36 +19,12 @@ import independent_mechanisms as im
 import independent_pneumatics as ip
 import independent_rig as rig
 from mkctl.errors import MkctlError
-from mkctl.physics import actuator, effects, knee, mechanism, pneumatics, simulate, stability
+from mkctl.physics import actuator, knee, mechanism, pneumatics, simulate, stability
 from mkctl.physics.params import Params
 
 #: The air's values every test here uses (the spec's typical valve; a smaller valve where it says).
 AIR = {"C_fill": 5e-9, "C_exhaust": 0.0, "P_supply": 2e6, "band": 2e4, "b_cr": 0.3, "m_sub": 0.5,
        "k_poly": 1.2, "V_dead": 5e-6, "T_air": 293.15, "C_leak": 0.0}
-
-
-@pytest.fixture(scope="module", autouse=True)
-def air_effects():
-    """The air's effects in the registry (the pressure helper's built-ins once they land; until then
-    a stand-in built from pneumatics' parameter tuples, removed after this module)."""
-    added = []
-    if "valve_flow" not in effects.names():
-        from mkctl.physics.effect import Effect
-
-        def held(P, P_cmd, p, xp):  # the stand-in's own rate: the muscle held at L0
-            return knee.air_pressure_derivative(P, P_cmd, p.L0, 0.0, p)
-
-        for name, parameters, requires in (
-                ("valve_flow", pneumatics.VALVE_FLOW_PARAMETERS, ()),
-                ("leak", pneumatics.LEAK_PARAMETERS, ("valve_flow",)),
-                ("air_heat", pneumatics.AIR_HEAT_PARAMETERS, ("valve_flow",))):
-            effects.register(Effect(name, name, parameters=parameters, requires=requires,
-                                    pressure_rate=held if not requires else
-                                    (lambda P, P_cmd, p, xp: 0.0 * P)))
-            added.append(name)
-    yield
-    for name in reversed(added):
-        effects.unregister(name)
 
 
 def air_params(**values) -> Params:
@@ -206,7 +182,7 @@ def test_sealed_stiffness_matches_finite_differences_of_p_V_k():
         ours = pneumatics.sealed_stiffness(L, P, p.b, p.n, p.V_dead, p.k_poly)
         assert ours == pytest.approx(fd, rel=1e-7)
         # the linearization's Ldot column is the same spring per unit rate
-        _, _, _, dLdot = knee.air_pressure_partials(P, 0.0, L, 0.0, p, opening=True)
+        _, _, _, dLdot = actuator.air_pressure_partials(P, 0.0, L, 0.0, p, opening=True)
         assert dLdot == pytest.approx(ours, rel=1e-12)
 
 

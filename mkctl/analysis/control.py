@@ -43,7 +43,7 @@ import control as ct
 import numpy as np
 
 from . import fmu_probe as probe
-from ..physics import actuator, knee, simulate, stability
+from ..physics import actuator, effects, knee, simulate, stability
 from ..errors import DomainError, MkctlError, check_memory
 from .fmu_probe import FMUAnalysisError, fmu_step_response
 from ..physics.params import DEFAULT, Params
@@ -180,7 +180,7 @@ def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: f
     DomainError, ControlAnalysisError
         For a posture outside the stops, a bad pf, no solution, or one that needs pe < 0.
     """
-    if knee.air_is_on(params):
+    if actuator.air_is_on(params):
         return _air_operating_point(alpha, X, Pf if pf is None else pf, params)
     alpha, X = _posture(alpha, X, params)
     pf = Pf if pf is None else pf
@@ -229,11 +229,10 @@ def _air_operating_point(alpha, X, pf, params: Params) -> KneeOperatingPoint:
     regulator's clipped opening has no slope outside its band: python-control's solver stalls there
     from a far guess); with a leak the regulator holds a small error that feeds it, polished from
     there by ``find_operating_point``."""
-    from ..physics import pneumatics
-
-    switch = next(q for q in pneumatics.VALVE_FLOW_PARAMETERS if q.switch)
+    air_off = {e.switch_parameter.name: e.switch_parameter.off
+               for e in actuator.active_effects(params) if e.moves_air}
     held = operating_point(alpha, X=None if alpha is not None else X, Pf=pf,
-                           params=params.replace(**{switch.name: switch.off}))
+                           params=params.replace(**air_off))
     op = KneeOperatingPoint(params, held.alpha, held.X, held.Pe, held.Pf,
                             np.array([held.X, 0.0, held.Pe, held.Pf]), held.inputs.copy())
     rates = knee.knee_derivatives(op.states, *op.inputs, params)
@@ -852,9 +851,8 @@ def with_air(op: KneeOperatingPoint, **values) -> KneeOperatingPoint:
     KneeOperatingPoint
         With the air on (its typical values unless given) and the states X, V, Pe, Pf.
     """
-    from ..physics import pneumatics
-
-    switch = next(q for q in pneumatics.VALVE_FLOW_PARAMETERS if q.switch)
+    valve = next(e for e in effects.all_effects() if e.valve_opening is not None)
+    switch = valve.switch_parameter
     params = op.params.replace(**{switch.name: switch.on_value, **values})
     states = np.array([op.X, 0.0, op.Pe, op.Pf])
     return KneeOperatingPoint(params, op.alpha, op.X, op.Pe, op.Pf, states, op.inputs.copy())

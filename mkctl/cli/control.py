@@ -310,9 +310,9 @@ def run_rootlocus(args) -> int:
 
 
 def _air_on(params) -> bool:
-    from ..physics import knee
+    from ..physics import actuator
 
-    return knee.air_is_on(params)
+    return actuator.air_is_on(params)
 
 
 def _air_rootlocus(args, op):

@@ -43,8 +43,11 @@ class Variant(NamedTuple):
         return 4 if self.lag else 2
 
     def traced_effects(self) -> set[str]:
-        """The effects the variant's C computes: its structural ones and every non-structural one."""
-        return set(self.on) | {e.name for e in effects.all_effects() if not e.structural}
+        """The effects the variant's C computes: its structural ones and every non-structural one
+        but those that move the air (model-spec 4d: the core does not carry the air yet, and its
+        switch is no term that vanishes when off)."""
+        return set(self.on) | {e.name for e in effects.all_effects()
+                               if not e.structural and not e.moves_air}
 
     def c_condition(self) -> str:
         """The C test of a parameter vector p for this variant (the mirror of :meth:`of`)."""

@@ -22,8 +22,9 @@ from typing import NamedTuple
 
 import numpy as np
 
+from . import air as _air
 from . import effects as _effects
-from ..errors import DomainError
+from ..errors import DomainError, ParameterError
 from .braid import (bladder_volume, braid_diameter, pressure_gain,  # noqa: F401 (re-exported)
                     pressure_gain_slope, strain_energy_curvature, strain_energy_density,
                     strain_energy_gradient)
@@ -132,10 +133,231 @@ def has_pressure_states(params) -> bool:
     Returns
     -------
     bool
-        True when an effect with a pressure-rate term is on (pressure lag): the actuator pressures
-        are then states.
+        True when an effect with a pressure-rate term is on (pressure lag), or one that moves the
+        air (model-spec 4d, :func:`air_is_on`): the actuator pressures are then states.
     """
-    return structure(params).lag
+    return structure(params).lag or air_is_on(params)
+
+
+# --- the air's pressure path (model-spec section 4d) ----------------------------------------------
+
+
+def air_is_on(params) -> bool:
+    """Whether the pressures follow the air's mass balance (model-spec 4d).
+
+    True when params switch on an effect that moves the air (its definition gives an ``air_flow``,
+    a ``valve_opening`` or an ``air_temperature``: valve_flow, leak, air_heat).
+
+    Parameters
+    ----------
+    params : Params, MechanismParams or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    bool
+        True when the pressures are states of the air's mass balance.
+    """
+    return any(e.moves_air for e in active_effects(params))
+
+
+def check_air_supported(params) -> None:
+    """Refuse, in one line, the air's temperature as a state in a knee or a mechanism.
+
+    Their air path carries the polytropic law only.
+
+    Parameters
+    ----------
+    params : Params or MechanismParams
+        The parameter set.
+
+    Raises
+    ------
+    ParameterError
+        Naming the effect switched on whose definition makes the air's temperature a state
+        (``air_temperature``: air_heat) and its switch: a knee's or a mechanism's muscles carry the
+        polytropic law only (one muscle's pressure record carries the heat:
+        :func:`mkctl.physics.pneumatics.simulate_muscle_pressure`).
+    """
+    for effect in active_effects(params):
+        if effect.air_temperature is not None:
+            q = effect.switch_parameter
+            raise ParameterError(
+                f"the effect {effect.name} (the air's temperature as a state) is not carried by a "
+                f"knee or a mechanism yet: set {q.name} = {q.off:g} (the polytropic law) or "
+                "simulate one muscle's pressure record")
+
+
+def valve_opening(P, P_cmd, params):
+    """The opening u in [-1, 1] the valve takes for a pressure command (model-spec 4d).
+
+    The sum of the switched-on effects' ``valve_opening`` terms (valve_flow: the regulator,
+    ``clip((P_cmd - P) / band, -1, 1)``).
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Gauge pressure in the muscle [Pa].
+    P_cmd : float, array_like or sympy expression
+        The set-point [Pa].
+    params : Params, MechanismParams or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    float, array or sympy expression
+        The opening u [-]; 0 without such an effect (closed).
+    """
+    xp = math_for_all(P, P_cmd)
+    u = 0.0
+    for effect in active_effects(params):
+        if effect.valve_opening is not None:
+            u = u + effect.valve_opening(P, P_cmd, params, xp)
+    return u
+
+
+def air_mass_flow(P, u, params):
+    """Net mass flow into one muscle [kg/s] at the valve's opening u (model-spec 4d, 7d).
+
+    The sum of the switched-on effects' ``air_flow`` terms (valve_flow: the valve, leak: the
+    laminar leak), the muscle's air at ``T_air`` (the polytropic law).
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Gauge pressure in the muscle [Pa].
+    u : float, array_like or sympy expression
+        The valve's opening [-] in [-1, 1].
+    params : Params, MechanismParams or SymbolicParams
+        Section 4d's values.
+
+    Returns
+    -------
+    float, array or sympy expression
+        The mass flow in [kg/s] (negative: out).
+
+    References
+    ----------
+    .. [1] model-spec sections 4d and 7d (each muscle's air mass flow as an output).
+    """
+    xp = math_for_all(P, u)
+    q = 0.0
+    for effect in active_effects(params):
+        if effect.air_flow is not None:
+            q = q + effect.air_flow(P, params.T_air, u, params, xp)
+    return q
+
+
+def air_pressure_derivative(P, command, L, Ldot, params, opening: bool = False):
+    r"""dP/dt of one muscle from the air's mass balance through its valve (model-spec 4d).
+
+    .. math::
+
+        \frac{dP}{dt} = \frac{k_{poly}}{V}\left(R T_{air} q_m - p \frac{dV}{dt}\right),\quad
+        V = V_b(L) + V_{dead},\quad \frac{dV}{dt} = \frac{dV_b}{dL} \dot L
+
+    with ``q_m`` the effects' mass flows (:func:`air_mass_flow`) at the valve's opening: the
+    regulator's for a pressure command (:func:`valve_opening`), or the opening itself when
+    ``opening`` (a switching valve; 0: sealed). The muscle's motion enters through its volume:
+    pulled longer (Ldot > 0 in the working range) it squeezes its air. The lags of section 4 are
+    not used with the air on: they are its small-signal limit
+    (:func:`mkctl.physics.air.regulator_time_constant`). Written on ``xp``: floats, arrays and
+    sympy symbols (differentiated exactly for the linearization).
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Gauge pressure in the muscle [Pa].
+    command : float, array_like or sympy expression
+        The regulator's set-point P_cmd [Pa], or with ``opening`` the valve's opening u [-].
+    L : float, array_like or sympy expression
+        Muscle length [m] (0 < L < b).
+    Ldot : float, array_like or sympy expression
+        Its lengthening rate [m/s].
+    params : Params, MechanismParams or SymbolicParams
+        b, n and section 4d's values (V_dead, k_poly, T_air, the valve's and the leak's).
+    opening : bool
+        Whether command is the valve's opening u in [-1, 1] rather than a pressure set-point.
+
+    Returns
+    -------
+    float, array or sympy expression
+        dP/dt [Pa/s].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 6
+       (the volume) and its conclusion (the air's dynamics, future work there).
+    .. [2] model-spec section 4d.
+    """
+    p = params
+    u = command if opening else valve_opening(P, command, p)
+    q = air_mass_flow(P, u, p)
+    V = _air.air_volume(L, p.b, p.n, p.V_dead)
+    dV_dt = _air.air_volume_slope(L, p.b, p.n) * Ldot
+    return _air.polytropic_pressure_rate(P, V, dV_dt, q, p.k_poly, p.T_air)
+
+
+def _air_expressions(sp, opening=False):
+    import sympy
+    P, c, L, Ldot = (sympy.Dummy(real=True) for _ in range(4))
+    rate = sympy.sympify(air_pressure_derivative(P, c, L, Ldot, sp, opening))
+    return (P, c, L, Ldot), [rate, *(_heaviside_as_step(sympy.diff(rate, x))
+                                     for x in (P, c, L, Ldot))]
+
+
+def _sealed_expressions(sp):
+    return _air_expressions(sp, opening=True)
+
+
+#: Where the regulator's error (or a valve's opening) is exactly 0 the flow's slope jumps (filling
+#: above, exhausting below): :func:`air_pressure_partials` takes the filling side, a set-point this
+#: fraction of the band above the pressure (an opening of this size), as
+#: :func:`mkctl.physics.air.regulator_time_constant`'s tau_fill does.
+FILLING_SIDE = 1e-12
+
+
+def air_pressure_partials(P, command, L, Ldot, params, opening: bool = False):
+    """Exact partials of :func:`air_pressure_derivative` by P, the command, L and Ldot.
+
+    ``sympy.diff`` of the traced rate. At a regulator's rest (P = P_cmd, u = 0) the opening's
+    slope jumps between the valve's filling and exhausting sides; the partials are the filling
+    side's (the set-point :data:`FILLING_SIDE` of the band above P), so that the pressure row is
+    ``-1 / tau_fill`` of :func:`mkctl.physics.air.regulator_time_constant`: the linearization's
+    counterpart of the lag it reduces to. With ``opening`` the same holds at a closed valve
+    (u = 0: sealed): the partial by u is the filling side's.
+
+    Parameters
+    ----------
+    P : float
+        Gauge pressure [Pa].
+    command : float
+        Set-point P_cmd [Pa], or with ``opening`` the valve's opening u [-].
+    L, Ldot : float
+        Muscle length [m] and its rate [m/s].
+    params : Params or MechanismParams
+        Section 4d's values.
+    opening : bool
+        Whether command is the valve's opening.
+
+    Returns
+    -------
+    dPdot_dP, dPdot_dcommand, dPdot_dL, dPdot_dLdot : float
+        [1/s], [1/s] (or [Pa/s] per unit opening), [Pa/(s m)], [Pa/m].
+
+    References
+    ----------
+    .. [1] model-spec section 4d (the linearization has the pressure states).
+    """
+    P, command, L, Ldot = float(P), float(command), float(L), float(Ldot)
+    if not opening and command == P:
+        command = P + FILLING_SIDE * float(params.band)
+    elif opening and command == 0.0:
+        command = FILLING_SIDE  # a closed valve: the opening's slope is the filling side's too
+    build = _sealed_expressions if opening else _air_expressions
+    function, names = _derivative_function(params, build, scalar=True)
+    values = function(P, command, L, Ldot, *[getattr(params, n) for n in names])
+    return tuple(float(v) for v in values[1:])
 
 
 #: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead

@@ -711,210 +711,6 @@ def _scalar(x):
     return x if actuator.is_symbolic(x) else float(x)
 
 
-# --- the air's pressure path (model-spec section 4d) ----------------------------------------------
-
-
-def _air_parameters():
-    """The valve's switch and the heat's parameter, from their definitions
-    (:data:`mkctl.physics.pneumatics.VALVE_FLOW_PARAMETERS`, ``AIR_HEAT_PARAMETERS``)."""
-    from . import pneumatics  # imports actuator: imported when first needed
-    switch = next(q for q in pneumatics.VALVE_FLOW_PARAMETERS if q.switch)
-    return switch, pneumatics.AIR_HEAT_PARAMETERS[0]
-
-
-def air_is_on(params) -> bool:
-    """Whether the pressures follow the air's mass balance through a valve (model-spec 4d).
-
-    True when the valve's switch parameter (``valve_flow``, defined in
-    :data:`mkctl.physics.pneumatics.VALVE_FLOW_PARAMETERS`) is on in params; a parameter set made
-    before the air's effects were registered reads it at its off value.
-
-    Parameters
-    ----------
-    params : Params, MechanismParams or SymbolicParams
-        The parameter set.
-
-    Returns
-    -------
-    bool
-        True when the pressures are states of the air's mass balance.
-    """
-    switch, _ = _air_parameters()
-    return getattr(params, switch.name, switch.off) != switch.off
-
-
-def check_air_supported(params) -> None:
-    """Refuse, in one line, what the mechanisms' air path does not carry: the air's temperature.
-
-    Parameters
-    ----------
-    params : Params or MechanismParams
-        The parameter set.
-
-    Raises
-    ------
-    ParameterError
-        With the air on and its heat exchange (``tau_heat > 0``) too: a knee's or a mechanism's
-        muscles carry the polytropic law only (their temperature states are not built yet; one
-        muscle's pressure record carries it: :func:`mkctl.physics.pneumatics
-        .simulate_muscle_pressure`).
-    """
-    _, heat = _air_parameters()
-    if air_is_on(params) and getattr(params, heat.name, heat.off) != heat.off:
-        raise ParameterError(
-            f"{heat.name} (the air's temperature as a state) is not carried by a knee or a "
-            f"mechanism yet: set {heat.name} = {heat.off:g} (the polytropic law, k_poly) or "
-            "simulate one muscle's pressure record")
-
-
-def air_pressure_derivative(P, command, L, Ldot, params, opening: bool = False):
-    r"""dP/dt of one muscle from the air's mass balance through its valve (model-spec 4d).
-
-    .. math::
-
-        \frac{dP}{dt} = \frac{k_{poly}}{V}\left(R T_{air} q_m - p \frac{dV}{dt}\right),\quad
-        V = V_b(L) + V_{dead},\quad \frac{dV}{dt} = \frac{dV_b}{dL} \dot L
-
-    with ``q_m`` the valve's flow (:func:`mkctl.physics.pneumatics.valve_mass_flow`) at the
-    opening ``u = clip((P_cmd - P) / band, -1, 1)`` of a pressure regulator (or ``u`` itself when
-    ``opening``: a switching valve; 0: sealed) plus the leak
-    (:func:`~mkctl.physics.pneumatics.leak_mass_flow`, 0 when it is off). The muscle's motion
-    enters through its volume: pulled longer (Ldot > 0 in the working range) it squeezes its air.
-    The lags of section 4 are not used with the air on: they are its small-signal limit
-    (:func:`~mkctl.physics.pneumatics.regulator_time_constant`). Written on ``xp``: floats, arrays
-    and sympy symbols (differentiated exactly for the linearization).
-
-    Parameters
-    ----------
-    P : float, array_like or sympy expression
-        Gauge pressure in the muscle [Pa].
-    command : float, array_like or sympy expression
-        The regulator's set-point P_cmd [Pa], or with ``opening`` the valve's opening u [-].
-    L : float, array_like or sympy expression
-        Muscle length [m] (0 < L < b).
-    Ldot : float, array_like or sympy expression
-        Its lengthening rate [m/s].
-    params : Params, MechanismParams or SymbolicParams
-        b, n and section 4d's C_fill, C_exhaust, P_supply, band, b_cr, m_sub, k_poly, V_dead,
-        T_air (and C_leak).
-    opening : bool
-        Whether command is the valve's opening u in [-1, 1] rather than a pressure set-point.
-
-    Returns
-    -------
-    float, array or sympy expression
-        dP/dt [Pa/s].
-
-    References
-    ----------
-    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 6
-       (the volume) and its conclusion (the air's dynamics, future work there).
-    .. [2] model-spec section 4d.
-    """
-    from . import pneumatics as pn
-    p = params
-    u = command if opening else pn.regulator_opening(command, P, p.band)
-    q = pn.valve_mass_flow(u, P, p.P_supply, p.C_fill, p.C_exhaust, p.b_cr, p.m_sub, p.T_air)
-    q = q + pn.leak_mass_flow(P, getattr(p, "C_leak", 0.0))
-    V = pn.air_volume(L, p.b, p.n, p.V_dead)
-    return pn.polytropic_pressure_rate(P, V, pn.air_volume_slope(L, p.b, p.n) * Ldot, q,
-                                       p.k_poly, p.T_air)
-
-
-def air_mass_flow(P, command, params, opening: bool = False):
-    """Net mass flow into one muscle [kg/s]: its valve's and its leak's (model-spec 4d, 7d).
-
-    Parameters
-    ----------
-    P : float or array_like
-        Gauge pressure in the muscle [Pa].
-    command : float or array_like
-        The regulator's set-point [Pa], or with ``opening`` the valve's opening u [-].
-    params : Params or MechanismParams
-        Section 4d's values.
-    opening : bool
-        Whether command is the valve's opening.
-
-    Returns
-    -------
-    float or array
-        The mass flow in [kg/s] (negative: out).
-
-    References
-    ----------
-    .. [1] model-spec sections 4d and 7d (each muscle's air mass flow as an output).
-    """
-    from . import pneumatics as pn
-    p = params
-    u = command if opening else pn.regulator_opening(command, P, p.band)
-    return (pn.valve_mass_flow(u, P, p.P_supply, p.C_fill, p.C_exhaust, p.b_cr, p.m_sub, p.T_air)
-            + pn.leak_mass_flow(P, getattr(p, "C_leak", 0.0)))
-
-
-def _air_expressions(sp, opening=False):
-    import sympy
-    P, c, L, Ldot = (sympy.Dummy(real=True) for _ in range(4))
-    rate = sympy.sympify(air_pressure_derivative(P, c, L, Ldot, sp, opening))
-    return (P, c, L, Ldot), [rate, *(actuator._heaviside_as_step(sympy.diff(rate, x))
-                                     for x in (P, c, L, Ldot))]
-
-
-def _sealed_expressions(sp):
-    return _air_expressions(sp, opening=True)
-
-
-#: Where the regulator's error (or a valve's opening) is exactly 0 the flow's slope jumps (filling
-#: above, exhausting below): :func:`air_pressure_partials` takes the filling side, a set-point this
-#: fraction of the band above the pressure (an opening of this size), as
-#: :func:`mkctl.physics.pneumatics.regulator_time_constant`'s tau_fill does.
-FILLING_SIDE = 1e-12
-
-
-def air_pressure_partials(P, command, L, Ldot, params, opening: bool = False):
-    """Exact partials of :func:`air_pressure_derivative` by P, the command, L and Ldot.
-
-    ``sympy.diff`` of the traced rate. At a regulator's rest (P = P_cmd, u = 0) the opening's
-    slope jumps between the valve's filling and exhausting sides; the partials are the filling
-    side's (the set-point :data:`FILLING_SIDE` of the band above P), so that the pressure row is
-    ``-1 / tau_fill`` of :func:`mkctl.physics.pneumatics.regulator_time_constant`: the
-    linearization's counterpart of the lag it reduces to. With ``opening`` the same holds at a
-    closed valve (u = 0: sealed): the partial by u is the filling side's.
-
-    Parameters
-    ----------
-    P : float
-        Gauge pressure [Pa].
-    command : float
-        Set-point P_cmd [Pa], or with ``opening`` the valve's opening u [-].
-    L, Ldot : float
-        Muscle length [m] and its rate [m/s].
-    params : Params or MechanismParams
-        Section 4d's values.
-    opening : bool
-        Whether command is the valve's opening.
-
-    Returns
-    -------
-    dPdot_dP, dPdot_dcommand, dPdot_dL, dPdot_dLdot : float
-        [1/s], [1/s] (or [Pa/s] per unit opening), [Pa/(s m)], [Pa/m].
-
-    References
-    ----------
-    .. [1] model-spec section 4d (the linearization has the pressure states).
-    """
-    P, command, L, Ldot = float(P), float(command), float(L), float(Ldot)
-    if not opening and command == P:
-        command = P + FILLING_SIDE * float(params.band)
-    elif opening and command == 0.0:
-        command = FILLING_SIDE  # a closed valve: the opening's slope is the filling side's too
-    build = _sealed_expressions if opening else _air_expressions
-    function, names = actuator._derivative_function(params, build, scalar=True)
-    values = function(P, command, L, Ldot, *[getattr(params, n) for n in names])
-    return tuple(float(v) for v in values[1:])
-
-
-
-
 def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
                      stops: tuple[float, float] | None = None):
     """Right-hand side of Eq. 17 with the effects in params.
@@ -923,7 +719,7 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
     (a lag) ``dP/dt`` of each actuator (:func:`mkctl.physics.actuator.pressure_derivative`, e.g.
     ``tau dP/dt = P_cmd - P``). Without them the pressures are the commands. With the air
     (``valve_flow``, model-spec 4d) each pressure follows its muscle's mass balance
-    (:func:`mkctl.physics.knee.air_pressure_derivative`) at its length and its lengthening
+    (:func:`mkctl.physics.actuator.air_pressure_derivative`) at its length and its lengthening
     rate ``Le_dot = -G_e V``, ``Lf_dot = G_f V``: the motion squeezes or expands the air.
 
     Parameters
@@ -963,11 +759,11 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
     rates = [V, dV]
-    if lag and air_is_on(p):
+    if lag and actuator.air_is_on(p):
         # the air (model-spec 4d): each pressure from its mass balance, the volume from the motion
         geo = geometry_at_X(X, p, derivatives=False)
-        rates += [air_pressure_derivative(Pe, pe_cmd, geo.Le, -geo.G_e * V, p),
-                  air_pressure_derivative(Pf, pf_cmd, geo.Lf, geo.G_f * V, p)]
+        rates += [actuator.air_pressure_derivative(Pe, pe_cmd, geo.Le, -geo.G_e * V, p),
+                  actuator.air_pressure_derivative(Pf, pf_cmd, geo.Lf, geo.G_f * V, p)]
     elif lag:
         rates += [actuator.pressure_derivative(Pe, pe_cmd, p),
                   actuator.pressure_derivative(Pf, pf_cmd, p)]
@@ -1022,7 +818,7 @@ def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT, sealed: b
     d = knee_force_partials(geo, 0.0, Pe, Pf, p)
     row = [float(d.dF_dX) / p.m, float(d.dF_dV) / p.m]
     gains = [float(d.dF_dPe) / p.m, float(d.dF_dPf) / p.m]
-    if air_is_on(p):
+    if actuator.air_is_on(p):
         A, B = air_linearization(geo, row, gains, (Pe, Pf), (pe_cmd, pf_cmd), p, sealed)
     elif not actuator.has_pressure_states(p):
         A, B = np.array([[0.0, 1.0], row]), np.array([[0.0, 0.0], gains])
@@ -1045,7 +841,7 @@ def air_pressure_rows(lengths, arms, pressures, commands, params, sealed: bool =
     ``d(dP_i/dt)/dq = dPdot/dL dL_i/dq``, ``d(dP_i/dt)/dqdot = dPdot/dLdot dL_i/dq``,
     ``d(dP_i/dt)/dP_i = dPdot/dP``, ``d(dP_i/dt)/du_i = dPdot/dcommand``
 
-    (:func:`mkctl.physics.knee.air_pressure_partials`; the regulator on its filling side).
+    (:func:`mkctl.physics.actuator.air_pressure_partials`; the regulator on its filling side).
     ``dPdot/dLdot = -k_poly p (dV_b/dL) / V`` is the air spring: sealed, it integrates to
     :func:`mkctl.physics.pneumatics.sealed_stiffness`.
 
@@ -1076,8 +872,8 @@ def air_pressure_rows(lengths, arms, pressures, commands, params, sealed: bool =
     rows, inputs = np.zeros((k, 2 + k)), np.zeros((k, k))
     for i in range(k):
         command = 0.0 if sealed else commands[i]
-        dP, dc, dL, dLdot = air_pressure_partials(pressures[i], command, lengths[i], 0.0,
-                                                           params, opening=sealed)
+        dP, dc, dL, dLdot = actuator.air_pressure_partials(
+            pressures[i], command, lengths[i], 0.0, params, opening=sealed)
         rows[i, 0], rows[i, 1], rows[i, 2 + i] = dL * arms[i], dLdot * arms[i], dP
         inputs[i, i] = dc
     return rows, inputs

@@ -694,9 +694,9 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     if stops is not None:
         F = F + knee.end_stop_force(q, qdot, _Inertia(force.M), stops)
     rates = [qdot, F / force.M]
-    if lag and knee.air_is_on(muscle):
+    if lag and actuator.air_is_on(muscle):
         # the air (model-spec 4d): each pressure from its mass balance at its length and rate
-        rates += [knee.air_pressure_derivative(pressures[i], commands[i], force.L[i],
+        rates += [actuator.air_pressure_derivative(pressures[i], commands[i], force.L[i],
                                                    force.Ldot[i], muscle) for i in range(k)]
     elif lag:
         rates += [actuator.pressure_derivative(pressures[i], commands[i], muscle)
@@ -847,7 +847,7 @@ def sealed_coefficients(mechanism: Mechanism, q, pressures, params=DEFAULT):
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-23.
     .. [2] model-spec sections 3b and 4d (the sealed muscle).
     """
-    from .pneumatics import sealed_stiffness
+    from .air import sealed_stiffness
 
     p = mechanism.bind(params)
     muscle = muscle_params(p)
@@ -990,7 +990,7 @@ def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFA
     d = force_partials(mechanism, float(q), 0.0, pressures, p)
     row = [float(d.dF_dq) / d.M, float(d.dF_dqdot) / d.M]
     gains = [float(g) / d.M for g in d.dF_dP]
-    if knee.air_is_on(muscle):
+    if actuator.air_is_on(muscle):
         L, arms, _, _ = kinematics(mechanism, float(q), p)
         A = np.zeros((2 + k, 2 + k))
         A[0, 1] = 1.0
@@ -1208,7 +1208,7 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     """The record loop: one integration per run of held commands, the samples read off the dense
     output."""
     muscle = muscle_params(p)
-    knee.check_air_supported(muscle)
+    actuator.check_air_supported(muscle)
     lag = actuator.has_pressure_states(muscle)
     k = commands.shape[1]
     stop_positions = mechanism.stop_positions(p) if stops else None

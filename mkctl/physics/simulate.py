@@ -164,7 +164,7 @@ class KneeSimulator:
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0,
                  pf0: float = 0.0, stops: bool = True, rtol: float = 1e-10,
                  delay_commands: bool = True):
-        knee.check_air_supported(params)
+        actuator.check_air_supported(params)
         self.params = params
         #: the commands as the actuators see them, a dead time late (None without one, or when the
         #: caller hands in commands already delayed: delay_commands False)
@@ -744,7 +744,7 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
     sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol, delay_commands=False)
     states = np.empty((n, sim.state.size))
     resume = 0
-    core = _core(params) if n > 0 else None
+    core = backend.compiled_core(params) if n > 0 else None
     if core is not None:
         resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, None)
     if resume == 0 and n > 0:
@@ -758,12 +758,6 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
         states[wanted] = sim.advance(time[wanted] - time[first], pe_cmd[first], pf_cmd[first],
                                      time[first + 1] - time[first])
     return states, pe_cmd, pf_cmd
-
-
-def _core(params):
-    """The compiled core for params, or None: the air's pressure path (model-spec 4d) runs in
-    Python (the generated core does not carry the mass balance yet)."""
-    return None if knee.air_is_on(params) else backend.compiled_core(params)
 
 
 def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT,
@@ -874,7 +868,7 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
     states, pe_seen, pf_seen = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None)
-    core = _core(params) if time.size > 0 else None
+    core = backend.compiled_core(params) if time.size > 0 else None
     lag = states.shape[1] == 4
     Pe, Pf = ((states[:, 2].copy(), states[:, 3].copy()) if lag
               else (np.array(pe_seen), np.array(pf_seen)))

@@ -124,7 +124,7 @@ def sealed_coefficients(X, Pe, Pf, params: Params = DEFAULT):
        Eq. 18-23; its conclusion (the air's dynamics, left open there).
     .. [2] model-spec section 4d (the sealed muscle).
     """
-    from .pneumatics import sealed_stiffness
+    from .air import sealed_stiffness
     p = params
     geo = knee.geometry_at_X(X, p)
     d = knee.knee_force_partials(geo, 0.0, Pe, Pf, p)
