@@ -304,3 +304,18 @@ def test_sealed_mechanisms_match_their_linearization_and_the_knee():
     eig = np.sort_complex(np.linalg.eigvals(A))
     expected = np.sort_complex(np.concatenate([np.roots([1.0, -s1, -s2]), [0.0, 0.0]]))
     assert np.allclose(eig, expected, atol=1e-8 * abs(s2))
+
+
+def test_mkctl_rootlocus_vary_band_for_a_mechanism(tmp_path, capsys):
+    from mkctl.cli import main
+
+    assert main(["rootlocus", "--vary", "band", "--mechanism", "pulley_joint", "--c", "0",
+                 "--out", str(tmp_path)]) == 0
+    out = capsys.readouterr().out
+    p = air_params()
+    pulley = mechanism.builtin_mechanism("pulley_joint")
+    bound = pulley.bind(p)
+    q = mechanism.equilibrium(pulley, (3e5, 3e5), bound)
+    _, s2 = mechanism.sealed_coefficients(pulley, q, (3e5, 3e5), bound)
+    assert f"a2 = {s2:.6g} 1/s^2" in out  # the sealed pulley, as the library gives it
+    assert (tmp_path / "rootlocus_band.png").stat().st_size > 10_000

@@ -58,7 +58,7 @@ __all__ = [
     "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
     "step_responses", "StepResponses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
     "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE", "AIR_SWEEPS", "AirPoleSweep",
-    "with_air", "air_pole_sweep", "plot_air_poles",
+    "with_air", "air_switched_on", "air_pole_sweep", "plot_air_poles",
 ]
 
 #: Input names of every system built here.
@@ -833,6 +833,20 @@ AIR_SWEEPS = {"C_fill": ("m^3/(s Pa)", (2e-11, 1e-6)), "V_dead": ("m^3", (0.0, 1
               "band": ("Pa", (1e3, 1e6))}
 
 
+def air_switched_on() -> dict:
+    """The value that switches the air's pressure path on: the switch of the effect whose definition
+    gives the valve's opening (``valve_flow``, model-spec 4d), at its on value.
+
+    Returns
+    -------
+    dict
+        ``{switch name: on value}``, its other parameters at their typical values.
+    """
+    valve = next(e for e in effects.all_effects() if e.valve_opening is not None)
+    switch = valve.switch_parameter
+    return {switch.name: switch.on_value}
+
+
 def with_air(op: KneeOperatingPoint, **values) -> KneeOperatingPoint:
     """The same posture and pressures with the air's pressure path switched on (model-spec 4d).
 
@@ -851,9 +865,7 @@ def with_air(op: KneeOperatingPoint, **values) -> KneeOperatingPoint:
     KneeOperatingPoint
         With the air on (its typical values unless given) and the states X, V, Pe, Pf.
     """
-    valve = next(e for e in effects.all_effects() if e.valve_opening is not None)
-    switch = valve.switch_parameter
-    params = op.params.replace(**{switch.name: switch.on_value, **values})
+    params = op.params.replace(**{**air_switched_on(), **values})
     states = np.array([op.X, 0.0, op.Pe, op.Pf])
     return KneeOperatingPoint(params, op.alpha, op.X, op.Pe, op.Pf, states, op.inputs.copy())
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..errors import MkctlError
 from ..physics.mechanism import (Mechanism, equilibrium, equilibrium_stability, linear_system,
-                                 muscle_params, simulate_mechanism)
+                                 muscle_params, sealed_coefficients, simulate_mechanism)
 from ..physics.params import DEFAULT
 from ..results import Result
 
@@ -133,6 +133,52 @@ def locus(op: OperatingPoint, name: str, values) -> np.ndarray:
             for v in values]
     width = max(r.size for r in rows)
     return np.array([np.concatenate([r, np.full(width - r.size, np.nan)]) for r in rows])
+
+
+def air_pole_sweep(op: OperatingPoint, name: str, values):
+    """The mechanism's poles with the air's pressure states, one of its values swept (model-spec
+    4d), with the pressures-held and the sealed poles.
+
+    As the knee's :func:`mkctl.analysis.control.air_pole_sweep`: the air switched on
+    (:func:`mkctl.analysis.control.air_switched_on`, its typical values unless op's params give
+    others), each linearization :func:`mkctl.physics.mechanism.linearization` (the regulators on
+    their filling side at rest), the sealed limit
+    :func:`mkctl.physics.mechanism.sealed_coefficients`.
+
+    Parameters
+    ----------
+    op : OperatingPoint
+        The rest (at rest the regulators hold their set-points: the air does not move it).
+    name : str
+        One of :data:`mkctl.analysis.control.AIR_SWEEPS` (C_fill, V_dead, band).
+    values : array_like
+        Its values [its unit].
+
+    Returns
+    -------
+    mkctl.analysis.control.AirPoleSweep
+        The poles at each value (2 + muscles per row, sorted), held and sealed poles, a2 both ways.
+
+    Raises
+    ------
+    MechanismControlError
+        For another name.
+    """
+    from . import control as mc
+    from ..physics.stability import poles as pair_poles
+
+    if name not in mc.AIR_SWEEPS:
+        raise MechanismControlError(f"--vary {name}: the air's parameters to vary are "
+                                    f"{', '.join(mc.AIR_SWEEPS)}")
+    values = np.asarray(values, dtype=float)
+    air = op.with_params(**mc.air_switched_on())
+    poles = np.array([np.sort_complex(air.with_params(**{name: float(v)}).linear_system().poles())
+                      for v in values])
+    held = air.stability()
+    s1, s2 = sealed_coefficients(op.mechanism, op.q, op.pressures, air.params)
+    return mc.AirPoleSweep(name, mc.AIR_SWEEPS[name][0], values, poles,
+                           np.asarray(held.poles, dtype=complex), pair_poles(s1, s2),
+                           float(held.a2), s2)
 
 
 def position_loop(op: OperatingPoint) -> ct.StateSpace:

@@ -315,17 +315,29 @@ def _air_on(params) -> bool:
     return actuator.air_is_on(params)
 
 
+def _air_values(name):
+    """The values ``--vary C_fill|V_dead|band`` sweeps: its range (from 0 and three decades below
+    its upper bound where the range starts at 0)."""
+    _, (low, high) = mc.AIR_SWEEPS[name]
+    if low > 0:
+        return np.geomspace(low, high, 240)
+    return np.concatenate([[0.0], np.geomspace(high * 1e-3, high, 240)])
+
+
 def _air_rootlocus(args, op):
     """``--vary C_fill|V_dead|band``: the knee's poles with the air's pressure states as one of
     its values sweeps the spec's range, the pressures-held and sealed limits marked (model-spec
     4d)."""
-    name = args.vary
-    unit, (low, high) = mc.AIR_SWEEPS[name]
-    values = np.geomspace(max(low, high * 1e-3), high, 240)
-    if low == 0:
-        values = np.concatenate([[0.0], values])
-    sweep = mc.air_pole_sweep(op, name, values)
-    air = mc.with_air(op).params
+    sweep = mc.air_pole_sweep(op, args.vary, _air_values(args.vary))
+    title = (f"Poles with the air against {args.vary}, alpha = {math.degrees(op.alpha):.4g} deg, "
+             f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m")
+    return _print_air_sweep(sweep, op.params, title, args.out)
+
+
+def _print_air_sweep(sweep, params, title, out):
+    """Print an air pole sweep's limits and a few of its rows; draw it."""
+    name, unit, values = sweep.name, sweep.unit, sweep.values
+    air = params  # the air's values (at their typical values unless set; the sweep switches it on)
     print(f"the air on (model-spec 4d): C_fill = {air.C_fill:g} m^3/(s Pa), V_dead = "
           f"{air.V_dead:g} m^3, band = {air.band:g} Pa, P_supply = {air.P_supply:g} Pa, "
           f"k_poly = {air.k_poly:g}")
@@ -335,9 +347,7 @@ def _air_rootlocus(args, op):
           f"({sweep.a2_sealed / sweep.a2_held:.3g} times), poles {_fmt_poles(sweep.sealed)}")
     for i in np.unique(np.linspace(0, values.size - 1, 5).round().astype(int)):
         print(f"  {name} = {values[i]:.4g} {unit}: poles {_fmt_poles(sweep.poles[i])}")
-    title = (f"Poles with the air against {name}, alpha = {math.degrees(op.alpha):.4g} deg, "
-             f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m")
-    return mc.plot_air_poles(sweep, title, args.out / f"rootlocus_{name}.png")
+    return mc.plot_air_poles(sweep, title, out / f"rootlocus_{name}.png")
 
 
 def run_step(args) -> int:
@@ -478,17 +488,17 @@ def _dcgain(system):
 def _mechanism_rootlocus(args) -> int:
     from ..analysis import mechanism_control as mm
 
-    if args.vary in mc.AIR_SWEEPS:
-        raise UsageError(f"--vary {args.vary} is the knee's for now (the air's pole map); a "
-                         "mechanism's linearization with the air: "
-                         "mkctl.physics.mechanism.linearization")
     if args.ti is not None or args.gain is not None:
         raise UsageError("--ti and --gain belong to the knee's height loop; with --mechanism --vary gain scans the "
                          "gain of u1 = K (q_ref - q) itself")
     op = _mechanism_setup(args, needs_damping=True)
     unit, factor = mm.display_unit(op.mechanism)
     print(f"operating point: {op.describe()}")
-    if args.vary == "c":
+    if args.vary in mc.AIR_SWEEPS:
+        sweep = mm.air_pole_sweep(op, args.vary, _air_values(args.vary))
+        path = _print_air_sweep(sweep, op.params, f"Poles with the air against {args.vary}: "
+                                f"{op.describe()}", args.out)
+    elif args.vary == "c":
         c_one = mm.damping_for_zeta(1.0, op)
         values = np.linspace(0.0, 1.5 * max(c_one, 1e-9), 300)
         path = mm.plot_locus(op, values, mm.locus(op, "c", values), "c", "N s/m", args.out / "rootlocus_c.png",
