@@ -319,3 +319,26 @@ def test_mkctl_rootlocus_vary_band_for_a_mechanism(tmp_path, capsys):
     _, s2 = mechanism.sealed_coefficients(pulley, q, (3e5, 3e5), bound)
     assert f"a2 = {s2:.6g} 1/s^2" in out  # the sealed pulley, as the library gives it
     assert (tmp_path / "rootlocus_band.png").stat().st_size > 10_000
+
+
+def test_a_dead_time_delays_the_command_before_the_valve():
+    p = air_params()
+    delay = 0.004
+    time = np.linspace(0.0, 0.05, 51)  # 1 ms samples: the delay is four of them
+    X, Pe, Pf = _rest(p)
+    pe_cmd = np.where(time < 0.01, Pe, 1.02 * Pe)
+    late = simulate.simulate_knee(time, pe_cmd, Pf, p.replace(delay=delay), X0=X, stops=False)
+    shifted = np.where(time < 0.01 + delay, Pe, 1.02 * Pe)
+    ours = simulate.simulate_knee(time, shifted, Pf, p, X0=X, stops=False)
+    assert np.max(np.abs(late.Pe - ours.Pe)) < 1e-3
+    assert np.max(np.abs(late.X - ours.X)) < 1e-10
+    A, _ = knee.linearization(X, Pe, Pf, Pe, Pf, p.replace(delay=delay))
+    assert A.shape == (6, 6)  # the air's pressures and the dead time's two Pade states
+
+
+def test_a_mechanism_refuses_the_airs_temperature_in_one_line():
+    hanging = mechanism.builtin_mechanism("hanging_mass")
+    with pytest.raises(MkctlError, match="air_heat") as error:
+        mechanism.simulate_mechanism(np.linspace(0, 0.01, 3), 3e5, hanging,
+                                     air_params(m=5.0, tau_heat=2.0))
+    assert "\n" not in str(error.value)
