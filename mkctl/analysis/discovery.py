@@ -60,6 +60,7 @@ from ..physics import actuator, knee
 from ..physics import effects as registry
 from ..physics.builtin_effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
+from .equation_error import acceleration_kernels  # noqa: F401 (defined there, used here)
 from .signals import delayed, lagged
 from .statistics import (alternate_blocks, bic, covariance, forward_stepwise, integrated_effective_samples,
                          standard_errors)
@@ -200,22 +201,6 @@ def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
     if not held_average:
         return pe, pf
     return tuple(np.r_[p[0], 0.5 * (p[1:] + p[:-1])] for p in (pe, pf))
-
-
-def acceleration_kernels(window: int, dt: float, order: int = 3):
-    """(k2, g): the Savitzky-Golay kernel that estimates the acceleration from positions, and the smoothing
-    kernel g it applies to the acceleration itself (``k2 * X = g * Xddot``, g = the double running sum of k2
-    times dt^2, which sums to 1).
-
-    The equation error ``m (Xddot + g) - F`` must smooth both sides alike: the acceleration estimated by k2
-    and the force smoothed by a plain (deriv 0) filter differ wherever the force jumps (a pressure step),
-    and the difference looked like a dead time of about 7 ms on every record with a step.
-    """
-    from .filters import savgol_coeffs
-
-    k2 = savgol_coeffs(window, order, deriv=2, delta=dt)
-    g = np.cumsum(np.cumsum(k2)) * dt * dt
-    return k2, g[:window - 2]  # the last two entries are zero: the kernel is centred on window - 2 samples
 
 
 def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
