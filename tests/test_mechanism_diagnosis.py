@@ -179,3 +179,57 @@ def test_a_batch_reads_its_records_with_the_mechanism_given(tmp_path):
     assert report["missing"] == ["viscous_damping"]
     kept = json.loads((tmp_path / "out" / "lever.diagnosis.json").read_text())
     assert kept["input"]["mechanism"]["name"] == str(CAM.resolve())
+
+
+# --- the discovery's equation error (model-spec 6b) on these records ----------------------------------------
+
+def test_the_discovery_reads_the_pulleys_equation_of_motion(tmp_path):
+    from mkctl.analysis.discovery import discover
+
+    m = _record(tmp_path, "joint", synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=1500, seed=1))
+    found = discover(m)
+    (term,) = found["terms"]
+    assert term["matches"] == "viscous_damping"  # the per-muscle coefficient, through both moment arms
+    assert abs(term["coefficient"] - 40.0) <= 3 * term["stderr"]
+    clean = _record(tmp_path, "clean", synthesize_mechanism(HANGING_MASS, samples=1500, seed=1))
+    assert discover(clean)["terms"] == []
+
+
+def test_the_discovery_reads_the_driven_muscles_force(tmp_path):
+    from mkctl.analysis.discovery import discover
+
+    m = _record(tmp_path, "driven", synthesize_actuator(["Fc=3"], samples=2000, seed=1))
+    (term,) = discover(m)["terms"]
+    assert term["matches"] == "coulomb_friction" and abs(term["coefficient"] - 3.0) <= 3 * term["stderr"]
+
+
+# --- calibrate takes driven-length records (model-spec 5b, 5d) ----------------------------------------------
+
+def test_calibrate_fits_the_damping_a_driven_length_record_shows(tmp_path):
+    from mkctl.analysis.calibrate import calibrate, candidates_for, force_record, read_records
+    from mkctl.analysis.synth import synthesize_isometric
+
+    driven, _ = write_synthetic(tmp_path / "driven.csv", synthesize_actuator(
+        ["c=40"], seed=1, samples=800, measured_pressures=True))
+    clamped, _ = write_synthetic(tmp_path / "clamped.csv", synthesize_isometric(["c=40"], seed=1))
+    records = read_records([driven, clamped])
+    # a clamped muscle shows no damping: only with the driven record is it tried
+    assert "viscous_damping" not in candidates_for([force_record(records[1])])
+    assert "viscous_damping" in candidates_for([force_record(r) for r in records])
+    result = calibrate(records)
+    assert result.effects == ["viscous_damping"]
+    assert abs(result.fitted["c"] - 40.0) <= 3 * result.stderr["c"]
+    for name, value in {"b": 0.241, "n": 2.980484828}.items():  # Table I's muscle, its static part
+        assert abs(result.fitted[name] - value) <= 3 * result.stderr[name] + 1e-4 * value
+
+
+def test_cli_calibrate_with_an_actuator_file(tmp_path, capsys):
+    from mkctl.cli import main
+
+    driven = tmp_path / "driven.csv"
+    assert main(["synth", "actuator", str(driven), "--samples", "600", "--hidden", "Fc=3", "--pressures"]) == 0
+    assert main(["calibrate", str(driven), "--out", str(tmp_path / "muscle.json")]) == 0
+    muscle = json.loads((tmp_path / "muscle.json").read_text())
+    assert "coulomb_friction" in muscle["effects"]
+    assert abs(muscle["params"]["Fc"] - 3.0) <= 3 * muscle["stderr"]["Fc"]
+    assert (tmp_path / "muscle_fit.png").stat().st_size > 1000

@@ -213,10 +213,15 @@ def generalized_force_at(states: dict, params: Params, pressures=None):
     p = m.mechanism.bind(params, **m.mechanism_values)
     inertia = SimpleNamespace(m=force.M)  # the stops' damping is critical for the inertia
     stops = knee.end_stop_force(states["q"], states["V"], inertia, m.mechanism.stop_positions(p))
-    total = np.broadcast_to(force.F + stops, states["q"].shape)
+    return smoothed_alike(force.F + stops, states)
+
+
+def smoothed_alike(values, states: dict) -> np.ndarray:
+    """A force at a mechanism record's samples smoothed as its acceleration is (:func:`mechanism_missing_force`),
+    the ends held beyond the record as the acceleration's fit holds them."""
+    values = np.broadcast_to(values, states["q"].shape)
     kernel = states["kernel"]
-    half = kernel.size // 2  # the ends held beyond the record, as the acceleration's fit holds them
-    return np.convolve(np.pad(total, half, mode="edge"), kernel, mode="valid")
+    return np.convolve(np.pad(values, kernel.size // 2, mode="edge"), kernel, mode="valid")
 
 
 def actuator_missing_force(m: Measurement, params: Params):
