@@ -78,9 +78,8 @@ def output_label(measurement) -> str:
 def missing_force_label(measurement) -> str:
     """The y label of the signature pictures: the force the baseline lacks, in the unit of the record's
     equation of motion (a mechanism turning about a joint: a moment, N m)."""
-    if measurement.experiment == "mechanism":
-        unit = "N m" if measurement.mechanism.unit == "rad" else "N"
-        return f"generalized force the baseline lacks [{unit}]"
+    if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
+        return "moment the baseline lacks [N m]"
     return "force the baseline lacks [N]"
 
 
@@ -352,6 +351,8 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             deficit = _pressure_deficit(measurement, result, view) if view.pressure_deficit_axis else None
             if deficit is not None and np.size(deficit[0]) == np.size(sig["missing"]):
                 x, label = deficit
+            if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
+                label = label.replace("[mm/s]", "[mrad/s]")  # the speed is the joint's (SignatureAxes)
             two_sided = view.two_sided
             ax.plot(x, sig["missing"], "o", ms=2, mew=0, color="0.45", alpha=0.35)
             ax.plot(*_binned(x, sig["missing"], by_value=two_sided), "o-", color="tab:red", ms=4,

@@ -197,15 +197,20 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     low, high = output_range(m, params)
     level, sim_level = float(np.median(y)), float(np.median(sim))
     to_file = 1.0 / m.output_factor
+    # a mechanism whose coordinate runs through 0 (a joint angle about its middle) has no level a unit
+    # scales: its level is judged by the range alone, its unit by the range of motion
+    level_scales = not (m.experiment == "mechanism" and low < 0.0 < high)
     if not fit_offset:
         cause = None
         ratio = level / sim_level if sim_level else math.inf
+        if not level_scales:
+            ratio = 1.0
         if ratio and math.isfinite(ratio) and ratio > 0 and abs(math.log(ratio)) > 1.0:
             for factor, text in _UNIT_MISTAKES.items():
                 if abs(math.log(ratio / factor)) < 0.3:
                     cause = f"likely {text}"
                     break
-        if cause is None and abs(level) < 0.05 * abs(sim_level):
+        if cause is None and level_scales and abs(level) < 0.05 * abs(sim_level):
             cause = (f"the sensor looks zeroed at rest (the record sits near 0 {unit}): declare its offset in "
                      f"the metadata ({output_quantity(m)}_offset_{unit} = ...) or fit it with --fit-offset")
         if cause is None and not (low <= level <= high):
@@ -220,7 +225,7 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     # matched, a range of motion some factor off is the dynamics the baseline lacks (a chirp through an undamped
     # resonance swings ten times wider than the damped record), not a unit: judge the range only where a fitted
     # offset hides the level.
-    level_judged = not fit_offset
+    level_judged = not fit_offset and level_scales
     spread, sim_spread = float(np.ptp(y)), float(np.ptp(sim))
     if spread > 0 and sim_spread > 0 and not level_judged:
         ratio = spread / sim_spread
