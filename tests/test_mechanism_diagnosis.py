@@ -233,3 +233,26 @@ def test_cli_calibrate_with_an_actuator_file(tmp_path, capsys):
     assert "coulomb_friction" in muscle["effects"]
     assert abs(muscle["params"]["Fc"] - 3.0) <= 3 * muscle["stderr"]["Fc"]
     assert (tmp_path / "muscle_fit.png").stat().st_size > 1000
+
+
+# --- the record's sanity, for a coordinate that runs through 0 ----------------------------------------------
+
+def test_a_joint_angle_about_zero_is_not_a_unit_mistake_but_radians_under_degrees_are(tmp_path):
+    from mkctl.analysis.compare import simulate_output
+    from mkctl.analysis.diagnose import sanity_problems
+
+    # the benchmark's record: its median sits at 0.004 deg, the baseline's at -0.27 deg (a ratio of 1/72, once
+    # refused as "radians written under a degree header")
+    record = synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=5000, seed=0)
+    m = _record(tmp_path, "joint", record)
+    baseline = simulate_output(m, m.params)
+    assert abs(np.median(m.output)) < 0.01 * np.ptp(m.output)  # it swings about 0
+    assert sanity_problems(m, baseline, m.params) == []
+    text = (tmp_path / "joint.csv").read_text().splitlines()
+    header = next(i for i, line in enumerate(text) if line.startswith("time_s"))
+    rows = [line.split(",") for line in text[header + 1:]]
+    radians = [",".join(row[:-1] + [repr(float(row[-1]) * np.pi / 180)]) for row in rows]  # deg header kept
+    (tmp_path / "radians.csv").write_text("\n".join(text[:header + 1] + radians) + "\n")
+    wrong = read_measurement(tmp_path / "radians.csv")
+    (problem,) = sanity_problems(wrong, baseline, wrong.params)
+    assert "radians written under a degree header" in problem

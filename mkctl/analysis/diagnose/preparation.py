@@ -230,7 +230,8 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     if spread > 0 and sim_spread > 0 and not level_judged:
         ratio = spread / sim_spread
         for factor, text in _UNIT_MISTAKES.items():
-            if factor in (math.pi / 180, 180 / math.pi) and output_quantity(m) != "beta":
+            angle = output_quantity(m) == "beta" or m.output_unit in ("deg", "rad")
+            if factor in (math.pi / 180, 180 / math.pi) and not angle:
                 continue
             if abs(factor - 1) > 0.5 and abs(math.log(ratio / factor)) < 0.25 and abs(math.log(ratio)) > 1.5:
                 problems.append(f"the measured {column} moves over {spread * to_file:.4g} {unit}, "
