@@ -1,12 +1,13 @@
-"""The diagnosis of a pulley-joint record beside the knee's, on records of the same length (issue 29).
+"""The diagnosis of a pulley-joint record beside the knee's, on records of the same length
+(issue 29).
 
-Run on demand: ``.venv/bin/python bench/bench_mechanism_diagnosis.py [SAMPLES]`` (default 5000 samples at
-1 kHz). Each record hides viscous damping (c = 40 N s/m); both are diagnosed in this process, one after the
-other in the same run, by :func:`mkctl.analysis.diagnose.diagnose` (reading and pictures excluded), and
-one simulation of each record is timed too, for scale. Printed: the CPU and wall times side by side,
-the ratio pulley / knee, what each diagnosis found, and how many simulations each took (the diagnosis'
-cost is about that many simulations: the knee's run on its integrator at a subset of the samples, a
-mechanism's on :func:`mkctl.physics.mechanism.simulate_mechanism` over every sample).
+Run on demand: ``.venv/bin/python bench/bench_mechanism_diagnosis.py [SAMPLES]`` (default 5000
+samples at 1 kHz). Each record hides viscous damping (c = 40 N s/m); both are diagnosed in this
+process, one after the other in the same run, by :func:`mkctl.analysis.diagnose.diagnose` (reading
+and pictures excluded), and one simulation of each record is timed too, for scale. Printed: the CPU
+and wall times side by side, the ratio pulley / knee, what each diagnosis found, and how many
+simulations each took (the diagnosis' cost is about that many simulations: the knee's in the
+compiled core, a mechanism's by :func:`mkctl.physics.mechanism.simulate_mechanism` in Python).
 """
 from __future__ import annotations
 
@@ -39,7 +40,8 @@ def _timed(function):
 
 
 def _counting_simulations():
-    """Wrap compare.simulate_output (what the diagnosis calls) to count its calls; returns the counter."""
+    """Wrap compare.simulate_output (what the diagnosis calls) to count its calls; returns the
+    counter."""
     counter = {"calls": 0}
     original = compare.simulate_output
 
@@ -67,15 +69,18 @@ def main() -> int:
             result, cpu, wall = _timed(lambda m=m: diagnose(m))
             found = ", ".join(f"{k} = {v:.4g} +- {result.uncertainty.get(k, float('nan')):.2g}"
                               for k, v in result.params.items()) or "nothing"
-            rows.append((name, m.samples, cpu, wall, one_cpu, counter["calls"], result.verdict, found))
+            rows.append((name, m.samples, cpu, wall, one_cpu, counter["calls"], result.verdict,
+                         found))
     print(f"diagnosis of a {samples}-sample record with hidden viscous damping (c = 40 N s/m), "
           f"in one process, one after the other")
-    print(f"{'record':<14} {'samples':>7} {'CPU [s]':>8} {'wall [s]':>9} {'1 sim [s]':>10} {'sims':>5}  "
-          f"verdict, found")
+    print(f"{'record':<14} {'samples':>7} {'CPU [s]':>8} {'wall [s]':>9} {'1 sim [s]':>10} "
+          f"{'sims':>5}  verdict, found")
     for name, n, cpu, wall, one, calls, verdict, found in rows:
-        print(f"{name:<14} {n:>7} {cpu:>8.1f} {wall:>9.1f} {one:>10.3f} {calls:>5}  {verdict}: {found}")
+        print(f"{name:<14} {n:>7} {cpu:>8.1f} {wall:>9.1f} {one:>10.3f} {calls:>5}  "
+              f"{verdict}: {found}")
     (_, _, knee_cpu, knee_wall, *_), (_, _, pulley_cpu, pulley_wall, *_) = rows
-    print(f"ratio pulley_joint / knee: CPU {pulley_cpu / knee_cpu:.2f}, wall {pulley_wall / knee_wall:.2f}")
+    print(f"ratio pulley_joint / knee: CPU {pulley_cpu / knee_cpu:.2f}, "
+          f"wall {pulley_wall / knee_wall:.2f}")
     return 0
 
 

@@ -40,19 +40,24 @@ def _found_within(result, truth: dict, errors: float = 3.0):
         assert abs(found - value) <= errors * error, (name, found, error, value)
 
 
-# --- the equation error is the mechanism's own equation of motion -----------------------------------------
+# --- the equation error is the mechanism's own equation of motion ---------------------------------
 
 @pytest.mark.parametrize("mech, arms_squared", [
     (HANGING_MASS, lambda p: 1.0),  # L = q: dL/dq = 1
     (PULLEY_JOINT, lambda p: 2 * p.r_p ** 2),  # L1 = L1_0 - r_p theta, L2 = L2_0 + r_p theta
 ])
-def test_the_force_a_hidden_damping_adds_is_the_equation_error_of_the_mechanism(tmp_path, mech, arms_squared):
-    # virtual work (spec 3b): f_i += c Ldot_i with Ldot_i = (dL_i/dq) qdot adds -c sum (dL_i/dq)^2 qdot
+def test_the_force_a_hidden_damping_adds_is_the_equation_error_of_the_mechanism(tmp_path, mech,
+                                                                                arms_squared):
+    # virtual work (spec 3b): f_i += c Ldot_i with Ldot_i = (dL_i/dq) qdot adds
+    # -c sum (dL_i/dq)^2 qdot
     c = 40.0
-    m = _record(tmp_path, mech.name, synthesize_mechanism(mech, [f"c={c}"], samples=1200, noise=0.0), mech)
+    record = synthesize_mechanism(mech, [f"c={c}"], samples=1200, noise=0.0)
+    m = _record(tmp_path, mech.name, record, mech)
     missing, states = missing_force(m, m.params)
-    # both sides of the equation are smoothed alike (the acceleration's kernel): so is the damping's force
-    expected = np.convolve(-c * arms_squared(m.mechanism_params) * states["V"], states["kernel"], mode="same")
+    # both sides of the equation are smoothed alike (the acceleration's kernel): so is the damping's
+    # force
+    damping = -c * arms_squared(m.mechanism_params) * states["V"]
+    expected = np.convolve(damping, states["kernel"], mode="same")
     inner = slice(100, -100)  # the smoothing's edges
     assert np.ptp(expected[inner]) > 0.1
     scale = float(np.sqrt(np.mean(expected[inner] ** 2)))
@@ -68,7 +73,7 @@ def test_the_actuator_equation_error_is_the_measured_tension_minus_the_models(tm
     np.testing.assert_allclose(missing, expected, atol=1e-9)
 
 
-# --- hidden effects found, clean records left alone ---------------------------------------------------------
+# --- hidden effects found, clean records left alone -----------------------------------------------
 
 def test_hidden_damping_on_a_hanging_mass_record(tmp_path):
     m = _record(tmp_path, "lift", synthesize_mechanism(HANGING_MASS, ["c=40"], samples=800, seed=3))
@@ -79,7 +84,8 @@ def test_hidden_damping_on_a_hanging_mass_record(tmp_path):
 
 
 def test_hidden_damping_on_a_pulley_joint_record(tmp_path):
-    m = _record(tmp_path, "joint", synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=800, seed=3))
+    record = synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=800, seed=3)
+    m = _record(tmp_path, "joint", record)
     result = diagnose(m)
     assert result.missing == ["viscous_damping"] and result.verdict == "diagnosed"
     _found_within(result, {"c": 40.0})
@@ -116,8 +122,8 @@ def test_a_clean_driven_length_record_adds_nothing(tmp_path, seed):
 
 
 def test_candidates_follow_the_records_inputs(tmp_path):
-    # the pressure path (lag, dead time) is a candidate where commands drive the muscle, not where the
-    # pressure is measured; velocity effects are candidates in both
+    # the pressure path (lag, dead time) is a candidate where commands drive the muscle, not
+    # where the pressure is measured; velocity effects are candidates in both
     from mkctl.analysis.diagnose import candidates_for
 
     commanded = _record(tmp_path, "a", synthesize_actuator(samples=200))
@@ -125,22 +131,25 @@ def test_candidates_follow_the_records_inputs(tmp_path):
     with_commands, with_pressure = (candidates_for(m, m.params) for m in (commanded, measured))
     assert {"viscous_damping", "coulomb_friction"} <= set(with_pressure)
     assert "pressure_lag" in with_commands and "pressure_lag" not in with_pressure
-    joint = _record(tmp_path, "c", synthesize_mechanism(PULLEY_JOINT, samples=200, measured_pressures=True))
+    record = synthesize_mechanism(PULLEY_JOINT, samples=200, measured_pressures=True)
+    joint = _record(tmp_path, "c", record)
     assert "pressure_lag" not in candidates_for(joint, joint.params)
 
 
-# --- the command line, a user's mechanism file, a batch -----------------------------------------------------
+# --- the command line, a user's mechanism file, a batch -------------------------------------------
 
 def test_cli_diagnoses_a_user_mechanism_record_only_with_the_file_given(tmp_path):
     lever = mechanism(CAM)
     # the cam's arm is 2-3 cm: the muscle's damping shows on the lever as c times its square
     record = synthesize_mechanism(lever, ["c=200"], {"k_cam": 0.02}, samples=800, seed=1)
     path, _ = write_synthetic(tmp_path / "lever.csv", record)
-    command = [sys.executable, "-m", "mkctl", "diagnose", str(path), "--quiet", "--json", str(tmp_path / "r.json")]
+    command = [sys.executable, "-m", "mkctl", "diagnose", str(path), "--quiet", "--json",
+               str(tmp_path / "r.json")]
     refused = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path)
     assert refused.returncode == 2 and "Traceback" not in refused.stderr
     assert len(refused.stderr.strip().splitlines()) == 1
-    run = subprocess.run(command + ["--mechanism", str(CAM)], capture_output=True, text=True, cwd=tmp_path)
+    run = subprocess.run(command + ["--mechanism", str(CAM)], capture_output=True, text=True,
+                         cwd=tmp_path)
     assert run.returncode == 0, run.stderr
     report = json.loads((tmp_path / "r.json").read_text())
     assert report["missing"] == ["viscous_damping"]
@@ -155,7 +164,8 @@ def test_a_batch_of_two_mechanism_records_on_local_dask_workers(tmp_path):
     folder.mkdir()
     truth = {"lift": (HANGING_MASS, 30.0), "joint": (PULLEY_JOINT, 50.0)}
     for seed, (name, (mech, c)) in enumerate(truth.items()):
-        write_synthetic(folder / f"{name}.csv", synthesize_mechanism(mech, [f"c={c}"], samples=500, seed=seed))
+        record = synthesize_mechanism(mech, [f"c={c}"], samples=500, seed=seed)
+        write_synthetic(folder / f"{name}.csv", record)
     result = diagnose_batch([folder], tmp_path / "out", jobs=2, progress=False)
     assert not result.errors
     for name, (mech, c) in truth.items():
@@ -166,7 +176,8 @@ def test_a_batch_of_two_mechanism_records_on_local_dask_workers(tmp_path):
 
 
 def test_a_batch_reads_its_records_with_the_mechanism_given(tmp_path):
-    # in this process (jobs=0): the mechanism goes to the worker by name and the report's key holds it
+    # in this process (jobs=0): the mechanism goes to the worker by name and the report's key
+    # holds it
     lever = mechanism(CAM)
     write_synthetic(tmp_path / "lever.csv", synthesize_mechanism(lever, ["c=200"], {"k_cam": 0.02},
                                                                   samples=400, seed=2))
@@ -181,15 +192,17 @@ def test_a_batch_reads_its_records_with_the_mechanism_given(tmp_path):
     assert kept["input"]["mechanism"]["name"] == str(CAM.resolve())
 
 
-# --- the discovery's equation error (model-spec 6b) on these records ----------------------------------------
+# --- the discovery's equation error (model-spec 6b) on these records ------------------------------
 
 def test_the_discovery_reads_the_pulleys_equation_of_motion(tmp_path):
     from mkctl.analysis.discovery import discover
 
-    m = _record(tmp_path, "joint", synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=1500, seed=1))
+    record = synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=1500, seed=1)
+    m = _record(tmp_path, "joint", record)
     found = discover(m)
     (term,) = found["terms"]
-    assert term["matches"] == "viscous_damping"  # the per-muscle coefficient, through both moment arms
+    # the per-muscle coefficient, through both moment arms
+    assert term["matches"] == "viscous_damping"
     assert abs(term["coefficient"] - 40.0) <= 3 * term["stderr"]
     clean = _record(tmp_path, "clean", synthesize_mechanism(HANGING_MASS, samples=1500, seed=1))
     assert discover(clean)["terms"] == []
@@ -200,10 +213,11 @@ def test_the_discovery_reads_the_driven_muscles_force(tmp_path):
 
     m = _record(tmp_path, "driven", synthesize_actuator(["Fc=3"], samples=2000, seed=1))
     (term,) = discover(m)["terms"]
-    assert term["matches"] == "coulomb_friction" and abs(term["coefficient"] - 3.0) <= 3 * term["stderr"]
+    assert term["matches"] == "coulomb_friction"
+    assert abs(term["coefficient"] - 3.0) <= 3 * term["stderr"]
 
 
-# --- calibrate takes driven-length records (model-spec 5b, 5d) ----------------------------------------------
+# --- calibrate takes driven-length records (model-spec 5b, 5d) ------------------------------------
 
 def test_calibrate_fits_the_damping_a_driven_length_record_shows(tmp_path):
     from mkctl.analysis.calibrate import calibrate, candidates_for, force_record, read_records
@@ -227,7 +241,8 @@ def test_cli_calibrate_with_an_actuator_file(tmp_path, capsys):
     from mkctl.cli import main
 
     driven = tmp_path / "driven.csv"
-    assert main(["synth", "actuator", str(driven), "--samples", "600", "--hidden", "Fc=3", "--pressures"]) == 0
+    assert main(["synth", "actuator", str(driven), "--samples", "600", "--hidden", "Fc=3",
+                 "--pressures"]) == 0
     assert main(["calibrate", str(driven), "--out", str(tmp_path / "muscle.json")]) == 0
     muscle = json.loads((tmp_path / "muscle.json").read_text())
     assert "coulomb_friction" in muscle["effects"]
@@ -235,14 +250,14 @@ def test_cli_calibrate_with_an_actuator_file(tmp_path, capsys):
     assert (tmp_path / "muscle_fit.png").stat().st_size > 1000
 
 
-# --- the record's sanity, for a coordinate that runs through 0 ----------------------------------------------
+# --- the record's sanity, for a coordinate that runs through 0 ------------------------------------
 
 def test_a_joint_angle_about_zero_is_not_a_unit_mistake_but_radians_under_degrees_are(tmp_path):
     from mkctl.analysis.compare import simulate_output
     from mkctl.analysis.diagnose import sanity_problems
 
-    # the benchmark's record: its median sits at 0.004 deg, the baseline's at -0.27 deg (a ratio of 1/72, once
-    # refused as "radians written under a degree header")
+    # the benchmark's record: its median sits at 0.004 deg, the baseline's at -0.27 deg (a ratio
+    # of 1/72, once refused as "radians written under a degree header")
     record = synthesize_mechanism(PULLEY_JOINT, ["c=40"], samples=5000, seed=0)
     m = _record(tmp_path, "joint", record)
     baseline = simulate_output(m, m.params)
@@ -251,7 +266,8 @@ def test_a_joint_angle_about_zero_is_not_a_unit_mistake_but_radians_under_degree
     text = (tmp_path / "joint.csv").read_text().splitlines()
     header = next(i for i, line in enumerate(text) if line.startswith("time_s"))
     rows = [line.split(",") for line in text[header + 1:]]
-    radians = [",".join(row[:-1] + [repr(float(row[-1]) * np.pi / 180)]) for row in rows]  # deg header kept
+    # the degree header kept over radians
+    radians = [",".join(row[:-1] + [repr(float(row[-1]) * np.pi / 180)]) for row in rows]
     (tmp_path / "radians.csv").write_text("\n".join(text[:header + 1] + radians) + "\n")
     wrong = read_measurement(tmp_path / "radians.csv")
     (problem,) = sanity_problems(wrong, baseline, wrong.params)

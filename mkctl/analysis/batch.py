@@ -338,9 +338,10 @@ def diagnose_file(path, base=None, fit_offset: bool = False, mechanism=None) -> 
     """Read one measurement file and diagnose it (runs on a worker): the public report plus its time.
 
     ``base``: the parameters the file's metadata overrides (a muscle file's; default the paper's);
-    ``fit_offset``: fit a constant sensor offset (as ``mkctl diagnose --fit-offset``); ``mechanism``:
-    the mechanism a mechanism record is read with (a built-in's name or a FILE.py the user gave, as
-    ``--mechanism``: loaded here, on the worker; a record never loads the file it names)."""
+    ``fit_offset``: fit a constant sensor offset (as ``mkctl diagnose --fit-offset``);
+    ``mechanism``: the mechanism a mechanism record is read with (a built-in's name or a FILE.py the
+    user gave, as ``--mechanism``: loaded here, on the worker; a record never loads the file it
+    names)."""
     from .diagnose import diagnose, public
     from .mechanism_files import mechanism as load_mechanism
     from ..io.measurements import read_measurement
@@ -348,7 +349,8 @@ def diagnose_file(path, base=None, fit_offset: bool = False, mechanism=None) -> 
 
     start = time.perf_counter()
     mechanism = None if mechanism is None else load_mechanism(mechanism)
-    measurement = read_measurement(path, base=DEFAULT if base is None else base, mechanism=mechanism)
+    measurement = read_measurement(path, base=DEFAULT if base is None else base,
+                                   mechanism=mechanism)
     report = public(diagnose(measurement, fit_offset=fit_offset) if fit_offset else diagnose(measurement))
     for name in ("rmse_before", "rmse_after"):
         value = report.get(name)
@@ -616,7 +618,8 @@ def _input_key(file: str, base, fit_offset: bool, mechanism=None) -> dict:
            "params": None if base is None else {k: v for k, v in base.as_dict().items()}}
     if mechanism is not None:
         text = mechanism if isinstance(mechanism, str) else mechanism.name
-        key["mechanism"] = {"name": text, "sha256": _file_digest(text) if text.endswith(".py") else None}
+        digest = _file_digest(text) if text.endswith(".py") else None
+        key["mechanism"] = {"name": text, "sha256": digest}
     from .effect_files import registered_definitions
     user = registered_definitions()
     if user:  # the user's effects are candidates: another definition makes another report
@@ -652,8 +655,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     base : the :class:`mkctl.physics.params.Params` each file's metadata overrides (a muscle file's,
         ``--params``); default the paper's.
     fit_offset : fit a constant sensor offset in every record (``--fit-offset``).
-    mechanism : the mechanism mechanism records are read with (``--mechanism``: a built-in's name or a
-        FILE.py, loaded on each worker); None: the one each record names, built-ins only.
+    mechanism : the mechanism mechanism records are read with (``--mechanism``: a built-in's name
+        or a FILE.py, loaded on each worker); None: the one each record names, built-ins only.
 
     Returns a :class:`BatchResult`. A file that cannot be read or diagnosed is a row with its error message.
     """
@@ -669,7 +672,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
 
         loaded = load_mechanism(mechanism)
         if isinstance(mechanism, (str, Path)):  # a name or a path travels to the workers as text
-            mechanism = str(Path(mechanism).resolve()) if str(mechanism).endswith(".py") else str(mechanism)
+            text = str(mechanism)
+            mechanism = str(Path(text).resolve()) if text.endswith(".py") else text
         else:
             mechanism = loaded
     keys = {file: _input_key(file, base, fit_offset, mechanism) for file in paths}

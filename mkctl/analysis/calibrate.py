@@ -1,9 +1,9 @@
 """Calibrate a user's own muscle: fit the parameters nobody can measure from blocked-force and isotonic
 tests, then add the effects the data support (model-spec section 5b).
 
-:func:`calibrate` takes one or more measurements of the same muscle (``isometric``, ``isotonic`` and/or
-``actuator``, model-spec sections 5 and 5d) and works on forces throughout, so that records of every kind share
-one error in N:
+:func:`calibrate` takes one or more measurements of the same muscle (``isometric``, ``isotonic``
+and/or ``actuator``, model-spec sections 5 and 5d) and works on forces throughout, so that records
+of every kind share one error in N:
 
 - isometric: the measured tension against :func:`mkctl.physics.isometric.isometric_tension` at the clamped
   length, the pressure and the branch;
@@ -12,9 +12,10 @@ one error in N:
   balance holds at the edge of the +-Fc band the motion pushes to (lengthening: ``F = f + Fc``); where
   the length does not move (within its noise) the load may lie anywhere inside the band, and only the
   distance outside it counts;
-- driven length (``actuator``): the measured tension against the model's with every effect at the imposed length,
-  its rate and the measured pressure (:func:`driven_record`). Here the muscle moves at speed, so the effects that
-  act only in motion (viscous damping, a user's drag: :data:`MOTION_CANDIDATES`) are candidates too.
+- driven length (``actuator``): the measured tension against the model's with every effect at the
+  imposed length, its rate and the measured pressure (:func:`driven_record`). Here the muscle moves
+  at speed, so the effects that act only in motion (viscous damping, a user's drag:
+  :data:`MOTION_CANDIDATES`) are candidates too.
 
 The fit, step by step (each step's NRMS is shown, and drawn in the error-fall figure):
 
@@ -84,22 +85,24 @@ STATIC = ("b", "n", "C1", "C2")
 #: Parameters fitted only on request (``fit=``); by default they come from the files' metadata.
 OPTIONAL = ("L0", "D0", "t0", "offset")
 def _acts_in_motion_only(effect) -> bool:
-    """Whether an effect adds to the tension only where the muscle moves (damping, a user's drag): not a
-    candidate of the quasi-static tests, one of a driven-length record (model-spec 5d)."""
+    """Whether an effect adds to the tension only where the muscle moves (damping, a user's drag):
+    not a candidate of the quasi-static tests, one of a driven-length record (model-spec 5d)."""
     return (not effect.calibrate and effect.tension is not None and effect.fitted is not None
-            and effect.fitted not in STATIC and not effect.is_switch and effect.pressure_rate is None
-            and effect.command_delay is None)
+            and effect.fitted not in STATIC and not effect.is_switch
+            and effect.pressure_rate is None and effect.command_delay is None)
 
 
-#: The effects calibrate can add (those of the registry marked ``calibrate``, and those that act only in
-#: motion, :data:`MOTION_CANDIDATES`), in the order they are tried (switches first), with the parameter
-#: each brings (None for a switch).
+#: The effects calibrate can add (those of the registry marked ``calibrate``, and those that act
+#: only in motion, :data:`MOTION_CANDIDATES`), in the order they are tried (switches first), with
+#: the parameter each brings (None for a switch).
 CANDIDATES = LiveMapping(lambda: {
     e.name: None if e.is_switch else e.fitted
     for e in sorted((e for e in effects.all_effects() if e.calibrate or _acts_in_motion_only(e)),
                     key=lambda e: not e.is_switch)})
-#: The candidates only a driven-length record shows (its muscle moved at speed): tried only with one.
-MOTION_CANDIDATES = LiveSequence(lambda: [e.name for e in effects.all_effects() if _acts_in_motion_only(e)])
+#: The candidates only a driven-length record shows (its muscle moved at speed): tried only with
+#: one.
+MOTION_CANDIDATES = LiveSequence(lambda: [e.name for e in effects.all_effects()
+                                          if _acts_in_motion_only(e)])
 #: The records whose force a load cell reads (a zero offset can be fitted on them).
 FORCE_SENSOR_RECORDS = ("isometric", "actuator")
 #: Every point whose index in its record is ``HOLDOUT_EVERY - 1`` modulo this is held out.
@@ -126,9 +129,10 @@ class CalibrationError(MkctlError):
 class ForceRecord:
     """One record as force points (SI): what :func:`calibrate` fits.
 
-    ``sign`` is the friction sign: the model's tension is ``f - sign Fc`` (isometric: the branch, +1 up,
-    -1 down; isotonic: +1 shortening, -1 lengthening, 0 not moving; driven length: minus the sign of the
-    imposed rate). ``velocity``: a driven-length record's imposed rate [m/s] (None for the others).
+    ``sign`` is the friction sign: the model's tension is ``f - sign Fc`` (isometric: the branch, +1
+    up, -1 down; isotonic: +1 shortening, -1 lengthening, 0 not moving; driven length: minus the
+    sign of the imposed rate). ``velocity``: a driven-length record's imposed rate [m/s] (None for
+    the others).
     """
 
     experiment: str
@@ -178,10 +182,10 @@ def force_record(measurement) -> ForceRecord:
 
 
 def driven_record(m) -> ForceRecord:
-    """A driven-length record (``experiment = actuator``, model-spec 5d) as force points: the imposed length,
-    its rate (``numpy.gradient``, as :func:`mkctl.analysis.compare.actuator_output` takes it), the measured
-    pressure, or the command through the pressure path the file's own values give (no lag is fitted here),
-    and the measured tension."""
+    """A driven-length record (``experiment = actuator``, model-spec 5d) as force points: the
+    imposed length, its rate (``numpy.gradient``, as :func:`mkctl.analysis.compare.actuator_output`
+    takes it), the measured pressure, or the command through the pressure path the file's own values
+    give (no lag is fitted here), and the measured tension."""
     from .compare import commanded_pressure
 
     time = np.asarray(m.time, float)
@@ -309,10 +313,10 @@ def is_offset(name: str) -> bool:
 
 
 def offset_names(records: list[ForceRecord]) -> list:
-    """The name of each record's force offset when offsets are fitted: ``offset`` when one record is isometric
-    (or driven-length: a load cell reads both), ``offset_1``, ``offset_2``, ... for those records in order when
-    several are (each file its own load cell zero: a rig re-tared between tests); None for an isotonic record
-    (its force is a hanging load)."""
+    """The name of each record's force offset when offsets are fitted: ``offset`` when one record is
+    isometric (or driven-length: a load cell reads both), ``offset_1``, ``offset_2``, ... for those
+    records in order when several are (each file its own load cell zero: a rig re-tared between
+    tests); None for an isotonic record (its force is a hanging load)."""
     isometric = [i for i, r in enumerate(records) if r.experiment in FORCE_SENSOR_RECORDS]
     names = [None] * len(records)
     for k, i in enumerate(isometric, 1):
@@ -372,7 +376,8 @@ class _Model:
             if r.experiment == "isometric":
                 parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
             elif r.velocity is not None:  # a driven length: the tension at the imposed motion
-                parts.append(actuator.compose_tension(r.length, r.pressure, r.velocity, params) + offset)
+                tension = actuator.compose_tension(r.length, r.pressure, r.velocity, params)
+                parts.append(tension + offset)
             else:
                 f = actuator.compose_tension(r.length, r.pressure, 0.0, params, quasi_static=True)
                 width = actuator.play_half_width(r.pressure, params)  # the effects' play band (Fc) [N]
@@ -611,9 +616,9 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     Parameters
     ----------
     measurements : list
-        Isometric, isotonic and/or driven-length (``actuator``) :class:`mkctl.io.measurements.Measurement`
-        (or :class:`ForceRecord`,
-        e.g. from :func:`isometric_record`), all of the same muscle.
+        Isometric, isotonic and/or driven-length (``actuator``)
+        :class:`mkctl.io.measurements.Measurement` (or :class:`ForceRecord`, e.g. from
+        :func:`isometric_record`), all of the same muscle.
     fit : iterable of str
         Names fitted besides ``b, n, C1, C2``: any of ``L0, D0, t0`` (else taken from the files' metadata,
         then ``params``, then Table I) and ``offset``, a force sensor's zero offset [N] on isometric records: one
@@ -660,7 +665,8 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
                   "params": dict(current.values)})
     say(f"static fit: NRMS {nrms_before:.2%}")
     selection = _EffectSelection(fitter, records, static_starts, force_range, rule, steps, curves, notes, say)
-    current, current_model, added, stopped = selection.run(current, current_model, candidates_for(records, effects))
+    current, current_model, added, stopped = selection.run(current, current_model,
+                                                           candidates_for(records, effects))
     current, current_model, uncertainty, ambiguous = _refit_from_every_start(fitter, current, current_model, added,
                                                                              static_starts, force.size, notes)
     current, stderr, correlation, groups, held = _separate(fitter, current, current_model, uncertainty, start,
@@ -687,8 +693,8 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
 
 
 def candidates_for(records: list[ForceRecord], chosen=tuple(CANDIDATES)) -> list[str]:
-    """The candidates (of ``chosen``) tried on these records, in order: those that act only in motion
-    (:data:`MOTION_CANDIDATES`) where a driven-length record moved the muscle."""
+    """The candidates (of ``chosen``) tried on these records, in order: those that act only in
+    motion (:data:`MOTION_CANDIDATES`) where a driven-length record moved the muscle."""
     moving = any(r.velocity is not None for r in records)
     return [e for e in CANDIDATES if e in chosen and (moving or e not in MOTION_CANDIDATES)]
 
@@ -704,8 +710,8 @@ def _check_arguments(records: list[ForceRecord], fit, effects) -> tuple:
     if bad_effects:
         raise CalibrationError(f"unknown effect {bad_effects[0]!r} (calibrate can add {', '.join(CANDIDATES)})")
     if "offset" in extra and not any(r.experiment in FORCE_SENSOR_RECORDS for r in records):
-        raise CalibrationError("offset is a force sensor's offset on isometric or actuator records; there is none "
-                               "here")
+        raise CalibrationError("offset is a force sensor's offset on isometric or actuator "
+                               "records; there is none here")
     return extra
 
 
@@ -1206,15 +1212,17 @@ def plot_fits(result: CalibrationResult, folder, stem: str) -> list[Path]:
 
 
 def _plot_driven(record: ForceRecord, curves: dict, path) -> Path:
-    """A driven-length record: the measured tension against the imposed length (the loops a moving muscle
-    draws) and each model's (``curves``: label -> (Params, offset [N]))."""
+    """A driven-length record: the measured tension against the imposed length (the loops a moving
+    muscle draws) and each model's (``curves``: label -> (Params, offset [N]))."""
     from ..io.plotting import new_figure, save_png
 
     fig, ax = new_figure(figsize=(6.5, 4.2))
     ax.plot(record.length * 1e3, record.force, ".", ms=2, color="0.5", alpha=0.5, label="measured")
-    for colour, (label, (params, offset)) in zip(("tab:blue", "tab:red", "tab:green"), curves.items()):
+    colours = ("tab:blue", "tab:red", "tab:green")
+    for colour, (label, (params, offset)) in zip(colours, curves.items()):
         try:
-            model = actuator.compose_tension(record.length, record.pressure, record.velocity, params) + offset
+            model = actuator.compose_tension(record.length, record.pressure, record.velocity,
+                                             params) + offset
         except MkctlError:  # this model cannot reach these lengths: no curve
             continue
         ax.plot(record.length * 1e3, model, "-", color=colour, lw=0.8, label=label)

@@ -262,28 +262,34 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
 
 def mechanism_equation_error(m: Measurement, params: Params, terms: list[Term]):
     """A mechanism record's equation error (model-spec 3b: its own equation of motion,
-    :func:`mkctl.analysis.equation_error.mechanism_missing_force`) and each term's share of it, smoothed
-    alike: a tension term t enters as ``sum_i (-dL_i/dq) t(L_i, (dL_i/dq) qdot, P_i)`` (virtual work).
-    Terms of the commands' timing (a lag, a dead time) are left out. Returns (error [N or N m],
-    {label: column}, edge)."""
+    :func:`mkctl.analysis.equation_error.mechanism_missing_force`) and each term's share of it,
+    smoothed alike: a tension term t enters as ``sum_i (-dL_i/dq) t(L_i, (dL_i/dq) qdot, P_i)``
+    (virtual work). Terms of the commands' timing (a lag, a dead time) are left out. Returns (error
+    [N or N m], {label: column}, edge)."""
     from .equation_error import mechanism_force_at, mechanism_missing_force, smoothed_alike
 
     missing, states = mechanism_missing_force(m, params)
     force = mechanism_force_at(states, params)
-    muscles = [_actuator_states(np.broadcast_to(L, missing.shape), np.broadcast_to(arm * states["V"], missing.shape),
-                                P, params, rate)
-               for L, arm, P, rate in zip(force.L, force.arms, states["pressures"], states["rates"])]
-    columns = {t.label: smoothed_alike(sum(-arm * t.tension(a) for arm, a in zip(force.arms, muscles)), states)
-               for t in terms if not t.commands_only}
+    shape = missing.shape
+    muscles = [_actuator_states(np.broadcast_to(L, shape),
+                                np.broadcast_to(arm * states["V"], shape), P, params, rate)
+               for L, arm, P, rate in zip(force.L, force.arms, states["pressures"],
+                                          states["rates"])]
+
+    def through_arms(term):  # virtual work: each muscle's term times its moment arm
+        return smoothed_alike(sum(-arm * term.tension(a) for arm, a in zip(force.arms, muscles)),
+                              states)
+
+    columns = {t.label: through_arms(t) for t in terms if not t.commands_only}
     return missing, columns, states["kernel"].size // 2 + 1
 
 
 def regressors(measurement: Measurement, params: Params, terms: list[Term] | None = None):
     """The missing force [N] and each term's contribution to it per unit coefficient.
 
-    Knee: :func:`knee_equation_error`; a mechanism: :func:`mechanism_equation_error`; isotonic, isometric and
-    driven-length: :func:`mkctl.analysis.equation_error.missing_force`. Returns (missing force, {label: column}, samples used (a
-    boolean mask: the smoothing's edges left out)).
+    Knee: :func:`knee_equation_error`; a mechanism: :func:`mechanism_equation_error`; isotonic,
+    isometric and driven-length: :func:`mkctl.analysis.equation_error.missing_force`. Returns
+    (missing force, {label: column}, samples used (a boolean mask: the smoothing's edges left out)).
     """
     from .equation_error import ISOTONIC_SMOOTHING_SAMPLES, missing_force
 

@@ -22,13 +22,13 @@ ISOTONIC_SMOOTHING_SAMPLES = 11
 def missing_force(measurement: Measurement, params: Params):
     """The equation error: the force the model lacks at the measured, smoothed states [N].
 
-    Isotonic (quasi-static): ``F_load - f(L, P, Ldot)``. Knee (Eq. 17): ``m (Xddot + g) - F - F_stop``
-    with X, V, Xddot from a cubic Savitzky-Golay fit of the measured X. A mechanism record (model-spec 3b,
-    5d): its own equation of motion, ``M qddot - F(q, qdot, P) - F_stop`` (:func:`mechanism_missing_force`).
-    A driven-length record: the measured tension minus the model's at the imposed length and rate
-    (:func:`actuator_missing_force`). Only for explanation: the fits themselves compare simulations with
-    the data, never differentiated data.
-    Returns (missing force, states) with states a dict of the smoothed signals (SI).
+    Isotonic (quasi-static): ``F_load - f(L, P, Ldot)``. Knee (Eq. 17): ``m (Xddot + g) - F -
+    F_stop`` with X, V, Xddot from a cubic Savitzky-Golay fit of the measured X. A mechanism record
+    (model-spec 3b, 5d): its own equation of motion, ``M qddot - F(q, qdot, P) - F_stop``
+    (:func:`mechanism_missing_force`). A driven-length record: the measured tension minus the
+    model's at the imposed length and rate (:func:`actuator_missing_force`). Only for explanation:
+    the fits themselves compare simulations with the data, never differentiated data. Returns
+    (missing force, states) with states a dict of the smoothed signals (SI).
     """
     from .filters import savgol_filter
 
@@ -122,15 +122,15 @@ def record_pressures(m: Measurement, params: Params) -> list:
         count = len(m.mechanism.muscles)
         measured = [f"p{i + 1}" for i in range(count)]
         commands = [f"p{i + 1}_cmd" for i in range(count)]
-    if all(name in inputs for name in measured):
+    if muscle_pressures_measured(m):
         return [np.asarray(inputs[name], dtype=float) for name in measured]
     return [commanded_pressure(m.time, inputs[name], params) for name in commands]
 
 
 def _held_pressures(m: Measurement, params: Params) -> list:
-    """The model's pressures as a smoothed sample sees them: commands held from each sample to the next
-    without pressure dynamics are averaged over the half-interval on either side of a sample (taken as
-    they are, every step came half a sample early), as the discovery does for the knee."""
+    """The model's pressures as a smoothed sample sees them: commands held from each sample to the
+    next without pressure dynamics are averaged over the half-interval on either side of a sample
+    (taken as they are, every step came half a sample early), as the discovery does for the knee."""
     pressures = record_pressures(m, params)
     if muscle_pressures_measured(m) or actuator.has_pressure_states(params) or \
             float(actuator.command_delay(params)) > 0:
@@ -139,10 +139,14 @@ def _held_pressures(m: Measurement, params: Params) -> list:
 
 
 def muscle_pressures_measured(m: Measurement) -> bool:
-    """Whether a mechanism or driven-length record holds every muscle's measured pressure."""
+    """Whether a mechanism or driven-length record holds every muscle's measured pressure (which
+    then drives its model, :func:`mkctl.analysis.compare.mechanism_output`, ``actuator_output``);
+    False for other records."""
     if m.experiment == "actuator":
         return "pressure" in m.inputs
-    return all(f"p{i + 1}" in m.inputs for i in range(len(m.mechanism.muscles)))
+    if m.experiment == "mechanism":
+        return all(f"p{i + 1}" in m.inputs for i in range(len(m.mechanism.muscles)))
+    return False
 
 
 def mechanism_missing_force(m: Measurement, params: Params):
@@ -167,8 +171,8 @@ def mechanism_missing_force(m: Measurement, params: Params):
     missing : numpy.ndarray
         [N or N m].
     states : dict
-        ``q``, ``V`` (its rate), ``A`` (its second derivative), ``pressures`` and ``rates`` (one array
-        per muscle [Pa, Pa/s]), ``P``, ``P_rate`` (the first muscle's), and what
+        ``q``, ``V`` (its rate), ``A`` (its second derivative), ``pressures`` and ``rates`` (one
+        array per muscle [Pa, Pa/s]), ``P``, ``P_rate`` (the first muscle's), and what
         :func:`generalized_force_at` reads.
 
     References
@@ -181,8 +185,8 @@ def mechanism_missing_force(m: Measurement, params: Params):
     k2, kernel = acceleration_kernels(window, dt, order)
     q = np.asarray(m.output, dtype=float)
     V = savgol_filter(q, window, order, deriv=1, delta=dt)
-    # the kernel k2 itself inside; at the record's ends the filter's polynomial fit (np.convolve would
-    # read zeros beyond them)
+    # the kernel k2 itself inside; at the record's ends the filter's polynomial fit (np.convolve
+    # would read zeros beyond them)
     A = savgol_filter(q, window, order, deriv=2, delta=dt)
     pressures = _held_pressures(m, params)
     rates = [savgol_filter(p, window, order, deriv=1, delta=dt) for p in pressures]
@@ -193,8 +197,8 @@ def mechanism_missing_force(m: Measurement, params: Params):
 
 
 def mechanism_force_at(states: dict, params: Params, pressures=None):
-    """The mechanism's :class:`mkctl.physics.mechanism.MechanismForce` at the states (``pressures`` in
-    place of the states' own when given), unsmoothed."""
+    """The mechanism's :class:`mkctl.physics.mechanism.MechanismForce` at the states (``pressures``
+    in place of the states' own when given), unsmoothed."""
     from ..physics.mechanism import mechanism_force
 
     m = states["measurement"]
@@ -204,8 +208,8 @@ def mechanism_force_at(states: dict, params: Params, pressures=None):
 
 
 def generalized_force_at(states: dict, params: Params, pressures=None):
-    """The mechanism's generalized force plus its end stops' at the states, smoothed as the acceleration
-    is (:func:`mechanism_missing_force`) [N or N m]."""
+    """The mechanism's generalized force plus its end stops' at the states, smoothed as the
+    acceleration is (:func:`mechanism_missing_force`) [N or N m]."""
     from types import SimpleNamespace
 
     m = states["measurement"]
@@ -217,15 +221,17 @@ def generalized_force_at(states: dict, params: Params, pressures=None):
 
 
 def smoothed_alike(values, states: dict) -> np.ndarray:
-    """A force at a mechanism record's samples smoothed as its acceleration is (:func:`mechanism_missing_force`),
-    the ends held beyond the record as the acceleration's fit holds them."""
+    """A force at a mechanism record's samples smoothed as its acceleration is
+    (:func:`mechanism_missing_force`), the ends held beyond the record as the acceleration's fit
+    holds them."""
     values = np.broadcast_to(values, states["q"].shape)
     kernel = states["kernel"]
     return np.convolve(np.pad(values, kernel.size // 2, mode="edge"), kernel, mode="valid")
 
 
 def actuator_missing_force(m: Measurement, params: Params):
-    """A driven-length record's equation error: the tension the model lacks at the muscle itself [N].
+    """A driven-length record's equation error: the tension the model lacks at the muscle itself
+    [N].
 
     ``F_measured - f(L, Ldot, P)``
 
@@ -237,7 +243,8 @@ def actuator_missing_force(m: Measurement, params: Params):
     missing : numpy.ndarray
         [N].
     states : dict
-        ``L``, ``Ldot``, ``P`` (the model's pressure, smoothed when a command drives it) and ``P_rate``.
+        ``L``, ``Ldot``, ``P`` (the model's pressure, smoothed when a command drives it) and
+        ``P_rate``.
 
     References
     ----------

@@ -289,7 +289,8 @@ def run_diagnose(args) -> int:
         folder = Path(args.json).resolve().parent
     else:
         folder = Path(args.file).resolve().parent
-    measurement = read_measurement(args.file, base=base_params(args), mechanism=load_mechanism(args))
+    measurement = read_measurement(args.file, base=base_params(args),
+                                   mechanism=load_mechanism(args))
     if not args.out and not args.json:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))

@@ -70,14 +70,15 @@ def input_axis(measurement):
 def output_label(measurement) -> str:
     """The y label of a record's output: its quantity's name and the file's unit, e.g. ``hip height X [mm]``."""
     if measurement.experiment == "mechanism":
-        return f"{measurement.mechanism.name} {measurement.mechanism.coordinate} [{measurement.output_unit}]"
+        mechanism = measurement.mechanism
+        return f"{mechanism.name} {mechanism.coordinate} [{measurement.output_unit}]"
     quantity = measurement.output_quantity or measurement.output_column.rsplit("_", 1)[0]
     return f"{OUTPUT_QUANTITY.get(quantity, quantity)} [{measurement.output_unit}]"
 
 
 def missing_force_label(measurement) -> str:
-    """The y label of the signature pictures: the force the baseline lacks, in the unit of the record's
-    equation of motion (a mechanism turning about a joint: a moment, N m)."""
+    """The y label of the signature pictures: the force the baseline lacks, in the unit of the
+    record's equation of motion (a mechanism turning about a joint: a moment, N m)."""
     if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
         return "moment the baseline lacks [N m]"
     return "force the baseline lacks [N]"
@@ -352,7 +353,8 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             if deficit is not None and np.size(deficit[0]) == np.size(sig["missing"]):
                 x, label = deficit
             if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
-                label = label.replace("[mm/s]", "[mrad/s]")  # the speed is the joint's (SignatureAxes)
+                # the speed is the joint's (SignatureAxes)
+                label = label.replace("[mm/s]", "[mrad/s]")
             two_sided = view.two_sided
             ax.plot(x, sig["missing"], "o", ms=2, mew=0, color="0.45", alpha=0.35)
             ax.plot(*_binned(x, sig["missing"], by_value=two_sided), "o-", color="tab:red", ms=4,

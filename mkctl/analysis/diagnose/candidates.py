@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from ...io.measurements import Measurement
 from ...physics import effects
 from ...physics.params import LiveMapping, Params
+from ..equation_error import muscle_pressures_measured
 
 
 @dataclass(frozen=True)
@@ -57,11 +58,11 @@ def record_bounds(effect) -> dict:
     """An effect's search bounds by experiment: its definition's ``experiments``, with those of the
     mechanism and driven-length records (model-spec 5d) following from them unless it names them.
 
-    A mechanism record is the knee's kind (one coordinate moved by commanded muscles): an effect that
-    shows on the knee shows there, in the same bounds. A driven-length record shows what acts at the
-    muscle itself: an effect of the muscle's own tests (isotonic, isometric) with their bounds, and
-    one on the pressure path (:func:`on_pressure_path`) with the knee's, where commands drive it
-    (:func:`candidates_for`).
+    A mechanism record is the knee's kind (one coordinate moved by commanded muscles): an effect
+    that shows on the knee shows there, in the same bounds. A driven-length record shows what acts
+    at the muscle itself: an effect of the muscle's own tests (isotonic, isometric) with their
+    bounds, and one on the pressure path (:func:`on_pressure_path`) with the knee's, where commands
+    drive it (:func:`candidates_for`).
     """
     bounds = dict(effect.experiments)
     if "mechanism" not in bounds and "knee" in bounds:
@@ -101,17 +102,6 @@ def candidates_for(measurement: Measurement, params: Params) -> list[str]:
             if measurement.experiment in c.bounds and name not in params.effects
             and not (name == "pressure_lag" and measured_pressures)
             and not (pressures_given and on_pressure_path(effects.get(name)))]
-
-
-def muscle_pressures_measured(measurement: Measurement) -> bool:
-    """Whether a mechanism or driven-length record holds every muscle's measured pressure (which then
-    drives its model, :func:`mkctl.analysis.compare.mechanism_output`, ``actuator_output``)."""
-    if measurement.experiment == "actuator":
-        return "pressure" in measurement.inputs
-    if measurement.experiment == "mechanism":
-        count = len(measurement.mechanism.muscles)
-        return all(f"p{i + 1}" in measurement.inputs for i in range(count))
-    return False
 
 
 def _effect_parameters(name: str) -> tuple:

@@ -197,8 +197,8 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     low, high = output_range(m, params)
     level, sim_level = float(np.median(y)), float(np.median(sim))
     to_file = 1.0 / m.output_factor
-    # a mechanism whose coordinate runs through 0 (a joint angle about its middle) has no level a unit
-    # scales: its level is judged by the range alone, its unit by the range of motion
+    # a mechanism whose coordinate runs through 0 (a joint angle about its middle) has no level a
+    # unit scales: its level is judged by the range alone, its unit by the range of motion
     level_scales = not (m.experiment == "mechanism" and low < 0.0 < high)
     if not fit_offset:
         cause = None
@@ -243,7 +243,7 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
 def saturation_note(measurement: Measurement, params: Params, simulated) -> dict | None:
     """Where the baseline could not follow the record (it went to a physical limit), or None."""
     m = measurement
-    if m.experiment in ("isometric", "actuator"):  # a clamped or driven muscle has no limit to run into
+    if m.experiment in ("isometric", "actuator"):  # a clamped or driven muscle: no limit to reach
         return None
     if m.experiment == "isotonic":
         where = isotonic.saturation(m.inputs["pressure"], m.inputs["force"], params)

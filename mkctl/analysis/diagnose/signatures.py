@@ -95,8 +95,8 @@ def _muscle_force(states: dict, params: Params, pressures=None):
     return actuator.tension(states["L"], P, states["Ldot"], params)
 
 
-#: The force a candidate's term is taken in, for the records that are not the knee's or a quasi-static
-#: test's: (states, params, pressures or None) -> [N or N m].
+#: The force a candidate's term is taken in, for the records that are not the knee's or a
+#: quasi-static test's: (states, params, pressures or None) -> [N or N m].
 RECORD_FORCES = {"mechanism": generalized_force_at, "actuator": _muscle_force}
 
 
@@ -121,7 +121,8 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
         term = _term(m, params, states, effect, ref)
         axes = SignatureAxes(m, params, states, term)
         if m.experiment != "isometric" and effect.first_order_rate is not None:
-            x = effect.first_order_rate(states["Pe_rate" if "Pe_rate" in states else "P_rate"]) / 1e3
+            rate = states["Pe_rate" if "Pe_rate" in states else "P_rate"]
+            x = effect.first_order_rate(rate) / 1e3
         elif effect.signature_x is not None:
             x = effect.signature_x(axes)
         else:
