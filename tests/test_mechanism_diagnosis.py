@@ -272,3 +272,15 @@ def test_a_joint_angle_about_zero_is_not_a_unit_mistake_but_radians_under_degree
     wrong = read_measurement(tmp_path / "radians.csv")
     (problem,) = sanity_problems(wrong, baseline, wrong.params)
     assert "radians written under a degree header" in problem
+
+
+@pytest.mark.slow  # 15-25 s each on a loaded machine
+@pytest.mark.parametrize("mech, hidden, truth", [
+    (PULLEY_JOINT, ["tau=0.03"], {"tau": 0.03}),  # the commands' lag, on the motion
+    (HANGING_MASS, ["Fc=2"], {"Fc": 2.0}),
+])
+def test_a_lag_and_a_friction_hidden_in_mechanism_records(tmp_path, mech, hidden, truth):
+    m = _record(tmp_path, mech.name, synthesize_mechanism(mech, hidden, samples=1500, seed=5))
+    result = diagnose(m)
+    assert result.verdict == "diagnosed" and len(result.missing) == 1
+    _found_within(result, truth)
