@@ -67,13 +67,14 @@ def test_bad_mechanism_options_are_one_line(tmp_path, capsys, argv, expected, mo
     assert err.count("\n") == 1 and expected in err, err
 
 
-def test_diagnose_says_it_does_not_take_these_records_yet(tmp_path, capsys):
+def test_diagnose_takes_a_driven_length_record(tmp_path, capsys):
+    # its diagnosis is tested in tests/test_mechanism_diagnosis.py; here the command runs it
     out = tmp_path / "pull.csv"
-    assert main(["synth", "actuator", str(out), "--samples", "200"]) == 0
+    assert main(["synth", "actuator", str(out), "--samples", "400", "--hidden", "Fc=3"]) == 0
     capsys.readouterr()
-    assert main(["diagnose", str(out)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "not built yet" in err
+    assert main(["diagnose", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "missing: coulomb_friction" in printed and "verdict: diagnosed" in printed
 
 
 def test_a_record_naming_a_file_needs_the_same_file_on_the_command_line(tmp_path, capsys, monkeypatch):

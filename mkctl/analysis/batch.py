@@ -334,17 +334,23 @@ def expand_files(patterns: Iterable[str], suffix: str = ".csv") -> list[Path]:
     return unique
 
 
-def diagnose_file(path, base=None, fit_offset: bool = False) -> dict:
+def diagnose_file(path, base=None, fit_offset: bool = False, mechanism=None) -> dict:
     """Read one measurement file and diagnose it (runs on a worker): the public report plus its time.
 
     ``base``: the parameters the file's metadata overrides (a muscle file's; default the paper's);
-    ``fit_offset``: fit a constant sensor offset (as ``mkctl diagnose --fit-offset``)."""
+    ``fit_offset``: fit a constant sensor offset (as ``mkctl diagnose --fit-offset``);
+    ``mechanism``: the mechanism a mechanism record is read with (a built-in's name or a FILE.py the
+    user gave, as ``--mechanism``: loaded here, on the worker; a record never loads the file it
+    names)."""
     from .diagnose import diagnose, public
+    from .mechanism_files import mechanism as load_mechanism
     from ..io.measurements import read_measurement
     from ..physics.params import DEFAULT
 
     start = time.perf_counter()
-    measurement = read_measurement(path, base=DEFAULT if base is None else base)
+    mechanism = None if mechanism is None else load_mechanism(mechanism)
+    measurement = read_measurement(path, base=DEFAULT if base is None else base,
+                                   mechanism=mechanism)
     report = public(diagnose(measurement, fit_offset=fit_offset) if fit_offset else diagnose(measurement))
     for name in ("rmse_before", "rmse_after"):
         value = report.get(name)
@@ -594,16 +600,26 @@ def _diagnose_item(item) -> dict:
     return diagnose_file(*item)
 
 
-def _input_key(file: str, base, fit_offset: bool) -> dict:
-    """What a record's report depends on besides mkctl: the file's content (SHA-256) and the options."""
+def _file_digest(file) -> str | None:
+    """The SHA-256 of a file's content, or None when it cannot be read."""
     import hashlib
 
     try:
-        digest = hashlib.sha256(Path(file).read_bytes()).hexdigest()
+        return hashlib.sha256(Path(file).read_bytes()).hexdigest()
     except OSError:
-        digest = None
+        return None
+
+
+def _input_key(file: str, base, fit_offset: bool, mechanism=None) -> dict:
+    """What a record's report depends on besides mkctl: the file's content (SHA-256) and the options
+    (a mechanism file given: its content too)."""
+    digest = _file_digest(file)
     key = {"sha256": digest, "fit_offset": bool(fit_offset),
            "params": None if base is None else {k: v for k, v in base.as_dict().items()}}
+    if mechanism is not None:
+        text = mechanism if isinstance(mechanism, str) else mechanism.name
+        digest = _file_digest(text) if text.endswith(".py") else None
+        key["mechanism"] = {"name": text, "sha256": digest}
     from .effect_files import registered_definitions
     user = registered_definitions()
     if user:  # the user's effects are candidates: another definition makes another report
@@ -625,7 +641,8 @@ def _kept_report(path: Path, key: dict) -> dict | None:
 
 def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler: str | None = None,
                    progress: bool = True, on_record: Callable[[str, dict | None, str | None], None] | None = None,
-                   base=None, fit_offset: bool = False, dashboard: str | None = None) -> BatchResult:
+                   base=None, fit_offset: bool = False, dashboard: str | None = None,
+                   mechanism=None) -> BatchResult:
     """Diagnose many measurement files in parallel (:func:`run_batch` over :func:`diagnose_file`).
 
     Parameters
@@ -638,6 +655,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     base : the :class:`mkctl.physics.params.Params` each file's metadata overrides (a muscle file's,
         ``--params``); default the paper's.
     fit_offset : fit a constant sensor offset in every record (``--fit-offset``).
+    mechanism : the mechanism mechanism records are read with (``--mechanism``: a built-in's name
+        or a FILE.py, loaded on each worker); None: the one each record names, built-ins only.
 
     Returns a :class:`BatchResult`. A file that cannot be read or diagnosed is a row with its error message.
     """
@@ -648,7 +667,16 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     written: dict = {}
     json_names = _json_names(paths)
 
-    keys = {file: _input_key(file, base, fit_offset) for file in paths}
+    if mechanism is not None:  # checked here, once, before any work (a one-line error)
+        from .mechanism_files import mechanism as load_mechanism
+
+        loaded = load_mechanism(mechanism)
+        if isinstance(mechanism, (str, Path)):  # a name or a path travels to the workers as text
+            text = str(mechanism)
+            mechanism = str(Path(text).resolve()) if text.endswith(".py") else text
+        else:
+            mechanism = loaded
+    keys = {file: _input_key(file, base, fit_offset, mechanism) for file in paths}
 
     def record(file: str, report: dict | None, error: str | None, write: bool = True):
         if error is None:
@@ -677,7 +705,8 @@ def diagnose_batch(files: Iterable, out=None, jobs: int | None = None, scheduler
     if progress and len(todo) < len(paths):
         print(f"{len(paths) - len(todo)} of {len(paths)} records already diagnosed in {out} (same file, same "
               "options): kept", file=sys.stderr)
-    run_batch(_diagnose_item, [(path, base, fit_offset) for path in todo], jobs=jobs, scheduler=scheduler,
+    run_batch(_diagnose_item, [(path, base, fit_offset, mechanism) for path in todo], jobs=jobs,
+              scheduler=scheduler,
               progress=progress, description="records", dashboard=dashboard,
               on_result=lambda o: record(todo[o.index], o.value if o.ok else None, o.error))
     workers = f"the scheduler at {scheduler}" if scheduler else "this process" if jobs == 0 else \

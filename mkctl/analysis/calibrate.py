@@ -1,8 +1,9 @@
 """Calibrate a user's own muscle: fit the parameters nobody can measure from blocked-force and isotonic
 tests, then add the effects the data support (model-spec section 5b).
 
-:func:`calibrate` takes one or more measurements of the same muscle (``isometric`` and/or ``isotonic``,
-model-spec section 5) and works on forces throughout, so that records of both kinds share one error in N:
+:func:`calibrate` takes one or more measurements of the same muscle (``isometric``, ``isotonic``
+and/or ``actuator``, model-spec sections 5 and 5d) and works on forces throughout, so that records
+of every kind share one error in N:
 
 - isometric: the measured tension against :func:`mkctl.physics.isometric.isometric_tension` at the clamped
   length, the pressure and the branch;
@@ -10,7 +11,11 @@ model-spec section 5) and works on forces throughout, so that records of both ki
   quasi-static balance ``f(L, P) = F``, an equation error, cheap and in N). With Coulomb friction the
   balance holds at the edge of the +-Fc band the motion pushes to (lengthening: ``F = f + Fc``); where
   the length does not move (within its noise) the load may lie anywhere inside the band, and only the
-  distance outside it counts.
+  distance outside it counts;
+- driven length (``actuator``): the measured tension against the model's with every effect at the
+  imposed length, its rate and the measured pressure (:func:`driven_record`). Here the muscle moves
+  at speed, so the effects that act only in motion (viscous damping, a user's drag:
+  :data:`MOTION_CANDIDATES`) are candidates too.
 
 The fit, step by step (each step's NRMS is shown, and drawn in the error-fall figure):
 
@@ -70,7 +75,7 @@ from scipy.optimize import least_squares
 from ..errors import DomainError, MkctlError, ParameterError
 from ..physics import actuator, effects
 from ..physics.isometric import isometric_tension
-from ..physics.params import UNITS, LiveMapping, Params
+from ..physics.params import UNITS, LiveMapping, LiveSequence, Params
 from ..results import Result, plain
 from .statistics import covariance, robust_sigma, standard_errors
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_selection, judge
@@ -79,11 +84,27 @@ from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_sel
 STATIC = ("b", "n", "C1", "C2")
 #: Parameters fitted only on request (``fit=``); by default they come from the files' metadata.
 OPTIONAL = ("L0", "D0", "t0", "offset")
-#: The effects calibrate can add (those of the registry marked ``calibrate``), in the order they are tried
-#: (switches first), with the parameter each brings (None for a switch).
+def _acts_in_motion_only(effect) -> bool:
+    """Whether an effect adds to the tension only where the muscle moves (damping, a user's drag):
+    not a candidate of the quasi-static tests, one of a driven-length record (model-spec 5d)."""
+    return (not effect.calibrate and effect.tension is not None and effect.fitted is not None
+            and effect.fitted not in STATIC and not effect.is_switch
+            and effect.pressure_rate is None and effect.command_delay is None)
+
+
+#: The effects calibrate can add (those of the registry marked ``calibrate``, and those that act
+#: only in motion, :data:`MOTION_CANDIDATES`), in the order they are tried (switches first), with
+#: the parameter each brings (None for a switch).
 CANDIDATES = LiveMapping(lambda: {
     e.name: None if e.is_switch else e.fitted
-    for e in sorted((e for e in effects.all_effects() if e.calibrate), key=lambda e: not e.is_switch)})
+    for e in sorted((e for e in effects.all_effects() if e.calibrate or _acts_in_motion_only(e)),
+                    key=lambda e: not e.is_switch)})
+#: The candidates only a driven-length record shows (its muscle moved at speed): tried only with
+#: one.
+MOTION_CANDIDATES = LiveSequence(lambda: [e.name for e in effects.all_effects()
+                                          if _acts_in_motion_only(e)])
+#: The records whose force a load cell reads (a zero offset can be fitted on them).
+FORCE_SENSOR_RECORDS = ("isometric", "actuator")
 #: Every point whose index in its record is ``HOLDOUT_EVERY - 1`` modulo this is held out.
 HOLDOUT_EVERY = 4
 #: Estimates correlated beyond this cannot be told apart.
@@ -108,8 +129,10 @@ class CalibrationError(MkctlError):
 class ForceRecord:
     """One record as force points (SI): what :func:`calibrate` fits.
 
-    ``sign`` is the friction sign: the model's tension is ``f - sign Fc`` (isometric: the branch, +1 up,
-    -1 down; isotonic: +1 shortening, -1 lengthening, 0 not moving).
+    ``sign`` is the friction sign: the model's tension is ``f - sign Fc`` (isometric: the branch, +1
+    up, -1 down; isotonic: +1 shortening, -1 lengthening, 0 not moving; driven length: minus the
+    sign of the imposed rate). ``velocity``: a driven-length record's imposed rate [m/s] (None for
+    the others).
     """
 
     experiment: str
@@ -120,6 +143,7 @@ class ForceRecord:
     sign: np.ndarray
     overrides: dict = field(default_factory=dict)  #: the record's metadata parameters (SI)
     time: np.ndarray | None = None
+    velocity: np.ndarray | None = None  #: imposed lengthening rate [m/s] (driven-length records)
 
     @property
     def size(self) -> int:
@@ -151,7 +175,28 @@ def force_record(measurement) -> ForceRecord:
         return ForceRecord("isotonic", str(m.source), length, np.asarray(m.inputs["pressure"], float),
                            np.asarray(m.inputs["force"], float), -motion_direction(m.time, length),
                            dict(m.overrides), np.asarray(m.time, float))
-    raise CalibrationError(f"{m.source}: calibrate needs isometric or isotonic records, not {m.experiment!r}")
+    if m.experiment == "actuator":
+        return driven_record(m)
+    raise CalibrationError(f"{m.source}: calibrate needs isometric, isotonic or actuator records, "
+                           f"not {m.experiment!r}")
+
+
+def driven_record(m) -> ForceRecord:
+    """A driven-length record (``experiment = actuator``, model-spec 5d) as force points: the
+    imposed length, its rate (``numpy.gradient``, as :func:`mkctl.analysis.compare.actuator_output`
+    takes it), the measured pressure, or the command through the pressure path the file's own values
+    give (no lag is fitted here), and the measured tension."""
+    from .compare import commanded_pressure
+
+    time = np.asarray(m.time, float)
+    length = np.asarray(m.inputs["length"], float)
+    velocity = np.gradient(length, time) if length.size > 1 else np.zeros(length.size)
+    if "pressure" in m.inputs:
+        pressure = np.asarray(m.inputs["pressure"], float)
+    else:
+        pressure = np.asarray(commanded_pressure(time, m.inputs["p_cmd"], m.params), float)
+    return ForceRecord("actuator", str(m.source), length, pressure, np.asarray(m.output, float),
+                       -np.sign(velocity), dict(m.overrides), time, velocity)
 
 
 def motion_direction(time, length, window: int = 11):
@@ -268,10 +313,11 @@ def is_offset(name: str) -> bool:
 
 
 def offset_names(records: list[ForceRecord]) -> list:
-    """The name of each record's force offset when offsets are fitted: ``offset`` when one record is isometric,
-    ``offset_1``, ``offset_2``, ... for the isometric records in order when several are (each file its own load
-    cell zero: a rig re-tared between tests); None for an isotonic record (its force is a hanging load)."""
-    isometric = [i for i, r in enumerate(records) if r.experiment == "isometric"]
+    """The name of each record's force offset when offsets are fitted: ``offset`` when one record is
+    isometric (or driven-length: a load cell reads both), ``offset_1``, ``offset_2``, ... for those
+    records in order when several are (each file its own load cell zero: a rig re-tared between
+    tests); None for an isotonic record (its force is a hanging load)."""
+    isometric = [i for i, r in enumerate(records) if r.experiment in FORCE_SENSOR_RECORDS]
     names = [None] * len(records)
     for k, i in enumerate(isometric, 1):
         names[i] = "offset" if len(isometric) == 1 else f"offset_{k}"
@@ -329,6 +375,9 @@ class _Model:
         for r, offset in zip(self.records, offsets or (0.0,) * len(self.records)):
             if r.experiment == "isometric":
                 parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
+            elif r.velocity is not None:  # a driven length: the tension at the imposed motion
+                tension = actuator.compose_tension(r.length, r.pressure, r.velocity, params)
+                parts.append(tension + offset)
             else:
                 f = actuator.compose_tension(r.length, r.pressure, 0.0, params, quasi_static=True)
                 width = actuator.play_half_width(r.pressure, params)  # the effects' play band (Fc) [N]
@@ -567,8 +616,9 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     Parameters
     ----------
     measurements : list
-        Isometric and/or isotonic :class:`mkctl.io.measurements.Measurement` (or :class:`ForceRecord`,
-        e.g. from :func:`isometric_record`), all of the same muscle.
+        Isometric, isotonic and/or driven-length (``actuator``)
+        :class:`mkctl.io.measurements.Measurement` (or :class:`ForceRecord`, e.g. from
+        :func:`isometric_record`), all of the same muscle.
     fit : iterable of str
         Names fitted besides ``b, n, C1, C2``: any of ``L0, D0, t0`` (else taken from the files' metadata,
         then ``params``, then Table I) and ``offset``, a force sensor's zero offset [N] on isometric records: one
@@ -615,8 +665,8 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
                   "params": dict(current.values)})
     say(f"static fit: NRMS {nrms_before:.2%}")
     selection = _EffectSelection(fitter, records, static_starts, force_range, rule, steps, curves, notes, say)
-    current, current_model, added, stopped = selection.run(current, current_model, [e for e in CANDIDATES
-                                                                                     if e in effects])
+    current, current_model, added, stopped = selection.run(current, current_model,
+                                                           candidates_for(records, effects))
     current, current_model, uncertainty, ambiguous = _refit_from_every_start(fitter, current, current_model, added,
                                                                              static_starts, force.size, notes)
     current, stderr, correlation, groups, held = _separate(fitter, current, current_model, uncertainty, start,
@@ -642,6 +692,13 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
         points=int(force.size), notes=notes, stopped=stopped, records=records, curves=curves)
 
 
+def candidates_for(records: list[ForceRecord], chosen=tuple(CANDIDATES)) -> list[str]:
+    """The candidates (of ``chosen``) tried on these records, in order: those that act only in
+    motion (:data:`MOTION_CANDIDATES`) where a driven-length record moved the muscle."""
+    moving = any(r.velocity is not None for r in records)
+    return [e for e in CANDIDATES if e in chosen and (moving or e not in MOTION_CANDIDATES)]
+
+
 def _check_arguments(records: list[ForceRecord], fit, effects) -> tuple:
     """The extra names asked for (``fit``), checked with the effects against what calibrate can do."""
     extra = tuple(dict.fromkeys(fit))
@@ -652,8 +709,9 @@ def _check_arguments(records: list[ForceRecord], fit, effects) -> tuple:
     bad_effects = [e for e in effects if e not in CANDIDATES]
     if bad_effects:
         raise CalibrationError(f"unknown effect {bad_effects[0]!r} (calibrate can add {', '.join(CANDIDATES)})")
-    if "offset" in extra and not any(r.experiment == "isometric" for r in records):
-        raise CalibrationError("offset is a force sensor's offset on isometric records; there is none here")
+    if "offset" in extra and not any(r.experiment in FORCE_SENSOR_RECORDS for r in records):
+        raise CalibrationError("offset is a force sensor's offset on isometric or actuator "
+                               "records; there is none here")
     return extra
 
 
@@ -1146,9 +1204,34 @@ def plot_fits(result: CalibrationResult, folder, stem: str) -> list[Path]:
         if record.experiment == "isometric":
             paths.append(plot_isometric(record.length, record.pressure, record.force, record.sign, own,
                                         folder / name, title, L0=result.params.L0))
+        elif record.velocity is not None:
+            paths.append(_plot_driven(record, own, folder / name))
         else:
             paths.append(_plot_isotonic(record, result, folder / name))
     return paths
+
+
+def _plot_driven(record: ForceRecord, curves: dict, path) -> Path:
+    """A driven-length record: the measured tension against the imposed length (the loops a moving
+    muscle draws) and each model's (``curves``: label -> (Params, offset [N]))."""
+    from ..io.plotting import new_figure, save_png
+
+    fig, ax = new_figure(figsize=(6.5, 4.2))
+    ax.plot(record.length * 1e3, record.force, ".", ms=2, color="0.5", alpha=0.5, label="measured")
+    colours = ("tab:blue", "tab:red", "tab:green")
+    for colour, (label, (params, offset)) in zip(colours, curves.items()):
+        try:
+            model = actuator.compose_tension(record.length, record.pressure, record.velocity,
+                                             params) + offset
+        except MkctlError:  # this model cannot reach these lengths: no curve
+            continue
+        ax.plot(record.length * 1e3, model, "-", color=colour, lw=0.8, label=label)
+    ax.set_xlabel("imposed length [mm]")
+    ax.set_ylabel("tension [N]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+    ax.set_title(f"{Path(record.source).name}: driven length, data and fits", fontsize=9)
+    return save_png(fig, path, dpi=150)
 
 
 def _plot_isotonic(record: ForceRecord, result: CalibrationResult, path) -> Path:

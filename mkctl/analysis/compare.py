@@ -28,8 +28,8 @@ from ..physics.isometric import isometric_tension
 from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import Measurement
 from ..physics.params import Params
-from ..io.diagnosis_report import (fit_text, input_axis, plot_isometric, plot_overlay,  # noqa: F401 (re-exported)
-                                   plot_residuals)
+from ..io.diagnosis_report import (fit_text, input_axis, input_panels, plot_isometric,  # noqa: F401
+                                   plot_overlay, plot_residuals)  # (re-exported)
 from ..physics import actuator, knee, simulate
 from ..physics.mechanism import simulate_mechanism
 from ..physics.simulate import knee_states
@@ -195,20 +195,9 @@ def output_name(measurement: Measurement) -> str:
 
 def record_panels(measurement: Measurement) -> list:
     """The inputs of a mechanism or actuator record to draw under its overlay:
-    ``[(label, [(values, name), ...]), ...]``, pressures in kPa, lengths in mm."""
-    inputs = measurement.inputs
-    if measurement.experiment == "actuator":
-        name = "pressure" if "pressure" in inputs else "p_cmd"
-        what = "measured" if name == "pressure" else "command"
-        return [("length [mm]", [(inputs["length"] * 1e3, "imposed length")]),
-                ("pressure [kPa]", [(inputs[name] / 1e3, what)])]
-    panels = []
-    for i, muscle in enumerate(measurement.mechanism.muscles):
-        curves = [(inputs[f"p{i + 1}_cmd"] / 1e3, "command")]
-        if f"p{i + 1}" in inputs:
-            curves.append((inputs[f"p{i + 1}"] / 1e3, "measured"))
-        panels.append((f"{muscle} [kPa]", curves))
-    return panels
+    ``[(label, [(values, name), ...]), ...]``, pressures in kPa, lengths in mm
+    (:func:`mkctl.io.diagnosis_report.input_panels`)."""
+    return input_panels(measurement)
 
 
 def plot_record_overlay(measurement: Measurement, curves: dict, path=None, title: str = ""):

@@ -60,6 +60,7 @@ from ..physics import actuator, knee
 from ..physics import effects as registry
 from ..physics.builtin_effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
+from .equation_error import acceleration_kernels  # noqa: F401 (defined there, used here)
 from .signals import delayed, lagged
 from .statistics import (alternate_blocks, bic, covariance, forward_stepwise, integrated_effective_samples,
                          standard_errors)
@@ -202,22 +203,6 @@ def _knee_pressures(m: Measurement, params: Params, held_average: bool = True):
     return tuple(np.r_[p[0], 0.5 * (p[1:] + p[:-1])] for p in (pe, pf))
 
 
-def acceleration_kernels(window: int, dt: float, order: int = 3):
-    """(k2, g): the Savitzky-Golay kernel that estimates the acceleration from positions, and the smoothing
-    kernel g it applies to the acceleration itself (``k2 * X = g * Xddot``, g = the double running sum of k2
-    times dt^2, which sums to 1).
-
-    The equation error ``m (Xddot + g) - F`` must smooth both sides alike: the acceleration estimated by k2
-    and the force smoothed by a plain (deriv 0) filter differ wherever the force jumps (a pressure step),
-    and the difference looked like a dead time of about 7 ms on every record with a step.
-    """
-    from .filters import savgol_coeffs
-
-    k2 = savgol_coeffs(window, order, deriv=2, delta=dt)
-    g = np.cumsum(np.cumsum(k2)) * dt * dt
-    return k2, g[:window - 2]  # the last two entries are zero: the kernel is centred on window - 2 samples
-
-
 def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
     """Eq. 17's equation error of the knee and each term's share of it, smoothed alike (see
     :func:`acceleration_kernels`): ``m (k2 * X + g) - g * (F + F_stop)``, with F at the measured X, the smoothed
@@ -275,12 +260,36 @@ def knee_equation_error(m: Measurement, params: Params, terms: list[Term]):
     return error, columns, edge
 
 
+def mechanism_equation_error(m: Measurement, params: Params, terms: list[Term]):
+    """A mechanism record's equation error (model-spec 3b: its own equation of motion,
+    :func:`mkctl.analysis.equation_error.mechanism_missing_force`) and each term's share of it,
+    smoothed alike: a tension term t enters as ``sum_i (-dL_i/dq) t(L_i, (dL_i/dq) qdot, P_i)``
+    (virtual work). Terms of the commands' timing (a lag, a dead time) are left out. Returns (error
+    [N or N m], {label: column}, edge)."""
+    from .equation_error import mechanism_force_at, mechanism_missing_force, smoothed_alike
+
+    missing, states = mechanism_missing_force(m, params)
+    force = mechanism_force_at(states, params)
+    shape = missing.shape
+    muscles = [_actuator_states(np.broadcast_to(L, shape),
+                                np.broadcast_to(arm * states["V"], shape), P, params, rate)
+               for L, arm, P, rate in zip(force.L, force.arms, states["pressures"],
+                                          states["rates"])]
+
+    def through_arms(term):  # virtual work: each muscle's term times its moment arm
+        return smoothed_alike(sum(-arm * term.tension(a) for arm, a in zip(force.arms, muscles)),
+                              states)
+
+    columns = {t.label: through_arms(t) for t in terms if not t.commands_only}
+    return missing, columns, states["kernel"].size // 2 + 1
+
+
 def regressors(measurement: Measurement, params: Params, terms: list[Term] | None = None):
     """The missing force [N] and each term's contribution to it per unit coefficient.
 
-    Knee: :func:`knee_equation_error`; isotonic and isometric:
-    :func:`mkctl.analysis.equation_error.missing_force`. Returns (missing force, {label: column}, samples used (a
-    boolean mask: the smoothing's edges left out)).
+    Knee: :func:`knee_equation_error`; a mechanism: :func:`mechanism_equation_error`; isotonic,
+    isometric and driven-length: :func:`mkctl.analysis.equation_error.missing_force`. Returns
+    (missing force, {label: column}, samples used (a boolean mask: the smoothing's edges left out)).
     """
     from .equation_error import ISOTONIC_SMOOTHING_SAMPLES, missing_force
 
@@ -288,6 +297,8 @@ def regressors(measurement: Measurement, params: Params, terms: list[Term] | Non
     terms = library(params) if terms is None else terms
     if m.experiment == "knee":
         missing, columns, edge = knee_equation_error(m, params, terms)
+    elif m.experiment == "mechanism":
+        missing, columns, edge = mechanism_equation_error(m, params, terms)
     else:
         missing, states = missing_force(m, params)
         usable = [t for t in terms if not t.commands_only]

@@ -198,7 +198,8 @@ def run_diagnose_batch(args) -> int:
         result = diagnose_batch(files, folder, jobs=args.jobs, scheduler=args.scheduler, progress=not quiet,
                                 on_record=said, base=base_params(args),
                                 fit_offset=getattr(args, "fit_offset", False),
-                                dashboard=getattr(args, "dashboard", None))
+                                dashboard=getattr(args, "dashboard", None),
+                                mechanism=getattr(args, "mechanism", None))
     print(repr(result))
     print(f"reports: {folder}/<record>.diagnosis.json; table: {folder / SUMMARY_CSV}; figure: {folder / SUMMARY_PNG}")
     refused = [f for f, r in result.reports.items() if r.get("verdict") == "not diagnosed"]

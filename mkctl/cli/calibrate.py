@@ -1,9 +1,10 @@
 """``mkctl calibrate FILE... --out MUSCLE.json``: calibrate a user's own muscle (model-spec section 5b).
 
-Reads one or more isometric and/or isotonic files of the same muscle, fits ``b, n, C1, C2`` (and more with
-``--fit``), adds the effects the data support (see :mod:`mkctl.analysis.calibrate`), prints the error fall
-step by step, and writes the muscle file and two pictures beside it: ``<stem>_fit.png`` (data and fits per
-length) and ``<stem>_error.png`` (the error fall).
+Reads one or more isometric, isotonic and/or actuator (driven-length) files of the same muscle, fits
+``b, n, C1, C2`` (and more with ``--fit``), adds the effects the data support (see
+:mod:`mkctl.analysis.calibrate`), prints the error fall step by step, and writes the muscle file and
+two pictures beside it: ``<stem>_fit.png`` (data and fits per length) and ``<stem>_error.png`` (the
+error fall).
 """
 from __future__ import annotations
 
@@ -28,13 +29,16 @@ def register(subparsers) -> None:
     p = subparsers.add_parser(
         "calibrate", help=COMMANDS["calibrate"],
         description="Fit the static parameters a user cannot measure (b, n, C1, C2; more with --fit) from one or "
-                    "more isometric and/or isotonic files of the same muscle, from several starting points within "
-                    "physical bounds; then add the effects the data support (the registry's calibration candidates: forward "
+                    "more isometric, isotonic and/or actuator (driven-length) files of the same "
+                    "muscle, from several starting points within physical bounds; then add the "
+                    "effects "
+                    "the data support (the registry's calibration candidates: forward "
                     "stepwise, BIC and a held-out quarter of the points), refitting the static parameters with "
                     "each. Prints the error fall, standard errors and what the data cannot separate; writes the "
                     "muscle file (model-spec section 5b) and <stem>_fit.png, <stem>_error.png beside it.")
-    p.add_argument("files", nargs="+", metavar="FILE.csv", help="isometric and/or isotonic measurement files "
-                   "(with --each: files, folders or quoted globs)")
+    p.add_argument("files", nargs="+", metavar="FILE.csv",
+                   help="isometric, isotonic and/or actuator measurement files (with --each: "
+                        "files, folders or quoted globs)")
     p.add_argument("--out", metavar="MUSCLE.json", required=True,
                    help="the muscle file to write (with --each: the folder for one muscle file per record)")
     p.add_argument("--each", action="store_true",

@@ -125,6 +125,7 @@ def register(subparsers) -> None:
     p.add_argument("--suggest", metavar="FILE.py", default=None,
                    help="when the verdict is incomplete, write the terms the discovery found as an effect file "
                         "(model-spec section 4c) to add with --effects FILE.py")
+    _add_mechanism_option(p)
     add_params_option(p)
     add_engine_options(p)
     p.set_defaults(func=run_diagnose)
@@ -288,11 +289,8 @@ def run_diagnose(args) -> int:
         folder = Path(args.json).resolve().parent
     else:
         folder = Path(args.file).resolve().parent
-    measurement = read_measurement(args.file, base=base_params(args))
-    if measurement.experiment in ("mechanism", "actuator"):
-        # model-spec 5d: their diagnosis is being built elsewhere; until then say so, rather than fail inside
-        raise UsageError(f"{args.file}: the diagnosis of {measurement.experiment} records is not built yet; "
-                         f"compare it with the baseline: mkctl compare {args.file}")
+    measurement = read_measurement(args.file, base=base_params(args),
+                                   mechanism=load_mechanism(args))
     if not args.out and not args.json:
         output_folder(folder, "PNG folder (beside the file; choose another with --out)")
     progress = None if args.quiet else (lambda text: print(text, file=sys.stderr, flush=True))

@@ -69,8 +69,19 @@ def input_axis(measurement):
 
 def output_label(measurement) -> str:
     """The y label of a record's output: its quantity's name and the file's unit, e.g. ``hip height X [mm]``."""
+    if measurement.experiment == "mechanism":
+        mechanism = measurement.mechanism
+        return f"{mechanism.name} {mechanism.coordinate} [{measurement.output_unit}]"
     quantity = measurement.output_quantity or measurement.output_column.rsplit("_", 1)[0]
     return f"{OUTPUT_QUANTITY.get(quantity, quantity)} [{measurement.output_unit}]"
+
+
+def missing_force_label(measurement) -> str:
+    """The y label of the signature pictures: the force the baseline lacks, in the unit of the
+    record's equation of motion (a mechanism turning about a joint: a moment, N m)."""
+    if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
+        return "moment the baseline lacks [N m]"
+    return "force the baseline lacks [N]"
 
 
 def input_panels(measurement) -> list:
@@ -84,6 +95,19 @@ def input_panels(measurement) -> list:
     if measurement.experiment == "isometric":
         return [("pressure [kPa]", [(inputs["pressure"] / 1e3, "pressure")]),
                 ("clamped length [mm]", [(inputs["length"] * 1e3, "length")])]
+    if measurement.experiment == "actuator":  # a driven length: the imposed length, the pressure
+        name = "pressure" if "pressure" in inputs else "p_cmd"
+        what = "measured" if name == "pressure" else "command"
+        return [("length [mm]", [(inputs["length"] * 1e3, "imposed length")]),
+                ("pressure [kPa]", [(inputs[name] / 1e3, what)])]
+    if measurement.experiment == "mechanism":  # each muscle's command, and its measured pressure
+        panels = []
+        for i, muscle in enumerate(measurement.mechanism.muscles):
+            curves = [(inputs[f"p{i + 1}_cmd"] / 1e3, "command")]
+            if f"p{i + 1}" in inputs:
+                curves.append((inputs[f"p{i + 1}"] / 1e3, "measured"))
+            panels.append((f"{muscle} [kPa]", curves))
+        return panels
     panels = []
     for short, muscle in (("pe", "extensor"), ("pf", "flexor")):
         curves = [(inputs[f"{short}_cmd"] / 1e3, f"command {short}_cmd")]
@@ -328,6 +352,9 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             deficit = _pressure_deficit(measurement, result, view) if view.pressure_deficit_axis else None
             if deficit is not None and np.size(deficit[0]) == np.size(sig["missing"]):
                 x, label = deficit
+            if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
+                # the speed is the joint's (SignatureAxes)
+                label = label.replace("[mm/s]", "[mrad/s]")
             two_sided = view.two_sided
             ax.plot(x, sig["missing"], "o", ms=2, mew=0, color="0.45", alpha=0.35)
             ax.plot(*_binned(x, sig["missing"], by_value=two_sided), "o-", color="tab:red", ms=4,
@@ -343,7 +370,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             ax.set_xlabel(label, fontsize=7)
             ax.set_title(f"{name}: r = {sig['correlation']:+.2f}", fontsize=9)
             ax.legend(fontsize=6, loc="upper right")
-        axes[0, 0].set_ylabel("force the baseline lacks [N]")
+        axes[0, 0].set_ylabel(missing_force_label(measurement))
         fig.suptitle("signatures: the force the baseline lacks (at the smoothed measured states) against what "
                      "each effect acts through" if len(names) > 2 else
                      "signatures: the force the baseline lacks\nagainst what each effect acts through", fontsize=9)

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from ...io.measurements import Measurement
 from ...physics import effects
 from ...physics.params import LiveMapping, Params
+from ..equation_error import muscle_pressures_measured
 
 
 @dataclass(frozen=True)
@@ -42,8 +43,37 @@ class Candidate:
 #: and its share of the tension is not separable from C1's in these experiments. Slack is a switch (0 or 1): its
 #: one-point search interval just compares on with off.
 CANDIDATES = LiveMapping(lambda: {
-    e.name: Candidate(e.name, e.fitted, dict(e.experiments), e.regressor, effects.why(e.name))
+    e.name: Candidate(e.name, e.fitted, record_bounds(e), e.regressor, effects.why(e.name))
     for e in effects.all_effects() if e.fitted is not None and e.experiments})
+
+
+def on_pressure_path(effect) -> bool:
+    """Whether an effect acts between a pressure command and the muscle's pressure (a lag, a dead
+    time, a term of the pressure's rate): with the pressures measured it is not in the motion."""
+    return (effect.pressure_rate is not None or effect.command_delay is not None
+            or effect.first_order_rate is not None)
+
+
+def record_bounds(effect) -> dict:
+    """An effect's search bounds by experiment: its definition's ``experiments``, with those of the
+    mechanism and driven-length records (model-spec 5d) following from them unless it names them.
+
+    A mechanism record is the knee's kind (one coordinate moved by commanded muscles): an effect
+    that shows on the knee shows there, in the same bounds. A driven-length record shows what acts
+    at the muscle itself: an effect of the muscle's own tests (isotonic, isometric) with their
+    bounds, and one on the pressure path (:func:`on_pressure_path`) with the knee's, where commands
+    drive it (:func:`candidates_for`).
+    """
+    bounds = dict(effect.experiments)
+    if "mechanism" not in bounds and "knee" in bounds:
+        bounds["mechanism"] = bounds["knee"]
+    if "actuator" not in bounds:
+        own = bounds.get("isotonic") or bounds.get("isometric")
+        if own is None and on_pressure_path(effect):
+            own = bounds.get("knee")
+        if own is not None:
+            bounds["actuator"] = own
+    return bounds
 
 #: The experiment that tells two candidates apart, for records that cannot (each effect's definition).
 DISCRIMINATING_EXPERIMENTS = LiveMapping(lambda: {
@@ -65,9 +95,13 @@ def candidates_for(measurement: Measurement, params: Params) -> list[str]:
     pressures directly (:func:`lag_from_pressures`), not as a candidate of the motion.
     """
     measured_pressures = "pe" in measurement.inputs and "pf" in measurement.inputs
+    # a mechanism or driven-length record with its muscles' pressures measured: what happens before
+    # them (a lag, a dead time) is not in its output (model-spec 5d)
+    pressures_given = muscle_pressures_measured(measurement)
     return [name for name, c in CANDIDATES.items()
             if measurement.experiment in c.bounds and name not in params.effects
-            and not (name == "pressure_lag" and measured_pressures)]
+            and not (name == "pressure_lag" and measured_pressures)
+            and not (pressures_given and on_pressure_path(effects.get(name)))]
 
 
 def _effect_parameters(name: str) -> tuple:

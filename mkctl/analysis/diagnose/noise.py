@@ -204,8 +204,8 @@ def _ar1_estimate(x: np.ndarray, window: int) -> tuple[float, float] | None:
 
 
 #: Records whose model follows its measured inputs sample by sample (no dynamics to filter their
-#: noise).
-QUASI_STATIC = ("isotonic", "isometric")
+#: noise): a driven-length record's tension follows its measured pressure so too.
+QUASI_STATIC = ("isotonic", "isometric", "actuator")
 
 #: How many realisations of the noise the null test of such a record draws (criterion 5: the worst
 #: counts).

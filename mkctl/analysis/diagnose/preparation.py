@@ -106,6 +106,11 @@ def measured_inputs(measurement: Measurement) -> list[str]:
     """The inputs of the record that a sensor read (not commands): these may be noisy."""
     if measurement.experiment == "isotonic":
         return [name for name in ("pressure", "force") if name in measurement.inputs]
+    if measurement.experiment == "actuator":  # the imposed length is the machine's, not noisy
+        return [name for name in ("pressure",) if name in measurement.inputs]
+    if measurement.experiment == "mechanism":
+        names = [f"p{i + 1}" for i in range(len(measurement.mechanism.muscles))]
+        return [name for name in names if name in measurement.inputs]
     return [name for name in ("pe", "pf") if name in measurement.inputs]
 
 
@@ -151,11 +156,19 @@ def output_range(measurement: Measurement, params: Params) -> tuple[float, float
     if measurement.experiment == "isotonic":
         low, high = isotonic.length_limits(params)
         return 0.0, high
-    if measurement.experiment == "isometric":  # the tension between no pressure and twice the highest one
-        L, P = measurement.inputs["length"], measurement.inputs["pressure"]
+    if measurement.experiment in ("isometric", "actuator"):
+        # the tension between no pressure and twice the highest one (a driven length: half as wide
+        # again, for the forces of its motion)
+        inputs = measurement.inputs
+        L, P = inputs["length"], inputs["pressure"] if "pressure" in inputs else inputs["p_cmd"]
         ends = [actuator.static_tension(L, p, params) for p in (0.0 * P, 2.0 * np.max(np.abs(P)) + 0.0 * P)]
         low, high = float(min(np.min(ends[0]), 0.0)), float(np.max(ends[1]))
-        return low - 0.1 * (high - low), high + 0.1 * (high - low)
+        margin = 0.1 if measurement.experiment == "isometric" else 0.5
+        return low - margin * (high - low), high + margin * (high - low)
+    if measurement.experiment == "mechanism":  # the coordinate between the mechanism's end stops
+        q_low, q_high = measurement.mechanism.stop_positions(measurement.mechanism.bind(
+            params, **measurement.mechanism_values))
+        return q_low - 0.1 * (q_high - q_low), q_high + 0.1 * (q_high - q_low)
     x_low, x_high = knee.stop_positions(params)
     span = x_high - x_low
     low, high = x_low - 0.1 * span, x_high + 0.1 * span
@@ -184,15 +197,20 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     low, high = output_range(m, params)
     level, sim_level = float(np.median(y)), float(np.median(sim))
     to_file = 1.0 / m.output_factor
+    # a mechanism whose coordinate runs through 0 (a joint angle about its middle) has no level a
+    # unit scales: its level is judged by the range alone, its unit by the range of motion
+    level_scales = not (m.experiment == "mechanism" and low < 0.0 < high)
     if not fit_offset:
         cause = None
         ratio = level / sim_level if sim_level else math.inf
+        if not level_scales:
+            ratio = 1.0
         if ratio and math.isfinite(ratio) and ratio > 0 and abs(math.log(ratio)) > 1.0:
             for factor, text in _UNIT_MISTAKES.items():
                 if abs(math.log(ratio / factor)) < 0.3:
                     cause = f"likely {text}"
                     break
-        if cause is None and abs(level) < 0.05 * abs(sim_level):
+        if cause is None and level_scales and abs(level) < 0.05 * abs(sim_level):
             cause = (f"the sensor looks zeroed at rest (the record sits near 0 {unit}): declare its offset in "
                      f"the metadata ({output_quantity(m)}_offset_{unit} = ...) or fit it with --fit-offset")
         if cause is None and not (low <= level <= high):
@@ -207,12 +225,13 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
     # matched, a range of motion some factor off is the dynamics the baseline lacks (a chirp through an undamped
     # resonance swings ten times wider than the damped record), not a unit: judge the range only where a fitted
     # offset hides the level.
-    level_judged = not fit_offset
+    level_judged = not fit_offset and level_scales
     spread, sim_spread = float(np.ptp(y)), float(np.ptp(sim))
     if spread > 0 and sim_spread > 0 and not level_judged:
         ratio = spread / sim_spread
         for factor, text in _UNIT_MISTAKES.items():
-            if factor in (math.pi / 180, 180 / math.pi) and output_quantity(m) != "beta":
+            angle = output_quantity(m) == "beta" or m.output_unit in ("deg", "rad")
+            if factor in (math.pi / 180, 180 / math.pi) and not angle:
                 continue
             if abs(factor - 1) > 0.5 and abs(math.log(ratio / factor)) < 0.25 and abs(math.log(ratio)) > 1.5:
                 problems.append(f"the measured {column} moves over {spread * to_file:.4g} {unit}, "
@@ -224,13 +243,17 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
 def saturation_note(measurement: Measurement, params: Params, simulated) -> dict | None:
     """Where the baseline could not follow the record (it went to a physical limit), or None."""
     m = measurement
-    if m.experiment == "isometric":  # a clamped muscle has no limit to run into
+    if m.experiment in ("isometric", "actuator"):  # a clamped or driven muscle: no limit to reach
         return None
     if m.experiment == "isotonic":
         where = isotonic.saturation(m.inputs["pressure"], m.inputs["force"], params)
         at_limit = where != 0
         what = ("no length of the baseline carries the load there: it is pulled to its braid limit (L = b)"
                 if (where > 0).any() else "the baseline stays at its shortest length")
+    elif m.experiment == "mechanism":
+        q_low, q_high = m.mechanism.stop_positions(m.mechanism.bind(params, **m.mechanism_values))
+        at_limit = (simulated < q_low) | (simulated > q_high)
+        what = f"the baseline's {m.mechanism.name} rests on an end stop there"
     else:
         X = simulated if output_quantity(m) != "beta" else knee.hip_height(simulated, params)
         x_low, x_high = knee.stop_positions(params)

@@ -18,7 +18,7 @@ from ..compare import simulate_output
 from ..statistics import covariance, effective_samples, lag_one_correlation
 from ..diagnosis_rule import RULE, Rule, Score, best_value
 from .candidates import CANDIDATES, Candidate
-from .noise import NoiseModel
+from .noise import QUASI_STATIC, NoiseModel
 
 
 # The rule's thresholds (the held-out share, the BIC and held-out gains, the margin) are the fields of
@@ -96,7 +96,7 @@ def knee_stride(time) -> int:
 def fit_problem(measurement: Measurement, fit_offset: bool, rule: Rule = RULE, noise: NoiseModel | None = None) -> Problem:
     """The fitting problem: the grid compared, the time split of the rule, the noise's correlation on the grid."""
     n = measurement.samples
-    stride = 1 if measurement.experiment in ("isotonic", "isometric") else knee_stride(measurement.time)
+    stride = 1 if measurement.experiment in QUASI_STATIC else knee_stride(measurement.time)
     grid = np.arange(0, n, stride)
     if grid[-1] != n - 1:
         grid = np.append(grid, n - 1)

@@ -9,7 +9,7 @@ from ...io.measurements import Measurement
 from ...physics import actuator, effects, knee
 from ...physics.isometric import isometric_tension
 from ...physics.params import LiveMapping, Params
-from ..equation_error import knee_force_at, missing_force
+from ..equation_error import generalized_force_at, knee_force_at, mechanism_force_at, missing_force
 from .candidates import CANDIDATES
 
 #: Reference value of each candidate's parameter for its unit force term (elasticity: the model's C1), from the
@@ -33,7 +33,7 @@ class SignatureAxes:
     @property
     def speed(self):
         s = self._states
-        return (s["Ldot"] if self._m.experiment == "isotonic" else s["V"]) * 1e3
+        return (s["Ldot"] if "Ldot" in s else s["V"]) * 1e3
 
     @property
     def direction(self):
@@ -54,6 +54,8 @@ class SignatureAxes:
         if self._m.experiment == "knee":
             forces = knee.knee_force(knee.geometry_at_X(s["X"], p), s["V"], s["Pe"], s["Pf"], p)
             return np.minimum(forces.fe, forces.ff)
+        if self._m.experiment == "mechanism":  # the smaller of its muscles' tensions
+            return np.min(np.broadcast_arrays(*mechanism_force_at(s, p).f), axis=0)
         return actuator.tension(s["L"], s["P"], s["Ldot"], p)
 
 
@@ -70,6 +72,12 @@ def _term(m: Measurement, params: Params, states: dict, effect, ref: float):
         args = (states["L"], states["P"], states["branch"])
         return isometric_tension(*args, CANDIDATES[effect.name].apply(params, ref)) - isometric_tension(*args, params)
     share = effect.first_order_rate
+    if m.experiment in RECORD_FORCES:  # a mechanism's equation of motion, or the muscle itself
+        force = RECORD_FORCES[m.experiment]
+        if share is not None:
+            late = [P - ref * share(rate) for P, rate in zip(states["pressures"], states["rates"])]
+            return force(states, params, late) - force(states, params)
+        return force(states, CANDIDATES[effect.name].apply(params, ref)) - force(states, params)
     if share is not None:
         rate_e, rate_f = share(states["Pe_rate"]), share(states["Pf_rate"])
         return (knee_force_at(states, params, states["Pe"] - ref * rate_e, states["Pf"] - ref * rate_f)
@@ -79,6 +87,17 @@ def _term(m: Measurement, params: Params, states: dict, effect, ref: float):
         return (actuator.tension(states["L"], states["P"], states["Ldot"], with_effect)
                 - actuator.tension(states["L"], states["P"], states["Ldot"], params))
     return knee_force_at(states, with_effect) - knee_force_at(states, params)
+
+
+def _muscle_force(states: dict, params: Params, pressures=None):
+    """The tension at a driven-length record's states [N] (its own pressure unless given)."""
+    P = states["P"] if pressures is None else pressures[0]
+    return actuator.tension(states["L"], P, states["Ldot"], params)
+
+
+#: The force a candidate's term is taken in, for the records that are not the knee's or a
+#: quasi-static test's: (states, params, pressures or None) -> [N or N m].
+RECORD_FORCES = {"mechanism": generalized_force_at, "actuator": _muscle_force}
 
 
 def signatures(measurement: Measurement, params: Params, names: list[str]) -> dict:
@@ -102,7 +121,8 @@ def signatures(measurement: Measurement, params: Params, names: list[str]) -> di
         term = _term(m, params, states, effect, ref)
         axes = SignatureAxes(m, params, states, term)
         if m.experiment != "isometric" and effect.first_order_rate is not None:
-            x = effect.first_order_rate(states["Pe_rate"]) / 1e3
+            rate = states["Pe_rate" if "Pe_rate" in states else "P_rate"]
+            x = effect.first_order_rate(rate) / 1e3
         elif effect.signature_x is not None:
             x = effect.signature_x(axes)
         else:
