@@ -803,7 +803,40 @@ def stability_coefficients(mechanism: Mechanism, q, pressures, params=DEFAULT, q
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
     .. [2] model-spec section 3b (the stability analysis holds for any mechanism).
     """
-    p = mechanism.bind(params)
+    return coefficients_at(mechanism, q, qdot, pressures, mechanism.bind(params))
+
+
+def coefficients_at(mechanism: Mechanism, q, qdot, pressures, p):
+    """(a1, a2) of :func:`stability_coefficients` at bound parameters p, unchecked.
+
+    ``a1 = (dF/dqdot) / M``, ``a2 = (dF/dq) / M``
+
+    The same formula on floats, arrays or sympy symbols (a MechanismParams of symbols: the native
+    FMUs trace it into C, where :meth:`Mechanism.bind` cannot check symbols).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q, qdot : float, array_like or sympy expression
+        The coordinate [m or rad] and its rate [m/s or rad/s].
+    pressures : sequence
+        Each muscle's gauge pressure [Pa].
+    p : MechanismParams
+        :meth:`Mechanism.bind`'s parameters (or symbols).
+
+    Returns
+    -------
+    a1 : float, array or sympy expression
+        Velocity coefficient [1/s].
+    a2 : float, array or sympy expression
+        Position coefficient [1/s^2].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
+    .. [2] model-spec sections 3b and 7d (``stable`` of a mechanism FMU).
+    """
     d = force_partials(mechanism, q, qdot, pressures, p)
     return d.dF_dqdot / d.M, d.dF_dq / d.M
 

@@ -1,0 +1,467 @@
+"""Native FMUs of any mechanism (model-spec sections 3b, 7d): ``McKibben<Name>.fmu``, FMI 2.0 and 3.0.
+
+    python build_fmu.py --mechanism NAME|FILE.py      # dist/native/ and dist/fmi3/McKibben<Name>.fmu
+
+The knee keeps its own FMU (:mod:`mkctl.native.fmu`, McKibbenKnee). Any other mechanism
+(:class:`mkctl.physics.mechanism.Mechanism`: a built-in or a user's file) gets an FMU with the same
+wrapper (``fmu_c/fmi2_wrapper.c``, ``fmi3_wrapper.c``, ``mk_run.c``: both interfaces, Co-Simulation
+and Model Exchange, a dead time, the parameter checks of Params), the same compiled core
+(``mkctl_core.c``: its command delay), and one more compilation unit generated here,
+``mechanism_core.c``:
+
+=============================  ==================================================================
+C function                     traced Python function
+=============================  ==================================================================
+``mech_rhs_<variant>``         :func:`mkctl.physics.mechanism.mechanism_derivatives` (virtual work,
+                               every effect of the variant, end stops)
+``mech_outputs_<variant>``     :func:`mkctl.physics.mechanism.mechanism_force` (lengths, tensions)
+                               and :func:`~mkctl.physics.mechanism.coefficients_at` (a1, a2)
+``mech_switches_<variant>``    the switching functions of ``mech_rhs`` (Model Exchange's event
+                               indicators, :func:`mkctl.native.fmu.switching_functions`)
+``mech_stop_positions``        the mechanism's ``stops(p)``
+``mech_step_checks``           :func:`mkctl.physics.actuator.check_pressure` of the commands
+integrator                     the core's Dormand-Prince 5(4) (``core_template.c``, the text of
+                               ``mk_integrate`` and ``mk_step_variant`` with the mechanism's
+                               right-hand side in place of the knee's)
+=============================  ==================================================================
+
+Nothing of a user's file is pasted into C or XML: its parameters become the symbols ``mp_<i>``
+(``p[MK_NPARAM + i]`` at run time), its names reach C only through
+:func:`mkctl.native.fmu.c_identifier` and the octal-escaped string literals of
+:func:`mkctl.native.fmu._c_string`, and the XML through ElementTree.
+
+The interface (:func:`mechanism_interface`): inputs ``p_cmd_<muscle>`` [Pa]; parameters: the
+actuator FMU's (model-spec sections 2 and 4: Table I, the effects), the Params fields the
+mechanism's functions read (``m``, ``g``), its own parameters, ``q0`` (the start coordinate; its
+start value is the stable equilibrium at the start commands) and ``P_rated``; outputs ``q``,
+``qdot``, each muscle's ``L_<muscle>``, ``f_<muscle>``, ``P_<muscle>``, ``a1``, ``a2`` and
+``stable`` (a1 < 0 and a2 < 0 at the present state). Model Exchange states: ``q``, ``qdot`` and
+one pressure-lag state per muscle (inert without a lag).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import re
+from pathlib import Path
+
+from ..errors import DomainError, ParameterError
+from ..physics import actuator
+from ..physics import mechanism as mech
+from ..physics.params import (DEFAULT, INTEGER_PARAMETERS, PARAMETER_NAMES, RATED_PRESSURE, TABLE_II,
+                              UNITS, Params)
+from . import TEMPLATE
+from . import fmu as fmi2
+from .fmu import Interface, MEState, NativeBuildError, Variable
+
+#: The model part and the Model Exchange part of a mechanism FMU (fmu_c/).
+MODEL_SOURCES = ("mechanism_fmu.c", "mechanism_me.c")
+#: The generated compilation unit.
+CORE_FILE = "mechanism_core.c"
+#: Its header (fmu_c/), what the model parts use of it.
+HEADER = "mechanism_core.h"
+#: The start commands of a mechanism FMU [Pa], each muscle's (q0 starts at their equilibrium).
+START_COMMAND = 300e3
+#: Arguments of the generated right-hand side, outputs and switching functions (after p, stops, k).
+RHS_ARGUMENTS = ("const double *y, double c1, double c2, double *out, mk_fault *fault",
+                 "y, c1, c2, out, fault")
+OUTPUT_ARGUMENTS = ("double q, double qdot, double P1, double P2, double *out, mk_fault *fault",
+                    "q, qdot, P1, P2, out, fault")
+
+
+def model_name(mechanism: mech.Mechanism) -> str:
+    """``McKibben<Name>``: the CamelCase of the mechanism's name (``pulley_joint`` -> PulleyJoint)."""
+    name = "McKibben" + "".join(part[:1].upper() + part[1:] for part in mechanism.name.split("_"))
+    if not re.fullmatch(r"[A-Za-z][A-Za-z0-9]*", name):
+        raise NativeBuildError(f"mechanism name {mechanism.name!r} gives no FMU model name (letters, digits "
+                               "and underscores only)")
+    return name
+
+
+def _muscle_names(mechanism) -> dict:
+    """Each muscle's variable names, checked as C identifiers."""
+    names = {}
+    for muscle in mechanism.muscles:
+        names[muscle] = {kind: f"{kind}_{muscle}" for kind in ("p_cmd", "L", "f", "P", "P_lag")}
+        for text in names[muscle].values():
+            fmi2.c_identifier(text)
+    return names
+
+
+def _mechanism_params_used(mechanism) -> list[str]:
+    """Params fields the mechanism's own functions read (``m``, ``g``), in Params' order."""
+    used = set(mechanism.traced.names)
+    return [name for name in PARAMETER_NAMES if name in used]
+
+
+def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None) -> Interface:
+    """What a mechanism FMU shows a host (see the module docstring), start values from params (the
+    muscle's; default :data:`~mkctl.physics.params.DEFAULT`) and the mechanism's own defaults.
+
+    Raises :class:`NativeBuildError` for a name that is no C identifier or clashes with another
+    variable, and when the start commands have no stable equilibrium.
+    """
+    from ..fmi.interface import ACTUATOR, ACTUATOR_PARAMETERS, P_RATED_DESCRIPTION
+    from ..fmi.units import fmi_unit
+    params = DEFAULT if params is None else params
+    if mechanism.name == "knee":
+        raise NativeBuildError("the knee has its own FMU (McKibbenKnee): build it without --mechanism")
+    name = model_name(mechanism)
+    muscles = _muscle_names(mechanism)
+    unit, rate = mechanism.unit, f"{mechanism.unit}/s"
+    commands = tuple(START_COMMAND for _ in mechanism.muscles)
+    try:
+        p = mechanism.bind(params)
+        q0 = mech.equilibrium(mechanism, commands, p)
+    except (DomainError, ParameterError) as error:
+        raise NativeBuildError(f"mechanism {mechanism.name}: no start coordinate q0 at the start commands "
+                               f"({START_COMMAND:g} Pa): {error}") from None
+    real = [*ACTUATOR_PARAMETERS]
+    real += [n for n in _mechanism_params_used(mechanism) if n not in real]
+    own = {q.name: q for q in mechanism.parameters}
+    rows = []  # (name, type, causality, variability, description, unit, start)
+    for muscle in mechanism.muscles:
+        rows.append((muscles[muscle]["p_cmd"], "Real", "input", "continuous",
+                     f"commanded gauge pressure of {muscle}", "Pa", START_COMMAND))
+    for n in real:
+        text = TABLE_II[n].description if n in TABLE_II else ACTUATOR.description_of(n)
+        rows.append((n, "Real", "parameter", "fixed", text, UNITS[n], float(getattr(params, n))))
+    for n in INTEGER_PARAMETERS:
+        rows.append((n, "Integer", "parameter", "fixed", ACTUATOR.description_of(n), None,
+                     int(getattr(params, n))))
+    for q in mechanism.parameters:
+        rows.append((q.name, "Real", "parameter", "fixed", q.description or f"parameter of {mechanism.name}",
+                     q.unit, float(p.__getattr__(q.name))))
+    rows.append(("q0", "Real", "parameter", "fixed", f"initial {mechanism.coordinate}, at rest; its start "
+                 "value is the stable equilibrium at the start commands", unit, float(q0)))
+    rows.append(("P_rated", "Real", "parameter", "fixed", P_RATED_DESCRIPTION, "Pa", RATED_PRESSURE))
+    rows.append(("q", "Real", "output", "continuous", f"the coordinate {mechanism.coordinate}", unit, None))
+    rows.append(("qdot", "Real", "output", "continuous", f"the rate of {mechanism.coordinate}", rate, None))
+    for kind, text, u in (("L", "length", "m"), ("f", "tension (positive pulls)", "N"),
+                          ("P", "gauge pressure", "Pa")):
+        for muscle in mechanism.muscles:
+            rows.append((muscles[muscle][kind], "Real", "output", "continuous", f"{muscle} {text}", u, None))
+    rows.append(("a1", "Real", "output", "continuous", "Eq. 18 coefficient a1 = (dF/dqdot)/M at the present "
+                 "state (end stops excluded)", "1/s", None))
+    rows.append(("a2", "Real", "output", "continuous", "Eq. 18 coefficient a2 = (dF/dq)/M at the present "
+                 "state (end stops excluded)", "1/s^2", None))
+    rows.append(("stable", "Boolean", "output", "discrete", "Routh-Hurwitz verdict at the present state: a1 < 0 "
+                 "and a2 < 0; no unit", None, None))
+    seen = set()
+    for row in rows:
+        if row[0] in seen or row[0] in ("time",) or row[0].startswith("der("):
+            raise NativeBuildError(f"mechanism {mechanism.name}: the variable name {row[0]!r} is taken twice "
+                                   "(a parameter or muscle named like another variable)")
+        seen.add(row[0])
+        fmi2.c_identifier(row[0])
+    variables = tuple(Variable(n, vr, t, c, v, d, None if u is None else fmi_unit(u), s)
+                      for vr, (n, t, c, v, d, u, s) in enumerate(rows))
+    states = (MEState("q", fmi_unit(unit), fmi_unit(rate), 1.0),
+              MEState("qdot", fmi_unit(rate), fmi_unit(f"{unit}/s^2"), 1.0),
+              *(MEState(muscles[m]["P_lag"], "Pa", "Pa/s", 1e6,
+                        f"pressure-lag state of {m} (Model Exchange): equal to P_{m} with a lag; inert "
+                        "(derivative 0) without one") for m in mechanism.muscles))
+    source, nz = generate_core(mechanism, {v.name: v.vr for v in variables})
+    description = (f"{mechanism.description or mechanism.name}: a mechanism of one coordinate "
+                   f"({mechanism.coordinate} [{unit}]) driven by McKibben muscles (model-spec sections 3b, 7d)")
+    return Interface(name, description, "mkctl", {"startTime": "0.0", "stopTime": "2.0", "stepSize": "0.001"},
+                     variables, "outputs that depend on the pressures are undefined",
+                     {muscles[m]["P"]: m for m in mechanism.muscles}, me_states=states, event_indicators=nz,
+                     model_sources=MODEL_SOURCES,
+                     generated_sources=((CORE_FILE, source), (HEADER, (fmi2.C_DIR / HEADER).read_text())),
+                     core_parameters=tuple(own))
+
+
+# --- the generated unit -------------------------------------------------------------------------
+
+def _real(name):
+    import sympy
+    return sympy.Symbol(name, real=True)
+
+
+def _template_part(start: str, end: str) -> str:
+    text = TEMPLATE.read_text()
+    i, j = text.find(start), text.find(end)
+    if i < 0 or j < i:
+        raise NativeBuildError(f"core_template.c has no part from {start!r} to {end!r}")
+    return text[i:j]
+
+
+def _substituted(text: str, changes) -> str:
+    for old, new, count in changes:
+        if text.count(old) != count:
+            raise NativeBuildError(f"core_template.c: {old!r} appears {text.count(old)} times, not {count}")
+        text = text.replace(old, new)
+    return text
+
+
+def _value_message(error_text: str, sentinel: float) -> tuple[str, str]:
+    """(printf format, kind) of a library message about the value sentinel: "repr" (C: mk_repr, %s) or
+    "g" (%.6g)."""
+    for shown, kind in ((repr(sentinel), "repr"), (format(sentinel, ".6g"), "g")):
+        if error_text.count(shown) == 1:
+            before, after = error_text.split(shown)
+            marker = "%s" if kind == "repr" else "%.6g"
+            return before.replace("%", "%%") + marker + after.replace("%", "%%"), kind
+    raise NativeBuildError(f"cannot make a C format of the message {error_text!r}")
+
+
+def _own_checks(mechanism) -> list[str]:
+    """C lines of mk_mech_check_parameters: each own parameter finite and within its bounds, with the
+    library's messages (Mechanism.bind, Parameter.check)."""
+    lines = []
+    for i, q in enumerate(mechanism.parameters):
+        value = f"p[MK_NPARAM + {i}]"
+        try:
+            mechanism.bind(**{q.name: math.nan})
+        except ParameterError as error:
+            nan_format, kind = _value_message(str(error), math.nan) if "nan" in str(error) else (None, None)
+        if nan_format is None or kind != "repr":
+            raise NativeBuildError(f"no message for a parameter {q.name} that is not a number")
+        lines.append(f"    if (!isfinite({value})) return mk_mech_fail(msg, size, {fmi2._c_string(nan_format)}, "
+                     f"{value}, 0);")
+        for bad, condition in ((q.lower - 1.2345678901, f"{'!(' + value + ' > ' if q.strict else value + ' < ('}"),
+                               (q.upper + 1.2345678901, None)):
+            if not math.isfinite(bad):
+                continue
+            try:
+                q.check(bad)
+            except ParameterError as error:
+                text, kind = _value_message(str(error), bad)
+            else:
+                raise NativeBuildError(f"parameter {q.name}: {bad!r} passes its check")
+            bound = q.lower if condition is not None else q.upper
+            test = (f"!({value} > {fmi2._c_double(bound)})" if (condition is not None and q.strict)
+                    else f"{value} < {fmi2._c_double(bound)}" if condition is not None
+                    else f"{value} > {fmi2._c_double(bound)}")
+            lines.append(f"    if ({test}) return mk_mech_fail(msg, size, {fmi2._c_string(text)}, {value}, "
+                         f"{int(kind == 'g')});")
+    return lines
+
+
+def _default_rtol() -> float:
+    import inspect
+    return float(inspect.signature(mech.simulate_mechanism).parameters["rtol"].default)
+
+
+def _stops_format(mechanism) -> str:
+    """Mechanism.stop_positions' message for stops that are no interval, as a C format (%g, %g)."""
+    low, high = 2.2345678901234567e-300, 1.2345678901234567e-300
+    try:
+        dataclasses.replace(mechanism, stops=lambda p: (low, high)).stop_positions(None)
+    except ParameterError as error:
+        text = str(error)
+    else:
+        raise NativeBuildError("Mechanism.stop_positions accepts stops that are no interval")
+    pieces = text.replace("%", "%%").split(format(low, "g"))
+    if len(pieces) != 2 or pieces[1].count(format(high, "g")) != 1:
+        raise NativeBuildError(f"cannot make a C format of the message {text!r}")
+    return pieces[0] + "%g" + pieces[1].replace(format(high, "g"), "%g")
+
+
+def generate_core(mechanism: mech.Mechanism, vr: dict) -> tuple[str, int]:
+    """The C of ``mechanism_core.c`` (see the module docstring) and its number of event indicators.
+    vr: the FMU's value references by variable name."""
+    import sympy
+
+    from . import codegen
+    from .variants import all_variants
+
+    k = len(mechanism.muscles)
+    variants = all_variants()
+    table = codegen.CheckTable()
+    own = {q.name: _real(f"mp_{i}") for i, q in enumerate(mechanism.parameters)}
+    parameters = {n: f"p[MK_P_{n}]" for n in PARAMETER_NAMES}
+    parameters.update({f"mp_{i}": f"p[MK_NPARAM + {i}]" for i in range(len(own))})
+    constant = set(parameters)
+    q, qdot = _real("q"), _real("qdot")
+    commands = [_real("c1"), _real("c2")][:k]
+    pressures = [_real("P1"), _real("P2")][:k]
+    stops = (_real("q_low"), _real("q_high"))
+    rhs_bindings = {**parameters, "q": "y[0]", "qdot": "y[1]", "P1": "y[2]", "P2": "y[3]", "c1": "c1",
+                    "c2": "c2", "q_low": "(stops ? stops[0] : -INFINITY)",
+                    "q_high": "(stops ? stops[1] : INFINITY)"}
+
+    def outputs(q, qdot, P, p):
+        force = mech.mechanism_force(mechanism, q, qdot, tuple(P), p)
+        a1, a2 = mech.coefficients_at(mechanism, q, qdot, tuple(P), p)
+        return [*force.L, *force.f, a1, a2]
+
+    parts, rhs_cases, switch_cases, counts = [], [], [], []
+    try:
+        for index, variant in enumerate(variants):
+            p = mech.MechanismParams(codegen.SymbolicParams(variant), own)
+            state = [q, qdot, *(pressures if variant.lag else [])]
+            traced = codegen.trace(mech.mechanism_derivatives, state, commands, mechanism, p, stops)
+            name = f"mech_rhs_{variant.name}"
+            parts.append(codegen.emit_function(name, *RHS_ARGUMENTS[:1], RHS_ARGUMENTS[1], rhs_bindings,
+                                               constant | {"q_low", "q_high"}, traced, "out", table))
+            rhs_cases.append((index, name))
+            switches = fmi2.switching_functions(traced.outputs, constant | {"q_low", "q_high"})
+            counts.append(len(switches))
+            if switches:
+                parts.append(codegen.emit_function(f"mech_switches_{variant.name}", RHS_ARGUMENTS[0],
+                                                   RHS_ARGUMENTS[1], rhs_bindings, constant | {"q_low", "q_high"},
+                                                   codegen.Traced(switches, []), "out", table))
+                switch_cases.append((index, f"mech_switches_{variant.name}"))
+            traced = codegen.trace(outputs, q, qdot, pressures, p)
+            parts.append(codegen.emit_function(
+                f"mech_outputs_{variant.name}", *OUTPUT_ARGUMENTS,
+                {**parameters, "q": "q", "qdot": "qdot", "P1": "P1", "P2": "P2"}, constant, traced, "out", table,
+                (f"    out[{2 * k + 2}] = (out[{2 * k}] < 0 && out[{2 * k + 1}] < 0) ? 1.0 : 0.0;",)))
+        p = mech.MechanismParams(codegen.SymbolicParams(variants[0]), own)
+        traced = codegen.trace(lambda pp: [sympy.sympify(s) for s in mechanism.stops(pp)], p)
+        parts.append(codegen.emit_function("mech_stop_positions", "double *out, mk_fault *fault", "out, fault",
+                                           parameters, constant, traced, "out", table))
+
+        def step_checks(c1, c2):  # what the run checks before it integrates
+            actuator.check_pressure(c1)
+            actuator.check_pressure(c2)
+            return []
+
+        parts.append(codegen.emit_function(
+            "mech_step_checks", "double pe_cmd, double pf_cmd, mk_fault *fault", "pe_cmd, pf_cmd, fault",
+            {**parameters, "pe_cmd": "pe_cmd", "pf_cmd": "pf_cmd"}, constant,
+            codegen.trace(step_checks, _real("pe_cmd"), _real("pf_cmd")), "out", table))
+    except (ValueError, TypeError, AttributeError) as error:
+        raise NativeBuildError(f"mechanism {mechanism.name} cannot be generated into C: {error}") from None
+    nz = max(counts)
+    lag_states = [2 + k if v.lag else 2 for v in variants]
+
+    def dispatch(signature, call, cases, fallback):
+        lines = [signature, "{", "    switch (variant) {"]
+        lines += [f"    case {i}: {call.format(name=n)}" for i, n in cases]
+        return lines + ["    }", f"    {fallback}", "}", ""]
+
+    rhs_call = "return {name}(p, stops, kc, y, c1, c2, out, fault);"
+    dispatchers = [
+        f"static const int mech_nstates[{len(variants)}] = {{{', '.join(map(str, lag_states))}}};",
+        "static int mech_nstate(int variant) { return variant < 0 ? 2 : mech_nstates[variant]; }", "",
+        *dispatch("static void mech_rhs_constants_variant(int variant, const double *p, const double *stops, "
+                  "double *kc)", "{name}_constants(p, stops, kc); return;", rhs_cases, "return;"),
+        *dispatch("static int mech_rhs_variant(int variant, const double *p, const double *stops, "
+                  "const double *kc, const double *y, double c1, double c2, double *out, mk_fault *fault)",
+                  rhs_call, rhs_cases, "return mk_fault_code(fault, MK_FAULT_VARIANT);"),
+        *dispatch("static int mech_switches_variant(int variant, const double *p, const double *stops, "
+                  "const double *y, double c1, double c2, double *out, mk_fault *fault)",
+                  "return {name}_once(p, stops, y, c1, c2, out, fault);", switch_cases, "return 0;"),
+        *dispatch("static int mech_outputs_variant(int variant, const double *p, double q, double qdot, "
+                  "double P1, double P2, double *out, mk_fault *fault)",
+                  "return {name}_once(p, NULL, q, qdot, P1, P2, out, fault);",
+                  [(i, f"mech_outputs_{v.name}") for i, v in enumerate(variants)],
+                  "return mk_fault_code(fault, MK_FAULT_VARIANT);")]
+    integrator = _substituted(
+        _template_part("/* Dense output of a record run", "/* Integrate the knee state y (MK_P_tau > 0"),
+        [("mk_knee_rhs_variant(", "mech_rhs_variant(", 2), ("mk_variant_nstate(variant)", "mech_nstate(variant)", 2),
+         ("mk_step_checks(p, pe_cmd, pf_cmd, fault)", "mech_step_checks_once(p, NULL, pe_cmd, pf_cmd, fault)", 1)])
+    head = _template_part("#include <math.h>", "/* ---- generated equations")
+    head = head.replace("@PARAMETER_MACROS@", codegen._parameter_macros())
+    vr_of = {name: vr[name] for name in vr}
+    muscles = _muscle_names(mechanism)
+    output_vr = [vr_of[n] for n in ("q", "qdot", *(muscles[m][kind] for kind in ("L", "f", "P")
+                                                    for m in mechanism.muscles), "a1", "a2", "stable")]
+    templates = [fmi2._c_string(fmi2._fault_template(check)) for check in table.checks]
+    api = f"""
+/* ---- the mechanism FMU's API (mechanism_fmu.c, mechanism_me.c) ---- */
+int mk_variant(const double *p); /* the core's: the variants are all_variants() in both */
+const int mk_mech_muscles = {k};
+const int mk_mech_command_vr[2] = {{{vr_of[muscles[mechanism.muscles[0]]['p_cmd']]}, \
+{vr_of[muscles[mechanism.muscles[-1]]['p_cmd']]}}};
+const int mk_mech_q0_vr = {vr_of['q0']};
+/* q, qdot, L..., f..., P..., a1, a2, stable */
+const int mk_mech_output_vr[{len(output_vr)}] = {{{', '.join(map(str, output_vr))}}};
+const int mk_mech_nz = {nz};
+const char *const mk_mech_fault_templates[] = {{{', '.join(templates) or '""'}}};
+const int mk_mech_fault_count = {len(templates)};
+const double MK_MECH_ATOL[4] = {{1e-9, 1e-9, 1e-3, 1e-3}}; /* mechanism._run's */
+const double MK_MECH_RTOL = {fmi2._c_double(_default_rtol())};
+const char MK_MECH_STOPS_FORMAT[] = {fmi2._c_string(_stops_format(mechanism))};
+const char *mk_repr(double value, char *buffer, size_t size);
+int snprintf(char *str, size_t size, const char *format, ...);
+
+int mk_mech_nstate(const double *p) {{ return mech_nstate(mk_variant(p)); }}
+
+int mk_mech_stops(const double *p, double *out, mk_fault *fault)
+{{
+    return mech_stop_positions_once(p, NULL, out, fault);
+}}
+
+int mk_mech_step(const double *p, const double *stops, double *y, double dt, double c1, double c2, double rtol,
+                 double *h_hint, double *k, int *k1_valid, double *k_c1, double *k_c2, mk_fault *fault)
+{{
+    const int variant = mk_variant(p);
+    double kc[MK_MAX_CONSTANTS];
+    if (variant < 0)
+        return mk_fault_code(fault, MK_FAULT_VARIANT);
+    mech_rhs_constants_variant(variant, p, stops, kc);
+    return mk_step_variant(variant, p, stops, kc, y, dt, c1, c2, rtol, MK_MECH_ATOL, h_hint, k, k1_valid, k_c1,
+                           k_c2, fault);
+}}
+
+int mk_mech_rhs(const double *p, const double *stops, const double *y, double c1, double c2, double *dy,
+                mk_fault *fault)
+{{
+    const int variant = mk_variant(p);
+    double kc[MK_MAX_CONSTANTS];
+    if (variant < 0)
+        return mk_fault_code(fault, MK_FAULT_VARIANT);
+    mech_rhs_constants_variant(variant, p, stops, kc);
+    return mech_rhs_variant(variant, p, stops, kc, y, c1, c2, dy, fault);
+}}
+
+int mk_mech_event_indicators(const double *p, const double *stops, const double *y, double c1, double c2,
+                             double *out, mk_fault *fault)
+{{
+    int i;
+    for (i = 0; i < {max(nz, 1)}; i++) out[i] = 1.0;
+    return mech_switches_variant(mk_variant(p), p, stops, y, c1, c2, out, fault);
+}}
+
+/* L..., f..., a1, a2, stable at state y (the pressures: the lag states, or the commands) */
+int mk_mech_outputs(const double *p, const double *y, double c1, double c2, double *out, mk_fault *fault)
+{{
+    const int variant = mk_variant(p);
+    const int lag = mech_nstate(variant) > 2;
+    if (variant < 0)
+        return mk_fault_code(fault, MK_FAULT_VARIANT);
+    return mech_outputs_variant(variant, p, y[0], y[1], lag ? y[2] : c1, lag ? y[1 + mk_mech_muscles] : c2, out,
+                                fault);
+}}
+
+static int mk_mech_fail(char *msg, size_t size, const char *format, double value, int plain)
+{{
+    char number[40];
+    if (plain) snprintf(msg, size, format, value);
+    else snprintf(msg, size, format, mk_repr(value, number, sizeof number));
+    return 1;
+}}
+
+/* the mechanism's own parameters: finite, within their bounds (Mechanism.bind's messages) */
+int mk_mech_check_parameters(const double *p, char *msg, size_t size)
+{{
+{chr(10).join(_own_checks(mechanism))}
+    (void)p; (void)msg; (void)size; (void)mk_mech_fail;
+    return 0;
+}}
+"""
+    source = "\n".join([
+        f"/* {model_name(mechanism)}: the mechanism's equations, GENERATED by mkctl/native/mechanism_fmu.py",
+        " * from the library's own functions (mechanism.mechanism_derivatives, mechanism_force,",
+        " * coefficients_at, the mechanism's stops) and the core's integrator (core_template.c). Do not edit. */",
+        head.replace("@VARIANT_NAMES@", ", ".join(v.name for v in variants)),
+        "/* ---- generated equations ---- */", *parts, *dispatchers, codegen._tableau(), integrator, api])
+    return source, nz
+
+
+def build_mechanism(mechanism: mech.Mechanism, out: Path, params: Params | None = None,
+                    platforms: bool = True) -> dict[str, Path]:
+    """Write ``out/native/McKibben<Name>.fmu`` (FMI 2.0) and ``out/fmi3/McKibben<Name>.fmu`` (FMI 3.0),
+    both interfaces, linux64 and (platforms) the other platforms' binaries whose toolchains are installed
+    (:mod:`mkctl.native.cross`, as the knee's). Returns the paths by "native/<name>", "fmi3/<name>".
+    Raises :class:`NativeBuildError`."""
+    from . import fmi3
+    interface = mechanism_interface(mechanism, params)
+    name = interface.model_name
+    native = fmi2.build_one(name, Path(out) / "native" / f"{name}.fmu", windows=platforms, interface=interface)
+    three = fmi3.build_one(name, Path(out) / "fmi3" / f"{name}.fmu", interface=interface, platforms=platforms)
+    return {f"native/{name}": native, f"fmi3/{name}": three}
