@@ -163,14 +163,14 @@ class Host:
         return np.array(x)
 
 
-def _run(host: Host, mechanism, q0):
+def _run(host: Host, mechanism, q0, **parameters):
     """The record through the FMU: commands set at each sample; q and each muscle's L, f, P at the samples."""
     from scipy.integrate import solve_ivp
     k = len(mechanism.muscles)
     commands = _commands(k)
     names = [f"p_cmd_{m}" for m in mechanism.muscles]
     outputs = ["q", *(f"{kind}_{m}" for kind in ("L", "f", "P") for m in mechanism.muscles)]
-    assert host.initialize(q0=q0, **{n: c[0] for n, c in zip(names, commands)}) == 0, host.messages
+    assert host.initialize(q0=q0, **parameters, **{n: c[0] for n, c in zip(names, commands)}) == 0, host.messages
     rows = [host.get(*outputs)]
     for j in range(TIME.size - 1):
         if host.kind == "cs":
@@ -209,6 +209,22 @@ def test_fmu_against_simulate_mechanism(built, tmp_path, name, kind, version):
     # the tension: dL of 1e-9 m times a muscle's stiffness (~1e4 N/m)
     np.testing.assert_allclose(got[:, 1 + k:1 + 2 * k], reference.f, rtol=1e-7, atol=1e-6)
     np.testing.assert_array_equal(got[:, 1 + 2 * k:], reference.P)
+
+
+@pytest.mark.parametrize("kind", ["cs", "me"])
+@pytest.mark.parametrize("name", ["pulley_joint", pytest.param("hanging_mass", marks=pytest.mark.slow)])
+def test_effects_a_pressure_lag_and_damping(built, tmp_path, name, kind):
+    """tau > 0 makes each muscle's pressure a state (another generated variant, 2 + k states), c > 0 damps."""
+    from mkctl.physics.params import Params
+    mechanism = _mechanism(name)
+    k = len(mechanism.muscles)
+    effects = {"tau": 0.02, "c": 30.0, "Fc": 2.0}
+    reference = mech.simulate_mechanism(TIME, _commands(k), mechanism, Params(**effects))
+    host = Host(built[name]["2"], tmp_path / "fmu", "2", kind)
+    got = _run(host, mechanism, float(reference.q[0]), **effects)
+    np.testing.assert_allclose(got[:, 0], reference.q, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(got[:, 1 + 2 * k:], reference.P, rtol=1e-9)  # the lag states
+    assert np.ptp(reference.P) > 1e4 and not np.array_equal(reference.P, np.array(_commands(k)).T)
 
 
 @pytest.mark.parametrize("name", MECHANISMS)
