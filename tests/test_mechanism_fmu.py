@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 from mkctl.physics import mechanism as mech
+from test_win64 import hosts, wine  # noqa: F401  (fixtures: the C hosts, Wine)
 
 pytest.importorskip("fmpy")
 ROOT = Path(__file__).resolve().parents[1]
@@ -339,3 +340,25 @@ def test_model_names_and_the_variables_a_host_sees(built, name, model):
         outputs = {v.name for v in md.modelVariables if v.causality == "output"}
         assert {"q", "qdot", "a1", "a2", "stable"} <= outputs
         assert {f"{kind}_{m}" for kind in ("L", "f", "P") for m in mechanism.muscles} <= outputs
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("version", ["fmi2", "fmi3"])
+def test_the_windows_binary_under_wine_gives_the_linux_results(wine, hosts, tmp_path_factory, version):
+    """The pulley FMU built with every platform's binary (as the knee's: tests/test_win64.py), its DLL run by the
+    cross-compiled C host under Wine against the Linux one, to 1e-9."""
+    import zipfile
+
+    from test_win64 import _arguments, _run as _run_host
+    from mkctl.native.mechanism_fmu import build_mechanism
+    command, env = wine
+    out = tmp_path_factory.mktemp("mechanism_win64")
+    paths = build_mechanism(_mechanism("pulley_joint"), out)
+    folder = out / version
+    with zipfile.ZipFile(paths[f"{'native' if version == 'fmi2' else 'fmi3'}/McKibbenPulleyJoint"]) as archive:
+        archive.extractall(folder)
+    arguments = _arguments(folder, "q", 0.5, p_cmd_muscle1=3.3e5, tau=0.02, c=5.0)
+    linux = _run_host([str(hosts[version, "linux"]), *arguments], env={})
+    windows = _run_host([*command, str(hosts[version, "windows"]), *arguments], env=env)
+    assert linux.shape == windows.shape == (501, 2) and np.ptp(linux[:, 1]) > 1e-2  # it moved
+    np.testing.assert_allclose(windows, linux, rtol=0, atol=1e-9)

@@ -333,10 +333,12 @@ def _build_native(out: Path, params: Params) -> dict[str, Path]:
     return built
 
 
-def build_mechanism_fmus(name_or_path, out, params: Params | None = None) -> dict[str, Path]:
+def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platforms: bool = True
+                         ) -> dict[str, Path]:
     """The native FMUs of a mechanism (a built-in name or a mechanism file, model-spec sections 3b, 7d) into
-    ``out/native`` and ``out/fmi3`` (:func:`mkctl.native.mechanism_fmu.build_mechanism`). Raises an MkctlError
-    (a one-line message) for a bad file or no C compiler."""
+    ``out/native`` and ``out/fmi3`` (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the
+    Linux x86-64 binary only). Returns the paths by "native/<model>", "fmi3/<model>". Raises an MkctlError (a
+    one-line message) for a bad file or no C compiler."""
     from ..analysis.mechanism_files import mechanism
     from ..native.build import find_compiler
     from ..native.mechanism_fmu import build_mechanism
@@ -344,7 +346,7 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None) -> dic
     found = mechanism(str(name_or_path), params)
     if find_compiler() is None:
         raise BuildError("no C compiler found (CC, cc, gcc, clang): a mechanism's native FMUs need one")
-    return build_mechanism(found, Path(out).resolve(), params)
+    return build_mechanism(found, Path(out).resolve(), params, platforms=platforms)
 
 
 def main(argv=None, default_out: Path = Path("dist")) -> int:
@@ -378,8 +380,9 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1
+    ran = not args.no_run and (args.mechanism is None or args.mechanism == "knee")
     for name, path in built.items():
-        print(f"built {path} (validated{'' if args.no_run else ', default experiment run'})")
+        print(f"built {path} (validated{', default experiment run' if ran else ''})")
     return 0
 
 
