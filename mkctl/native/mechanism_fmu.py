@@ -94,39 +94,54 @@ def _mechanism_params_used(mechanism) -> list[str]:
     return [name for name in PARAMETER_NAMES if name in used]
 
 
-def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None) -> Interface:
+def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None, alone: bool = False
+                        ) -> Interface:
     """What a mechanism FMU shows a host (see the module docstring), start values from params (the
     muscle's; default :data:`~mkctl.physics.params.DEFAULT`) and the mechanism's own defaults.
+
+    alone: the mechanism alone (model-spec 7d, the SSP system of :mod:`mkctl.native.ssp`), model
+    ``McKibben<Name>Mechanism``: inputs each muscle's tension ``f_<muscle>`` [N]; outputs ``q``,
+    ``qdot``, each muscle's ``L_<muscle>`` and ``Ldot_<muscle>``; parameters the muscle's Table I
+    (its domain 0 < L < b), the Params fields the mechanism reads, its own and ``q0``; states q,
+    qdot. The knee is built this way only (its pressure-driven FMU is McKibbenKnee); its start
+    values are the knee FMU's (X0 at alpha = 60 deg, the tensions of the commands that hold it).
 
     Raises :class:`NativeBuildError` for a name that is no C identifier or clashes with another
     variable, and when the start commands have no stable equilibrium.
     """
-    from ..fmi.interface import ACTUATOR, ACTUATOR_PARAMETERS, P_RATED_DESCRIPTION
+    from ..fmi.interface import _MUSCLE, ACTUATOR, ACTUATOR_PARAMETERS, P_RATED_DESCRIPTION
     from ..fmi.units import fmi_unit
     params = DEFAULT if params is None else params
-    if mechanism.name == "knee":
+    if mechanism.name == "knee" and not alone:
         raise NativeBuildError("the knee has its own FMU (McKibbenKnee): build it without --mechanism")
-    name = model_name(mechanism)
+    name = model_name(mechanism) + ("Mechanism" if alone else "")
     muscles = _muscle_names(mechanism)
     unit, rate = mechanism.unit, f"{mechanism.unit}/s"
-    commands = tuple(START_COMMAND for _ in mechanism.muscles)
     try:
         p = mechanism.bind(params)
-        q0 = mech.equilibrium(mechanism, commands, p)
+        if mechanism.name == "knee":
+            from ..physics.simulate import default_commands, default_hip_height
+            commands, q0 = tuple(default_commands(params)), default_hip_height(params)
+        else:
+            commands = tuple(START_COMMAND for _ in mechanism.muscles)
+            q0 = mech.equilibrium(mechanism, commands, p)
+        tensions = mech.mechanism_force(mechanism, q0, 0.0, commands, p).f
     except (DomainError, ParameterError) as error:
         raise NativeBuildError(f"mechanism {mechanism.name}: no start coordinate q0 at the start commands "
                                f"({START_COMMAND:g} Pa): {error}") from None
-    real = [*ACTUATOR_PARAMETERS]
+    real = [*(_MUSCLE if alone else ACTUATOR_PARAMETERS)]
     real += [n for n in _mechanism_params_used(mechanism) if n not in real]
     own = {q.name: q for q in mechanism.parameters}
     rows = []  # (name, type, causality, variability, description, unit, start)
-    for muscle in mechanism.muscles:
-        rows.append((muscles[muscle]["p_cmd"], "Real", "input", "continuous",
-                     f"commanded gauge pressure of {muscle}", "Pa", START_COMMAND))
+    for muscle, command, tension in zip(mechanism.muscles, commands, tensions):
+        rows.append((f"f_{muscle}", "Real", "input", "continuous", f"tension of {muscle} (positive pulls)", "N",
+                     float(tension)) if alone else
+                    (muscles[muscle]["p_cmd"], "Real", "input", "continuous", f"commanded gauge pressure of "
+                     f"{muscle}", "Pa", float(command)))
     for n in real:
         text = TABLE_II[n].description if n in TABLE_II else ACTUATOR.description_of(n)
         rows.append((n, "Real", "parameter", "fixed", text, UNITS[n], float(getattr(params, n))))
-    for n in INTEGER_PARAMETERS:
+    for n in () if alone else INTEGER_PARAMETERS:
         rows.append((n, "Integer", "parameter", "fixed", ACTUATOR.description_of(n), None,
                      int(getattr(params, n))))
     for q in mechanism.parameters:
@@ -134,19 +149,22 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None)
                      q.unit, float(p.__getattr__(q.name))))
     rows.append(("q0", "Real", "parameter", "fixed", f"initial {mechanism.coordinate}, at rest; its start "
                  "value is the stable equilibrium at the start commands", unit, float(q0)))
-    rows.append(("P_rated", "Real", "parameter", "fixed", P_RATED_DESCRIPTION, "Pa", RATED_PRESSURE))
+    if not alone:
+        rows.append(("P_rated", "Real", "parameter", "fixed", P_RATED_DESCRIPTION, "Pa", RATED_PRESSURE))
     rows.append(("q", "Real", "output", "continuous", f"the coordinate {mechanism.coordinate}", unit, None))
     rows.append(("qdot", "Real", "output", "continuous", f"the rate of {mechanism.coordinate}", rate, None))
-    for kind, text, u in (("L", "length", "m"), ("f", "tension (positive pulls)", "N"),
-                          ("P", "gauge pressure", "Pa")):
+    kinds = ((("L", "length", "m"), ("Ldot", "lengthening rate", "m/s")) if alone else
+             (("L", "length", "m"), ("f", "tension (positive pulls)", "N"), ("P", "gauge pressure", "Pa")))
+    for kind, text, u in kinds:
         for muscle in mechanism.muscles:
-            rows.append((muscles[muscle][kind], "Real", "output", "continuous", f"{muscle} {text}", u, None))
-    rows.append(("a1", "Real", "output", "continuous", "Eq. 18 coefficient a1 = (dF/dqdot)/M at the present "
-                 "state (end stops excluded)", "1/s", None))
-    rows.append(("a2", "Real", "output", "continuous", "Eq. 18 coefficient a2 = (dF/dq)/M at the present "
-                 "state (end stops excluded)", "1/s^2", None))
-    rows.append(("stable", "Boolean", "output", "discrete", "Routh-Hurwitz verdict at the present state: a1 < 0 "
-                 "and a2 < 0; no unit", None, None))
+            rows.append((f"{kind}_{muscle}", "Real", "output", "continuous", f"{muscle} {text}", u, None))
+    if not alone:
+        rows.append(("a1", "Real", "output", "continuous", "Eq. 18 coefficient a1 = (dF/dqdot)/M at the present "
+                     "state (end stops excluded)", "1/s", None))
+        rows.append(("a2", "Real", "output", "continuous", "Eq. 18 coefficient a2 = (dF/dq)/M at the present "
+                     "state (end stops excluded)", "1/s^2", None))
+        rows.append(("stable", "Boolean", "output", "discrete", "Routh-Hurwitz verdict at the present state: "
+                     "a1 < 0 and a2 < 0; no unit", None, None))
     seen = set()
     for row in rows:
         if row[0] in seen or row[0] in ("time",) or row[0].startswith("der("):
@@ -158,16 +176,20 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None)
                       for vr, (n, t, c, v, d, u, s) in enumerate(rows))
     states = (MEState("q", fmi_unit(unit), fmi_unit(rate), 1.0),
               MEState("qdot", fmi_unit(rate), fmi_unit(f"{unit}/s^2"), 1.0),
-              *(MEState(muscles[m]["P_lag"], "Pa", "Pa/s", 1e6,
-                        f"pressure-lag state of {m} (Model Exchange): equal to P_{m} with a lag; inert "
-                        "(derivative 0) without one") for m in mechanism.muscles))
-    source, nz = generate_core(mechanism, {v.name: v.vr for v in variables})
+              *(() if alone else
+                (MEState(muscles[m]["P_lag"], "Pa", "Pa/s", 1e6,
+                         f"pressure-lag state of {m} (Model Exchange): equal to P_{m} with a lag; inert "
+                         "(derivative 0) without one") for m in mechanism.muscles)))
+    outputs = [v.name for v in variables if v.causality == "output"]
+    inputs = [v.name for v in variables if v.causality == "input"]
+    source, nz = generate_core(mechanism, {v.name: v.vr for v in variables}, alone, inputs, outputs)
     description = (f"{mechanism.description or mechanism.name}: a mechanism of one coordinate "
-                   f"({mechanism.coordinate} [{unit}]) driven by McKibben muscles (model-spec sections 3b, 7d)")
+                   f"({mechanism.coordinate} [{unit}]) " + ("alone, its muscles' tensions as inputs (for a "
+                   "system of FMUs)" if alone else "driven by McKibben muscles") + " (model-spec sections 3b, 7d)")
     return Interface(name, description, "mkctl", {"startTime": "0.0", "stopTime": "2.0", "stepSize": "0.001"},
                      variables, "outputs that depend on the pressures are undefined",
-                     {muscles[m]["P"]: m for m in mechanism.muscles}, me_states=states, event_indicators=nz,
-                     model_sources=MODEL_SOURCES,
+                     {} if alone else {muscles[m]["P"]: m for m in mechanism.muscles}, me_states=states,
+                     event_indicators=nz, model_sources=MODEL_SOURCES,
                      generated_sources=((CORE_FILE, source), (HEADER, (fmi2.C_DIR / HEADER).read_text())),
                      core_parameters=tuple(own))
 
@@ -259,9 +281,11 @@ def _stops_format(mechanism) -> str:
     return pieces[0] + "%g" + pieces[1].replace(format(high, "g"), "%g")
 
 
-def generate_core(mechanism: mech.Mechanism, vr: dict) -> tuple[str, int]:
+def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list, output_names: list
+                  ) -> tuple[str, int]:
     """The C of ``mechanism_core.c`` (see the module docstring) and its number of event indicators.
-    vr: the FMU's value references by variable name."""
+    vr: the FMU's value references by variable name; alone: the mechanism alone (tensions in, see
+    :func:`mechanism_interface`); inputs, output_names: the FMU's, in order."""
     import sympy
 
     from . import codegen
@@ -283,6 +307,9 @@ def generate_core(mechanism: mech.Mechanism, vr: dict) -> tuple[str, int]:
                     "q_high": "(stops ? stops[1] : INFINITY)"}
 
     def outputs(q, qdot, P, p):
+        if alone:  # the lengths and rates (the tension at P = 0 unused: its domain checks, 0 < L < b)
+            force = mech.mechanism_force(mechanism, q, qdot, (0.0,) * k, p)
+            return [*force.L, *force.Ldot]
         force = mech.mechanism_force(mechanism, q, qdot, tuple(P), p)
         a1, a2 = mech.coefficients_at(mechanism, q, qdot, tuple(P), p)
         return [*force.L, *force.f, a1, a2]
@@ -291,8 +318,11 @@ def generate_core(mechanism: mech.Mechanism, vr: dict) -> tuple[str, int]:
     try:
         for index, variant in enumerate(variants):
             p = mech.MechanismParams(codegen.SymbolicParams(variant), own)
-            state = [q, qdot, *(pressures if variant.lag else [])]
-            traced = codegen.trace(mech.mechanism_derivatives, state, commands, mechanism, p, stops)
+            if alone:
+                traced = codegen.trace(mech.motion_under_tensions, [q, qdot], commands, mechanism, p, stops)
+            else:
+                state = [q, qdot, *(pressures if variant.lag else [])]
+                traced = codegen.trace(mech.mechanism_derivatives, state, commands, mechanism, p, stops)
             name = f"mech_rhs_{variant.name}"
             parts.append(codegen.emit_function(name, *RHS_ARGUMENTS[:1], RHS_ARGUMENTS[1], rhs_bindings,
                                                constant | {"q_low", "q_high"}, traced, "out", table))
@@ -305,18 +335,21 @@ def generate_core(mechanism: mech.Mechanism, vr: dict) -> tuple[str, int]:
                                                    codegen.Traced(switches, []), "out", table))
                 switch_cases.append((index, f"mech_switches_{variant.name}"))
             traced = codegen.trace(outputs, q, qdot, pressures, p)
+            stable = () if alone else (f"    out[{2 * k + 2}] = (out[{2 * k}] < 0 && out[{2 * k + 1}] < 0) ? "
+                                       "1.0 : 0.0;",)
             parts.append(codegen.emit_function(
                 f"mech_outputs_{variant.name}", *OUTPUT_ARGUMENTS,
                 {**parameters, "q": "q", "qdot": "qdot", "P1": "P1", "P2": "P2"}, constant, traced, "out", table,
-                (f"    out[{2 * k + 2}] = (out[{2 * k}] < 0 && out[{2 * k + 1}] < 0) ? 1.0 : 0.0;",)))
+                stable))
         p = mech.MechanismParams(codegen.SymbolicParams(variants[0]), own)
         traced = codegen.trace(lambda pp: [sympy.sympify(s) for s in mechanism.stops(pp)], p)
         parts.append(codegen.emit_function("mech_stop_positions", "double *out, mk_fault *fault", "out, fault",
                                            parameters, constant, traced, "out", table))
 
-        def step_checks(c1, c2):  # what the run checks before it integrates
-            actuator.check_pressure(c1)
-            actuator.check_pressure(c2)
+        def step_checks(c1, c2):  # what the run checks before it integrates: finite pressures
+            if not alone:
+                actuator.check_pressure(c1)
+                actuator.check_pressure(c2)
             return []
 
         parts.append(codegen.emit_function(
@@ -357,19 +390,25 @@ def generate_core(mechanism: mech.Mechanism, vr: dict) -> tuple[str, int]:
     head = _template_part("#include <math.h>", "/* ---- generated equations")
     head = head.replace("@PARAMETER_MACROS@", codegen._parameter_macros())
     vr_of = {name: vr[name] for name in vr}
-    muscles = _muscle_names(mechanism)
-    output_vr = [vr_of[n] for n in ("q", "qdot", *(muscles[m][kind] for kind in ("L", "f", "P")
-                                                    for m in mechanism.muscles), "a1", "a2", "stable")]
+    output_vr = [vr_of[n] for n in output_names]
+    if output_names[:2] != ["q", "qdot"]:
+        raise NativeBuildError("a mechanism FMU's first outputs are q and qdot")
+    if alone:  # the traced outputs as they are: L..., Ldot...
+        arrange = f"for (i = 0; i < {2 * k}; i++) out[i] = t[i];"
+    else:  # L..., f... traced; P... the lag states or the commands; a1, a2, stable traced
+        arrange = (f"for (i = 0; i < {2 * k}; i++) out[i] = t[i]; out[{2 * k}] = P1; "
+                   + (f"out[{2 * k + 1}] = P2; " if k == 2 else "")
+                   + f"for (i = 0; i < 3; i++) out[{3 * k} + i] = t[{2 * k} + i];")
     templates = [fmi2._c_string(fmi2._fault_template(check)) for check in table.checks]
     api = f"""
 /* ---- the mechanism FMU's API (mechanism_fmu.c, mechanism_me.c) ---- */
 int mk_variant(const double *p); /* the core's: the variants are all_variants() in both */
 const int mk_mech_muscles = {k};
-const int mk_mech_command_vr[2] = {{{vr_of[muscles[mechanism.muscles[0]]['p_cmd']]}, \
-{vr_of[muscles[mechanism.muscles[-1]]['p_cmd']]}}};
+const int mk_mech_command_vr[2] = {{{vr_of[inputs[0]]}, {vr_of[inputs[-1]]}}};
 const int mk_mech_q0_vr = {vr_of['q0']};
-/* q, qdot, L..., f..., P..., a1, a2, stable */
+/* q, qdot, then what mk_mech_outputs gives: L..., f..., P..., a1, a2, stable (alone: L..., Ldot...) */
 const int mk_mech_output_vr[{len(output_vr)}] = {{{', '.join(map(str, output_vr))}}};
+const int mk_mech_nout = {len(output_vr) - 2};
 const int mk_mech_nz = {nz};
 const char *const mk_mech_fault_templates[] = {{{', '.join(templates) or '""'}}};
 const int mk_mech_fault_count = {len(templates)};
@@ -417,15 +456,23 @@ int mk_mech_event_indicators(const double *p, const double *stops, const double 
     return mech_switches_variant(mk_variant(p), p, stops, y, c1, c2, out, fault);
 }}
 
-/* L..., f..., a1, a2, stable at state y (the pressures: the lag states, or the commands) */
+/* every output after q and qdot (mk_mech_output_vr's order) at state y; the pressures: the lag states, or
+ * the commands */
 int mk_mech_outputs(const double *p, const double *y, double c1, double c2, double *out, mk_fault *fault)
 {{
     const int variant = mk_variant(p);
     const int lag = mech_nstate(variant) > 2;
+    const double P1 = lag ? y[2] : c1, P2 = lag ? y[1 + mk_mech_muscles] : c2;
+    double t[16];
+    int i, rc;
     if (variant < 0)
         return mk_fault_code(fault, MK_FAULT_VARIANT);
-    return mech_outputs_variant(variant, p, y[0], y[1], lag ? y[2] : c1, lag ? y[1 + mk_mech_muscles] : c2, out,
-                                fault);
+    rc = mech_outputs_variant(variant, p, y[0], y[1], P1, P2, t, fault);
+    if (rc)
+        return rc;
+    {arrange}
+    (void)P2;
+    return 0;
 }}
 
 static int mk_mech_fail(char *msg, size_t size, const char *format, double value, int plain)
@@ -454,13 +501,13 @@ int mk_mech_check_parameters(const double *p, char *msg, size_t size)
 
 
 def build_mechanism(mechanism: mech.Mechanism, out: Path, params: Params | None = None,
-                    platforms: bool = True) -> dict[str, Path]:
+                    platforms: bool = True, alone: bool = False) -> dict[str, Path]:
     """Write ``out/native/McKibben<Name>.fmu`` (FMI 2.0) and ``out/fmi3/McKibben<Name>.fmu`` (FMI 3.0),
     both interfaces, linux64 and (platforms) the other platforms' binaries whose toolchains are installed
     (:mod:`mkctl.native.cross`, as the knee's). Returns the paths by "native/<name>", "fmi3/<name>".
-    Raises :class:`NativeBuildError`."""
+    alone: the mechanism alone (:func:`mechanism_interface`). Raises :class:`NativeBuildError`."""
     from . import fmi3
-    interface = mechanism_interface(mechanism, params)
+    interface = mechanism_interface(mechanism, params, alone)
     name = interface.model_name
     native = fmi2.build_one(name, Path(out) / "native" / f"{name}.fmu", windows=platforms, interface=interface)
     three = fmi3.build_one(name, Path(out) / "fmi3" / f"{name}.fmu", interface=interface, platforms=platforms)

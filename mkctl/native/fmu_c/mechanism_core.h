@@ -11,6 +11,7 @@ extern const int mk_mech_muscles;            /* one or two */
 extern const int mk_mech_command_vr[2];      /* the pressure inputs (one muscle: the same twice) */
 extern const int mk_mech_q0_vr;
 extern const int mk_mech_output_vr[];        /* q, qdot, L..., f..., P..., a1, a2, stable */
+extern const int mk_mech_nout;               /* the outputs after q, qdot (mk_mech_outputs) */
 extern const int mk_mech_nz;
 extern const char *const mk_mech_fault_templates[];
 extern const int mk_mech_fault_count;
@@ -30,6 +31,8 @@ int mk_mech_outputs(const double *p, const double *y, double c1, double c2, doub
 
 /* in mechanism_fmu.c: the fault in the library's words (the mechanism's checks, else the core's) */
 void mk_mech_fault_message(const mk_fault *fault, char *msg, size_t size);
+/* the muscles' commands in force (pressures or, for the mechanism alone, tensions; one muscle: twice) */
+void mk_mech_seen_commands(const mk_data *d, double *c);
 /* the parameter vector and the end stops of the present parameters, the own parameters checked */
 int mk_mech_setup(const mk_data *d, double *p, double *stops, char *msg, size_t size);
 

@@ -26,6 +26,18 @@ static void params_of(const mk_data *d, double *p) { mk_param_vector(d, d->aux[A
 /* the commands of the muscles (one muscle: the first, given twice) */
 static void commands_of(const double *seen, double *c) { c[0] = seen[0]; c[1] = seen[mk_mech_muscles - 1]; }
 
+void mk_mech_seen_commands(const mk_data *d, double *c)
+{
+    double seen[MK_MAX_COMMANDS];
+    int k;
+    if (d->dl.delay > 0) {
+        mk_seen_commands(d, seen); /* the pressure commands in force now, a dead time late */
+    } else {
+        for (k = 0; k < mk_mech_muscles; k++) seen[k] = d->v[mk_mech_command_vr[k]]; /* pressures or tensions */
+    }
+    commands_of(seen, c);
+}
+
 void mk_mech_fault_message(const mk_fault *fault, char *msg, size_t size)
 {
     if (fault->code == 1 && fault->check >= 0 && fault->check < mk_mech_fault_count)
@@ -125,24 +137,18 @@ int mk_model_step(mk_data *d, double dt, char *msg, size_t size)
 
 int mk_model_outputs(mk_data *d, char *msg, size_t size)
 {
-    double p[MK_NPARAM], out[4 * 2 + 3], seen[MK_MAX_COMMANDS], c[2];
+    double p[MK_NPARAM], out[16], c[2];
     mk_fault fault = {0, 0, 0, 0, 0, 0};
-    const int n = mk_mech_muscles, lag = d->s.ny > 2;
     int i;
     params_of(d, p);
-    mk_seen_commands(d, seen); /* the commands, or with a dead time those in force now */
-    commands_of(seen, c);
+    mk_mech_seen_commands(d, c);
     if (mk_mech_outputs(p, d->s.y, c[0], c[1], out, &fault) != 0) {
         mk_mech_fault_message(&fault, msg, size);
         return 1;
     }
     d->v[mk_mech_output_vr[0]] = d->s.y[0];
     d->v[mk_mech_output_vr[1]] = d->s.y[1];
-    for (i = 0; i < 2 * n; i++) d->v[mk_mech_output_vr[2 + i]] = out[i];                  /* L..., f... */
-    for (i = 0; i < n; i++) d->v[mk_mech_output_vr[2 + 2 * n + i]] = lag ? d->s.y[2 + i] : c[i]; /* P... */
-    d->v[mk_mech_output_vr[2 + 3 * n]] = out[2 * n];                                       /* a1 */
-    d->v[mk_mech_output_vr[3 + 3 * n]] = out[2 * n + 1];                                   /* a2 */
-    d->v[mk_mech_output_vr[4 + 3 * n]] = out[2 * n + 2] != 0;                              /* stable */
+    for (i = 0; i < mk_mech_nout; i++) d->v[mk_mech_output_vr[2 + i]] = out[i]; /* "stable" as 1.0 or 0.0 */
     return 0;
 }
 

@@ -11,12 +11,12 @@
 
 int mk_model_derivatives(const mk_data *d, double *dx, char *msg, size_t size)
 {
-    double p[MK_NPARAM], stops[2], dy[MK_MAX_STATES] = {0.0, 0.0, 0.0, 0.0}, seen[MK_MAX_COMMANDS];
+    double p[MK_NPARAM], stops[2], dy[MK_MAX_STATES] = {0.0, 0.0, 0.0, 0.0}, seen[2];
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     int i;
-    mk_seen_commands(d, seen);
+    mk_mech_seen_commands(d, seen);
     if (mk_mech_setup(d, p, stops, msg, size) != 0) return 1;
-    if (mk_mech_rhs(p, stops, d->s.y, seen[0], seen[mk_mech_muscles - 1], dy, &fault) != 0) {
+    if (mk_mech_rhs(p, stops, d->s.y, seen[0], seen[1], dy, &fault) != 0) {
         mk_mech_fault_message(&fault, msg, size);
         return 1;
     }
@@ -26,12 +26,12 @@ int mk_model_derivatives(const mk_data *d, double *dx, char *msg, size_t size)
 
 int mk_model_event_indicators(const mk_data *d, double *z, char *msg, size_t size)
 {
-    double p[MK_NPARAM], stops[2], out[MK_ME_NZ > 0 ? MK_ME_NZ : 1], seen[MK_MAX_COMMANDS];
+    double p[MK_NPARAM], stops[2], out[MK_ME_NZ > 0 ? MK_ME_NZ : 1], seen[2];
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     int i;
-    mk_seen_commands(d, seen);
+    mk_mech_seen_commands(d, seen);
     if (mk_mech_setup(d, p, stops, msg, size) != 0) return 1;
-    if (mk_mech_event_indicators(p, stops, d->s.y, seen[0], seen[mk_mech_muscles - 1], out, &fault) != 0) {
+    if (mk_mech_event_indicators(p, stops, d->s.y, seen[0], seen[1], out, &fault) != 0) {
         mk_mech_fault_message(&fault, msg, size);
         return 1;
     }
