@@ -362,3 +362,153 @@ def test_the_windows_binary_under_wine_gives_the_linux_results(wine, hosts, tmp_
     windows = _run_host([*command, str(hosts[version, "windows"]), *arguments], env=env)
     assert linux.shape == windows.shape == (501, 2) and np.ptp(linux[:, 1]) > 1e-2  # it moved
     np.testing.assert_allclose(windows, linux, rtol=0, atol=1e-9)
+
+
+# --- the knee as a system of FMUs (McKibbenKneeSystem.ssp) ----------------------------------------------------------
+
+#: The knee's run: damping c = 40 N s/m in every FMU, the extensor command stepped by 5 % at 0.1 s, 0.5 s long.
+SSP_STOP, SSP_STEP_AT, DAMPING = 0.5, 0.1, 40.0
+
+
+@pytest.fixture(scope="module")
+def knee_system(tmp_path_factory):
+    """(the SSP file, the monolithic native knee FMU), built without the other platforms' binaries."""
+    from mkctl.native.fmu import build_one
+    from mkctl.native.ssp import build_knee_ssp
+    out = tmp_path_factory.mktemp("knee_ssp")
+    return build_knee_ssp(out, platforms=False), build_one("McKibbenKnee", out / "McKibbenKnee.fmu", windows=False)
+
+
+def _monolithic(knee_fmu: Path, folder: Path, dt: float) -> np.ndarray:
+    """X of the monolithic knee FMU at every dt (its integrator is adaptive: dt only sets the samples)."""
+    from mkctl.physics.simulate import default_commands
+    pe0, _ = default_commands()
+    host = Host(knee_fmu, folder, "2", "cs")
+    assert host.initialize(c=DAMPING) == 0
+    X = [host.get("X")[0]]
+    for j in range(round(SSP_STOP / dt)):
+        if abs(j * dt - SSP_STEP_AT) < 1e-12:
+            host.set(pe_cmd=pe0 * 1.05)
+        assert host.step(j * dt, dt) == 0
+        X.append(host.get("X")[0])
+    return np.array(X)
+
+
+def _system_in_fmpy(ssp: Path, folder: Path, dt: float) -> np.ndarray:
+    """q of the mechanism in the SSP system, run by a small master loop over fmpy's FMU2Slave: the SSD's
+    components, parameter bindings and connections (fmpy.ssp.ssd.read_ssd); at each communication point the
+    mechanism's outputs go to the actuators, their tensions (which depend on those inputs at once) back,
+    then every FMU steps by dt with its inputs held."""
+    import zipfile
+
+    from fmpy.ssp.ssd import read_ssd
+    from mkctl.physics.simulate import default_commands
+    pe0, _ = default_commands()
+    with zipfile.ZipFile(ssp) as archive:
+        archive.extractall(folder / "ssp")
+    system = read_ssd(str(ssp), validate=True).system
+    hosts_ = {c.name: Host(folder / "ssp" / c.source, folder / c.name, "2", "cs") for c in system.elements}
+    for component in system.elements:
+        start = {"c": DAMPING} if component.name != "mechanism" else {}
+        for binding in component.parameterBindings or []:
+            for parameter_set in binding.parameterValues:
+                start.update({parameter.name: float(parameter.value) for parameter in parameter_set.parameters})
+        assert hosts_[component.name].initialize(**start) == 0
+    connections = [(c.startElement, c.startConnector, c.endElement, c.endConnector) for c in system.connections]
+
+    def exchange():  # the mechanism's outputs first (no feedthrough), then the actuators' tensions
+        for a, output, b, target in sorted(connections, key=lambda c: c[0] != "mechanism"):
+            hosts_[b].set(**{target: hosts_[a].get(output)[0]})
+
+    q = [hosts_["mechanism"].get("q")[0]]
+    for j in range(round(SSP_STOP / dt)):
+        if abs(j * dt - SSP_STEP_AT) < 1e-12:
+            hosts_["extensor"].set(p_cmd=pe0 * 1.05)
+        exchange()
+        for host in hosts_.values():
+            assert host.step(j * dt, dt) == 0, host.messages
+        q.append(hosts_["mechanism"].get("q")[0])
+    return np.array(q)
+
+
+def test_the_ssp_file_is_valid_and_connects_the_mechanism_to_two_actuators(knee_system):
+    from fmpy.ssp.ssd import read_ssd
+    ssp, _ = knee_system
+    system = read_ssd(str(ssp), validate=True).system  # against the SSP 1.0 schema fmpy ships
+    assert [(e.name, Path(e.source).name) for e in system.elements] == [
+        ("mechanism", "McKibbenKneeMechanism.fmu"), ("extensor", "McKibbenActuator.fmu"),
+        ("flexor", "McKibbenActuator.fmu")]
+    pairs = {(c.startElement, c.startConnector, c.endElement, c.endConnector) for c in system.connections}
+    for muscle in ("extensor", "flexor"):
+        assert {("mechanism", f"L_{muscle}", muscle, "L"), ("mechanism", f"Ldot_{muscle}", muscle, "Ldot"),
+                (muscle, "f", "mechanism", f"f_{muscle}")} <= pairs
+
+
+def test_the_system_of_fmus_converges_to_the_monolithic_knee_as_the_step_shrinks(knee_system, tmp_path):
+    """The co-simulation's error (inputs held over each step) falls with the communication step, to the
+    monolithic knee FMU's X; the mechanism alone's q is the same hip height."""
+    ssp, knee_fmu = knee_system
+    errors = {}
+    for dt in (2e-3, 1e-3, 5e-4):
+        reference = _monolithic(knee_fmu, tmp_path / f"knee{dt}", dt)
+        q = _system_in_fmpy(ssp, tmp_path / f"system{dt}", dt)
+        assert q.shape == reference.shape and np.ptp(reference) > 1e-3  # it moved
+        errors[dt] = float(np.max(np.abs(q - reference)))
+    print("max |X_system - X_knee| by step:", errors)
+    assert errors[5e-4] < errors[1e-3] < errors[2e-3] < 1e-3
+    assert errors[2e-3] / errors[5e-4] > 2.5  # first order in the step, at least
+
+
+LIBCOSIM_SYSTEM = r"""
+import json, sys
+from libcosimpy.CosimEnums import CosimVariableType
+from libcosimpy.CosimExecution import CosimExecution
+from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+from libcosimpy.CosimManipulator import CosimManipulator
+from libcosimpy.CosimObserver import CosimObserver
+log_output_level(CosimLogLevel.ERROR)
+ssp, pe1, stop, dt, at, damping = sys.argv[1], *map(float, sys.argv[2:])
+ns, steps = round(dt * 1e9), round(stop / dt)
+execution = CosimExecution.from_ssp_file(ssp_path=ssp, step_size=ns)
+index = {name: execution.slave_index_from_instance_name(name) for name in ("mechanism", "extensor", "flexor")}
+vr = {name: {v.name.decode(): v.reference for v in execution.slave_variables(i)} for name, i in index.items()}
+for muscle in ("extensor", "flexor"):
+    execution.real_initial_value(index[muscle], vr[muscle]["c"], damping)
+observer = CosimObserver.create_time_series()
+execution.add_observer(observer)
+override = CosimManipulator.create_override()
+execution.add_manipulator(override)
+observer.start_time_series(index["mechanism"], vr["mechanism"]["q"], CosimVariableType.REAL)
+ok = [execution.simulate_until(round(at / dt) * ns)]
+override.slave_real_values(index["extensor"], [vr["extensor"]["p_cmd"]], [pe1])
+ok.append(execution.simulate_until(steps * ns))
+times, _, q = observer.time_series_real_samples(index["mechanism"], vr["mechanism"]["q"], from_step=1,
+                                                sample_count=steps)
+print(json.dumps({"ok": ok, "time": [t / 1e9 for t in times], "q": list(q)}))
+"""
+
+
+@pytest.mark.slow
+def test_libcosim_runs_the_ssp_file_near_the_monolithic_knee(knee_system, tmp_path):
+    """libcosimpy reads the SSP file itself (components, connections, the parameter bindings' start commands)."""
+    import json
+
+    from mkctl.physics.simulate import default_commands
+    pytest.importorskip("libcosimpy")
+    ssp, knee_fmu = knee_system
+    pe0, _ = default_commands()
+    errors = {}
+    for dt in (2e-3, 1e-3, 5e-4):
+        done = subprocess.run([sys.executable, "-c", LIBCOSIM_SYSTEM, str(ssp), repr(pe0 * 1.05), repr(SSP_STOP),
+                               repr(dt), repr(SSP_STEP_AT), repr(DAMPING)], capture_output=True, text=True,
+                              timeout=300)
+        assert done.returncode == 0, done.stderr[-2000:]
+        run = json.loads(done.stdout.splitlines()[-1])
+        assert run["ok"] == [True, True]
+        reference = _monolithic(knee_fmu, tmp_path / f"knee{dt}", dt)[1:]
+        q = np.array(run["q"])
+        assert q.shape == reference.shape and np.allclose(run["time"], dt * np.arange(1, q.size + 1))
+        errors[dt] = float(np.max(np.abs(q - reference)))
+    print("libcosim: max |X_system - X_knee| by step:", errors)
+    assert errors[5e-4] < errors[1e-3] < errors[2e-3] < 2e-3
+    assert errors[2e-3] / errors[5e-4] > 2.5  # first order in the step, at least

@@ -316,7 +316,9 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
 
     parts, rhs_cases, switch_cases, counts = [], [], [], []
     try:
-        for index, variant in enumerate(variants):
+        # the mechanism alone has no muscle: one variant's functions serve every variant
+        emitted = variants[:1] if alone else variants
+        for index, variant in enumerate(emitted):
             p = mech.MechanismParams(codegen.SymbolicParams(variant), own)
             if alone:
                 traced = codegen.trace(mech.motion_under_tensions, [q, qdot], commands, mechanism, p, stops)
@@ -359,6 +361,9 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
     except (ValueError, TypeError, AttributeError) as error:
         raise NativeBuildError(f"mechanism {mechanism.name} cannot be generated into C: {error}") from None
     nz = max(counts)
+    if alone:
+        rhs_cases = [(i, rhs_cases[0][1]) for i in range(len(variants))]
+        switch_cases = [(i, switch_cases[0][1]) for i in range(len(variants))] if switch_cases else []
     lag_states = [2 + k if v.lag else 2 for v in variants]
 
     def dispatch(signature, call, cases, fallback):
@@ -381,7 +386,7 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
         *dispatch("static int mech_outputs_variant(int variant, const double *p, double q, double qdot, "
                   "double P1, double P2, double *out, mk_fault *fault)",
                   "return {name}_once(p, NULL, q, qdot, P1, P2, out, fault);",
-                  [(i, f"mech_outputs_{v.name}") for i, v in enumerate(variants)],
+                  [(i, f"mech_outputs_{emitted[min(i, len(emitted) - 1)].name}") for i in range(len(variants))],
                   "return mk_fault_code(fault, MK_FAULT_VARIANT);")]
     integrator = _substituted(
         _template_part("/* Dense output of a record run", "/* Integrate the knee state y (MK_P_tau > 0"),

@@ -13,7 +13,8 @@ commands at the knee FMU's start commands (the leg at rest at alpha = 60 deg).
 
 A co-simulation user can swap a muscle (another actuator FMU) or the mechanism. The system matches
 the monolithic knee FMU within the co-simulation step's error (docs/fmu.md, "The knee as a system of
-FMUs": the error against the step size). Every text of the SSD is written by ElementTree (escaped).
+FMUs": the error against the step size). Every text of the SSD is written by ElementTree (escaped),
+and the SSD is checked against the SSP 1.0 schema (fmpy's) before the build reports it.
 """
 from __future__ import annotations
 
@@ -109,6 +110,9 @@ def build_knee_ssp(out, params: Params | None = None, platforms: bool = True) ->
             archive.writestr("SystemStructure.ssd", ssd)
             for path in (mechanism, actuator):
                 archive.write(path, f"resources/{path.name}")
-    if not target.is_file():
-        raise NativeBuildError(f"{target} was not written")
+    from fmpy.ssp.ssd import read_ssd
+    try:  # against the SSP 1.0 schema fmpy ships
+        read_ssd(str(target), validate=True)
+    except Exception as error:  # fmpy raises its own and lxml's errors
+        raise NativeBuildError(f"{target.name} failed the SSP 1.0 schema: {error}") from None
     return target
