@@ -224,7 +224,8 @@ def test_effects_a_pressure_lag_and_damping(built, tmp_path, name, kind):
     host = Host(built[name]["2"], tmp_path / "fmu", "2", kind)
     got = _run(host, mechanism, float(reference.q[0]), **effects)
     np.testing.assert_allclose(got[:, 0], reference.q, rtol=0, atol=1e-9)
-    np.testing.assert_allclose(got[:, 1 + 2 * k:], reference.P, rtol=1e-9)  # the lag states
+    # the lag states: both integrators' absolute tolerance on a pressure is 1e-3 Pa
+    np.testing.assert_allclose(got[:, 1 + 2 * k:], reference.P, rtol=1e-9, atol=1e-2)
     assert np.ptp(reference.P) > 1e4 and not np.array_equal(reference.P, np.array(_commands(k)).T)
 
 
