@@ -552,7 +552,7 @@ def _virtual_work(arms, tensions, Q):
 
 
 def _acceleration(q, qdot, F, M, stops):
-    """``qdd = (F + F_stop) / M``, F_stop the knee's contact law with the inertia M (None: no stops)."""
+    """``qdd = (F + F_stop) / M``, F_stop the knee's contact law with inertia M (None: no stops)."""
     if stops is not None:
         F = F + knee.end_stop_force(q, qdot, _Inertia(M), stops)
     return F / M
@@ -710,8 +710,9 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
 
 
 def motion_under_tensions(state, tensions, mechanism: Mechanism, p, stops=None) -> list:
-    """Right-hand side of the mechanism alone, its muscles' tensions given (model-spec 7d: a
-    co-simulation where each muscle is its own FMU).
+    """Right-hand side of the mechanism alone, its muscles' tensions given (model-spec 7d).
+
+    A co-simulation where each muscle is its own FMU drives the mechanism this way.
 
     ``qdd = (sum_i (-dL_i/dq) f_i + Q(q, qdot) + F_stop) / M``
 
@@ -1267,7 +1268,7 @@ def _knee_load(q, qdot, p, xp):
 
 
 def _knee_stops(p):
-    if actuator.is_symbolic(p.L1):  # traced (the knee alone's native FMU): the stop angles as sympy numbers
+    if actuator.is_symbolic(p.L1):  # traced (the knee alone's FMU): the angles as sympy numbers
         import sympy
         return tuple(knee.X_from_alpha(sympy.Float(a), p)
                      for a in (knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH))
