@@ -6,10 +6,10 @@ An SSP 1.0 archive (System Structure and Parameterization): ``SystemStructure.ss
 ``resources/``, the knee's mechanism alone (``McKibbenKneeMechanism.fmu``: inputs the two muscles'
 tensions ``f_extensor``, ``f_flexor``; outputs ``X``'s ``q``, ``qdot`` and each muscle's length and
 rate, :func:`mkctl.native.mechanism_fmu.mechanism_interface` with ``alone=True``) and the native
-actuator FMU (``McKibbenActuator.fmu``: inputs ``p_cmd``, ``L``, ``Ldot``; output ``f``), used twice,
-as the components ``extensor`` and ``flexor``. The connections: each muscle's length and rate from
-the mechanism to its actuator, each actuator's tension back. Parameter bindings start the actuators'
-commands at the knee FMU's start commands (the leg at rest at alpha = 60 deg).
+actuator FMU (``McKibbenActuator.fmu``: inputs ``p_cmd``, ``L``, ``Ldot``; output ``f``), used
+twice, as the components ``extensor`` and ``flexor``. The connections: each muscle's length and rate
+from the mechanism to its actuator, each actuator's tension back. Parameter bindings start the
+actuators' commands at the knee FMU's start commands (the leg at rest at alpha = 60 deg).
 
 A co-simulation user can swap a muscle (another actuator FMU) or the mechanism. The system matches
 the monolithic knee FMU within the co-simulation step's error (docs/fmu.md, "The knee as a system of
@@ -36,10 +36,10 @@ SYSTEM_NAME = "McKibbenKneeSystem"
 MECHANISM = "mechanism"
 
 
-def system_description(muscles, mechanism_fmu: str, actuator_fmu: str, commands, stop_time: float = 2.0
-                       ) -> bytes:
-    """SystemStructure.ssd: the mechanism alone and one actuator per muscle, connected (see the module
-    docstring); commands: each actuator's start command p_cmd [Pa]."""
+def system_description(muscles, mechanism_fmu: str, actuator_fmu: str, commands,
+                       stop_time: float = 2.0) -> bytes:
+    """SystemStructure.ssd: the mechanism alone and one actuator per muscle, connected (see the
+    module docstring); commands: each actuator's start command p_cmd [Pa]."""
     for prefix, uri in (("ssd", SSD), ("ssc", SSC), ("ssv", SSV)):
         ET.register_namespace(prefix, uri)
     now = datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds")
@@ -59,9 +59,11 @@ def system_description(muscles, mechanism_fmu: str, actuator_fmu: str, commands,
             ET.SubElement(item, f"{{{SSC}}}Real", unit=unit)
         return node
 
+    lengths = [(f"{kind}_{m}", "output", unit) for m in muscles
+               for kind, unit in (("L", "m"), ("Ldot", "m/s"))]
     component(MECHANISM, f"resources/{mechanism_fmu}",
-              [*((f"f_{m}", "input", "N") for m in muscles), ("q", "output", "m"), ("qdot", "output", "m/s"),
-               *((f"{kind}_{m}", "output", unit) for m in muscles for kind, unit in (("L", "m"), ("Ldot", "m/s")))])
+              [*((f"f_{m}", "input", "N") for m in muscles), ("q", "output", "m"),
+               ("qdot", "output", "m/s"), *lengths])
     for muscle, command in zip(muscles, commands):
         node = component(muscle, f"resources/{actuator_fmu}",
                          [("p_cmd", "input", "Pa"), ("L", "input", "m"), ("Ldot", "input", "m/s"),
@@ -76,16 +78,18 @@ def system_description(muscles, mechanism_fmu: str, actuator_fmu: str, commands,
     connections = ET.SubElement(system, f"{{{SSD}}}Connections")
     for muscle in muscles:
         for start, end in ((f"L_{muscle}", "L"), (f"Ldot_{muscle}", "Ldot")):
-            ET.SubElement(connections, f"{{{SSD}}}Connection", startElement=MECHANISM, startConnector=start,
-                          endElement=muscle, endConnector=end)
+            ET.SubElement(connections, f"{{{SSD}}}Connection", startElement=MECHANISM,
+                          startConnector=start, endElement=muscle, endConnector=end)
         ET.SubElement(connections, f"{{{SSD}}}Connection", startElement=muscle, startConnector="f",
                       endElement=MECHANISM, endConnector=f"f_{muscle}")
     units = ET.SubElement(root, f"{{{SSD}}}Units")
-    for name, base in (("m", {"m": "1"}), ("m/s", {"m": "1", "s": "-1"}), ("N", {"kg": "1", "m": "1", "s": "-2"}),
+    for name, base in (("m", {"m": "1"}), ("m/s", {"m": "1", "s": "-1"}),
+                       ("N", {"kg": "1", "m": "1", "s": "-2"}),
                        ("Pa", {"kg": "1", "m": "-1", "s": "-2"})):
         unit = ET.SubElement(units, f"{{{SSC}}}Unit", name=name)
         ET.SubElement(unit, f"{{{SSC}}}BaseUnit", base)
-    ET.SubElement(root, f"{{{SSD}}}DefaultExperiment", startTime="0.0", stopTime=repr(float(stop_time)))
+    ET.SubElement(root, f"{{{SSD}}}DefaultExperiment", startTime="0.0",
+                  stopTime=repr(float(stop_time)))
     return xml_bytes(root)
 
 
@@ -101,10 +105,12 @@ def build_knee_ssp(out, params: Params | None = None, platforms: bool = True) ->
     target = Path(out) / f"{SYSTEM_NAME}.ssp"
     with tempfile.TemporaryDirectory(prefix="mkctl_ssp_") as temp:
         temp = Path(temp)
-        mechanism = build_mechanism(KNEE, temp, params, platforms=platforms, alone=True)["native/"
-                                                                                         "McKibbenKneeMechanism"]
-        actuator = fmu.build_one("McKibbenActuator", temp / "McKibbenActuator.fmu", params, windows=platforms)
-        ssd = system_description(KNEE.muscles, mechanism.name, actuator.name, default_commands(params))
+        built = build_mechanism(KNEE, temp, params, platforms=platforms, alone=True)
+        mechanism = built["native/McKibbenKneeMechanism"]
+        actuator = fmu.build_one("McKibbenActuator", temp / "McKibbenActuator.fmu", params,
+                                 windows=platforms)
+        ssd = system_description(KNEE.muscles, mechanism.name, actuator.name,
+                                 default_commands(params))
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
             archive.writestr("SystemStructure.ssd", ssd)
