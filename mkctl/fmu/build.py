@@ -335,6 +335,32 @@ def _build_native(out: Path, params: Params) -> dict[str, Path]:
     return built
 
 
+def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platforms: bool = True
+                         ) -> dict[str, Path]:
+    """The native FMUs of a mechanism (a built-in name or a mechanism file, model-spec sections 3b, 7d) into
+    ``out/native`` and ``out/fmi3`` (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the
+    Linux x86-64 binary only). Returns the paths by "native/<model>", "fmi3/<model>". Raises an MkctlError (a
+    one-line message) for a bad file or no C compiler."""
+    from ..analysis.mechanism_files import mechanism
+    from ..native.build import find_compiler
+    from ..native.mechanism_fmu import build_mechanism
+    params = DEFAULT if params is None else params
+    found = mechanism(str(name_or_path), params)
+    if find_compiler() is None:
+        raise BuildError("no C compiler found (CC, cc, gcc, clang): a mechanism's native FMUs need one")
+    return build_mechanism(found, Path(out).resolve(), params, platforms=platforms)
+
+
+def build_knee_system(out, params: Params | None = None, platforms: bool = True) -> dict[str, Path]:
+    """``out/McKibbenKneeSystem.ssp``: the knee as a system of FMUs (:func:`mkctl.native.ssp.build_knee_ssp`).
+    Returns {"McKibbenKneeSystem": path}. Raises an MkctlError (one line) without a C compiler."""
+    from ..native.build import find_compiler
+    from ..native.ssp import SYSTEM_NAME, build_knee_ssp
+    if find_compiler() is None:
+        raise BuildError("no C compiler found (CC, cc, gcc, clang): the system's native FMUs need one")
+    return {SYSTEM_NAME: build_knee_ssp(Path(out).resolve(), params, platforms=platforms)}
+
+
 def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser = argparse.ArgumentParser(prog="build_fmu", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=default_out, help=f"output folder (default: {default_out})")
@@ -345,6 +371,13 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser.add_argument("--effects", action="append", default=[], type=Path, metavar="FILE.py",
                         help="a file of your own effects (model-spec section 4c, docs/effects.md): the FMUs carry "
                              "them, their parameters become FMU parameters (repeatable)")
+    parser.add_argument("--mechanism", default=None, metavar="NAME|FILE.py",
+                        help="build the native FMUs of this mechanism instead (model-spec sections 3b, 7d): "
+                             "a built-in name or a mechanism file; writes OUT/native/ and OUT/fmi3/McKibben<Name>.fmu "
+                             "(knee: the usual build)")
+    parser.add_argument("--ssp", action="store_true",
+                        help="build the knee as a system of FMUs instead: OUT/McKibbenKneeSystem.ssp (the knee's "
+                             "mechanism alone and two native actuator FMUs, SSP 1.0; docs/fmu.md)")
     args = parser.parse_args(argv)
     try:
         params = None
@@ -354,12 +387,19 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
         if args.params is not None:
             from ..io.muscle import read_muscle
             params = read_muscle(args.params)
-        built = build(args.out, run=not args.no_run, params=params, native=not args.no_native, effects=args.effects)
+        if args.ssp:
+            built = build_knee_system(args.out, params)
+        elif args.mechanism is not None and args.mechanism != "knee":
+            built = build_mechanism_fmus(args.mechanism, args.out, params)
+        else:
+            built = build(args.out, run=not args.no_run, params=params, native=not args.no_native,
+                          effects=args.effects)
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1
+    ran = not args.no_run and not args.ssp and (args.mechanism is None or args.mechanism == "knee")
     for name, path in built.items():
-        print(f"built {path} (validated{'' if args.no_run else ', default experiment run'})")
+        print(f"built {path} (validated{', default experiment run' if ran else ''})")
     return 0
 
 

@@ -110,7 +110,7 @@ def model_description(interface: Interface, token: str, event_indicators: int) -
     ET.SubElement(variables, "Float64", {"name": TIME[0], "valueReference": str(time_vr),
                                          "description": TIME[1], "causality": "independent",
                                          "variability": "continuous", "unit": TIME[2]})
-    states = {f"der({state.name})": state.name for state in fmi2.ME_STATES[interface.model_name]}
+    states = {f"der({state.name})": state.name for state in fmi2.model_me_states(interface)}
     for v in variables_all:
         attributes = {"name": v.name, "valueReference": str(v.vr), "description": v.description,
                       "causality": v.causality, "variability": v.variability}
@@ -163,10 +163,12 @@ def write_sources(interface: Interface, token: str, dest: Path, model_source: Pa
     return ["fmi3_wrapper.c" if name == "fmi2_wrapper.c" else name for name in units]
 
 
-def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None) -> Path:
-    """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`)."""
+def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
+              interface: Interface | None = None, platforms: bool = True) -> Path:
+    """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`;
+    interface: another model's, a mechanism's, in place of the slave's; platforms=False: linux only)."""
     from .cross import add_platform_binaries
-    interface = fmi2.slave_interface(model_name, params)
+    interface = fmi2.slave_interface(model_name, params) if interface is None else interface
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_fmi3_") as temp:
         stage = Path(temp) / "fmu"
@@ -174,10 +176,11 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         units = write_sources(interface, token, sources, model_source)
         (sources / "buildDescription.xml").write_bytes(build_description(model_name, units))
         (stage / "modelDescription.xml").write_bytes(
-            model_description(interface, token, fmi2.core_event_indicators(model_name)))
+            model_description(interface, token, fmi2.event_indicator_count(interface)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
-        add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
-                              fmi2.compile_binary)
+        if platforms:
+            add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
+                                  fmi2.compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(stage.rglob("*")):

@@ -540,10 +540,22 @@ def mechanism_force(mechanism: Mechanism, q, qdot, pressures, p) -> MechanismFor
     muscle = muscle_params(p)
     Ldot = tuple(a * qdot for a in arms)
     f = tuple(actuator.compose_tension(L[i], pressures[i], Ldot[i], muscle) for i in range(k))
+    return MechanismForce(_virtual_work(arms, f, Q), M, L, arms, Ldot, f, Q)
+
+
+def _virtual_work(arms, tensions, Q):
+    """``sum_i (-dL_i/dq) f_i + Q``: the generalized force of the tensions and the load."""
     F = Q
-    for i in range(k):
-        F = F - arms[i] * f[i]
-    return MechanismForce(F, M, L, arms, Ldot, f, Q)
+    for arm, f in zip(arms, tensions):
+        F = F - arm * f
+    return F
+
+
+def _acceleration(q, qdot, F, M, stops):
+    """``qdd = (F + F_stop) / M``, F_stop the knee's contact law with inertia M (None: no stops)."""
+    if stops is not None:
+        F = F + knee.end_stop_force(q, qdot, _Inertia(M), stops)
+    return F / M
 
 
 class ForcePartials(NamedTuple):
@@ -690,10 +702,7 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     commands = tuple(_scalar(c) for c in commands)
     pressures = tuple(_scalar(state[2 + i]) for i in range(k)) if lag else commands
     force = mechanism_force(mechanism, q, qdot, pressures, p)
-    F = force.F
-    if stops is not None:
-        F = F + knee.end_stop_force(q, qdot, _Inertia(force.M), stops)
-    rates = [qdot, F / force.M]
+    rates = [qdot, _acceleration(q, qdot, force.F, force.M, stops)]
     if lag and actuator.air_is_on(muscle):
         # the air (model-spec 4d): each pressure from its mass balance at its length and rate
         rates += [actuator.air_pressure_derivative(pressures[i], commands[i], force.L[i],
@@ -702,6 +711,43 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
         rates += [actuator.pressure_derivative(pressures[i], commands[i], muscle)
                   for i in range(k)]
     return rates if actuator.is_symbolic(rates[1]) else np.array(rates, dtype=float)
+
+
+def motion_under_tensions(state, tensions, mechanism: Mechanism, p, stops=None) -> list:
+    """Right-hand side of the mechanism alone, its muscles' tensions given (model-spec 7d).
+
+    A co-simulation where each muscle is its own FMU drives the mechanism this way.
+
+    ``qdd = (sum_i (-dL_i/dq) f_i + Q(q, qdot) + F_stop) / M``
+
+    the equation of motion of :func:`mechanism_derivatives` with f_i from outside.
+
+    Parameters
+    ----------
+    state : sequence of float or sympy expression
+        (q [m or rad], qdot [m/s or rad/s]).
+    tensions : sequence of float or sympy expression
+        Each muscle's tension [N], in the order of ``mechanism.muscles``.
+    mechanism : Mechanism
+        The mechanism.
+    p : MechanismParams
+        :meth:`Mechanism.bind`'s parameters.
+    stops : tuple of float, optional
+        (q_min, q_max) of the end stops [m or rad]; None: no stops.
+
+    Returns
+    -------
+    list
+        (qdot, qdd) [SI per second]: floats, or sympy expressions (generated code).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
+    .. [2] model-spec sections 3b and 7d.
+    """
+    q, qdot = _scalar(state[0]), _scalar(state[1])
+    _, arms, M, Q = kinematics(mechanism, q, p, qdot)
+    return [qdot, _acceleration(q, qdot, _virtual_work(arms, tensions, Q), M, stops)]
 
 
 def _scalar(x):
@@ -807,7 +853,40 @@ def stability_coefficients(mechanism: Mechanism, q, pressures, params=DEFAULT, q
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
     .. [2] model-spec section 3b (the stability analysis holds for any mechanism).
     """
-    p = mechanism.bind(params)
+    return coefficients_at(mechanism, q, qdot, pressures, mechanism.bind(params))
+
+
+def coefficients_at(mechanism: Mechanism, q, qdot, pressures, p):
+    """(a1, a2) of :func:`stability_coefficients` at bound parameters p, unchecked.
+
+    ``a1 = (dF/dqdot) / M``, ``a2 = (dF/dq) / M``
+
+    The same formula on floats, arrays or sympy symbols (a MechanismParams of symbols: the native
+    FMUs trace it into C, where :meth:`Mechanism.bind` cannot check symbols).
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism.
+    q, qdot : float, array_like or sympy expression
+        The coordinate [m or rad] and its rate [m/s or rad/s].
+    pressures : sequence
+        Each muscle's gauge pressure [Pa].
+    p : MechanismParams
+        :meth:`Mechanism.bind`'s parameters (or symbols).
+
+    Returns
+    -------
+    a1 : float, array or sympy expression
+        Velocity coefficient [1/s].
+    a2 : float, array or sympy expression
+        Position coefficient [1/s^2].
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18-20.
+    .. [2] model-spec sections 3b and 7d (``stable`` of a mechanism FMU).
+    """
     d = force_partials(mechanism, q, qdot, pressures, p)
     return d.dF_dqdot / d.M, d.dF_dq / d.M
 
@@ -1257,6 +1336,10 @@ def _knee_load(q, qdot, p, xp):
 
 
 def _knee_stops(p):
+    if actuator.is_symbolic(p.L1):  # traced (the knee alone's FMU): the angles as sympy numbers
+        import sympy
+        return tuple(knee.X_from_alpha(sympy.Float(a), p)
+                     for a in (knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH))
     return knee.stop_positions(p)
 
 

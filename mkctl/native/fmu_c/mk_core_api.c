@@ -32,9 +32,6 @@ double mk_turns(const mk_data *d)
 
 void mk_fault_message(const mk_fault *fault, char *msg, size_t size)
 {
-    const char *t;
-    size_t j = 0;
-    char number[40];
     if (size == 0) return;
     msg[0] = '\0';
     switch (fault->code) {
@@ -49,7 +46,17 @@ void mk_fault_message(const mk_fault *fault, char *msg, size_t size)
         snprintf(msg, size, "domain check %d failed with the value %g", fault->check, fault->value);
         return;
     }
-    for (t = mk_fmu_fault_templates[fault->check]; *t != '\0' && j + 1 < size; t++) {
+    mk_fault_format(mk_fmu_fault_templates[fault->check], fault, msg, size);
+}
+
+void mk_fault_format(const char *template_text, const mk_fault *fault, char *msg, size_t size)
+{
+    const char *t;
+    size_t j = 0;
+    char number[40];
+    if (size == 0) return;
+    msg[0] = '\0';
+    for (t = template_text; *t != '\0' && j + 1 < size; t++) {
         if (*t == '\001' && t[1] != '\0') {
             double x;
             int repr;

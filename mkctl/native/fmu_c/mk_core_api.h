@@ -41,6 +41,8 @@ extern const double MK_FMU_KNEE_H0;
 
 /* the fault as mkctl's Python would say it (the library's message, with the failing value) */
 void mk_fault_message(const mk_fault *fault, char *msg, size_t size);
+/* a domain fault with a message template of mk_fmu_fault_templates' form (a mechanism FMU's own checks) */
+void mk_fault_format(const char *template_text, const mk_fault *fault, char *msg, size_t size);
 /* n = sqrt(b^2 - L0^2) / (pi D0), mkctl.physics.params.derived_turns */
 double mk_fmu_derived_turns(double b, double L0, double D0);
 
