@@ -71,3 +71,194 @@ def test_the_fmus_offer_no_air_parameter_and_refuse_a_build_with_the_air():
         check_carried(Params(valve_flow=1))
     with pytest.raises(NativeBuildError, match="do not carry the effect valve_flow"):
         slave_interface("McKibbenKnee", Params(valve_flow=1))
+
+
+# --- reading a pressure record (model-spec 5c) ----------------------------------------------------
+
+import math  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from mkctl.errors import MeasurementFileError  # noqa: E402
+from mkctl.io.measurements import parse_measurement  # noqa: E402
+
+VALVE_RECORD = """# experiment = pressure
+# supply_kPa = 620
+# length_mm = 190
+time_s,valve,p_kPa
+0,1,0
+0.012,1,30
+0.025,0,50
+0.039,-0.5,50
+0.05,0,20
+"""
+
+
+def _record(text):
+    return parse_measurement(text, "rec.csv")
+
+
+def test_a_valve_record_is_read_with_its_settings_and_has_the_valve_in_its_baseline():
+    m = _record(VALVE_RECORD)
+    assert m.experiment == "pressure" and m.output_column == "p_kPa"
+    assert m.settings == {"supply": 620e3, "length": 0.19}
+    assert m.params.P_supply == 620e3 and m.params.valve_flow == 1  # the valve: part of its baseline
+    assert list(m.inputs["valve"]) == [1, 1, 0, -0.5, 0]
+    np.testing.assert_allclose(np.diff(m.time), [0.012, 0.013, 0.014, 0.011])  # irregular sampling
+
+
+def test_a_set_point_record_in_other_units_and_what_switches_the_valve_on():
+    text = "# experiment = pressure\n# V_dead = 2e-6\n# P_supply = 6e5\n# k_poly = 1.0\ntime_s,p_cmd_bar,p_psi\n" \
+           "0,0,0\n0.01,3,1\n0.02,3,10\n"
+    m = _record(text)
+    assert m.inputs["p_cmd"][1] == 3e5 and m.output[1] == pytest.approx(6894.757293168361)
+    # the rig's numbers are known values: they do not switch the valve on
+    assert m.params.valve_flow == 0 and m.params.V_dead == 2e-6 and m.params.k_poly == 1.0
+    on = _record(text.replace("# k_poly = 1.0", "# C_fill = 2e-9"))
+    assert on.params.valve_flow == 1 and on.params.C_fill == 2e-9  # a valve's own value does
+
+
+def test_a_moving_and_a_loaded_muscle():
+    moving = _record("# experiment = pressure\ntime_s,p_cmd_kPa,length_mm,p_kPa\n0,0,180,0\n0.01,300,181,10\n")
+    assert moving.inputs["length"][1] == pytest.approx(0.181)
+    loaded = _record("# experiment = pressure\n# load_N = 40\ntime_s,p_cmd_kPa,p_kPa\n0,0,0\n0.01,300,10\n")
+    assert loaded.settings == {"load": 40.0}
+
+
+@pytest.mark.parametrize("text, line, words", [
+    (VALVE_RECORD.replace("# supply_kPa = 620\n", ""), 3, "needs its supply pressure"),
+    (VALVE_RECORD.replace("0.039,-0.5", "0.039,-1.5"), 8, "must lie in [-1, 1]"),
+    (VALVE_RECORD.replace("# length_mm = 190", "# length_mm = 190\n# load_N = 30"), 4, "one of them"),
+    (VALVE_RECORD.replace("# length_mm = 190", "# length_mm = 900"), 3, "between 0 and the braid length"),
+    (VALVE_RECORD.replace("# length_mm = 190", "# load_N = -3"), 3, "must not be negative"),
+    (VALVE_RECORD.replace("time_s,valve,p_kPa", "time_s,valve,p_cmd_kPa,p_kPa").replace(",0\n", ",0,0\n")
+     .replace(",30\n", ",0,30\n").replace(",50\n", ",0,50\n").replace(",20\n", ",0,20\n"), 4, "exactly one of"),
+    (VALVE_RECORD.replace("time_s,valve,p_kPa", "time_s,p_kPa,x").replace(",0\n", "\n"), 4, "missing column"),
+    (VALVE_RECORD.replace("time_s,valve,p_kPa", "time_s,valve,p_hPa"), 4, "unknown unit 'hPa'"),
+    (VALVE_RECORD.replace("0.025,0,50", "0.025,0,fifty"), 7, "is not a number"),
+    (VALVE_RECORD.replace("0.039", "0.02"), 8, "time does not increase"),
+    (VALVE_RECORD.replace("# supply_kPa = 620", "# supply_kPa = 620\n# P_supply = 5e5"), 2, "given twice"),
+    ("# experiment = knee\n# length_mm = 190\ntime_s,pe_cmd_kPa,pf_cmd_kPa,x_mm\n0,1,1,1\n0.1,1,1,1\n", 2,
+     "belongs to a pressure record"),
+])
+def test_each_bad_pressure_record_is_one_line_naming_its_line(text, line, words):
+    with pytest.raises(MeasurementFileError) as error:
+        _record(text)
+    message = str(error.value)
+    assert "\n" not in message and words in message, message
+    assert f"rec.csv line {line}:" in message, message
+
+
+def test_write_and_read_back_a_pressure_record(tmp_path):
+    from mkctl.io.measurements import read_measurement, write_measurement
+    time = np.array([0.0, 0.013, 0.024])
+    path = write_measurement(tmp_path / "p.csv", "pressure", time, {"valve": np.array([1.0, 0.0, -1.0])},
+                             np.array([0.0, 1e5, 5e4]), settings={"supply_kPa": 620.0})
+    assert "valve," in path.read_text() and "# supply_kPa = 620.0" in path.read_text()
+    m = read_measurement(path)
+    assert m.params.P_supply == 620e3 and list(m.output) == [0.0, 1e5, 5e4]
+
+
+# --- the model's output on a record, against the independent simulator ---------------------------
+
+def test_the_record_output_follows_the_independent_simulator_through_the_dead_time():
+    import independent_pneumatics as ind
+    from mkctl.analysis.compare import pressure_output
+    from mkctl.io.measurements import measurement_from_arrays
+    time = np.arange(400) * 0.01
+    opening = np.where(time < 0.5, 1.0, np.where(time < 2.0, 0.0, -1.0))
+    values = {"C_fill": 1e-9, "delay": 0.02}
+    m = measurement_from_arrays("pressure", time, {"valve": opening}, np.zeros(time.size),
+                                params=values, settings={"supply_kPa": 600.0, "length_mm": 180.0})
+    P, _ = pressure_output(m, m.params)
+    a = {"C_fill": 1e-9, "C_exhaust": 0.0, "P_supply": 6e5, "band": 2e4, "b_cr": 0.3, "m_sub": 0.5,
+         "k_poly": 1.2, "V_dead": 5e-6, "T_air": 293.15, "C_leak": 0.0, "tau_heat": 0.0}
+    seen = np.concatenate([[opening[0]] * 2, opening[:-2]])  # 20 ms late: two samples
+    expected, _, _ = ind.simulate(time, "opening", seen, a, m.params.b, m.params.n, 0.0, length=0.18)
+    assert np.max(np.abs(P - expected)) < 1e-4 * np.max(expected)
+    assert np.max(expected) > 3e5  # the record fills and exhausts
+
+
+def test_without_the_air_a_set_point_record_follows_the_section_4_path():
+    from mkctl.analysis.compare import pressure_output
+    from mkctl.io.measurements import measurement_from_arrays
+    time = np.arange(200) * 0.01
+    command = np.where(time < 0.5, 1e5, 3e5)
+    m = measurement_from_arrays("pressure", time, {"p_cmd": command}, np.zeros(time.size), params={"tau": 0.1})
+    P, _ = pressure_output(m, m.params)
+    after = time >= 0.5
+    np.testing.assert_allclose(P[after], 3e5 - 2e5 * np.exp(-(time[after] - 0.5) / 0.1), rtol=1e-9)
+    with pytest.raises(MkctlError, match="needs the valve"):
+        m2 = measurement_from_arrays("pressure", time, {"valve": np.ones(time.size)}, np.zeros(time.size),
+                                     settings={"supply_kPa": 600.0})
+        pressure_output(m2, m2.params.replace(valve_flow=0))
+
+
+# --- synth -> diagnose ----------------------------------------------------------------------------
+
+def _diagnosed(tmp_path, name, **kwargs):
+    from mkctl.analysis.diagnose import diagnose
+    from mkctl.analysis.synth import synthesize_pressure, write_synthetic
+    from mkctl.io.measurements import read_measurement
+    record = synthesize_pressure(**kwargs)
+    path, _ = write_synthetic(tmp_path / f"{name}.csv", record)
+    return record, diagnose(read_measurement(path))
+
+
+def _within(result, truth: dict, sigmas=3.0):
+    for name, value in truth.items():
+        error = result.uncertainty[name]
+        assert error > 0 and abs(result.params[name] - value) <= sigmas * error, (name, result.params[name], error)
+
+
+def test_large_set_point_steps_name_the_valve_and_what_the_record_identifies(tmp_path):
+    truth = {"C_fill": 3e-9, "b_cr": 0.35, "band": 3e4}
+    record, result = _diagnosed(tmp_path, "large", hidden={"valve_flow": 1, **truth}, samples=1000, jitter=0.2,
+                                resolution=0.76)
+    assert result.missing == ["valve_flow"] and result.verdict == "diagnosed"
+    _within(result, truth)
+    assert result.rmse_after < 0.6 and result.rmse_before > 5  # kPa
+    assert any("C_fill / V" in note for note in result.notes)
+
+
+def test_small_steps_name_the_lag_and_a_clean_record_nothing(tmp_path):
+    _, lag = _diagnosed(tmp_path, "small", hidden=["pressure_lag"], shape="small", samples=800)
+    assert lag.missing == ["pressure_lag"]
+    _within(lag, {"tau": 0.05})
+    _, clean = _diagnosed(tmp_path, "clean", hidden=[], samples=800)
+    assert clean.missing == [] and clean.verdict == "nothing missing"
+
+
+def test_a_dead_time_is_found_beside_the_lag(tmp_path):
+    _, result = _diagnosed(tmp_path, "dead", hidden={"tau": 0.05, "delay": 0.04}, shape="small", samples=800)
+    assert set(result.missing) == {"pressure_lag", "dead_time"}
+    _within(result, {"tau": 0.05, "delay": 0.04})
+
+
+def test_a_valve_record_is_calibrated_first_and_a_leak_down_shows_the_leak_and_the_heat(tmp_path):
+    _, valve = _diagnosed(tmp_path, "valve", hidden={"C_fill": 2e-9, "b_cr": 0.4}, shape="valve", samples=800)
+    assert valve.missing == [] and "valve_flow" in valve.baseline_effects
+    _within(valve, {"C_fill": 2e-9, "b_cr": 0.4})
+    assert any("band held" in note for note in valve.notes)  # openings do not show the regulator's band
+    assert "band" not in valve.params
+    _, leak = _diagnosed(tmp_path, "leak", hidden={"C_leak": 1e-12, "tau_heat": 2.0}, shape="leakdown", samples=900)
+    assert set(leak.missing) == {"leak", "air_heat"}
+    _within(leak, {"C_leak": 1e-12, "tau_heat": 2.0})
+
+
+def test_a_moving_and_a_loaded_muscle_change_the_fill_and_are_simulated_as_written(tmp_path):
+    from mkctl.analysis.compare import compare
+    from mkctl.analysis.synth import synthesize_pressure, write_synthetic
+    from mkctl.io.measurements import read_measurement
+    runs = {}
+    for hold in ("held", "moving", "load"):
+        record = synthesize_pressure(hidden={"valve_flow": 1, "C_fill": 5e-10}, hold=hold, samples=400, noise=0.0)
+        path, _ = write_synthetic(tmp_path / f"{hold}.csv", record)
+        m = read_measurement(path)
+        assert ("length" in m.inputs) == (hold == "moving") and ("load" in m.settings) == (hold == "load")
+        assert compare(m, record.truth).rmse < 1e-6  # kPa: the file's truth reproduces it
+        runs[hold] = record.output_clean
+    # the muscle free under a load contracts as it fills: its volume grows, it fills more slowly
+    first = np.argmax(runs["held"] > 1e5)
+    assert runs["load"][first] < runs["held"][first] - 5e3
+    assert np.max(np.abs(runs["moving"] - runs["held"])) > 5e3

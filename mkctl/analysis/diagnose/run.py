@@ -17,6 +17,8 @@ from ..compare import fit_percent, rmse, simulate_output
 from ..discovery import discover
 from ..effect_files import discovery_effects
 from ..diagnosis_rule import RULE, Rule
+from ...physics import effects
+from .air import fit_air
 from .alternatives import _alternative_models, _best_alternative, _shared_values
 from .candidates import candidates_for
 from .noise import QUASI_STATIC
@@ -51,6 +53,10 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     """
     say = progress or (lambda text: None)
     m = measurement
+    # a pressure record whose baseline has the air (a valve driven by openings): its values first
+    calibration = fit_air(m, m.params, say, known=m.overrides)
+    if calibration is not None:
+        m = dataclasses.replace(m, params=calibration.params)
     record = _prepare(m, rule, fit_offset, say)
     if record.problems:
         return _not_diagnosed(record, say)
@@ -61,7 +67,42 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
         f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
     state, offset_before = _select(problem, record, rule, say)
     final = _final_fit(problem, record, state, offset_before, say)
-    return _result(record, state, final, offset_before, rule, say)
+    return with_air_fits(_result(record, state, final, offset_before, rule, say), record, calibration,
+                         say)
+
+
+def with_air_fits(result: DiagnosisResult, record: Record, calibration, say) -> DiagnosisResult:
+    """The result with the air's values (:mod:`.air`): the baseline's calibration (a valve driven by
+    openings) reported beside what was added, and the air the search added refitted in all the
+    values the record identifies (the others held, with a note)."""
+    m = record.measurement
+    values, uncertainty, notes = dict(result.params), dict(result.uncertainty), list(result.notes)
+    if calibration is not None:
+        values = {**calibration.values, **values}
+        uncertainty = {**calibration.uncertainty, **uncertainty}
+        to_file = record.to_file
+        notes = ["the air in the record's baseline calibrated first (a valve driven by openings): "
+                 + ", ".join(f"{k} = {v:.4g}" for k, v in calibration.values.items())
+                 + f" (RMSE {calibration.rmse_before * to_file:.3g} -> {calibration.rmse_after * to_file:.3g} "
+                 f"{m.output_unit})", *calibration.notes, *notes]
+    after = result.params_after
+    added_air = after is not None and any(effects.get(e).moves_air for e in result.missing)
+    if added_air:
+        refit = fit_air(record.prepared, after, say, known=m.overrides)
+        if refit is not None and refit.rmse_after < refit.rmse_before:
+            simulated = simulate_output(record.prepared, refit.params)
+            values = {**values, **refit.values}
+            uncertainty = {**uncertainty, **refit.uncertainty}
+            notes += refit.notes
+            y = record.output
+            return dataclasses.replace(
+                result, params=values, uncertainty=uncertainty, notes=notes, params_after=refit.params,
+                simulated_after=simulated, rmse_after=rmse(y, simulated * record.to_file),
+                fit_percent_after=fit_percent(y, simulated * record.to_file))
+        notes += refit.notes if refit is not None else []
+    if calibration is None and not added_air:
+        return result
+    return dataclasses.replace(result, params=values, uncertainty=uncertainty, notes=notes)
 
 
 def _not_diagnosed(record: Record, say) -> DiagnosisResult:
