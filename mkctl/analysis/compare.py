@@ -183,6 +183,34 @@ def actuator_output(measurement: Measurement, params: Params, stop: int | None =
 RECORD_RTOL, RECORD_ATOL = 1e-6, 1.0
 
 
+#: At most this many samples before a valve record's first change of its opening set its start.
+START_SAMPLES = 20
+
+
+def start_pressure(measurement: Measurement) -> float:
+    """The pressure [Pa] a record driven by valve openings starts at: the mean of its measured
+    pressure before its opening first changes (at most :data:`START_SAMPLES` samples: one sample
+    would carry its noise and quantisation into the whole record), its first sample when the
+    opening changes at once.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        A pressure record with a ``valve`` column.
+
+    Returns
+    -------
+    float
+        The start's gauge pressure [Pa].
+    """
+    opening, measured = measurement.inputs["valve"], measurement.output
+    changes = np.flatnonzero(np.diff(opening) != 0)
+    held = int(changes[0]) + 1 if changes.size else measured.size
+    if held < 3 or opening[0] != 0:  # a valve open from the start: the pressure moves at once
+        return float(measured[0])
+    return float(np.mean(measured[:min(held, START_SAMPLES)]))
+
+
 def pressure_output(measurement: Measurement, params: Params, stop: int | None = None):
     """A pressure record's model output over its first ``stop`` samples (default all).
 
@@ -190,7 +218,7 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
     (:func:`mkctl.physics.pneumatics.simulate_air`): driven by the regulator's set-points or the
     valve's openings, the muscle held at the record's ``length`` (default L0), moving (its length
     column) or free under its ``load``; a record driven by set-points starts at its first command,
-    one driven by openings at its first measured pressure. Otherwise the section 4 pressure path
+    one driven by openings at its measured start (:func:`start_pressure`). Otherwise the section 4 pressure path
     (:func:`commanded_pressure`: the dead time and the lags of ``params``).
 
     Parameters
@@ -224,7 +252,7 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
         if "p_cmd" in inputs:
             drive = {"command": inputs["p_cmd"][:n]}
         else:
-            drive = {"opening": inputs["valve"][:n], "P_start": float(measurement.output[0])}
+            drive = {"opening": inputs["valve"][:n], "P_start": start_pressure(measurement)}
         run = pneumatics.simulate_air(time, params, **drive, **muscle, rtol=RECORD_RTOL,
                                       atol=RECORD_ATOL)
         pressure = run.P

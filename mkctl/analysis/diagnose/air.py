@@ -97,9 +97,15 @@ def _from_x(q, x: float) -> float:
     return 10.0 ** x if _log_space(q) else x * q.scale
 
 
-def _bounds(q) -> tuple[float, float]:
-    low = max(q.lower, q.smallest_on, q.start * 1e-6 if q.start else 1e-300) if _log_space(q) else q.lower
+def _bounds(q, value: float) -> tuple[float, float]:
+    """The search range in x: the parameter's bounds (its fit range), four decades around the value
+    where a bound is 0 or infinite."""
     high = q.fit_range[1] if q.fit_range else q.upper
+    if not math.isfinite(high):
+        high = value * 1e4
+    if not _log_space(q):
+        return _to_x(q, q.lower), _to_x(q, high)
+    low = max(q.lower, q.smallest_on, value * 1e-4)
     return _to_x(q, low), _to_x(q, high)
 
 
@@ -163,7 +169,7 @@ def identified_ratio(measurement: Measurement, params: Params) -> tuple[float, f
     return params.C_fill / volume, volume
 
 
-def fit_air(measurement: Measurement, params: Params, say=None, known=()) -> AirFit | None:
+def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=()) -> AirFit | None:
     """Refit the air's parameters of ``params`` on a pressure record (see the module docstring).
 
     Parameters
@@ -176,6 +182,8 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=()) -> Air
         Progress lines.
     known : collection of str
         Parameters the record gives (not fitted).
+    also : sequence of Parameter
+        Parameters of other effects refitted with them (a dead time the search added).
 
     Returns
     -------
@@ -187,6 +195,7 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=()) -> Air
     names = air_parameters(params, known)
     if not names or m.experiment != "pressure":
         return None
+    names += [q for q in also if q not in names]
     starts = {q.name: getattr(params, q.name) for q in names}
     slope_start = start_from_slope(m, params) if "C_fill" in starts else None
     stride = max(1, m.samples // FIT_SAMPLES)
@@ -203,7 +212,7 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=()) -> Air
         return params.replace(**{q.name: _from_x(q, v) for q, v in zip(active, x)})
 
     def solve(active, start):
-        low, high = (np.array(v) for v in zip(*(_bounds(q) for q in active)))
+        low, high = (np.array(v) for v in zip(*(_bounds(q, start[q.name]) for q in active)))
         x0 = np.clip([_to_x(q, start[q.name]) for q in active], low + 1e-9, high - 1e-9)
 
         def residual(x):

@@ -66,43 +66,42 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
         f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
     state, offset_before = _select(problem, record, rule, say)
-    final = _final_fit(problem, record, state, offset_before, say)
-    return with_air_fits(_result(record, state, final, offset_before, rule, say), record, calibration,
-                         say)
+    final = _with_air(_final_fit(problem, record, state, offset_before, say), record, calibration, say)
+    return _result(record, state, final, offset_before, rule, say)
 
 
-def with_air_fits(result: DiagnosisResult, record: Record, calibration, say) -> DiagnosisResult:
-    """The result with the air's values (:mod:`.air`): the baseline's calibration (a valve driven by
-    openings) reported beside what was added, and the air the search added refitted in all the
-    values the record identifies (the others held, with a note)."""
+def _with_air(final: "_Final", record: Record, calibration, say) -> "_Final":
+    """The final model with the air's values (:mod:`.air`): the baseline's calibration (a valve driven
+    by openings) reported beside what was added, and the air refitted, with what the search added,
+    in every value the record identifies (the others held, each with a note in the record's notes)."""
     m = record.measurement
-    values, uncertainty, notes = dict(result.params), dict(result.uncertainty), list(result.notes)
+    values, uncertainty = dict(final.values), dict(final.uncertainty)
     if calibration is not None:
-        values = {**calibration.values, **values}
-        uncertainty = {**calibration.uncertainty, **uncertainty}
-        to_file = record.to_file
-        notes = ["the air in the record's baseline calibrated first (a valve driven by openings): "
-                 + ", ".join(f"{k} = {v:.4g}" for k, v in calibration.values.items())
-                 + f" (RMSE {calibration.rmse_before * to_file:.3g} -> {calibration.rmse_after * to_file:.3g} "
-                 f"{m.output_unit})", *calibration.notes, *notes]
-    after = result.params_after
-    added_air = after is not None and any(effects.get(e).moves_air for e in result.missing)
-    if added_air:
-        refit = fit_air(record.prepared, after, say, known=m.overrides)
-        if refit is not None and refit.rmse_after < refit.rmse_before:
-            simulated = simulate_output(record.prepared, refit.params)
-            values = {**values, **refit.values}
-            uncertainty = {**uncertainty, **refit.uncertainty}
-            notes += refit.notes
-            y = record.output
-            return dataclasses.replace(
-                result, params=values, uncertainty=uncertainty, notes=notes, params_after=refit.params,
-                simulated_after=simulated, rmse_after=rmse(y, simulated * record.to_file),
-                fit_percent_after=fit_percent(y, simulated * record.to_file))
-        notes += refit.notes if refit is not None else []
-    if calibration is None and not added_air:
-        return result
-    return dataclasses.replace(result, params=values, uncertainty=uncertainty, notes=notes)
+        values, uncertainty = {**calibration.values, **values}, {**calibration.uncertainty, **uncertainty}
+        record.notes.append(
+            "the air in the record's baseline calibrated first (a valve driven by openings): "
+            + ", ".join(f"{k} = {v:.4g}" for k, v in calibration.values.items())
+            + f" (RMSE {calibration.rmse_before * record.to_file:.3g} -> "
+            f"{calibration.rmse_after * record.to_file:.3g} {m.output_unit})")
+    added_air = any(effects.get(e).moves_air for e in final.added)
+    refit = None
+    if added_air or calibration is not None and final.added:
+        # the air's values and what the search added, refitted together (a dead time the valve's
+        # first calibration could only absorb)
+        also = [effects.get(e).parameter(effects.get(e).fitted) for e in final.added
+                if not effects.get(e).moves_air and effects.get(e).fitted in effects.get(e).parameter_names]
+        refit = fit_air(record.prepared, final.params, say, known=m.overrides, also=also)
+    if refit is not None and refit.rmse_after < refit.rmse_before:
+        for name in refit.held:  # held: no value the record identifies, no standard error
+            values.pop(name, None)
+            uncertainty.pop(name, None)
+        values, uncertainty = {**values, **refit.values}, {**uncertainty, **refit.uncertainty}
+        record.notes.extend(refit.notes)
+        simulated = simulate_output(record.prepared, refit.params) + final.offset
+        return dataclasses.replace(final, values=values, uncertainty=uncertainty, simulated=simulated,
+                                   params=refit.params)
+    record.notes.extend(calibration.notes if calibration is not None else [])
+    return dataclasses.replace(final, values=values, uncertainty=uncertainty)
 
 
 def _not_diagnosed(record: Record, say) -> DiagnosisResult:
@@ -267,8 +266,9 @@ def _result(record: Record, state: "Search", final: _Final, offset_before: float
         say(text)
     # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
     # it lacks show as their own terms, "matches" naming them)
+    # (a pressure record holds no force: the library of forces has nothing to regress)
     found = discover(record.prepared, record.start, progress=say, effects=discovery_effects()) \
-        if verdict == "incomplete" else None
+        if verdict == "incomplete" and m.experiment != "pressure" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
