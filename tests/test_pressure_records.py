@@ -75,7 +75,7 @@ def test_the_fmus_offer_no_air_parameter_and_refuse_a_build_with_the_air():
 
 # --- reading a pressure record (model-spec 5c) ----------------------------------------------------
 
-import math  # noqa: E402
+import re  # noqa: E402
 
 import numpy as np  # noqa: E402
 
@@ -262,3 +262,30 @@ def test_a_moving_and_a_loaded_muscle_change_the_fill_and_are_simulated_as_writt
     first = np.argmax(runs["held"] > 1e5)
     assert runs["load"][first] < runs["held"][first] - 5e3
     assert np.max(np.abs(runs["moving"] - runs["held"])) > 5e3
+
+
+# --- the command line -----------------------------------------------------------------------------
+
+def test_synth_compare_and_calibrate_on_the_command_line(tmp_path):
+    import subprocess
+    import sys
+
+    def mkctl(*args):
+        return subprocess.run([sys.executable, "-m", "mkctl", *args], cwd=tmp_path, capture_output=True,
+                              text=True, timeout=300)
+
+    made = mkctl("synth", "pressure", "rig.csv", "--shape", "valve", "--hidden", "C_fill=5e-10", "--samples", "300",
+                 "--jitter", "0.2", "--motion", "load", "--load", "30")
+    assert made.returncode == 0, made.stderr
+    text = (tmp_path / "rig.csv").read_text()
+    assert "# load_N = 30.0" in text and "# supply_kPa = 620.0" in text and "time_s,valve,p_kPa" in text
+    compared = mkctl("compare", "rig.csv")
+    assert compared.returncode == 0, compared.stderr
+    assert re.search(r"RMSE [0-9.]+ kPa", compared.stdout)
+    assert (tmp_path / "rig_compare_overlay.png").stat().st_size > 10_000
+    assert (tmp_path / "rig_compare_residual.png").stat().st_size > 10_000
+    refused = mkctl("calibrate", "rig.csv", "--out", "m.json")
+    assert refused.returncode == 2 and "Traceback" not in refused.stderr
+    assert refused.stderr.count("\n") == 1 and "mkctl diagnose" in refused.stderr
+    wrong = mkctl("synth", "knee", "k.csv", "--motion", "moving")
+    assert wrong.returncode == 2 and "belong to 'synth pressure'" in wrong.stderr

@@ -36,6 +36,12 @@ then one row of numbers per sample::
   is accepted only when the caller hands in that same file, loaded (``--mechanism FILE.py``: issue 30).
 - A driven-length record (``experiment = actuator``) has ``time, length``, the pressure measured (``pressure``) or
   commanded (``p_cmd``), exactly one of them, and the force as output.
+- A pressure record (``experiment = pressure``, model-spec 5c) has ``time``, a set-point ``p_cmd`` or a valve's
+  opening ``valve`` (-1..1, no unit suffix), exactly one of them, the measured gauge pressure ``p`` and optionally
+  a moving ``length``; its metadata may give the settings ``length_<unit>`` (held), ``load_<unit>`` (free under a
+  load) and ``supply_<unit>`` (:data:`SETTINGS`; the supply is required with ``valve``). The rig's numbers
+  (``P_supply``, ``V_dead``, ``T_air``, ``k_poly``: ``Parameter.rig``) are known values; a valve's own values switch
+  ``valve_flow`` on, and a ``valve`` column puts it in the baseline.
 - Every required cell must be a finite number and time must increase strictly. At least two rows.
 
 A file that breaks a rule raises :class:`mkctl.errors.MeasurementFileError` with a one-line message
