@@ -49,7 +49,8 @@ def main(argv=None) -> None:
     finally:
         compare.RECORD_RTOL = default
     result, whole = cpu(lambda: diagnose(m))
-    print(f"record: {m.samples} samples over {m.time[-1]:.1f} s, hidden {sorted(record.hidden_effects)}")
+    print(f"record: {m.samples} samples over {m.time[-1]:.1f} s, "
+          f"hidden {sorted(record.hidden_effects)}")
     print(f"one simulation (rtol {default:g}): {one:.3f} s CPU; at rtol 1e-7: {tight:.3f} s "
           f"(ratio {tight / one:.1f})")
     print(f"diagnosis: {whole:.2f} s CPU = {whole / one:.0f} simulations of the record")

@@ -140,7 +140,8 @@ def start_from_slope(measurement: Measurement, params: Params) -> float | None:
     if index.size < 3:
         return None
     slope = float(np.median(np.diff(P)[index] / np.diff(m.time)[index]))
-    length = m.inputs["length"][index] if "length" in m.inputs else m.settings.get("length", params.L0)
+    length = (m.inputs["length"][index] if "length" in m.inputs
+              else m.settings.get("length", params.L0))
     volume = float(np.median(air_volume(np.asarray(length, dtype=float), params.b, params.n,
                                         params.V_dead)))
     per_unit = float(choked_fill_rate(volume, 1.0, params.P_supply, params.k_poly, params.T_air))
@@ -262,7 +263,8 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
     for i, q in enumerate(active):
         if q.name in values:
             sd = math.sqrt(max(cov[i, i], 0.0))
-            errors[q.name] = float(values[q.name] * math.log(10.0) * sd if _log_space(q) else sd * q.scale)
+            errors[q.name] = float(values[q.name] * math.log(10.0) * sd if _log_space(q)
+                                   else sd * q.scale)
     after = simulate(fitted)
     if after is None:
         return None
@@ -270,9 +272,10 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
     notes = [f"{name} held at {starts[name]:.4g}: {why}" for name, why in held.items()]
     if "C_fill" in values and "length" not in m.inputs and "load" not in m.settings:
         ratio, volume = identified_ratio(m, fitted)
-        notes.append(f"the record identifies C_fill / V = {ratio:.4g} 1/(s Pa) (V = {volume * 1e6:.4g} cm^3 "
-                     f"at its length, with V_dead = {fitted.V_dead * 1e6:.3g} cm^3 as given): a held muscle "
-                     "cannot tell C_fill and V_dead apart")
+        notes.append(f"the record identifies C_fill / V = {ratio:.4g} 1/(s Pa) (V = "
+                     f"{volume * 1e6:.4g} cm^3 at its length, with V_dead = "
+                     f"{fitted.V_dead * 1e6:.3g} cm^3 as given): a held muscle cannot tell C_fill "
+                     "and V_dead apart")
     for text in notes:
         say("    air: " + text)
     return AirFit(fitted, values, errors, held, notes, rmse_before, rmse_after)
