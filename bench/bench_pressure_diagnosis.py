@@ -49,16 +49,24 @@ def main(argv=None) -> None:
     finally:
         compare.RECORD_RTOL = default
     result, whole = cpu(lambda: diagnose(m))
-    print(f"record: {m.samples} samples over {m.time[-1]:.1f} s, "
-          f"hidden {sorted(record.hidden_effects)}")
-    print(f"one simulation (rtol {default:g}): {one:.3f} s CPU; at rtol 1e-7: {tight:.3f} s "
-          f"(ratio {tight / one:.1f})")
+    print(
+        f"record: {m.samples} samples over {m.time[-1]:.1f} s, "
+        f"hidden {sorted(record.hidden_effects)}"
+    )
+    print(
+        f"one simulation (rtol {default:g}): {one:.3f} s CPU; at rtol 1e-7: {tight:.3f} s "
+        f"(ratio {tight / one:.1f})"
+    )
     print(f"diagnosis: {whole:.2f} s CPU = {whole / one:.0f} simulations of the record")
-    print(f"found {result.missing} ({result.verdict}); RMSE {result.rmse_before:.3g} -> "
-          f"{result.rmse_after:.3g} kPa")
+    print(
+        f"found {result.missing} ({result.verdict}); RMSE {result.rmse_before:.3g} -> "
+        f"{result.rmse_after:.3g} kPa"
+    )
     for name, value in result.params.items():
-        print(f"  {name} = {value:.4g} +- {result.uncertainty.get(name, float('nan')):.2g}"
-              f" (truth {getattr(truth, name):.4g})")
+        print(
+            f"  {name} = {value:.4g} +- {result.uncertainty.get(name, float('nan')):.2g}"
+            f" (truth {getattr(truth, name):.4g})"
+        )
 
 
 if __name__ == "__main__":

@@ -16,6 +16,7 @@ muscle ``C_fill`` stands for ``C_fill / V`` (:func:`identified_ratio`).
 It runs before the search on a record whose baseline already has the valve (a record driven by
 openings: the valve's calibration, model-spec 5c), and after it when the search added the valve.
 """
+
 from __future__ import annotations
 
 import math
@@ -140,10 +141,12 @@ def start_from_slope(measurement: Measurement, params: Params) -> float | None:
     if index.size < 3:
         return None
     slope = float(np.median(np.diff(P)[index] / np.diff(m.time)[index]))
-    length = (m.inputs["length"][index] if "length" in m.inputs
-              else m.settings.get("length", params.L0))
-    volume = float(np.median(air_volume(np.asarray(length, dtype=float), params.b, params.n,
-                                        params.V_dead)))
+    length = (
+        m.inputs["length"][index] if "length" in m.inputs else m.settings.get("length", params.L0)
+    )
+    volume = float(
+        np.median(air_volume(np.asarray(length, dtype=float), params.b, params.n, params.V_dead))
+    )
     per_unit = float(choked_fill_rate(volume, 1.0, params.P_supply, params.k_poly, params.T_air))
     return slope / per_unit if slope > 0 and per_unit > 0 else None
 
@@ -164,8 +167,11 @@ def identified_ratio(measurement: Measurement, params: Params) -> tuple[float, f
     ratio, volume : float
     """
     m = measurement
-    length = (np.median(m.inputs["length"]) if "length" in m.inputs
-              else m.settings.get("length", params.L0))
+    length = (
+        np.median(m.inputs["length"])
+        if "length" in m.inputs
+        else m.settings.get("length", params.L0)
+    )
     volume = float(air_volume(float(length), params.b, params.n, params.V_dead))
     return params.C_fill / volume, volume
 
@@ -220,8 +226,20 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
             y = simulate(params_at(active, x))
             return np.full(at.size, 1e3) if y is None else (y - m.output[at]) / scale
 
-        return least_squares(residual, x0, bounds=(low, high), diff_step=1e-4, x_scale=1.0,
-                             xtol=1e-8, ftol=1e-10, max_nfev=40 * (len(active) + 1)), low, high
+        return (
+            least_squares(
+                residual,
+                x0,
+                bounds=(low, high),
+                diff_step=1e-4,
+                x_scale=1.0,
+                xtol=1e-8,
+                ftol=1e-10,
+                max_nfev=40 * (len(active) + 1),
+            ),
+            low,
+            high,
+        )
 
     before = simulate(params)
     if before is None:
@@ -230,7 +248,7 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
     if slope_start is not None:  # the choked slope: a start the search converges from
         candidate = params.replace(C_fill=min(max(slope_start, 1e-11), 1e-6))
         y = simulate(candidate)
-        if y is not None and np.mean((y - m.output[at]) ** 2) < rmse_before ** 2:
+        if y is not None and np.mean((y - m.output[at]) ** 2) < rmse_before**2:
             starts["C_fill"] = candidate.C_fill
     active, held = list(names), {}
     for _ in range(len(names)):
@@ -250,8 +268,9 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
             elif min(x - low[i], high[i] - x) < 1e-3 * (high[i] - low[i]):
                 held[q.name] = f"the fit ran to its bound ({_from_x(q, x):.3g} {q.unit})"
             elif not relative <= IDENTIFIED:
-                held[q.name] = (f"its standard error is {relative:.0%} of "
-                                + ("it" if _log_space(q) else "its range"))
+                held[q.name] = f"its standard error is {relative:.0%} of " + (
+                    "it" if _log_space(q) else "its range"
+                )
             else:
                 unheld.append(q)
         if len(unheld) == len(active) or not unheld:
@@ -263,8 +282,9 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
     for i, q in enumerate(active):
         if q.name in values:
             sd = math.sqrt(max(cov[i, i], 0.0))
-            errors[q.name] = float(values[q.name] * math.log(10.0) * sd if _log_space(q)
-                                   else sd * q.scale)
+            errors[q.name] = float(
+                values[q.name] * math.log(10.0) * sd if _log_space(q) else sd * q.scale
+            )
     after = simulate(fitted)
     if after is None:
         return None
@@ -272,10 +292,12 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
     notes = [f"{name} held at {starts[name]:.4g}: {why}" for name, why in held.items()]
     if "C_fill" in values and "length" not in m.inputs and "load" not in m.settings:
         ratio, volume = identified_ratio(m, fitted)
-        notes.append(f"the record identifies C_fill / V = {ratio:.4g} 1/(s Pa) (V = "
-                     f"{volume * 1e6:.4g} cm^3 at its length, with V_dead = "
-                     f"{fitted.V_dead * 1e6:.3g} cm^3 as given): a held muscle cannot tell C_fill "
-                     "and V_dead apart")
+        notes.append(
+            f"the record identifies C_fill / V = {ratio:.4g} 1/(s Pa) (V = "
+            f"{volume * 1e6:.4g} cm^3 at its length, with V_dead = "
+            f"{fitted.V_dead * 1e6:.3g} cm^3 as given): a held muscle cannot tell C_fill "
+            "and V_dead apart"
+        )
     for text in notes:
         say("    air: " + text)
     return AirFit(fitted, values, errors, held, notes, rmse_before, rmse_after)
