@@ -177,6 +177,10 @@ def force_record(measurement) -> ForceRecord:
                            dict(m.overrides), np.asarray(m.time, float))
     if m.experiment == "actuator":
         return driven_record(m)
+    if m.experiment == "pressure":  # no force in it: the air is diagnosed, not calibrated (model-spec 5c)
+        raise CalibrationError(f"{m.source}: a pressure record shows the air, not the muscle's force: calibrate "
+                               f"fits the statics from isometric, isotonic or actuator records; read its valve "
+                               f"and volume with 'mkctl diagnose {m.source}'")
     raise CalibrationError(f"{m.source}: calibrate needs isometric, isotonic or actuator records, "
                            f"not {m.experiment!r}")
 

@@ -30,7 +30,7 @@ from ..io.measurements import Measurement
 from ..physics.params import Params
 from ..io.diagnosis_report import (fit_text, input_axis, input_panels, plot_isometric,  # noqa: F401
                                    plot_overlay, plot_residuals)  # (re-exported)
-from ..physics import actuator, knee, simulate
+from ..physics import actuator, knee, pneumatics, simulate
 from ..physics.mechanism import simulate_mechanism
 from ..physics.simulate import knee_states
 
@@ -178,12 +178,97 @@ def actuator_output(measurement: Measurement, params: Params, stop: int | None =
     return force, (np.gradient(force, time) if n > 1 else np.zeros(n))
 
 
+#: Tolerances of the air's integration on a record [-, Pa]: below a pressure sensor's
+#: resolution (0.76 kPa on the rigs of issue 28) at a twentieth of the cost of rtol = 1e-7.
+RECORD_RTOL, RECORD_ATOL = 1e-6, 1.0
+
+
+#: At most this many samples before a valve record's first change of its opening set its start.
+START_SAMPLES = 20
+
+
+def start_pressure(measurement: Measurement) -> float:
+    """The pressure [Pa] a record driven by valve openings starts at: the mean of its measured
+    pressure before its opening first changes (at most :data:`START_SAMPLES` samples: one sample
+    would carry its noise and quantisation into the whole record), its first sample when the
+    opening changes at once.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        A pressure record with a ``valve`` column.
+
+    Returns
+    -------
+    float
+        The start's gauge pressure [Pa].
+    """
+    opening, measured = measurement.inputs["valve"], measurement.output
+    changes = np.flatnonzero(np.diff(opening) != 0)
+    held = int(changes[0]) + 1 if changes.size else measured.size
+    if held < 3 or opening[0] != 0:  # a valve open from the start: the pressure moves at once
+        return float(measured[0])
+    return float(np.mean(measured[:min(held, START_SAMPLES)]))
+
+
+def pressure_output(measurement: Measurement, params: Params, stop: int | None = None):
+    """A pressure record's model output over its first ``stop`` samples (default all).
+
+    With an effect that moves the air on (``valve_flow``, model-spec 4d), the air's mass balance
+    (:func:`mkctl.physics.pneumatics.simulate_air`): driven by the regulator's set-points or the
+    valve's openings, the muscle held at the record's ``length`` (default L0), moving (its length
+    column) or free under its ``load``; a record driven by set-points starts at its first command,
+    one driven by openings at its measured start (:func:`start_pressure`). Otherwise the section 4 pressure path
+    (:func:`commanded_pressure`: the dead time and the lags of ``params``).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        An ``experiment = pressure`` record (model-spec 5c).
+    params : Params
+        The muscle and its effects.
+    stop : int, optional
+        Samples to simulate.
+
+    Returns
+    -------
+    P, Pdot : numpy.ndarray
+        Gauge pressure [Pa] and its finite-difference rate [Pa/s].
+
+    Raises
+    ------
+    MkctlError
+        For a record driven by openings without the air (the valve is part of its baseline).
+    """
+    n = measurement.samples if stop is None else int(stop)
+    time, inputs, settings = measurement.time[:n], measurement.inputs, measurement.settings
+    if pneumatics.moves_air(params):
+        if "length" in inputs:
+            muscle = {"length": inputs["length"][:n]}
+        elif "load" in settings:
+            muscle = {"load": settings["load"]}
+        else:
+            muscle = {"length": settings.get("length", params.L0)}
+        if "p_cmd" in inputs:
+            drive = {"command": inputs["p_cmd"][:n]}
+        else:
+            drive = {"opening": inputs["valve"][:n], "P_start": start_pressure(measurement)}
+        run = pneumatics.simulate_air(time, params, **drive, **muscle, rtol=RECORD_RTOL,
+                                      atol=RECORD_ATOL)
+        pressure = run.P
+    elif "valve" in inputs:
+        raise MkctlError("a record driven by valve openings needs the valve (valve_flow) in its model")
+    else:
+        pressure = commanded_pressure(time, inputs["p_cmd"][:n], params)
+    return pressure, (np.gradient(pressure, time) if n > 1 else np.zeros(n))
+
+
 #: The records whose output is a function (measurement, params, stop) -> (output, its rate).
-RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output}
+RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output, "pressure": pressure_output}
 
 #: How an output quantity is named on a picture.
 OUTPUT_NAMES = {"force": "tension", "length": "length", "x": "hip height X",
-                "beta": "knee angle beta"}
+                "beta": "knee angle beta", "p": "gauge pressure"}
 
 
 def output_name(measurement: Measurement) -> str:
@@ -194,7 +279,7 @@ def output_name(measurement: Measurement) -> str:
 
 
 def record_panels(measurement: Measurement) -> list:
-    """The inputs of a mechanism or actuator record to draw under its overlay:
+    """The inputs of a mechanism, actuator or pressure record to draw under its overlay:
     ``[(label, [(values, name), ...]), ...]``, pressures in kPa, lengths in mm
     (:func:`mkctl.io.diagnosis_report.input_panels`)."""
     return input_panels(measurement)

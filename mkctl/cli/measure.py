@@ -38,19 +38,21 @@ COMMANDS = {
 
 def register(subparsers) -> None:
     """Add ``synth``, ``compare`` and ``diagnose`` to the `mkctl` parser."""
-    from ..analysis.synth import DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE, SHAPES
+    from ..analysis.synth import (DEFAULT_EFFECT_VALUES, DEFAULT_NOISE_MM, DEFAULT_RATE, PRESSURE_HOLDS,
+                                  PRESSURE_LOAD, PRESSURE_RATE, PRESSURE_SHAPES, SHAPES)
 
     p = subparsers.add_parser(
         "synth", help=COMMANDS["synth"],
         description="Simulate an experiment with the file's baseline plus hidden effects, add Gaussian noise to "
                     "the measured output, and write a measurement file (model-spec section 5). The hidden values "
                     "go to <stem>.truth.json beside it, never into the file.")
-    p.add_argument("experiment", choices=["knee", "isotonic", "isometric", "mechanism", "actuator"],
+    p.add_argument("experiment", choices=["knee", "isotonic", "isometric", "mechanism", "actuator", "pressure"],
                    help="what to simulate: knee (the robot leg driven by pressure steps), isotonic (one actuator "
                         "under hanging loads, pressure swept), isometric (a blocked-force bench: the muscle "
                         "clamped at 4 lengths, pressure stepped up and down), mechanism (--mechanism's, muscle 1's "
                         "command stepped) or actuator (a driven-length test: the length imposed as sines under two "
-                        "pressures, the force measured)")
+                        "pressures, the force measured) or pressure (one muscle's pressure: a regulator's steps, "
+                        "a switching valve, a leak-down; --shape, --motion)")
     p.add_argument("output", metavar="OUT.csv", help="the measurement file to write (<stem>.truth.json goes beside it)")
     p.add_argument("--hidden", action="append", default=[], metavar="EFFECT|NAME=VALUE",
                    help="an effect hidden in the data (repeatable, or comma-separated): an effect name (" + ", ".join(
@@ -67,10 +69,22 @@ def register(subparsers) -> None:
                         f"N for isometric] (default {DEFAULT_NOISE_MM:g} mm; isometric 0.5 N)")
     p.add_argument("--seed", type=int, default=0, help="seed of the noise (default 0)")
     p.add_argument("--samples", type=int, default=None, help="samples (default 3000 knee, 2000 isotonic, 400 isometric)")
-    p.add_argument("--rate", type=float, default=DEFAULT_RATE, help="knee sample rate [Hz] (default 1000)")
-    p.add_argument("--shape", default=None, choices=sorted({*SHAPES["knee"], *SHAPES["isotonic"]}),
+    p.add_argument("--rate", type=float, default=None,
+                   help=f"sample rate [Hz] (default {DEFAULT_RATE:g}; pressure {PRESSURE_RATE:g})")
+    p.add_argument("--shape", default=None, choices=sorted({*SHAPES["knee"], *SHAPES["isotonic"], *PRESSURE_SHAPES}),
                    help="command shape: knee steps (default), ramps or chirp (changes at every sample); isotonic "
-                        "sweeps (default) or steps")
+                        "sweeps (default) or steps; pressure steps (default: large set-point steps), small (small "
+                        "steps), valve (a switching valve opened, closed, exhausted) or leakdown (a fast fill, then "
+                        "closed: the heat's sag and the leak-down)")
+    p.add_argument("--motion", choices=PRESSURE_HOLDS, default="held",
+                   help="pressure: the muscle held at --length (default L0), moving (a length column) or free "
+                        "under --load")
+    p.add_argument("--length", type=float, default=None, metavar="MM", help="pressure: the held length [mm]")
+    p.add_argument("--load", type=float, default=PRESSURE_LOAD, metavar="N",
+                   help=f"pressure: the load of a free muscle [N] (default {PRESSURE_LOAD:g})")
+    p.add_argument("--jitter", type=float, default=0.0,
+                   help="pressure: irregular sampling, each interval within +-JITTER of 1/rate (0.2 at 80 Hz: "
+                        "10-15 ms, as real loggers give); default 0")
     p.add_argument("--output-column", dest="output_column", default=None, metavar="COLUMN",
                    help="the measured output: x_mm (default) or beta_deg (a knee joint encoder); length_mm (isotonic)")
     p.add_argument("--input-noise", type=float, default=0.0, metavar="KPA",
@@ -164,7 +178,8 @@ def _own_values(args, items) -> dict:
 
 def _synthesize(args, known: dict):
     """The record ``mkctl synth`` asks for."""
-    from ..analysis.synth import synthesize, synthesize_actuator, synthesize_mechanism
+    from ..analysis.synth import (DEFAULT_RATE, PRESSURE_RATE, synthesize, synthesize_actuator, synthesize_mechanism,
+                                  synthesize_pressure)
 
     mech = load_mechanism(args)
     hold = split_items(args.hold)
@@ -174,6 +189,24 @@ def _synthesize(args, known: dict):
     elif mech is None:
         raise UsageError("synth mechanism needs --mechanism NAME|FILE.py (hanging_mass, pulley_joint, knee or a "
                          "mechanism file)")
+    if args.experiment != "pressure" and (args.motion != "held" or args.length is not None or args.jitter):
+        raise UsageError(f"--motion, --length and --jitter belong to 'synth pressure', not '{args.experiment}'")
+    if args.experiment == "pressure":
+        if args.shape not in (None, "steps", "small", "valve", "leakdown"):
+            raise UsageError(f"--shape {args.shape}: a pressure record's shapes are steps, small, valve and leakdown")
+        if args.pressures or args.input_noise:
+            raise UsageError("a pressure record's inputs are commands (set-points or openings): no --pressures "
+                             "or --input-noise")
+        if args.output_column not in (None, "p_kPa"):
+            raise UsageError(f"--output-column {args.output_column}: a pressure record's output is p_kPa")
+        return synthesize_pressure(split_items(args.hidden), known, args.baseline, noise=args.noise,
+                                   seed=args.seed, samples=args.samples,
+                                   rate=PRESSURE_RATE if args.rate is None else args.rate,
+                                   shape=args.shape or "steps", hold=args.motion,
+                                   length=None if args.length is None else args.length * 1e-3, load=args.load,
+                                   jitter=args.jitter, noise_tau=args.noise_tau, offset=args.offset,
+                                   declare_offset=args.declare_offset, resolution=args.resolution)
+    args.rate = DEFAULT_RATE if args.rate is None else args.rate
     common = dict(noise=args.noise, seed=args.seed, samples=args.samples, rate=args.rate,
                   input_noise=args.input_noise, noise_tau=args.noise_tau, offset=args.offset,
                   declare_offset=args.declare_offset, measured_pressures=args.pressures, resolution=args.resolution)

@@ -108,6 +108,12 @@ def input_panels(measurement) -> list:
                 curves.append((inputs[f"p{i + 1}"] / 1e3, "measured"))
             panels.append((f"{muscle} [kPa]", curves))
         return panels
+    if measurement.experiment == "pressure":  # its drive (set-point or opening), and a moving length
+        panels = [("set-point [kPa]", [(inputs["p_cmd"] / 1e3, "set-point p_cmd")])] if "p_cmd" in inputs \
+            else [("valve opening", [(inputs["valve"], "opening u")])]
+        if "length" in inputs:
+            panels.append(("length [mm]", [(inputs["length"] * 1e3, "moving length")]))
+        return panels
     panels = []
     for short, muscle in (("pe", "extensor"), ("pf", "flexor")):
         curves = [(inputs[f"{short}_cmd"] / 1e3, f"command {short}_cmd")]

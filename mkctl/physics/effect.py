@@ -237,8 +237,8 @@ class Effect:
     @property
     def moves_air(self) -> bool:
         """Whether it changes the air's mass balance (``air_flow``, ``valve_opening`` or
-        ``air_temperature``): with such an effect on, the pressure comes from the air (model-spec 4d)
-        instead of the section 4 pressure path, which it replaces."""
+        ``air_temperature``): with such an effect on, the pressure comes from the air
+        (model-spec 4d) instead of the section 4 pressure path, which it replaces."""
         return any(f is not None for f in (self.air_flow, self.valve_opening, self.air_temperature))
 
     @property

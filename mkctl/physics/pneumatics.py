@@ -346,7 +346,7 @@ def simulate_air(
     rtol: float = 1e-9,
     atol: float = 1e-6,
 ):
-    r"""Simulate one muscle's gauge pressure over a record with the air's effects of a parameter set.
+    r"""Simulate one muscle's gauge pressure over a record with the air's effects of a Params.
 
     As :func:`simulate_muscle_pressure`, with the air's equations taken from the effects ``params``
     switches on (:func:`air_terms`: each effect's ``air_flow``, the valve's ``valve_opening``, the
@@ -454,14 +454,15 @@ def simulate_air(
 
     def length_at(t, y):
         if free:
-            return y[-1], 0.0
+            return float(y[-1]), 0.0
         if spline is None:
             return L_start, 0.0
         return float(spline(t)), float(spline(t, 1))
 
     def rates(t, y, u_in):
-        P = y[0]
-        T = y[1] if heat else a.T_air
+        # Python floats, not numpy scalars: the equations then take the scalar math path (10x)
+        P = float(y[0])
+        T = float(y[1]) if heat else a.T_air
         L, Ldot = length_at(t, y)
         V = air_volume(L, b, n, a.V_dead)
         slope = air_volume_slope(L, b, n)

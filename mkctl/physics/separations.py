@@ -239,6 +239,54 @@ SEPARATIONS = {
 }
 
 
+#: What each air effect (model-spec 4d) shows in a pressure record, and what each effect of the
+#: force shows instead: their pairs' experiment is the pressure record beside a force test.
+_AIR_SHOWS = {
+    "valve_flow": "the valve's choked, nearly linear fill and its bend near the supply",
+    "leak": "the closed muscle's exponential decay to the atmosphere",
+    "air_heat": "the sag within seconds after a fast fill as the air cools",
+}
+_FORCE_SHOWS = {
+    "elasticity": (
+        "the rubber's tension shows in slow isotonic or blocked-force tests at several pressures"
+    ),
+    "viscous_damping": "damping shows in the force only while the muscle moves",
+    "coulomb_friction": (
+        "friction shows as a hysteresis of the force between rising and falling pressure"
+    ),
+    "slack": "slack shows as a zero force at short lengths and low pressure",
+    "pressure_friction": (
+        "pressure friction shows as a hysteresis of the force that widens with pressure"
+    ),
+    "pressure_threshold": (
+        "a threshold bends the force against the measured pressure at low pressure"
+    ),
+}
+SEPARATIONS.update(
+    {
+        (air, force): (
+            f"a pressure record (model-spec 5c: the bladder pressure logged while the valve "
+            f"fills, closes and exhausts) shows {shows}, which no effect of the force changes; "
+            f"{force_shows}, at the measured pressure"
+        )
+        for air, shows in _AIR_SHOWS.items()
+        for force, force_shows in _FORCE_SHOWS.items()
+    }
+)
+SEPARATIONS.update(
+    {
+        ("valve_flow", "leak"): (
+            "a leak-down: fill the muscle, close the valve and log for minutes: the valve's flow "
+            "stops when it closes, a leak goes on decaying exponentially to the atmosphere"
+        ),
+        ("valve_flow", "air_heat"): (
+            "a fast fill followed by a closed valve, logged for ten seconds: with the valve closed "
+            "its flow is zero, the cooling air still sags the pressure within a few tau_heat"
+        ),
+    }
+)
+
+
 def separations_of(name: str) -> dict[str, str]:
     """The experiments of :data:`SEPARATIONS` that involve an effect, by the other effect.
 

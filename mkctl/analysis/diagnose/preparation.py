@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...physics.air import P_ATM
 from ...errors import MkctlError
 from ...io.measurements import Measurement
 from ...physics import actuator, isotonic, knee
@@ -153,6 +154,9 @@ _UNIT_MISTAKES = {1e-3: "metres written under a millimetre header", 1e-1: "centi
 def output_range(measurement: Measurement, params: Params) -> tuple[float, float]:
     """The range [SI] the model's output can physically take: the actuator between its shortest length and
     the braid limit (isotonic), the hip height or knee angle between the end stops (knee), a little wider."""
+    if measurement.experiment == "pressure":  # between absolute zero and the supply or the highest command
+        command = measurement.inputs.get("p_cmd", np.zeros(1))
+        return -P_ATM, 1.2 * max(params.P_supply, float(np.max(command))) + 1e4
     if measurement.experiment == "isotonic":
         low, high = isotonic.length_limits(params)
         return 0.0, high
@@ -243,7 +247,7 @@ def sanity_problems(measurement: Measurement, simulated, params: Params, fit_off
 def saturation_note(measurement: Measurement, params: Params, simulated) -> dict | None:
     """Where the baseline could not follow the record (it went to a physical limit), or None."""
     m = measurement
-    if m.experiment in ("isometric", "actuator"):  # a clamped or driven muscle: no limit to reach
+    if m.experiment in ("isometric", "actuator", "pressure"):  # a clamped or driven muscle, the air: no limit
         return None
     if m.experiment == "isotonic":
         where = isotonic.saturation(m.inputs["pressure"], m.inputs["force"], params)
