@@ -513,3 +513,27 @@ def test_libcosim_runs_the_ssp_file_near_the_monolithic_knee(knee_system, tmp_pa
     print("libcosim: max |X_system - X_knee| by step:", errors)
     assert errors[5e-4] < errors[1e-3] < errors[2e-3] < 2e-3
     assert errors[2e-3] / errors[5e-4] > 2.5  # first order in the step, at least
+
+
+HOSTILE = 'a lever */ #include "evil.h" %n%s \\ \' ?? <x/> & end'
+
+
+def test_no_text_of_a_mechanism_file_reaches_the_c_or_breaks_the_xml(tmp_path):
+    """A mechanism file's free text (its description) stays out of the generated C and comes back
+    intact from the modelDescription (escaped by ElementTree)."""
+    from xml.etree import ElementTree as ET
+
+    from mkctl.analysis.mechanism_files import mechanism
+    from mkctl.native import fmu
+    from mkctl.native.mechanism_fmu import mechanism_interface
+    text = CAM_LEVER.read_text().replace(
+        '"description": "a lever lifted by one muscle over a cam"', f'"description": {HOSTILE!r}')
+    assert text.count("evil.h") == 1
+    path = tmp_path / "hostile_lever.py"
+    path.write_text(text)
+    interface = mechanism_interface(mechanism(str(path)))
+    sources = [fmu.variables_source(interface), fmu.variables_header(interface, "{guid}"),
+               *(source for _, source in interface.generated_sources)]
+    assert not any("evil" in source or "*/ #include" in source for source in sources)
+    root = ET.fromstring(fmu.model_description(interface, "{guid}", ["a.c"], interface.event_indicators))
+    assert root.get("description").startswith(HOSTILE)

@@ -434,6 +434,7 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
                    + (f"out[{2 * k + 1}] = P2; " if k == 2 else "")
                    + f"for (i = 0; i < 3; i++) out[{3 * k} + i] = t[{2 * k} + i];")
     templates = [fmi2._c_string(fmi2._fault_template(check)) for check in table.checks]
+    atol = ", ".join(fmi2._c_double(a) for a in (*mech.RUN_ATOL, mech.RUN_ATOL[2]))
     api = f"""
 /* ---- the mechanism FMU's API (mechanism_fmu.c, mechanism_me.c) ---- */
 int mk_variant(const double *p); /* the core's: the variants are all_variants() in both */
@@ -447,8 +448,9 @@ const int mk_mech_nout = {len(output_vr) - 2};
 const int mk_mech_nz = {nz};
 const char *const mk_mech_fault_templates[] = {{{', '.join(templates) or '""'}}};
 const int mk_mech_fault_count = {len(templates)};
-const double MK_MECH_ATOL[4] = {{1e-9, 1e-9, 1e-3, 1e-3}}; /* mechanism._run's */
+const double MK_MECH_ATOL[4] = {{{atol}}}; /* mechanism.RUN_ATOL */
 const double MK_MECH_RTOL = {fmi2._c_double(_default_rtol())};
+const double MK_MECH_H0 = {fmi2._c_double(mech.RUN_FIRST_STEP)};
 const char MK_MECH_STOPS_FORMAT[] = {fmi2._c_string(_stops_format(mechanism))};
 const char *mk_repr(double value, char *buffer, size_t size);
 int snprintf(char *str, size_t size, const char *format, ...);

@@ -1283,6 +1283,12 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
                         qdot, L, f, P)
 
 
+#: The record loop's absolute tolerances (q, qdot, each pressure) and first step [s] (the native
+#: mechanism FMUs integrate with the same).
+RUN_ATOL = (1e-9, 1e-9, 1e-3)
+RUN_FIRST_STEP = 1e-3
+
+
 def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     """The record loop: one integration per run of held commands, the samples read off the dense
     output."""
@@ -1292,13 +1298,13 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     k = commands.shape[1]
     stop_positions = mechanism.stop_positions(p) if stops else None
     state = np.array([q0, 0.0, *(commands[0] if lag else ())], dtype=float)
-    atol = np.array([1e-9, 1e-9, *([1e-3] * k if lag else [])])
+    atol = np.array([*RUN_ATOL[:2], *([RUN_ATOL[2]] * k if lag else [])])
     kinematics(mechanism, q0, p)  # q0 outside the geometry: the mechanism's own error, at once
     states = np.empty((time.size, state.size))
     if time.size == 0:
         return states
     states[0] = state
-    hint = 1e-3
+    hint = RUN_FIRST_STEP
     # the knee's runs of held commands (it takes two columns: one muscle's twice)
     for start, end in simulate.held_command_runs(commands[:, 0], commands[:, -1]):
         held = commands[start]

@@ -16,6 +16,7 @@ extern const int mk_mech_nz;
 extern const char *const mk_mech_fault_templates[];
 extern const int mk_mech_fault_count;
 extern const double MK_MECH_RTOL;            /* simulate_mechanism's relative tolerance */
+extern const double MK_MECH_H0;              /* and its first step [s] */
 extern const char MK_MECH_STOPS_FORMAT[];    /* Mechanism.stop_positions' message: %g low, %g high */
 
 int mk_mech_nstate(const double *p);

@@ -82,7 +82,7 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
     d->s.y[1] = 0.0;
     d->s.y[2] = d->s.y[3] = 0.0;
     for (k = 0; k < mk_mech_muscles; k++) d->s.y[2 + k] = d->v[mk_mech_command_vr[k]];
-    d->s.h = 1e-3; /* simulate_mechanism's first step */
+    d->s.h = MK_MECH_H0; /* simulate_mechanism's first step */
     d->s.k1_valid = 0;
     if (mk_model_outputs(d, detail, sizeof detail) != 0) { /* every length in 0 < L < b, finite pressures */
         snprintf(msg, size, "the start state is outside the model's domain: %s", detail);
