@@ -208,7 +208,7 @@ def start_pressure(measurement: Measurement) -> float:
     held = int(changes[0]) + 1 if changes.size else measured.size
     if held < 3 or opening[0] != 0:  # a valve open from the start: the pressure moves at once
         return float(measured[0])
-    return float(np.mean(measured[:min(held, START_SAMPLES)]))
+    return float(np.mean(measured[: min(held, START_SAMPLES)]))
 
 
 def pressure_output(measurement: Measurement, params: Params, stop: int | None = None):
@@ -253,11 +253,14 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
             drive = {"command": inputs["p_cmd"][:n]}
         else:
             drive = {"opening": inputs["valve"][:n], "P_start": start_pressure(measurement)}
-        run = pneumatics.simulate_air(time, params, **drive, **muscle, rtol=RECORD_RTOL,
-                                      atol=RECORD_ATOL)
+        run = pneumatics.simulate_air(
+            time, params, **drive, **muscle, rtol=RECORD_RTOL, atol=RECORD_ATOL
+        )
         pressure = run.P
     elif "valve" in inputs:
-        raise MkctlError("a record driven by valve openings needs the valve (valve_flow) in its model")
+        raise MkctlError(
+            "a record driven by valve openings needs the valve (valve_flow) in its model"
+        )
     else:
         pressure = commanded_pressure(time, inputs["p_cmd"][:n], params)
     return pressure, (np.gradient(pressure, time) if n > 1 else np.zeros(n))

@@ -791,7 +791,9 @@ PRESSURE_MOTION = (0.9, 0.05, 0.5)
 PRESSURE_LOAD = 50.0
 
 
-def pressure_inputs(shape: str, samples: int, rate: float, supply: float, jitter: float = 0.0, rng=None):
+def pressure_inputs(
+    shape: str, samples: int, rate: float, supply: float, jitter: float = 0.0, rng=None
+):
     """(time [s], {"p_cmd" [Pa] or "valve" [-]}) of a pressure record of ``shape`` (:data:`PRESSURE_SHAPES`).
 
     ``jitter``: each sampling interval drawn uniformly within +-jitter of ``1 / rate`` (a logger's irregular
@@ -799,9 +801,13 @@ def pressure_inputs(shape: str, samples: int, rate: float, supply: float, jitter
     """
     _check_samples(samples)
     if shape not in PRESSURE_SHAPES:
-        raise ParameterError(f"unknown pressure record shape {shape!r} (known: {', '.join(PRESSURE_SHAPES)})")
+        raise ParameterError(
+            f"unknown pressure record shape {shape!r} (known: {', '.join(PRESSURE_SHAPES)})"
+        )
     if not (np.isfinite(jitter) and 0 <= jitter < 1):
-        raise ParameterError(f"jitter = {jitter!r} is outside [0, 1) (a share of the sampling interval)")
+        raise ParameterError(
+            f"jitter = {jitter!r} is outside [0, 1) (a share of the sampling interval)"
+        )
     steps = np.full(samples - 1, 1.0 / rate)
     if jitter:
         steps *= 1.0 + jitter * (2.0 * rng.random(samples - 1) - 1.0)
@@ -821,12 +827,25 @@ def pressure_inputs(shape: str, samples: int, rate: float, supply: float, jitter
     return time, {"valve": np.where(share < LEAK_FILL, 1.0, 0.0)}
 
 
-def synthesize_pressure(hidden=None, known: dict | None = None, baseline: str = "model2",
-                        noise: float | None = None, seed: int = 0, samples: int | None = None,
-                        rate: float = PRESSURE_RATE, *, shape: str = "steps", hold: str = "held",
-                        length: float | None = None, load: float = PRESSURE_LOAD, jitter: float = 0.0,
-                        noise_tau: float = 0.0, offset: float = 0.0, declare_offset: bool = False,
-                        resolution: float = 0.0) -> SyntheticRecord:
+def synthesize_pressure(
+    hidden=None,
+    known: dict | None = None,
+    baseline: str = "model2",
+    noise: float | None = None,
+    seed: int = 0,
+    samples: int | None = None,
+    rate: float = PRESSURE_RATE,
+    *,
+    shape: str = "steps",
+    hold: str = "held",
+    length: float | None = None,
+    load: float = PRESSURE_LOAD,
+    jitter: float = 0.0,
+    noise_tau: float = 0.0,
+    offset: float = 0.0,
+    declare_offset: bool = False,
+    resolution: float = 0.0,
+) -> SyntheticRecord:
     """A pressure record (``experiment = pressure``, model-spec 5c) made by the truth (baseline + hidden) on
     :func:`pressure_inputs` (:func:`mkctl.analysis.compare.pressure_output`).
 
@@ -865,14 +884,21 @@ def synthesize_pressure(hidden=None, known: dict | None = None, baseline: str = 
         raise ParameterError(f"unknown hold {hold!r} (known: {', '.join(PRESSURE_HOLDS)})")
     known = dict(known or {})
     known.setdefault("P_supply", PRESSURE_SUPPLY)
-    if shape in ("valve", "leakdown"):  # driven by openings: the valve is in the record's baseline (5c)
-        valve = next(e for e in effects.all_effects() if e.valve_opening is not None).switch_parameter
+    if shape in (
+        "valve",
+        "leakdown",
+    ):  # driven by openings: the valve is in the record's baseline (5c)
+        valve = next(
+            e for e in effects.all_effects() if e.valve_opening is not None
+        ).switch_parameter
         known.setdefault(valve.name, valve.on_value)
     hidden = dict(hidden) if isinstance(hidden, dict) else hidden_values(hidden)
     # the rig's own numbers (the supply, V_dead, T_air, k_poly) an effect named alone brings at their
     # defaults are not hidden: the record states the rig's (known) values
     rig = {q.name: q for q in effects.parameters() if q.rig}
-    hidden = {k: v for k, v in hidden.items() if not (k in rig and (k in known or v == rig[k].start))}
+    hidden = {
+        k: v for k, v in hidden.items() if not (k in rig and (k in known or v == rig[k].start))
+    }
     known, hidden, truth = _truth(known, hidden, baseline)
     rng = np.random.default_rng(seed)
     time, inputs = pressure_inputs(shape, samples, rate, truth.P_supply, jitter, rng)
@@ -889,13 +915,40 @@ def synthesize_pressure(hidden=None, known: dict | None = None, baseline: str = 
         settings["length_mm"] = float(length) * 1e3
     time, inputs = as_written("pressure", time, inputs)
     # a record driven by openings starts at its first measured pressure: the truth's, 0 gauge here
-    record = measurement_from_arrays("pressure", time, inputs, np.zeros(time.size), params=metadata,
-                                     baseline=baseline, source="<synth>", settings=settings)
+    record = measurement_from_arrays(
+        "pressure",
+        time,
+        inputs,
+        np.zeros(time.size),
+        params=metadata,
+        baseline=baseline,
+        source="<synth>",
+        settings=settings,
+    )
     clean, _ = pressure_output(record, truth)
     measured = clean + colored_noise(rng, noise * 1e3, time, noise_tau)
     if resolution > 0:
         measured = np.round(measured / (resolution * 1e3)) * (resolution * 1e3)
-    return SyntheticRecord("pressure", baseline, metadata, hidden, truth, time, inputs, clean, measured, noise,
-                           seed, "p_kPa", shape, 0.0, noise_tau, offset, declare_offset, dict(inputs), resolution,
-                           settings=settings)
+    return SyntheticRecord(
+        "pressure",
+        baseline,
+        metadata,
+        hidden,
+        truth,
+        time,
+        inputs,
+        clean,
+        measured,
+        noise,
+        seed,
+        "p_kPa",
+        shape,
+        0.0,
+        noise_tau,
+        offset,
+        declare_offset,
+        dict(inputs),
+        resolution,
+        settings=settings,
+    )
 

@@ -537,17 +537,27 @@ def _check_metadata(metadata: dict, header_index: int, base: Params, fail, sourc
 def _pressure_settings(params: Params, overrides: dict, settings: dict, metadata: dict, fail):
     """A pressure record's settings (model-spec 5c): the supply becomes the known ``P_supply``, the held length
     must lie in 0 < L < b, a load excludes a held length; a value of an effect that is not the rig's own
-    (``C_fill``, not ``P_supply``) switches its effect on, as an effect parameter does in any record."""
+    (``C_fill``, not ``P_supply``) switches its effect on, as an effect parameter does in any record.
+    """
     if "supply" in settings:
         if "P_supply" in overrides:
-            fail(settings["supply"][1], f"the supply is given twice (P_supply on line {metadata['P_supply'][1]})")
+            fail(
+                settings["supply"][1],
+                f"the supply is given twice (P_supply on line {metadata['P_supply'][1]})",
+            )
         overrides = {**overrides, "P_supply": settings["supply"][0]}
     if "length" in settings and "load" in settings:
-        fail(settings["load"][1], f"a held length (line {settings['length'][1]}) and a load: a pressure record's "
-                                  "muscle is held, moving or free under a load, one of them")
+        fail(
+            settings["load"][1],
+            f"a held length (line {settings['length'][1]}) and a load: a pressure record's "
+            "muscle is held, moving or free under a load, one of them",
+        )
     if "length" in settings and not 0 < settings["length"][0] < params.b:
-        fail(settings["length"][1], f"the held length {settings['length'][0] * 1e3:g} mm must lie between 0 and "
-                                    f"the braid length b = {params.b * 1e3:g} mm")
+        fail(
+            settings["length"][1],
+            f"the held length {settings['length'][0] * 1e3:g} mm must lie between 0 and "
+            f"the braid length b = {params.b * 1e3:g} mm",
+        )
     if "load" in settings and settings["load"][0] < 0:
         fail(settings["load"][1], "the load must not be negative (it pulls the muscle)")
     switched = {}
@@ -555,7 +565,9 @@ def _pressure_settings(params: Params, overrides: dict, settings: dict, metadata
         q = effect.switch_parameter
         if not q.switch or q.name in overrides:
             continue
-        given = [n for n in overrides if n in effect.parameter_names and not effect.parameter(n).rig]
+        given = [
+            n for n in overrides if n in effect.parameter_names and not effect.parameter(n).rig
+        ]
         if given:
             switched[q.name] = q.on_value
     try:
@@ -565,22 +577,38 @@ def _pressure_settings(params: Params, overrides: dict, settings: dict, metadata
     return params, overrides, {"settings": {k: v for k, (v, _) in settings.items()}}
 
 
-def _pressure_record_params(params: Params, overrides: dict, settings: dict, columns: dict, metadata: dict,
-                            header_line: int, fail) -> Params:
+def _pressure_record_params(
+    params: Params,
+    overrides: dict,
+    settings: dict,
+    columns: dict,
+    metadata: dict,
+    header_line: int,
+    fail,
+) -> Params:
     """A pressure record's columns against its settings: a moving length is not also held, and a record driven
     by valve openings names its supply and has the valve in its baseline (the effect a command's opening comes
     from: it cannot be simulated without it, model-spec 5c)."""
     if "length" in columns and ("length" in settings or "load" in settings):
         key = next(k for k in metadata if setting_of(k) and setting_of(k)[0] in ("length", "load"))
-        fail(metadata[key][1], f"'{key}' and a length column: a pressure record's muscle is held, moving or "
-                               "free under a load, one of them")
+        fail(
+            metadata[key][1],
+            f"'{key}' and a length column: a pressure record's muscle is held, moving or "
+            "free under a load, one of them",
+        )
     if "valve" not in columns:
         return params
     if "P_supply" not in overrides:
-        fail(header_line, "a record driven by valve openings needs its supply pressure: '# supply_kPa = ...' "
-                          "before the header")
-    valves = {e.switch_parameter.name: e.switch_parameter.on_value for e in effects_registry.all_effects()
-              if e.valve_opening is not None and e.switch_parameter.switch and not e.is_on(params)}
+        fail(
+            header_line,
+            "a record driven by valve openings needs its supply pressure: '# supply_kPa = ...' "
+            "before the header",
+        )
+    valves = {
+        e.switch_parameter.name: e.switch_parameter.on_value
+        for e in effects_registry.all_effects()
+        if e.valve_opening is not None and e.switch_parameter.switch and not e.is_on(params)
+    }
     return params.replace(**valves) if valves else params
 
 
