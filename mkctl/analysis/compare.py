@@ -218,8 +218,8 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
     (:func:`mkctl.physics.pneumatics.simulate_air`): driven by the regulator's set-points or the
     valve's openings, the muscle held at the record's ``length`` (default L0), moving (its length
     column) or free under its ``load``; a record driven by set-points starts at its first command,
-    one driven by openings at its measured start (:func:`start_pressure`). Otherwise the section 4 pressure path
-    (:func:`commanded_pressure`: the dead time and the lags of ``params``).
+    one driven by openings at its measured start (:func:`start_pressure`). Otherwise the section 4
+    pressure path (:func:`commanded_pressure`: the dead time and the lags of ``params``).
 
     Parameters
     ----------
@@ -267,7 +267,8 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
 
 
 #: The records whose output is a function (measurement, params, stop) -> (output, its rate).
-RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output, "pressure": pressure_output}
+RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output,
+                  "pressure": pressure_output}
 
 #: How an output quantity is named on a picture.
 OUTPUT_NAMES = {"force": "tension", "length": "length", "x": "hip height X",

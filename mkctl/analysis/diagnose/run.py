@@ -66,14 +66,16 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
         f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
     state, offset_before = _select(problem, record, rule, say)
-    final = _with_air(_final_fit(problem, record, state, offset_before, say), record, calibration, say)
+    final = _final_fit(problem, record, state, offset_before, say)
+    final = _with_air(final, record, calibration, say)
     return _result(record, state, final, offset_before, rule, say)
 
 
 def _with_air(final: "_Final", record: Record, calibration, say) -> "_Final":
-    """The final model with the air's values (:mod:`.air`): the baseline's calibration (a valve driven
-    by openings) reported beside what was added, and the air refitted, with what the search added,
-    in every value the record identifies (the others held, each with a note in the record's notes).
+    """The final model with the air's values (:mod:`.air`): the baseline's calibration (a valve
+    driven by openings) reported beside what was added, and the air refitted, with what the search
+    added, in every value the record identifies (the others held, each with a note in the record's
+    notes).
     """
     m = record.measurement
     values, uncertainty = dict(final.values), dict(final.uncertainty)
