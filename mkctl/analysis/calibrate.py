@@ -151,10 +151,10 @@ def force_record(measurement) -> ForceRecord:
         return ForceRecord("isotonic", str(m.source), length, np.asarray(m.inputs["pressure"], float),
                            np.asarray(m.inputs["force"], float), -motion_direction(m.time, length),
                            dict(m.overrides), np.asarray(m.time, float))
-    if m.experiment == "pressure":  # no force in it: the air is diagnosed (model-spec 5c)
-        raise CalibrationError(f"{m.source}: a pressure record shows the air, not the muscle's "
-                               "force: calibrate fits the statics from isometric or isotonic "
-                               f"records; read its valve and volume with 'mkctl diagnose {m.source}'")
+    if m.experiment == "pressure":  # no force in it: the air is diagnosed, not calibrated (model-spec 5c)
+        raise CalibrationError(f"{m.source}: a pressure record shows the air, not the muscle's force: calibrate "
+                               f"fits the statics from isometric or isotonic records; read its valve and volume "
+                               f"with 'mkctl diagnose {m.source}'")
     raise CalibrationError(f"{m.source}: calibrate needs isometric or isotonic records, not {m.experiment!r}")
 
 

@@ -84,11 +84,9 @@ def input_panels(measurement) -> list:
     if measurement.experiment == "isometric":
         return [("pressure [kPa]", [(inputs["pressure"] / 1e3, "pressure")]),
                 ("clamped length [mm]", [(inputs["length"] * 1e3, "length")])]
-    if measurement.experiment == "pressure":  # its drive (set-point or opening), a moving length
-        if "p_cmd" in inputs:
-            panels = [("set-point [kPa]", [(inputs["p_cmd"] / 1e3, "set-point p_cmd")])]
-        else:
-            panels = [("valve opening", [(inputs["valve"], "opening u")])]
+    if measurement.experiment == "pressure":  # its drive (set-point or opening), and a moving length
+        panels = [("set-point [kPa]", [(inputs["p_cmd"] / 1e3, "set-point p_cmd")])] if "p_cmd" in inputs \
+            else [("valve opening", [(inputs["valve"], "opening u")])]
         if "length" in inputs:
             panels.append(("length [mm]", [(inputs["length"] * 1e3, "moving length")]))
         return panels
