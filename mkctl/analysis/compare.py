@@ -208,7 +208,7 @@ def start_pressure(measurement: Measurement) -> float:
     held = int(changes[0]) + 1 if changes.size else measured.size
     if held < 3 or opening[0] != 0:  # a valve open from the start: the pressure moves at once
         return float(measured[0])
-    return float(np.mean(measured[:min(held, START_SAMPLES)]))
+    return float(np.mean(measured[: min(held, START_SAMPLES)]))
 
 
 def pressure_output(measurement: Measurement, params: Params, stop: int | None = None):
@@ -218,8 +218,8 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
     (:func:`mkctl.physics.pneumatics.simulate_air`): driven by the regulator's set-points or the
     valve's openings, the muscle held at the record's ``length`` (default L0), moving (its length
     column) or free under its ``load``; a record driven by set-points starts at its first command,
-    one driven by openings at its measured start (:func:`start_pressure`). Otherwise the section 4 pressure path
-    (:func:`commanded_pressure`: the dead time and the lags of ``params``).
+    one driven by openings at its measured start (:func:`start_pressure`). Otherwise the section 4
+    pressure path (:func:`commanded_pressure`: the dead time and the lags of ``params``).
 
     Parameters
     ----------
@@ -253,18 +253,22 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
             drive = {"command": inputs["p_cmd"][:n]}
         else:
             drive = {"opening": inputs["valve"][:n], "P_start": start_pressure(measurement)}
-        run = pneumatics.simulate_air(time, params, **drive, **muscle, rtol=RECORD_RTOL,
-                                      atol=RECORD_ATOL)
+        run = pneumatics.simulate_air(
+            time, params, **drive, **muscle, rtol=RECORD_RTOL, atol=RECORD_ATOL
+        )
         pressure = run.P
     elif "valve" in inputs:
-        raise MkctlError("a record driven by valve openings needs the valve (valve_flow) in its model")
+        raise MkctlError(
+            "a record driven by valve openings needs the valve (valve_flow) in its model"
+        )
     else:
         pressure = commanded_pressure(time, inputs["p_cmd"][:n], params)
     return pressure, (np.gradient(pressure, time) if n > 1 else np.zeros(n))
 
 
 #: The records whose output is a function (measurement, params, stop) -> (output, its rate).
-RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output, "pressure": pressure_output}
+RECORD_OUTPUTS = {"mechanism": mechanism_output, "actuator": actuator_output,
+                  "pressure": pressure_output}
 
 #: How an output quantity is named on a picture.
 OUTPUT_NAMES = {"force": "tension", "length": "length", "x": "hip height X",

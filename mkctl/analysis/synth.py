@@ -250,7 +250,8 @@ class SyntheticRecord:
     inputs_clean: dict | None = None  #: the inputs before sensor noise (SI)
     resolution: float = 0.0  #: the output sensor's resolution in the output column's unit (0: none)
     mechanism: object = None  #: a mechanism record's mechanism
-    #: a pressure record's metadata settings, in the file's units (``supply_kPa``, ``length_mm``, ``load_N``)
+    #: a pressure record's metadata settings, in the file's units (``supply_kPa``, ``length_mm``,
+    #: ``load_N``)
     settings: dict = field(default_factory=dict)
 
     @property
@@ -761,29 +762,32 @@ def synthesize_actuator(hidden=None, known: dict | None = None, baseline: str = 
                            offset, declare_offset, clean_inputs, resolution)
 
 
-# --- Pressure records (model-spec 5c) ----------------------------------------------------------------
+# --- Pressure records (model-spec 5c) -----------------------------------------------------------
 
-#: A pressure record's defaults: samples, sample rate [Hz] (a logger of the rigs of issue 28: 80 Hz), and the
-#: output noise [kPa].
+#: A pressure record's defaults: samples, sample rate [Hz] (a logger of the rigs of issue 28: 80
+#: Hz), and the output noise [kPa].
 PRESSURE_SAMPLES = 1200
 PRESSURE_RATE = 80.0
 DEFAULT_NOISE_KPA = 0.3
-#: The supply's gauge pressure a pressure record declares unless told [Pa] (the rigs of issue 28: 620 kPa).
+#: The supply's gauge pressure a pressure record declares unless told [Pa] (the rigs of issue 28:
+#: 620 kPa).
 PRESSURE_SUPPLY = 620e3
-#: The shapes of a pressure record: ``steps`` (a regulator's large fill and exhaust steps, as shares of the
-#: supply), ``small`` (small steps around a middle pressure: where the valve is a lag), ``valve`` (a
-#: switching valve opened to the supply, closed, opened to the exhaust) and ``leakdown`` (a fast fill, then the valve
-#: closed for the rest: the heat's sag and the leak-down).
+#: The shapes of a pressure record: ``steps`` (a regulator's large fill and exhaust steps, as shares
+#: of the supply), ``small`` (small steps around a middle pressure: where the valve is a lag),
+#: ``valve`` (a switching valve opened to the supply, closed, opened to the exhaust) and
+#: ``leakdown`` (a fast fill, then the valve closed for the rest: the heat's sag and the leak-down).
 PRESSURE_SHAPES = ("steps", "small", "valve", "leakdown")
 #: ``steps``: (fraction of the record, set-point as a share of the supply's gauge pressure).
 PRESSURE_STEPS = ((0.05, 0.6), (0.3, 0.1), (0.55, 0.45), (0.8, 0.0))
-#: ``small``: the middle set-point (share of the supply) and the steps around it (shares of the supply).
+#: ``small``: the middle set-point (share of the supply) and the steps around it (shares of the
+#: supply).
 PRESSURE_SMALL = (0.3, ((0.05, 0.01), (0.3, -0.01), (0.55, 0.015), (0.8, -0.005)))
 #: ``valve``: (fraction of the record, opening).
 PRESSURE_OPENINGS = ((0.05, 1.0), (0.25, 0.0), (0.5, -1.0), (0.6, 0.0), (0.7, 0.5), (0.8, 0.0))
 #: ``leakdown``: the fill's end (fraction of the record); the valve is open to the supply before it.
 LEAK_FILL = 0.03
-#: How a pressure record's muscle is held: at a length, moving (a length column) or free under a load.
+#: How a pressure record's muscle is held: at a length, moving (a length column) or free under a
+#: load.
 PRESSURE_HOLDS = ("held", "moving", "load")
 #: ``moving``: the length's centre and amplitude as shares of L0, and its frequency [Hz].
 PRESSURE_MOTION = (0.9, 0.05, 0.5)
@@ -791,17 +795,24 @@ PRESSURE_MOTION = (0.9, 0.05, 0.5)
 PRESSURE_LOAD = 50.0
 
 
-def pressure_inputs(shape: str, samples: int, rate: float, supply: float, jitter: float = 0.0, rng=None):
-    """(time [s], {"p_cmd" [Pa] or "valve" [-]}) of a pressure record of ``shape`` (:data:`PRESSURE_SHAPES`).
+def pressure_inputs(
+    shape: str, samples: int, rate: float, supply: float, jitter: float = 0.0, rng=None
+):
+    """(time [s], {"p_cmd" [Pa] or "valve" [-]}) of a pressure record of ``shape``
+    (:data:`PRESSURE_SHAPES`).
 
-    ``jitter``: each sampling interval drawn uniformly within +-jitter of ``1 / rate`` (a logger's irregular
-    steps: 10-15 ms at 80 Hz is jitter 0.2); ``supply``: the supply's gauge pressure [Pa].
+    ``jitter``: each sampling interval drawn uniformly within +-jitter of ``1 / rate`` (a logger's
+    irregular steps: 10-15 ms at 80 Hz is jitter 0.2); ``supply``: the supply's gauge pressure [Pa].
     """
     _check_samples(samples)
     if shape not in PRESSURE_SHAPES:
-        raise ParameterError(f"unknown pressure record shape {shape!r} (known: {', '.join(PRESSURE_SHAPES)})")
+        raise ParameterError(
+            f"unknown pressure record shape {shape!r} (known: {', '.join(PRESSURE_SHAPES)})"
+        )
     if not (np.isfinite(jitter) and 0 <= jitter < 1):
-        raise ParameterError(f"jitter = {jitter!r} is outside [0, 1) (a share of the sampling interval)")
+        raise ParameterError(
+            f"jitter = {jitter!r} is outside [0, 1) (a share of the sampling interval)"
+        )
     steps = np.full(samples - 1, 1.0 / rate)
     if jitter:
         steps *= 1.0 + jitter * (2.0 * rng.random(samples - 1) - 1.0)
@@ -821,27 +832,42 @@ def pressure_inputs(shape: str, samples: int, rate: float, supply: float, jitter
     return time, {"valve": np.where(share < LEAK_FILL, 1.0, 0.0)}
 
 
-def synthesize_pressure(hidden=None, known: dict | None = None, baseline: str = "model2",
-                        noise: float | None = None, seed: int = 0, samples: int | None = None,
-                        rate: float = PRESSURE_RATE, *, shape: str = "steps", hold: str = "held",
-                        length: float | None = None, load: float = PRESSURE_LOAD, jitter: float = 0.0,
-                        noise_tau: float = 0.0, offset: float = 0.0, declare_offset: bool = False,
-                        resolution: float = 0.0) -> SyntheticRecord:
-    """A pressure record (``experiment = pressure``, model-spec 5c) made by the truth (baseline + hidden) on
-    :func:`pressure_inputs` (:func:`mkctl.analysis.compare.pressure_output`).
+def synthesize_pressure(
+    hidden=None,
+    known: dict | None = None,
+    baseline: str = "model2",
+    noise: float | None = None,
+    seed: int = 0,
+    samples: int | None = None,
+    rate: float = PRESSURE_RATE,
+    *,
+    shape: str = "steps",
+    hold: str = "held",
+    length: float | None = None,
+    load: float = PRESSURE_LOAD,
+    jitter: float = 0.0,
+    noise_tau: float = 0.0,
+    offset: float = 0.0,
+    declare_offset: bool = False,
+    resolution: float = 0.0,
+) -> SyntheticRecord:
+    """A pressure record (``experiment = pressure``, model-spec 5c) made by the truth (baseline +
+    hidden) on :func:`pressure_inputs` (:func:`mkctl.analysis.compare.pressure_output`).
 
     Parameters
     ----------
     hidden : list or dict
-        As :func:`synthesize`: ``valve_flow`` (the valve), ``leak``, ``air_heat`` (both need the valve),
-        ``pressure_lag``, ``asymmetric_lag``, ``dead_time``, or values (``C_fill=3e-9``).
+        As :func:`synthesize`: ``valve_flow`` (the valve), ``leak``, ``air_heat`` (both need the
+        valve), ``pressure_lag``, ``asymmetric_lag``, ``dead_time``, or values (``C_fill=3e-9``).
     known : dict
-        Values written into the metadata (SI), e.g. ``{"P_supply": 520e3}`` (written as ``supply_kPa``).
+        Values written into the metadata (SI), e.g. ``{"P_supply": 520e3}`` (written as
+        ``supply_kPa``).
     noise : float
         Output noise [kPa] (default :data:`DEFAULT_NOISE_KPA`).
     shape : str
-        :data:`PRESSURE_SHAPES`: the ``valve`` and ``leakdown`` shapes are driven by openings (the valve is then in
-        the record's baseline: hide its values, ``C_fill=...``, or leave its typical ones).
+        :data:`PRESSURE_SHAPES`: the ``valve`` and ``leakdown`` shapes are driven by openings (the
+        valve is then in the record's baseline: hide its values, ``C_fill=...``, or leave its
+        typical ones).
     hold : str
         :data:`PRESSURE_HOLDS`: ``held`` at ``length`` [m] (default L0), ``moving`` (a sine of
         :data:`PRESSURE_MOTION`, written as a length column) or ``load`` (free under ``load`` [N]).
@@ -865,14 +891,21 @@ def synthesize_pressure(hidden=None, known: dict | None = None, baseline: str = 
         raise ParameterError(f"unknown hold {hold!r} (known: {', '.join(PRESSURE_HOLDS)})")
     known = dict(known or {})
     known.setdefault("P_supply", PRESSURE_SUPPLY)
-    if shape in ("valve", "leakdown"):  # driven by openings: the valve is in the record's baseline (5c)
-        valve = next(e for e in effects.all_effects() if e.valve_opening is not None).switch_parameter
+    if shape in (
+        "valve",
+        "leakdown",
+    ):  # driven by openings: the valve is in the record's baseline (5c)
+        valve = next(
+            e for e in effects.all_effects() if e.valve_opening is not None
+        ).switch_parameter
         known.setdefault(valve.name, valve.on_value)
     hidden = dict(hidden) if isinstance(hidden, dict) else hidden_values(hidden)
-    # the rig's own numbers (the supply, V_dead, T_air, k_poly) an effect named alone brings at their
-    # defaults are not hidden: the record states the rig's (known) values
+    # the rig's own numbers (the supply, V_dead, T_air, k_poly) an effect named alone brings at
+    # their defaults are not hidden: the record states the rig's (known) values
     rig = {q.name: q for q in effects.parameters() if q.rig}
-    hidden = {k: v for k, v in hidden.items() if not (k in rig and (k in known or v == rig[k].start))}
+    hidden = {
+        k: v for k, v in hidden.items() if not (k in rig and (k in known or v == rig[k].start))
+    }
     known, hidden, truth = _truth(known, hidden, baseline)
     rng = np.random.default_rng(seed)
     time, inputs = pressure_inputs(shape, samples, rate, truth.P_supply, jitter, rng)
@@ -889,13 +922,40 @@ def synthesize_pressure(hidden=None, known: dict | None = None, baseline: str = 
         settings["length_mm"] = float(length) * 1e3
     time, inputs = as_written("pressure", time, inputs)
     # a record driven by openings starts at its first measured pressure: the truth's, 0 gauge here
-    record = measurement_from_arrays("pressure", time, inputs, np.zeros(time.size), params=metadata,
-                                     baseline=baseline, source="<synth>", settings=settings)
+    record = measurement_from_arrays(
+        "pressure",
+        time,
+        inputs,
+        np.zeros(time.size),
+        params=metadata,
+        baseline=baseline,
+        source="<synth>",
+        settings=settings,
+    )
     clean, _ = pressure_output(record, truth)
     measured = clean + colored_noise(rng, noise * 1e3, time, noise_tau)
     if resolution > 0:
         measured = np.round(measured / (resolution * 1e3)) * (resolution * 1e3)
-    return SyntheticRecord("pressure", baseline, metadata, hidden, truth, time, inputs, clean, measured, noise,
-                           seed, "p_kPa", shape, 0.0, noise_tau, offset, declare_offset, dict(inputs), resolution,
-                           settings=settings)
+    return SyntheticRecord(
+        "pressure",
+        baseline,
+        metadata,
+        hidden,
+        truth,
+        time,
+        inputs,
+        clean,
+        measured,
+        noise,
+        seed,
+        "p_kPa",
+        shape,
+        0.0,
+        noise_tau,
+        offset,
+        declare_offset,
+        dict(inputs),
+        resolution,
+        settings=settings,
+    )
 

@@ -36,12 +36,13 @@ then one row of numbers per sample::
   is accepted only when the caller hands in that same file, loaded (``--mechanism FILE.py``: issue 30).
 - A driven-length record (``experiment = actuator``) has ``time, length``, the pressure measured (``pressure``) or
   commanded (``p_cmd``), exactly one of them, and the force as output.
-- A pressure record (``experiment = pressure``, model-spec 5c) has ``time``, a set-point ``p_cmd`` or a valve's
-  opening ``valve`` (-1..1, no unit suffix), exactly one of them, the measured gauge pressure ``p`` and optionally
-  a moving ``length``; its metadata may give the settings ``length_<unit>`` (held), ``load_<unit>`` (free under a
-  load) and ``supply_<unit>`` (:data:`SETTINGS`; the supply is required with ``valve``). The rig's numbers
-  (``P_supply``, ``V_dead``, ``T_air``, ``k_poly``: ``Parameter.rig``) are known values; a valve's own values switch
-  ``valve_flow`` on, and a ``valve`` column puts it in the baseline.
+- A pressure record (``experiment = pressure``, model-spec 5c) has ``time``, a set-point ``p_cmd``
+  or a valve's opening ``valve`` (-1..1, no unit suffix), exactly one of them, the measured gauge
+  pressure ``p`` and optionally a moving ``length``; its metadata may give the settings
+  ``length_<unit>`` (held), ``load_<unit>`` (free under a load) and ``supply_<unit>``
+  (:data:`SETTINGS`; the supply is required with ``valve``). The rig's numbers (``P_supply``,
+  ``V_dead``, ``T_air``, ``k_poly``: ``Parameter.rig``) are known values; a valve's own values
+  switch ``valve_flow`` on, and a ``valve`` column puts it in the baseline.
 - Every required cell must be a finite number and time must increase strictly. At least two rows.
 
 A file that breaks a rule raises :class:`mkctl.errors.MeasurementFileError` with a one-line message
@@ -134,9 +135,10 @@ EXPERIMENTS = {
         (Quantity("p", "pressure", "kPa"),),
         (Quantity("p_cmd", "pressure", "kPa"), Quantity("valve", "opening", ""),
          Quantity("length", "length", "mm")),
-        "one muscle's pressure over time (model-spec 5c): a regulator's set-point p_cmd or a valve's opening "
-        "(-1..1) drives it, the muscle held (length_mm in the metadata; default L0), moving (a length column) "
-        "or free under a load (load_N); measured: the gauge pressure p",
+        "one muscle's pressure over time (model-spec 5c): a regulator's set-point p_cmd or a "
+        "valve's opening (-1..1) drives it, the muscle held (length_mm in the metadata; default "
+        "L0), moving (a length column) or free under a load (load_N); measured: the gauge "
+        "pressure p",
         one_of=("p_cmd", "valve"),
     ),
     # the columns of a mechanism record depend on its mechanism: mechanism_experiment() makes them; this
@@ -182,7 +184,8 @@ UNIT_FACTORS = {
 #: The largest magnitude a value of each kind may have (SI: s, Pa, N, m, rad), offsets included: far beyond any real
 #: rig (a record of four months, 100 MPa, 1 MN, 100 m), so that a value past it is a typo or a broken file, and
 #: every value within it keeps the model's arithmetic finite.
-LARGEST = {"time": 1e7, "pressure": 1e8, "force": 1e6, "length": 100.0, "angle": 100.0, "opening": 1.0}
+LARGEST = {"time": 1e7, "pressure": 1e8, "force": 1e6, "length": 100.0, "angle": 100.0,
+           "opening": 1.0}
 
 #: Baselines a file may name, and the model number (params.model) each one means.
 BASELINES = {"model1": 1, "model2": 2}
@@ -192,15 +195,17 @@ METADATA_KEYS = ("experiment", "baseline")
 #: Further metadata keys of a mechanism record (and the mechanism's own parameter names).
 MECHANISM_KEYS = ("mechanism", "q0")
 
-#: A pressure record's settings in its metadata (model-spec 5c), ``<name>_<unit>``: its kind. ``length``: the held
-#: length; ``load``: the constant load of a free muscle; ``supply``: the supply's gauge pressure.
+#: A pressure record's settings in its metadata (model-spec 5c), ``<name>_<unit>``: its kind.
+#: ``length``: the held length; ``load``: the constant load of a free muscle; ``supply``: the
+#: supply's gauge pressure.
 SETTINGS = {"length": "length", "load": "force", "supply": "pressure"}
 #: The experiments whose records take :data:`SETTINGS`.
 SETTING_EXPERIMENTS = ("pressure",)
 
 
 def setting_of(key: str) -> tuple[str, float] | None:
-    """(setting, factor to SI) of a metadata key such as ``supply_kPa`` (:data:`SETTINGS`), or None."""
+    """(setting, factor to SI) of a metadata key such as ``supply_kPa`` (:data:`SETTINGS`), or
+    None."""
     name, _, unit = key.rpartition("_")
     if name not in SETTINGS:
         return None
@@ -248,7 +253,8 @@ class Measurement:
     branch: np.ndarray | None = None
     has_time: bool = True
     mechanism: object = None  #: a mechanism record's :class:`~mkctl.physics.mechanism.Mechanism`
-    settings: dict = field(default_factory=dict)  #: a pressure record's held length, load, supply (SI)
+    #: a pressure record's held length, load and supply (SI)
+    settings: dict = field(default_factory=dict)
     mechanism_values: dict = field(default_factory=dict)  #: its own parameters the file sets (their units)
     q0: float | None = None  #: a mechanism record's initial coordinate [m or rad]; None: at rest in equilibrium
 
@@ -349,8 +355,8 @@ _ONE_VALUE = re.compile(r"[-+]?(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|[A-Za-z_][\w.+-]
 def known_metadata_key(key: str) -> bool:
     """Whether key is metadata a file may give: experiment, baseline, a parameter name, an offset, or a mechanism
     record's ``mechanism`` and ``q0`` (its own parameters are known once its mechanism is)."""
-    return (key in METADATA_KEYS or key in MECHANISM_KEYS or key in PARAMETER_NAMES or "_offset_" in key
-            or setting_of(key) is not None)
+    return (key in METADATA_KEYS or key in MECHANISM_KEYS or key in PARAMETER_NAMES
+            or "_offset_" in key or setting_of(key) is not None)
 
 
 def metadata_line(line: str) -> tuple[str, str] | None:
@@ -494,13 +500,15 @@ def _check_metadata(metadata: dict, header_index: int, base: Params, fail, sourc
             continue
         if setting_of(key) is not None and key not in PARAMETER_NAMES:
             if name not in SETTING_EXPERIMENTS:
-                fail(line_number, f"metadata key {key!r} belongs to a pressure record ('# experiment = pressure')")
+                fail(line_number, f"metadata key {key!r} belongs to a pressure record "
+                                  "('# experiment = pressure')")
             setting, factor = setting_of(key)
             number = _to_float(value)
             if number is None or not math.isfinite(number):
                 fail(line_number, f"{key!r} is not a finite number: {value!r}")
             if setting in settings:
-                fail(line_number, f"two values for the {setting} (first on line {settings[setting][1]})")
+                fail(line_number,
+                     f"two values for the {setting} (first on line {settings[setting][1]})")
             if not abs(number * factor) <= LARGEST[SETTINGS[setting]]:
                 fail(line_number, f"{key} = {value} is outside the range of a real rig")
             settings[setting] = (number * factor, line_number)
@@ -535,19 +543,30 @@ def _check_metadata(metadata: dict, header_index: int, base: Params, fail, sourc
 
 
 def _pressure_settings(params: Params, overrides: dict, settings: dict, metadata: dict, fail):
-    """A pressure record's settings (model-spec 5c): the supply becomes the known ``P_supply``, the held length
-    must lie in 0 < L < b, a load excludes a held length; a value of an effect that is not the rig's own
-    (``C_fill``, not ``P_supply``) switches its effect on, as an effect parameter does in any record."""
+    """A pressure record's settings (model-spec 5c): the supply becomes the known ``P_supply``, the
+    held length must lie in 0 < L < b, a load excludes a held length; a value of an effect that is
+    not the rig's own (``C_fill``, not ``P_supply``) switches its effect on, as an effect parameter
+    does in any record.
+    """
     if "supply" in settings:
         if "P_supply" in overrides:
-            fail(settings["supply"][1], f"the supply is given twice (P_supply on line {metadata['P_supply'][1]})")
+            fail(
+                settings["supply"][1],
+                f"the supply is given twice (P_supply on line {metadata['P_supply'][1]})",
+            )
         overrides = {**overrides, "P_supply": settings["supply"][0]}
     if "length" in settings and "load" in settings:
-        fail(settings["load"][1], f"a held length (line {settings['length'][1]}) and a load: a pressure record's "
-                                  "muscle is held, moving or free under a load, one of them")
+        fail(
+            settings["load"][1],
+            f"a held length (line {settings['length'][1]}) and a load: a pressure record's "
+            "muscle is held, moving or free under a load, one of them",
+        )
     if "length" in settings and not 0 < settings["length"][0] < params.b:
-        fail(settings["length"][1], f"the held length {settings['length'][0] * 1e3:g} mm must lie between 0 and "
-                                    f"the braid length b = {params.b * 1e3:g} mm")
+        fail(
+            settings["length"][1],
+            f"the held length {settings['length'][0] * 1e3:g} mm must lie between 0 and "
+            f"the braid length b = {params.b * 1e3:g} mm",
+        )
     if "load" in settings and settings["load"][0] < 0:
         fail(settings["load"][1], "the load must not be negative (it pulls the muscle)")
     switched = {}
@@ -555,7 +574,9 @@ def _pressure_settings(params: Params, overrides: dict, settings: dict, metadata
         q = effect.switch_parameter
         if not q.switch or q.name in overrides:
             continue
-        given = [n for n in overrides if n in effect.parameter_names and not effect.parameter(n).rig]
+        given = [
+            n for n in overrides if n in effect.parameter_names and not effect.parameter(n).rig
+        ]
         if given:
             switched[q.name] = q.on_value
     try:
@@ -565,22 +586,38 @@ def _pressure_settings(params: Params, overrides: dict, settings: dict, metadata
     return params, overrides, {"settings": {k: v for k, (v, _) in settings.items()}}
 
 
-def _pressure_record_params(params: Params, overrides: dict, settings: dict, columns: dict, metadata: dict,
-                            header_line: int, fail) -> Params:
-    """A pressure record's columns against its settings: a moving length is not also held, and a record driven
-    by valve openings names its supply and has the valve in its baseline (the effect a command's opening comes
-    from: it cannot be simulated without it, model-spec 5c)."""
+def _pressure_record_params(
+    params: Params,
+    overrides: dict,
+    settings: dict,
+    columns: dict,
+    metadata: dict,
+    header_line: int,
+    fail,
+) -> Params:
+    """A pressure record's columns against its settings: a moving length is not also held, and a
+    record driven by valve openings names its supply and has the valve in its baseline (the effect a
+    command's opening comes from: it cannot be simulated without it, model-spec 5c)."""
     if "length" in columns and ("length" in settings or "load" in settings):
         key = next(k for k in metadata if setting_of(k) and setting_of(k)[0] in ("length", "load"))
-        fail(metadata[key][1], f"'{key}' and a length column: a pressure record's muscle is held, moving or "
-                               "free under a load, one of them")
+        fail(
+            metadata[key][1],
+            f"'{key}' and a length column: a pressure record's muscle is held, moving or "
+            "free under a load, one of them",
+        )
     if "valve" not in columns:
         return params
     if "P_supply" not in overrides:
-        fail(header_line, "a record driven by valve openings needs its supply pressure: '# supply_kPa = ...' "
-                          "before the header")
-    valves = {e.switch_parameter.name: e.switch_parameter.on_value for e in effects_registry.all_effects()
-              if e.valve_opening is not None and e.switch_parameter.switch and not e.is_on(params)}
+        fail(
+            header_line,
+            "a record driven by valve openings needs its supply pressure: '# supply_kPa = ...' "
+            "before the header",
+        )
+    valves = {
+        e.switch_parameter.name: e.switch_parameter.on_value
+        for e in effects_registry.all_effects()
+        if e.valve_opening is not None and e.switch_parameter.switch and not e.is_on(params)
+    }
     return params.replace(**valves) if valves else params
 
 
@@ -622,7 +659,8 @@ def _read_header(header_text: str, header_line: int, experiment: Experiment, fai
         if experiment.name == "isometric" and cell == "branch":
             columns["branch"] = (position, 1.0)
             continue
-        if UNIT_FACTORS.get(kinds.get(cell), {}).get("") is not None:  # a unitless quantity: the valve
+        # a unitless quantity: the valve
+        if UNIT_FACTORS.get(kinds.get(cell), {}).get("") is not None:
             if cell in columns:
                 fail(header_line, f"column {cell!r} appears twice")
             columns[cell] = (position, 1.0)
@@ -662,7 +700,8 @@ def _read_header(header_text: str, header_line: int, experiment: Experiment, fai
                           f"{header[columns[outputs[1].name][0]]!r}: a {experiment.name} file has one of them")
     if experiment.one_of:
         present = [name for name in experiment.one_of if name in columns]
-        wanted = " or ".join(column_name(q) for q in experiment.quantities if q.name in experiment.one_of)
+        wanted = " or ".join(column_name(q) for q in experiment.quantities
+                             if q.name in experiment.one_of)
         if len(present) != 1:
             article = "an" if experiment.name[0] in "aeiou" else "a"
             fail(header_line, (f"missing column {wanted}" if not present else
@@ -728,8 +767,9 @@ def _read_rows(lines, header_index: int, header, columns: dict, experiment: Expe
                 fail(index + 1, f"column {header[position]!r} is not a finite number: {cell!r}")
             largest = LARGEST[kinds[quantity]]
             if kinds[quantity] == "opening" and not abs(number) <= largest:
-                fail(index + 1, f"column {header[position]!r} = {cell} must lie in [-1, 1] (the valve's opening: "
-                                "1 open to the supply, 0 closed, -1 open to the exhaust)")
+                fail(index + 1, f"column {header[position]!r} = {cell} must lie in [-1, 1] (the "
+                                "valve's opening: 1 open to the supply, 0 closed, -1 open to the "
+                                "exhaust)")
             if not abs(number * factor) <= largest:
                 fail(index + 1, f"column {header[position]!r} = {cell} is outside the range of a real "
                                 f"{kinds[quantity]} sensor (at most {_in_unit(largest, factor)} "
@@ -801,7 +841,8 @@ def _canonical_unit(experiment: Experiment, quantity: str) -> str:
 
 
 def column_name(q: Quantity) -> str:
-    """A quantity's column in its canonical unit (``p_kPa``; a unitless one by its name: ``valve``)."""
+    """A quantity's column in its canonical unit (``p_kPa``; a unitless one by its name:
+    ``valve``)."""
     return f"{q.name}_{q.unit}" if q.unit else q.name
 
 
@@ -821,18 +862,20 @@ def measurement_from_arrays(experiment: str, time, inputs: dict, output, output_
     """A :class:`Measurement` from SI arrays, checked by the same rules as a file (it is written to text and
     parsed, so nothing can differ from reading a file).
 
-    Parameters: experiment ``isotonic | knee | isometric``; time [s] (None for an isometric record with
-    ``branch``); inputs {name: SI array} (``pressure, force``; ``pe_cmd, pf_cmd`` and optionally ``pe, pf``;
-    ``length, pressure``); output, the measured output in SI; output_column, which output column it is
-    (default the experiment's canonical one, e.g. ``x_mm``; ``beta_deg`` for a knee angle); params: known
-    parameters (SI) as in a file's metadata; branch: isometric +1/-1 (or "up"/"down") per row; mechanism: a
-    mechanism record's :class:`~mkctl.physics.mechanism.Mechanism` (inputs ``p1_cmd``, ...; output ``q``);
-    settings: a pressure record's (``{"supply_kPa": 620.0}``, :func:`write_measurement`).
+    Parameters: experiment ``isotonic | knee | isometric``; time [s] (None for an isometric record
+    with ``branch``); inputs {name: SI array} (``pressure, force``; ``pe_cmd, pf_cmd`` and
+    optionally ``pe, pf``; ``length, pressure``); output, the measured output in SI; output_column,
+    which output column it is (default the experiment's canonical one, e.g. ``x_mm``; ``beta_deg``
+    for a knee angle); params: known parameters (SI) as in a file's metadata; branch: isometric
+    +1/-1 (or "up"/"down") per row; mechanism: a mechanism record's
+    :class:`~mkctl.physics.mechanism.Mechanism` (inputs ``p1_cmd``, ...; output ``q``); settings: a
+    pressure record's (``{"supply_kPa": 620.0}``, :func:`write_measurement`).
     """
     import io
     text = io.StringIO()
     write_measurement(text, experiment, time, inputs, output, metadata=params, baseline=baseline,
-                      output_column=output_column, branch=branch, mechanism=mechanism, settings=settings)
+                      output_column=output_column, branch=branch, mechanism=mechanism,
+                      settings=settings)
     return parse_measurement(text.getvalue(), source, base, mechanism)
 
 
@@ -912,14 +955,14 @@ def write_measurement(path, experiment: str, time, inputs: dict, output, metadat
                       branch=None, mechanism=None, settings: dict | None = None):
     """Write a measurement file in the canonical units (s, kPa, N, mm, deg); arrays are SI.
 
-    ``inputs`` maps the experiment's input names (``pressure, force``; ``pe_cmd, pf_cmd`` and optionally the
-    measured ``pe, pf``; ``length, pressure``) to arrays; ``output_column`` picks the output (default the
-    canonical one; ``beta_deg`` for a knee angle); ``metadata`` holds parameter overrides (SI) and offsets;
-    ``comments`` become free ``#`` lines; ``time`` may be None for an isometric record with ``branch``
-    (+1/-1 or "up"/"down" per row). ``path`` may be an open text stream. ``mechanism``: a mechanism record's
-    mechanism (written as ``mechanism = NAME`` or its file's path relative to the record). ``settings``: a
-    pressure record's metadata in the file's units (``{"supply_kPa": 620.0, "length_mm": 180.0}``). Returns the
-    path written.
+    ``inputs`` maps the experiment's input names (``pressure, force``; ``pe_cmd, pf_cmd`` and
+    optionally the measured ``pe, pf``; ``length, pressure``) to arrays; ``output_column`` picks the
+    output (default the canonical one; ``beta_deg`` for a knee angle); ``metadata`` holds parameter
+    overrides (SI) and offsets; ``comments`` become free ``#`` lines; ``time`` may be None for an
+    isometric record with ``branch`` (+1/-1 or "up"/"down" per row). ``path`` may be an open text
+    stream. ``mechanism``: a mechanism record's mechanism (written as ``mechanism = NAME`` or its
+    file's path relative to the record). ``settings``: a pressure record's metadata in the file's
+    units (``{"supply_kPa": 620.0, "length_mm": 180.0}``). Returns the path written.
     """
     spec = experiment_columns(experiment, mechanism)
     out = spec.output if output_column is None else _quantity(spec, output_column)

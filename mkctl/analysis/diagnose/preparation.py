@@ -154,7 +154,8 @@ _UNIT_MISTAKES = {1e-3: "metres written under a millimetre header", 1e-1: "centi
 def output_range(measurement: Measurement, params: Params) -> tuple[float, float]:
     """The range [SI] the model's output can physically take: the actuator between its shortest length and
     the braid limit (isotonic), the hip height or knee angle between the end stops (knee), a little wider."""
-    if measurement.experiment == "pressure":  # between absolute zero and the supply or the highest command
+    # a pressure lies between absolute zero and the supply or the highest command
+    if measurement.experiment == "pressure":
         command = measurement.inputs.get("p_cmd", np.zeros(1))
         return -P_ATM, 1.2 * max(params.P_supply, float(np.max(command))) + 1e4
     if measurement.experiment == "isotonic":

@@ -66,30 +66,41 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
         f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
     state, offset_before = _select(problem, record, rule, say)
-    final = _with_air(_final_fit(problem, record, state, offset_before, say), record, calibration, say)
+    final = _final_fit(problem, record, state, offset_before, say)
+    final = _with_air(final, record, calibration, say)
     return _result(record, state, final, offset_before, rule, say)
 
 
 def _with_air(final: "_Final", record: Record, calibration, say) -> "_Final":
-    """The final model with the air's values (:mod:`.air`): the baseline's calibration (a valve driven
-    by openings) reported beside what was added, and the air refitted, with what the search added,
-    in every value the record identifies (the others held, each with a note in the record's notes)."""
+    """The final model with the air's values (:mod:`.air`): the baseline's calibration (a valve
+    driven by openings) reported beside what was added, and the air refitted, with what the search
+    added, in every value the record identifies (the others held, each with a note in the record's
+    notes).
+    """
     m = record.measurement
     values, uncertainty = dict(final.values), dict(final.uncertainty)
     if calibration is not None:
-        values, uncertainty = {**calibration.values, **values}, {**calibration.uncertainty, **uncertainty}
+        values, uncertainty = {**calibration.values, **values}, {
+            **calibration.uncertainty,
+            **uncertainty,
+        }
         record.notes.append(
             "the air in the record's baseline calibrated first (a valve driven by openings): "
             + ", ".join(f"{k} = {v:.4g}" for k, v in calibration.values.items())
             + f" (RMSE {calibration.rmse_before * record.to_file:.3g} -> "
-            f"{calibration.rmse_after * record.to_file:.3g} {m.output_unit})")
+            f"{calibration.rmse_after * record.to_file:.3g} {m.output_unit})"
+        )
     added_air = any(effects.get(e).moves_air for e in final.added)
     refit = None
     if added_air or calibration is not None and final.added:
         # the air's values and what the search added, refitted together (a dead time the valve's
         # first calibration could only absorb)
-        also = [effects.get(e).parameter(effects.get(e).fitted) for e in final.added
-                if not effects.get(e).moves_air and effects.get(e).fitted in effects.get(e).parameter_names]
+        also = [
+            effects.get(e).parameter(effects.get(e).fitted)
+            for e in final.added
+            if not effects.get(e).moves_air
+            and effects.get(e).fitted in effects.get(e).parameter_names
+        ]
         refit = fit_air(record.prepared, final.params, say, known=m.overrides, also=also)
     if refit is not None and refit.rmse_after < refit.rmse_before:
         for name in refit.held:  # held: no value the record identifies, no standard error
@@ -98,8 +109,9 @@ def _with_air(final: "_Final", record: Record, calibration, say) -> "_Final":
         values, uncertainty = {**values, **refit.values}, {**uncertainty, **refit.uncertainty}
         record.notes.extend(refit.notes)
         simulated = simulate_output(record.prepared, refit.params) + final.offset
-        return dataclasses.replace(final, values=values, uncertainty=uncertainty, simulated=simulated,
-                                   params=refit.params)
+        return dataclasses.replace(
+            final, values=values, uncertainty=uncertainty, simulated=simulated, params=refit.params
+        )
     record.notes.extend(calibration.notes if calibration is not None else [])
     return dataclasses.replace(final, values=values, uncertainty=uncertainty)
 
