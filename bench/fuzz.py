@@ -47,7 +47,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 #: Outcomes: the contract kept (refused, accepted) or broken (the rest).
 OUTCOMES = ("refused", "accepted", "traceback", "hang", "warnings", "not one line", "non-finite written",
-            "non-finite printed", "code executed", "broken file written")
+            "non-finite printed", "code executed", "broken file written", "interpreter changed")
 #: Seconds a case may take before it counts as a hang.
 CASE_TIMEOUT_S = 300
 
@@ -123,14 +123,17 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     previous = signal.signal(signal.SIGALRM, alarm)
     signal.setitimer(signal.ITIMER_REAL, timeout)
     cwd = os.getcwd()
-    limit = sys.getrecursionlimit()  # a mechanism file's code may change it: the next case starts afresh
+    kept = _interpreter()  # a user file's code may change it: the next case starts afresh
+    changed = ""
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             os.chdir(folder)
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                expected = _interpreter()
                 status = main([str(a) for a in case.argv])
+                changed = _changed(expected, _interpreter())
         except SystemExit as stop:  # argparse
             status = stop.code if isinstance(stop.code, int) else 2
         except _Timeout:
@@ -145,7 +148,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
             os.chdir(cwd)
-            sys.setrecursionlimit(limit)
+            _restore(kept)
             _unregister_effects(folder, case)
     seconds = time.perf_counter() - start
     stdout, stderr = out.getvalue(), err.getvalue()
@@ -157,6 +160,8 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
         result.outcome, result.detail = "broken file written", broken_file
     elif status == "hang":
         result.outcome, result.detail = "hang", f"over {timeout:g} s"
+    elif changed:
+        result.outcome, result.detail = "interpreter changed", changed
     elif status == "traceback":
         result.outcome, result.detail = "traceback", error
     elif caught:
@@ -179,6 +184,37 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
         else:
             result.outcome = "accepted"
     return result
+
+
+def _interpreter() -> dict:
+    """The interpreter's settings a user's file can change and mkctl must put back (the judge's own
+    list, independent of mkctl.analysis.effect_files.InterpreterState)."""
+    import os
+
+    import numpy as np
+
+    try:
+        cwd = os.getcwd()
+    except OSError:
+        cwd = None
+    return {"recursion limit": sys.getrecursionlimit(), "sys.stdin": sys.stdin, "sys.stdout": sys.stdout,
+            "sys.stderr": sys.stderr, "working folder": cwd, "sys.argv": list(sys.argv),
+            "numpy's error state": np.geterr(), "trace function": sys.gettrace()}
+
+
+def _changed(before: dict, after: dict) -> str:
+    """'what: before -> after' for each setting the case left changed, or ''."""
+    return "; ".join(f"{key}: {before[key]!r:.60} -> {after[key]!r:.60}" for key in before
+                     if (before[key] is not after[key]) and before[key] != after[key])
+
+
+def _restore(state: dict) -> None:
+    import numpy as np
+
+    sys.setrecursionlimit(state["recursion limit"])
+    sys.argv[:] = state["sys.argv"]
+    np.seterr(**state["numpy's error state"])
+    sys.settrace(state["trace function"])
 
 
 def _unregister_effects(folder: Path, case: Case) -> None:
@@ -457,6 +493,18 @@ def option_case(rng: random.Random, files: dict) -> Case:
     return Case("option", f"{command} {option}{value[:20]}", argv)
 
 
+#: Lines at the top of a user's file (mechanism or effect file) that change the interpreter mkctl runs in:
+#: mkctl puts each back once the file is loaded (mkctl.analysis.effect_files.interpreter_kept).
+INTERPRETER_CHANGES = (
+    ("import sys\nsys.setrecursionlimit(50)\n", "recursion limit"),
+    ("import sys\nsys.stdout = None\n", "stdout None"),
+    ("import io, sys\nsys.stderr = io.StringIO()\n", "stderr swallowed"),
+    ("import os\nos.chdir('..')\n", "chdir"),
+    ("import numpy\nnumpy.seterr(all='raise')\n", "numpy raises"),
+    ("import warnings\nwarnings.simplefilter('error')\n", "warnings are errors"),
+    ("import sys\nsys.argv[:] = ['x', '--help']\n", "argv changed"),
+)
+
 #: An effect file whose description and unit a case makes hostile (its name and parameter stay identifiers).
 HOSTILE_EFFECT = '''
 def hostile_drag(L, Ldot, P, p, xp):
@@ -516,6 +564,9 @@ def hostile_case(rng: random.Random, files: dict) -> Case:
     else:  # an effect file's description and unit
         effect = HOSTILE_EFFECT.replace("@DESCRIPTION@", repr(text)).replace(
             "@UNIT@", repr(rng.choice((text, "N s/m"))))
+        if rng.random() < 0.3:  # and the file changes the interpreter
+            code, change = rng.choice(INTERPRETER_CHANGES)
+            effect, text = code + effect, f"{text} ({change})"
         command = rng.choice((["compare", base, "--out", "out"], ["diagnose", base, "--out", "out", "--quiet"]))
         return Case("hostile", f"{command[0]} effect described {text!r}", [*command, "--effects", "hostile.py"],
                     {base: content, "hostile.py": effect})
@@ -654,7 +705,7 @@ def mechanism_file_case(rng: random.Random, files: dict) -> Case:
         text, label = rng.choice((("", "empty"), ("\x00\x01", "binary"), ("MECHANISM = None", "MECHANISM None"),
                                   (text[:rng.randrange(len(text))], "cut short"),
                                   ("raise SystemExit(0)\n" + text, "SystemExit at import"),
-                                  ("import sys\nsys.setrecursionlimit(50)\n" + text, "recursion limit")))
+                                  *((code + text, label) for code, label in INTERPRETER_CHANGES)))
     else:  # a built-in (or the file) with a hostile --pressure
         mech = rng.choice(("hanging_mass", "pulley_joint", "cam_lever.py", "knee"))
         pressure = rng.choice((_number(rng), f"{_number(rng)},{_number(rng)}", "300,300,300", "-200", ""))
