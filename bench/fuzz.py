@@ -32,7 +32,6 @@ import argparse
 import contextlib
 import io
 import json
-import math
 import random
 import re
 import signal
