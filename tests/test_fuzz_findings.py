@@ -293,3 +293,17 @@ def test_compare_on_an_isometric_record_at_1e_320_mm_is_one_line(tmp_path, capsy
     assert main(["compare", str(path), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "too near 0" in err, err
+
+
+@pytest.mark.parametrize("key", ["off", "lower", "upper", "typical"])
+def test_an_effect_parameter_too_large_for_a_float_is_one_line(key, tmp_path):
+    """Before: a bound of 10**400 (a Python int) in an effect file raised OverflowError with a traceback (the
+    mechanism files' fix of the same, not yet shared); now both file kinds check their parameters' numbers with
+    one function, and this is a one-line EffectFileError."""
+    from mkctl.analysis.effect_files import EffectFileError, load_effect_file
+
+    path = tmp_path / "big.py"
+    path.write_text(DRAG_EFFECT.replace(f'"{key}": ', f'"{key}": 10**400 or '), encoding="utf-8")
+    with pytest.raises(EffectFileError, match=f"{key} must be a finite number, got 1000") as raised:
+        load_effect_file(path)
+    assert "\n" not in str(raised.value) and len(str(raised.value)) < 300

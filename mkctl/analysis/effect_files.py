@@ -340,27 +340,41 @@ def _check_parameters(raw, fail) -> tuple:
         if pname in reserved_parameters():
             raise fail(f"parameter '{pname}' is an mkctl parameter's name; choose another")
         names.add(pname)
-        values = {}
-        for key in ("off", "lower", "upper", "typical"):
-            value = item[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
-            values[key] = float(value)
-        if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper "
-                       f"{values['upper']:g}")
-        if not values["lower"] <= values["off"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its off "
-                       f"value {values['off']:g}")
-        if not values["lower"] <= values["typical"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its typical "
-                       f"value {values['typical']:g}")
+        values = bounded_values(item, ("off", "lower", "upper", "typical"), pname, fail)
         if not isinstance(item["unit"], str):
             raise fail(f"parameter '{pname}': unit must be a text, got {type(item['unit']).__name__}")
         _check_text(item["unit"], f"parameter '{pname}': unit", fail)
         out.append(EffectParameter(pname, item["unit"], values["off"], values["lower"], values["upper"],
                                    values["typical"]))
     return tuple(out)
+
+
+#: How a refusal names each value of a user parameter that must lie within its bounds.
+VALUE_NAMES = {"off": "off value", "typical": "typical value", "default": "default"}
+
+
+def bounded_values(item: dict, keys: tuple, pname: str, fail) -> dict:
+    """{key: float} of a user parameter's values (an effect's off, lower, upper and typical; a
+    mechanism's default, lower and upper), checked in the order of ``keys``: each a finite number
+    (not a bool, a text, NaN or an int beyond any float such as 10**400), lower below upper, and
+    every other value within them. A problem raises ``fail(text)`` naming the parameter."""
+    values = {}
+    for key in keys:
+        value = item[key]
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if number and isinstance(value, int) and abs(value) > 1e308:  # no float holds it
+            number = False
+        if not (number and math.isfinite(value)):
+            raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r:.60}")
+        values[key] = float(value)
+    lower, upper = values["lower"], values["upper"]
+    if not lower < upper:
+        raise fail(f"parameter '{pname}': lower bound {lower:g} is not below the upper {upper:g}")
+    for key in keys:
+        if key not in ("lower", "upper") and not lower <= values[key] <= upper:
+            raise fail(f"parameter '{pname}': bounds [{lower:g}, {upper:g}] exclude its "
+                       f"{VALUE_NAMES.get(key, key)} {values[key]:g}")
+    return values
 
 
 def _check_traceable(effect: UserEffect, params: Params, fail) -> None:

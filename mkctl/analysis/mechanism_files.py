@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import inspect
 import keyword
-import math
 from pathlib import Path
 
 import numpy as np
@@ -62,7 +61,7 @@ from ..physics import actuator
 from ..physics.effects import Parameter
 from ..physics.mechanism import BUILTIN, Mechanism, kinematics, trace
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
-from .effect_files import interpreter_kept, reserved_parameters, run_user_file
+from .effect_files import bounded_values, interpreter_kept, reserved_parameters, run_user_file
 
 #: The keys of MECHANISM, and which are required.
 KEYS = ("name", "description", "coordinate", "muscles", "parameters", "lengths", "inertia", "load",
@@ -198,21 +197,7 @@ def _parameters(raw, fail) -> tuple:
         if pname in reserved:
             raise fail(f"parameter '{pname}' is an mkctl parameter's name; choose another")
         names.add(pname)
-        values = {}
-        for key in ("default", "lower", "upper"):
-            value = item[key]
-            number = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if number and isinstance(value, int) and abs(value) > 1e308:  # 10**400: no float
-                number = False
-            if not (number and math.isfinite(value)):
-                raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
-            values[key] = float(value)
-        if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the "
-                       f"upper {values['upper']:g}")
-        if not values["lower"] <= values["default"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] "
-                       f"exclude its default {values['default']:g}")
+        values = bounded_values(item, ("default", "lower", "upper"), pname, fail)
         out.append(Parameter(pname, str(item["unit"]), values["default"], values["lower"],
                              values["upper"], default=values["default"],
                              description="parameter of a user mechanism"))
