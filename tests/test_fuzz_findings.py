@@ -10,6 +10,13 @@
   one-line refusal; now only the refusal.
 - A mechanism file that raises SystemExit at import ended mkctl with status 0 and nothing done; now a
   one-line refusal.
+- A mechanism file's ``sys.setrecursionlimit(50)`` stayed after loading (every later sympy trace a
+  RecursionError traceback), and so did a user file's ``sys.stdout = None``, ``os.chdir``,
+  ``numpy.seterr(all="raise")``, ...: loading an effect or mechanism file now restores them.
+- An isometric record at 1e-320 mm (inside 0 < L < b) ended ``compare`` in a ZeroDivisionError from the
+  rubber's Eq. 13: now a one-line DomainError of mkctl.physics.braid.
+- An effect file's bound of 10**400 was an OverflowError traceback; a term that divides by zero or
+  overflows printed numpy's warnings before its refusal.
 """
 from __future__ import annotations
 
@@ -307,3 +314,21 @@ def test_an_effect_parameter_too_large_for_a_float_is_one_line(key, tmp_path):
     with pytest.raises(EffectFileError, match=f"{key} must be a finite number, got 1000") as raised:
         load_effect_file(path)
     assert "\n" not in str(raised.value) and len(str(raised.value)) < 300
+
+
+@pytest.mark.parametrize("term, words", [
+    ("p.c_fuzz_drag * Ldot / 0", "not finite with every parameter at its off value"),
+    ("p.c_fuzz_drag * xp.exp(Ldot * 1e6)", "not finite with every parameter at its off value"),
+    ("p.c_fuzz_drag * 1e308 * Ldot * 1e10", "not finite at the typical values"),
+])
+def test_an_effect_term_that_divides_by_zero_or_overflows_is_refused_without_a_warning(term, words, tmp_path,
+                                                                                        no_warning):
+    """The fuzzer's effect-file kind: numpy's divide-by-zero and overflow warnings were printed before the
+    one-line refusal of such a term; now only the refusal."""
+    from mkctl.analysis.effect_files import EffectFileError, load_effect_file
+
+    path = tmp_path / "drag.py"
+    path.write_text(DRAG_EFFECT.replace("return p.c_fuzz_drag * Ldot", f"return {term}"), encoding="utf-8")
+    with pytest.raises(EffectFileError, match=words):
+        load_effect_file(path)
+    assert not no_warning, [str(w.message) for w in no_warning]

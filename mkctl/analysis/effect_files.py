@@ -399,14 +399,19 @@ def _check_traceable(effect: UserEffect, params: Params, fail) -> None:
         Ldot = np.linspace(-0.2, 0.2, 7)
         P = np.linspace(0.0, 6e5, 7)
         try:
-            off = effect.tension(L, Ldot, P, effect.defaults, params)
-            typical = effect.tension(L, Ldot, P, {q.name: q.typical for q in effect.parameters}, params)
+            # an overflow or a division by zero is a term not finite: refused below in one line, not a
+            # RuntimeWarning printed before it
+            with np.errstate(all="ignore"):
+                off = effect.tension(L, Ldot, P, effect.defaults, params)
+                typical = effect.tension(L, Ldot, P, {q.name: q.typical for q in effect.parameters},
+                                         params)
         except EffectFileError as error:
             raise fail(str(error)) from None
         except Exception as error:
             raise fail(f"term fails with numpy arrays ({type(error).__name__}: {error})") from None
-        if not np.all(np.isfinite(typical)):
-            raise fail("term is not finite at the typical values")
+        if not (np.all(np.isfinite(typical)) and np.all(np.isfinite(off))):
+            raise fail("term is not finite at the typical values" if np.all(np.isfinite(off))
+                       else "term is not finite with every parameter at its off value")
         if np.any(np.abs(off) > 1e-12 * (1.0 + np.max(np.abs(typical)))):
             raise fail("term is not 0 with every parameter at its off value (an effect switched off must change "
                        "nothing)")
