@@ -332,3 +332,21 @@ def test_an_effect_term_that_divides_by_zero_or_overflows_is_refused_without_a_w
     with pytest.raises(EffectFileError, match=words):
         load_effect_file(path)
     assert not no_warning, [str(w.message) for w in no_warning]
+
+
+def test_a_sensor_resolution_of_1e_308_is_one_line(no_warning):
+    """The fuzzer's case ``synth knee --resolution 1e-308``: the output divided by it overflowed (numpy's
+    RuntimeWarning, then a record of infinities rounded back); now refused in one line, and a real encoder's
+    resolution still rounds the output to its multiples."""
+    from mkctl.analysis.synth import synthesize
+    from mkctl.errors import ParameterError
+
+    with pytest.raises(ParameterError, match="resolution = 1e-308 is below") as raised:
+        synthesize("knee", {"c": 45.0}, seed=1, samples=50, rate=100.0, resolution=1e-308)
+    assert "\n" not in str(raised.value)
+    encoder = 360 / 2**12
+    record = synthesize("knee", {"c": 45.0}, seed=1, samples=50, rate=100.0, output="beta_deg",
+                        resolution=encoder)
+    steps = np.degrees(record.output) / encoder  # the output in SI (rad)
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
+    assert not no_warning, [str(w.message) for w in no_warning]
