@@ -350,3 +350,23 @@ def test_a_sensor_resolution_of_1e_308_is_one_line(no_warning):
     steps = np.degrees(record.output) / encoder  # the output in SI (rad)
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-6)
     assert not no_warning, [str(w.message) for w in no_warning]
+
+
+def test_a_mechanism_whose_inertia_is_1e_320_is_one_line_in_compare(tmp_path, monkeypatch, capsys):
+    """The fuzzer's case: a mechanism file whose inertia is 1e-320 (positive: accepted at load) sent the
+    integrator to q ~ 1e277, where Python's math raised OverflowError (a traceback); now the mechanism's
+    evaluation says where it is not finite, and compare refuses the record in one line."""
+    from mkctl.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    text = (ROOT / "docs" / "examples" / "cam_lever.py").read_text(encoding="utf-8")
+    assert "    return p.J_lever\n" in text
+    Path("cam_lever.py").write_text(text, encoding="utf-8")
+    assert main(["synth", "mechanism", "m.csv", "--mechanism", "cam_lever.py", "--samples", "200",
+                 "--no-truth"]) == 0
+    Path("cam_lever.py").write_text(text.replace("    return p.J_lever\n", "    return 1e-320\n"),
+                                    encoding="utf-8")
+    capsys.readouterr()
+    assert main(["compare", "m.csv", "--mechanism", "cam_lever.py", "--out", "out"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is not a finite number" in err, err
