@@ -9,12 +9,16 @@ creates ``PWNED`` if ever run as code) as a record's file name, a metadata value
 effect file's description and unit; and issue 30's new surfaces: a mechanism or actuator record (model-spec
 5d) made bad, or naming a mechanism file that creates ``PWNED`` if it runs (a record never loads code by itself);
 a mechanism file broken, untraceable, out of 0 < L < b or with hostile names, given with ``--mechanism`` to synth,
-compare, linearize, rootlocus or step; and :func:`mkctl.physics.pneumatics.simulate_muscle_pressure` (no CLI:
-its Python API, run as a CLI would by :func:`run_pneumatic`) at its extremes. The contract (issues 20 and 30) is:
+compare, linearize, rootlocus or step; an effect file broken (a parameter's number, its term) given with
+``--effects``; a mechanism or effect file whose first lines change the interpreter (the recursion limit,
+sys.stdout, the working folder, numpy's errors, ...); and :func:`mkctl.physics.pneumatics.simulate_muscle_pressure`
+(no CLI: its Python API, run as a CLI would by :func:`run_pneumatic`) at its extremes. The contract (issues 20
+and 30) is:
 
 - a refusal is one line on stderr and a non-zero exit, with no warning printed before it;
 - an accepted run exits 0 and writes and prints only finite numbers;
 - never a traceback, never a hang;
+- a user's file leaves the interpreter as it found it (the settings of :func:`_interpreter`);
 - nothing of the input runs as code: every Python file the case wrote is compiled and run in a fresh process,
   and no ``PWNED`` file appears; every JSON file written parses.
 
@@ -23,6 +27,7 @@ Usage::
 
     python bench/fuzz.py                     # 2000 cases, seed 0, counts per outcome and kind
     python bench/fuzz.py --cases 300 --seed 4 --show 5
+    python bench/fuzz.py --cases 200 --kind effectfile --kind mechfile
 
 The suite's tests/test_fuzz.py runs the same generator on a small fixed budget.
 """
@@ -30,9 +35,9 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import io
 import json
-import math
 import random
 import re
 import signal
@@ -47,7 +52,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 #: Outcomes: the contract kept (refused, accepted) or broken (the rest).
 OUTCOMES = ("refused", "accepted", "traceback", "hang", "warnings", "not one line", "non-finite written",
-            "non-finite printed", "code executed", "broken file written")
+            "non-finite printed", "code executed", "broken file written", "interpreter changed")
 #: Seconds a case may take before it counts as a hang.
 CASE_TIMEOUT_S = 300
 
@@ -123,14 +128,17 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
     previous = signal.signal(signal.SIGALRM, alarm)
     signal.setitimer(signal.ITIMER_REAL, timeout)
     cwd = os.getcwd()
-    limit = sys.getrecursionlimit()  # a mechanism file's code may change it: the next case starts afresh
+    kept = _interpreter()  # a user file's code may change it: the next case starts afresh
+    changed = ""
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
             os.chdir(folder)
             with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+                expected = _interpreter()
                 status = main([str(a) for a in case.argv])
+                changed = _changed(expected, _interpreter())
         except SystemExit as stop:  # argparse
             status = stop.code if isinstance(stop.code, int) else 2
         except _Timeout:
@@ -145,7 +153,7 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, previous)
             os.chdir(cwd)
-            sys.setrecursionlimit(limit)
+            _restore(kept)
             _unregister_effects(folder, case)
     seconds = time.perf_counter() - start
     stdout, stderr = out.getvalue(), err.getvalue()
@@ -157,6 +165,8 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
         result.outcome, result.detail = "broken file written", broken_file
     elif status == "hang":
         result.outcome, result.detail = "hang", f"over {timeout:g} s"
+    elif changed:
+        result.outcome, result.detail = "interpreter changed", changed
     elif status == "traceback":
         result.outcome, result.detail = "traceback", error
     elif caught:
@@ -179,6 +189,37 @@ def run_case(case: Case, folder: Path, timeout: float = CASE_TIMEOUT_S) -> Resul
         else:
             result.outcome = "accepted"
     return result
+
+
+def _interpreter() -> dict:
+    """The interpreter's settings a user's file can change and mkctl must put back (the judge's own
+    list, independent of mkctl.analysis.effect_files.InterpreterState)."""
+    import os
+
+    import numpy as np
+
+    try:
+        cwd = os.getcwd()
+    except OSError:
+        cwd = None
+    return {"recursion limit": sys.getrecursionlimit(), "sys.stdin": sys.stdin, "sys.stdout": sys.stdout,
+            "sys.stderr": sys.stderr, "working folder": cwd, "sys.argv": list(sys.argv),
+            "numpy's error state": np.geterr(), "trace function": sys.gettrace()}
+
+
+def _changed(before: dict, after: dict) -> str:
+    """'what: before -> after' for each setting the case left changed, or ''."""
+    return "; ".join(f"{key}: {before[key]!r:.60} -> {after[key]!r:.60}" for key in before
+                     if (before[key] is not after[key]) and before[key] != after[key])
+
+
+def _restore(state: dict) -> None:
+    import numpy as np
+
+    sys.setrecursionlimit(state["recursion limit"])
+    sys.argv[:] = state["sys.argv"]
+    np.seterr(**state["numpy's error state"])
+    sys.settrace(state["trace function"])
 
 
 def _unregister_effects(folder: Path, case: Case) -> None:
@@ -457,6 +498,18 @@ def option_case(rng: random.Random, files: dict) -> Case:
     return Case("option", f"{command} {option}{value[:20]}", argv)
 
 
+#: Lines at the top of a user's file (mechanism or effect file) that change the interpreter mkctl runs in:
+#: mkctl puts each back once the file is loaded (mkctl.analysis.effect_files.interpreter_kept).
+INTERPRETER_CHANGES = (
+    ("import sys\nsys.setrecursionlimit(50)\n", "recursion limit"),
+    ("import sys\nsys.stdout = None\n", "stdout None"),
+    ("import io, sys\nsys.stderr = io.StringIO()\n", "stderr swallowed"),
+    ("import os\nos.chdir('..')\n", "chdir"),
+    ("import numpy\nnumpy.seterr(all='raise')\n", "numpy raises"),
+    ("import warnings\nwarnings.simplefilter('error')\n", "warnings are errors"),
+    ("import sys\nsys.argv[:] = ['x', '--help']\n", "argv changed"),
+)
+
 #: An effect file whose description and unit a case makes hostile (its name and parameter stay identifiers).
 HOSTILE_EFFECT = '''
 def hostile_drag(L, Ldot, P, p, xp):
@@ -516,12 +569,59 @@ def hostile_case(rng: random.Random, files: dict) -> Case:
     else:  # an effect file's description and unit
         effect = HOSTILE_EFFECT.replace("@DESCRIPTION@", repr(text)).replace(
             "@UNIT@", repr(rng.choice((text, "N s/m"))))
+        if rng.random() < 0.3:  # and the file changes the interpreter
+            code, change = rng.choice(INTERPRETER_CHANGES)
+            effect, text = code + effect, f"{text} ({change})"
         command = rng.choice((["compare", base, "--out", "out"], ["diagnose", base, "--out", "out", "--quiet"]))
         return Case("hostile", f"{command[0]} effect described {text!r}", [*command, "--effects", "hostile.py"],
                     {base: content, "hostile.py": effect})
     command = ["compare", base, "--out", "out"] if rng.random() < 0.7 else \
         ["diagnose", base, "--json", "report.json", "--out", "out", "--quiet"]
     return Case("hostile", f"{command[0]} {base}: {label}", command, {base: "\n".join(lines) + "\n"})
+
+
+#: Values a careless or hostile effect file gives a parameter's number (off, lower, upper, typical).
+EFFECT_NUMBERS = ("float('nan')", "float('inf')", "1e308", "-1e308", "10**400", "None", "'1'", "True", "[1]",
+                  "-1", "1e-320", "0", "1e4", "20000.0", "5.0")
+#: Terms an effect file may hold instead of the drag: untraceable, failing, not off at zero, not finite.
+EFFECT_TERMS = (
+    ("an if on Ldot", "return p.c_hostile * Ldot if Ldot > 0 else 0.0"),
+    ("math.tanh", "return p.c_hostile * __import__('math').tanh(Ldot)"),
+    ("not off at zero", "return p.c_hostile * Ldot + 1.0"),
+    ("a raise", "raise ValueError('no drag')"),
+    ("a division by zero", "return p.c_hostile * Ldot / 0"),
+    ("an overflow", "return p.c_hostile * xp.exp(Ldot * 1e6)"),
+    ("a huge force", "return p.c_hostile * 1e308 * Ldot"),
+    ("NaN", "return p.c_hostile * Ldot * float('nan')"),
+    ("an unknown parameter", "return p.c_nothing * Ldot"),
+    ("None", "return None"),
+    ("a text", "return 'drag'"),
+    ("a length term", "return p.c_hostile * (L - p.L0)"),
+    ("the square root of a negative", "return p.c_hostile * xp.sqrt(L - 1.0)"),
+)
+
+
+def effect_file_case(rng: random.Random, files: dict) -> Case:
+    """An effect file (a linear drag) made bad in one way: a parameter's number, its term (untraceable,
+    failing, not off at zero, not finite) or a first line that changes the interpreter; given with
+    --effects to compare, diagnose, linearize or synth."""
+    text = HOSTILE_EFFECT.replace("@DESCRIPTION@", "'drag'").replace("@UNIT@", "'N s/m'")
+    what = rng.randrange(5)
+    if what <= 1:
+        key, value = rng.choice(("off", "lower", "upper", "typical")), rng.choice(EFFECT_NUMBERS)
+        text, label = re.sub(rf'"{key}": [^,}}]+', f'"{key}": {value}', text), f"{key} = {value}"
+    elif what <= 3:
+        label, body = rng.choice(EFFECT_TERMS)
+        text = text.replace("return p.c_hostile * Ldot", body)
+    else:
+        code, label = rng.choice(INTERPRETER_CHANGES)
+        text = code + text
+    base = rng.choice(("knee.csv", "isotonic.csv", "isometric.csv"))
+    command = rng.choice((["compare", base, "--out", "out"], ["diagnose", base, "--out", "out", "--quiet"],
+                          ["linearize", "--no-fmu", "--out", "out"],
+                          ["synth", "knee", "out/s.csv", "--samples", "100", "--rate", "100"]))
+    return Case("effectfile", f"{command[0]} effect file: {label}", [*command, "--effects", "drag.py"],
+                {base: files[base], "drag.py": text})
 
 
 # --- model-spec 5d records, mechanism files and the pneumatics (issue 30) -------------------------------
@@ -531,7 +631,7 @@ def hostile_case(rng: random.Random, files: dict) -> Case:
 MARKER_CODE = 'import pathlib\npathlib.Path("PWNED").write_text("ran")\n'
 
 
-def _record_command(rng, name, content, label) -> Case:
+def _record_command(rng, name, content, label, cam_lever: str) -> Case:
     """compare (mostly, with --mechanism cam_lever.py for the record that names it) or diagnose (which
     refuses mechanism and actuator records in one line) on a mutated 5d record."""
     files = {name: content}
@@ -541,22 +641,18 @@ def _record_command(rng, name, content, label) -> Case:
         argv = ["compare", name, "--out", "out"]
         if name == "mech_cam.csv" or rng.random() < 0.1:
             argv += ["--mechanism", "cam_lever.py"]
-            files["cam_lever.py"] = CAM_LEVER_TEXT[0]
+            files["cam_lever.py"] = cam_lever
     return Case("record", f"{argv[0]} {name}: {label}", argv, files)
-
-
-#: cam_lever.py's text, set by record_case from the base files (the command maker sees no files).
-CAM_LEVER_TEXT = [""]
 
 
 def record_case(rng: random.Random, files: dict) -> Case:
     """A mechanism or actuator record (model-spec 5d) made bad in one way, as measurement_case does, or one
     whose ``# mechanism =`` names something hostile: a missing file, a hostile name, a file that writes PWNED
     when run (present beside the record, never named with --mechanism: it must not run)."""
-    CAM_LEVER_TEXT[0] = files["cam_lever.py"]
     name = rng.choice(("mech_cam.csv", "mech_hang.csv", "actuator.csv"))
     if rng.random() < 0.7:
-        return measurement_case(rng, files, name, _record_command)
+        return measurement_case(rng, files, name, functools.partial(_record_command,
+                                                                    cam_lever=files["cam_lever.py"]))
     lines = files[name].splitlines()
     header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
     lines = [line for line in lines[:header] if not line.startswith("# mechanism")] + lines[header:]
@@ -575,6 +671,8 @@ def record_case(rng: random.Random, files: dict) -> Case:
                 case_files)
 
 
+#: The length function's body in docs/examples/cam_lever.py, which several edits replace.
+CAM_LENGTH = "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)"
 #: Ways to break a mechanism file: (label, old text, new text) on docs/examples/cam_lever.py; @V@ is a value.
 MECHANISM_EDITS = (
     ("default L_top", '"default": 0.2, "lower": 0.05', '"default": @V@, "lower": 0.05'),
@@ -584,7 +682,7 @@ MECHANISM_EDITS = (
     ("default m_lever", '"default": 3.0', '"default": @V@'),
     ("stop q_high", '"default": 1.2', '"default": @V@'),
     ("stop q_low", '"default": -0.3', '"default": @V@'),
-    ("the length", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return (@V@,)"),
+    ("the length", CAM_LENGTH, "return (@V@,)"),
     ("the inertia", "return p.J_lever\n", "return @V@\n"),
 )
 #: Lengths that leave 0 < L < b (the paper's b is 0.241 m), or are not a number.
@@ -592,17 +690,17 @@ BAD_LENGTHS = ("0.0", "-0.1", "0.241", "0.3", "1e308", "float('nan')", "float('i
                "p.L_top + q * 10", "p.b", "p.b - 1e-15")
 #: Function bodies a tracer cannot follow, or that fail, or that return the wrong thing.
 UNTRACEABLE = (
-    ("an if on q", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)",
+    ("an if on q", CAM_LENGTH,
      "return (p.L_top if q > 0 else p.L_top - 0.01,)"),
-    ("float(q)", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return (p.L_top - p.r0 * float(q),)"),
+    ("float(q)", CAM_LENGTH, "return (p.L_top - p.r0 * float(q),)"),
     ("math.sin", "xp.sin(q)", "__import__('math').sin(q)"),
     ("numpy on a symbol", "xp.sin(q)", "__import__('numpy').sin(q)"),
     ("a raise", "return p.J_lever\n", "raise ValueError('no inertia')\n"),
     ("a ZeroDivisionError", "return p.J_lever\n", "return p.J_lever / 0\n"),
-    ("a string length", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return ('0.2',)"),
-    ("two lengths for one muscle", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)",
+    ("a string length", CAM_LENGTH, "return ('0.2',)"),
+    ("two lengths for one muscle", CAM_LENGTH,
      "return (p.L_top, p.L_top)"),
-    ("no tuple", "return (p.L_top - p.r0 * q - 0.5 * p.k_cam * q**2,)", "return None"),
+    ("no tuple", CAM_LENGTH, "return None"),
     ("an unknown parameter", "p.J_lever\n", "p.J_nothing\n"),
     ("an unknown xp name", "xp.sin(q)", "xp.sinh2(q)"),
     ("a free variable", "return p.J_lever\n", "return p.J_lever * undefined_name\n"),
@@ -654,7 +752,7 @@ def mechanism_file_case(rng: random.Random, files: dict) -> Case:
         text, label = rng.choice((("", "empty"), ("\x00\x01", "binary"), ("MECHANISM = None", "MECHANISM None"),
                                   (text[:rng.randrange(len(text))], "cut short"),
                                   ("raise SystemExit(0)\n" + text, "SystemExit at import"),
-                                  ("import sys\nsys.setrecursionlimit(50)\n" + text, "recursion limit")))
+                                  *((code + text, label) for code, label in INTERPRETER_CHANGES)))
     else:  # a built-in (or the file) with a hostile --pressure
         mech = rng.choice(("hanging_mass", "pulley_joint", "cam_lever.py", "knee"))
         pressure = rng.choice((_number(rng), f"{_number(rng)},{_number(rng)}", "300,300,300", "-200", ""))
@@ -766,9 +864,9 @@ def run_pneumatic(argv) -> int:
 
 GENERATORS = {"measurement": measurement_case, "muscle": muscle_case, "option": option_case,
               "hostile": hostile_case, "record": record_case, "mechfile": mechanism_file_case,
-              "pneumatic": pneumatic_case}
+              "pneumatic": pneumatic_case, "effectfile": effect_file_case}
 #: Each kind's share of the cases.
-WEIGHTS = (0.22, 0.07, 0.18, 0.08, 0.15, 0.15, 0.15)
+WEIGHTS = (0.20, 0.07, 0.16, 0.08, 0.14, 0.14, 0.14, 0.07)
 
 
 def cases(count: int, seed: int, files: dict, weights=WEIGHTS) -> list[Case]:
@@ -778,11 +876,14 @@ def cases(count: int, seed: int, files: dict, weights=WEIGHTS) -> list[Case]:
     return [GENERATORS[kind](rng, files) for kind in kinds]
 
 
-def run(count: int, seed: int, folder: Path, timeout: float = CASE_TIMEOUT_S, progress=None) -> list[Result]:
-    """Make the base files in ``folder``, then run ``count`` cases, each in a folder of its own."""
+def run(count: int, seed: int, folder: Path, timeout: float = CASE_TIMEOUT_S, progress=None,
+        kinds=None) -> list[Result]:
+    """Make the base files in ``folder``, then run ``count`` cases (of ``kinds`` only, when given), each
+    in a folder of its own."""
     files = base_files(folder / "base")
+    weights = [w if kinds is None or kind in kinds else 0.0 for kind, w in zip(GENERATORS, WEIGHTS)]
     results = []
-    for i, case in enumerate(cases(count, seed, files)):
+    for i, case in enumerate(cases(count, seed, files, weights)):
         results.append(run_case(case, folder / f"case{i:05d}", timeout))
         if progress:
             progress(i, results[-1])
@@ -805,6 +906,8 @@ def main(argv=None) -> int:
     parser.add_argument("--timeout", type=float, default=CASE_TIMEOUT_S, help="seconds per case (default %(default)g)")
     parser.add_argument("--show", type=int, default=3, help="examples shown per broken outcome")
     parser.add_argument("--keep", metavar="DIR", default=None, help="keep the cases' folders here")
+    parser.add_argument("--kind", action="append", choices=sorted(GENERATORS),
+                        help="only cases of this kind (repeat for several; default: all, in WEIGHTS' shares)")
     args = parser.parse_args(argv)
     start = time.perf_counter()
     seen = {}
@@ -819,7 +922,7 @@ def main(argv=None) -> int:
 
     with tempfile.TemporaryDirectory(prefix="mkctl-fuzz-") as temporary:
         folder = Path(args.keep) if args.keep else Path(temporary)
-        results = run(args.cases, args.seed, folder, args.timeout, progress)
+        results = run(args.cases, args.seed, folder, args.timeout, progress, args.kind)
     seconds = time.perf_counter() - start
     table = counts(results)
     print(f"{len(results)} cases (seed {args.seed}) in {seconds:.0f} s, {seconds / max(len(results), 1):.2f} s each")

@@ -9,6 +9,7 @@ the same cases run every time; ``python bench/fuzz.py`` runs thousands on demand
 from __future__ import annotations
 
 import importlib.util
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -25,7 +26,9 @@ spec.loader.exec_module(fuzz)
 BUDGET = {"measurement": 24, "muscle": 12, "option": 16, "hostile": 16,
           # issue 30's new surfaces: mechanism and actuator records (one naming a file that writes PWNED if
           # run), broken and hostile mechanism files, the pneumatics' Python API at its extremes
-          "record": 12, "mechfile": 12, "pneumatic": 30}
+          "record": 12, "mechfile": 12, "pneumatic": 30,
+          # effect files made bad (a parameter's number, the term) or changing the interpreter
+          "effectfile": 10}
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +47,7 @@ def test_fuzzed_input_is_refused_in_one_line_or_accepted_with_finite_numbers(kin
               for r in results if r.outcome not in ("refused", "accepted")]
     assert not broken, "\n".join(broken)
     assert any(r.outcome == "refused" for r in results)  # the generator does make bad input
-    if kind in ("record", "mechfile"):  # a record names code, never runs it
+    if kind in ("record", "mechfile", "effectfile"):  # a record names code, never runs it
         assert not list(tmp_path.rglob("PWNED"))
     if kind == "pneumatic":  # some integrate (a finite pressure.csv written), not all are refused
         assert any(r.outcome == "accepted" for r in results)
@@ -78,14 +81,23 @@ def test_the_fuzzer_sees_a_broken_contract(tmp_path, monkeypatch):
         if what == "json":
             Path("report.json").write_text('{"file": "a"b"}')
             return 0
+        if what == "limit":  # what a user's file did to mkctl's process, left behind
+            sys.setrecursionlimit(sys.getrecursionlimit() + 7)
+            return 0
+        if what == "chdir":
+            os.chdir("..")
+            return 2
         print("RMSE inf mm")
         return 0
 
     monkeypatch.setattr(mkctl.cli, "main", fake)
+    limit = sys.getrecursionlimit()
     outcomes = {w: fuzz.run_case(fuzz.Case("option", w, [w]), tmp_path / w).outcome
-                for w in ("raise", "warn", "two", "nan", "print", "inject", "json")}
+                for w in ("raise", "warn", "two", "nan", "print", "inject", "json", "limit", "chdir")}
     assert outcomes == {"raise": "traceback", "warn": "warnings", "two": "not one line", "nan": "non-finite written",
-                        "print": "non-finite printed", "inject": "code executed", "json": "broken file written"}
+                        "print": "non-finite printed", "inject": "code executed", "json": "broken file written",
+                        "limit": "interpreter changed", "chdir": "interpreter changed"}
+    assert sys.getrecursionlimit() == limit  # and the judge put it back for the next case
 
 
 @pytest.mark.parametrize("args", [

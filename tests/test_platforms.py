@@ -19,7 +19,6 @@ Without ziglang or qemu-user the tests skip with the reason, and fail under
 """
 from __future__ import annotations
 
-import os
 import re
 import struct
 import subprocess
@@ -29,33 +28,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from conftest import require_or_skip
 from mkctl.native import toolchain
 from mkctl.native.build import CFLAGS
 from mkctl.native.cross import QEMU_PACKAGES, find_qemu
-from mkctl.physics.simulate import default_commands
+from toolchain_helpers import HOST_CASES, compile_host, host_arguments, require_zig, run_host, unzipped_fmus
 
-ROOT = Path(__file__).resolve().parents[1]
-PE0, PF0 = default_commands()
-REQUIRE = "MKCTL_REQUIRE_TOOLCHAINS"
 AARCH64 = toolchain.BY_NAME["aarch64-linux"]
-SHORT = {"McKibbenKnee": "knee", "McKibbenActuator": "actuator"}
-
-
-def missing(reason: str):
-    """Skip with the reason, or fail when the toolchains are required
-    (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
-    if os.environ.get(REQUIRE) == "1":
-        pytest.fail(f"{reason} ({REQUIRE}=1: CI promises this toolchain)")
-    pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")
 def zig():
-    if toolchain.system_compiler() is None:
-        missing("no system C compiler: no native FMUs to compare with")
-    if not toolchain.zig_installed():
-        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed (pip install "
-                f"{toolchain.ZIG_EXTRA}): no binaries for ARM or macOS")
+    require_zig("binaries for ARM or macOS")
     return toolchain.zig_command
 
 
@@ -63,17 +47,7 @@ def zig():
 def fmus(tmp_path_factory, zig):
     """{("fmi2" | "fmi3", "knee" | "actuator"): the unzipped FMU folder}, built with every
     platform's binary."""
-    from mkctl.native.fmi3 import build_fmi3
-    from mkctl.native.fmu import build_native
-    out = tmp_path_factory.mktemp("platforms")
-    folders = {}
-    for version, built in (("fmi2", build_native(out)), ("fmi3", build_fmi3(out))):
-        for name, path in built.items():
-            folder = out / version / SHORT[name]
-            with zipfile.ZipFile(path) as archive:
-                archive.extractall(folder)
-            folders[version, SHORT[name]] = folder
-    return folders
+    return unzipped_fmus(tmp_path_factory.mktemp("platforms"))
 
 
 # --- every platform's folder ----------------------------------------------------------------------
@@ -122,9 +96,8 @@ def test_without_ziglang_the_build_names_each_missing_platform_in_one_line(tmp_p
 @pytest.fixture(scope="module")
 def qemu(zig):
     command = find_qemu()
-    if command is None:
-        missing(f"no qemu-user or no aarch64 C library (Debian: apt-get install {QEMU_PACKAGES}): "
-                "the aarch64 binaries cannot be run here")
+    require_or_skip(command is not None, f"no qemu-user or no aarch64 C library (Debian: apt-get install "
+                    f"{QEMU_PACKAGES}): the aarch64 binaries cannot be run here")
     return command
 
 
@@ -132,18 +105,12 @@ def qemu(zig):
 def hosts(tmp_path_factory, qemu):
     """{("fmi2" | "fmi3", "linux" | "aarch64"): the C host}, compiled with gcc and with ziglang
     for aarch64."""
-    from mkctl.native.fmu import fmi2_headers
     folder = tmp_path_factory.mktemp("hosts")
     built = {}
     for version in ("fmi2", "fmi3"):
-        source = str(ROOT / "fmu" / f"{version}_host.c")
         for kind, compiler in (("linux", toolchain.system_compiler()),
                                ("aarch64", toolchain.zig_command(AARCH64.zig_target))):
-            built[version, kind] = folder / f"{version}_host_{kind}"
-            done = subprocess.run([*compiler, "-Wall", "-Werror", "-I", str(fmi2_headers()), "-o",
-                                   str(built[version, kind]), source, "-ldl"],
-                                  capture_output=True, text=True)
-            assert done.returncode == 0, done.stderr[-3000:]
+            built[version, kind] = compile_host(compiler, version, folder / f"{version}_host_{kind}")
     return built
 
 
@@ -164,39 +131,16 @@ def _compile_fmi2_sources_for_aarch64(folder: Path) -> None:
     assert done.returncode == 0, done.stderr[-3000:]
 
 
-def _run(command: list[str], env: dict | None = None, timeout: float = 300) -> np.ndarray:
-    done = subprocess.run(command, capture_output=True, text=True, env=env or {}, timeout=timeout)
-    assert done.returncode == 0, f"{command[0]} failed ({done.returncode}):\n{done.stderr[-3000:]}"
-    return np.loadtxt(done.stdout.splitlines())
-
-
-def _arguments(folder: Path, output: str, stop: float, **start: float) -> list[str]:
-    from fmpy import read_model_description
-    md = read_model_description(str(folder))
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    return [str(folder), md.guid, repr(stop), "0.001", str(vr[output]),
-            *[f"{vr[name]}={value!r}" for name, value in start.items()]]
-
-
-# model, output, stop, start values: a knee that moves (damping, lag, a step), the actuator's
-# tension
-CASES = {
-    "knee": ("X", 0.5, {"c": 40.0, "tau": 0.02, "Fc": 2.0, "pe_cmd": PE0 * 1.05}),
-    "actuator": ("f", 0.2, {"tau": 0.05, "c": 10.0, "Fc": 3.0, "p_cmd": 4e5, "L": 0.17,
-                            "Ldot": -0.01}),
-}
-
-
 @pytest.mark.parametrize("version", ["fmi2", "fmi3"])
 @pytest.mark.parametrize("model", ["knee", "actuator"])
 def test_the_aarch64_binary_under_qemu_gives_the_linux_results(qemu, hosts, fmus, version, model):
     folder = fmus[version, model]
     if version == "fmi2":
         _compile_fmi2_sources_for_aarch64(folder)
-    output, stop, start = CASES[model]
-    arguments = _arguments(folder, output, stop, **start)
-    linux = _run([str(hosts[version, "linux"]), *arguments])
-    arm = _run([*qemu, str(hosts[version, "aarch64"]), *arguments])
+    output, stop, start = HOST_CASES[model]
+    arguments = host_arguments(folder, output, stop, **start)
+    linux = run_host([str(hosts[version, "linux"]), *arguments])
+    arm = run_host([*qemu, str(hosts[version, "aarch64"]), *arguments])
     assert linux.shape == arm.shape == (round(stop / 1e-3) + 1, 2)
     if model == "knee":  # the actuator's inputs are held from the start: its tension is constant
         assert np.ptp(linux[:, 1]) > 1e-3 * np.abs(linux[:, 1]).max()  # it moved
@@ -210,7 +154,7 @@ def test_the_aarch64_binary_is_an_arm_elf_library(fmus):
 
 
 def test_the_aarch64_binary_refuses_a_bad_parameter_with_the_linux_message(qemu, hosts, fmus):
-    arguments = _arguments(fmus["fmi3", "knee"], "X", 0.01, m=-1.0)
+    arguments = host_arguments(fmus["fmi3", "knee"], "X", 0.01, m=-1.0)
     runs = [subprocess.run(c, capture_output=True, text=True, env={}, timeout=300)
             for c in ([str(hosts["fmi3", "linux"]), *arguments],
                       [*qemu, str(hosts["fmi3", "aarch64"]), *arguments])]

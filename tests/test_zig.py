@@ -22,28 +22,15 @@ from mkctl.native.variants import ALL_VARIANTS, Variant
 from mkctl.physics import knee
 from mkctl.physics.params import Params
 from mkctl.physics.simulate import KNEE_OUTPUTS, KneeSimulator, default_commands
+from toolchain_helpers import require_zig
 
 TOLERANCE = 1e-12
-#: CI sets it: a toolchain the tests need and do not find is a failure there, not a skip.
-REQUIRE = "MKCTL_REQUIRE_TOOLCHAINS"
-
-
-def missing(reason: str):
-    """Skip with the reason, or fail when the toolchains are required
-    (``MKCTL_REQUIRE_TOOLCHAINS=1``)."""
-    if os.environ.get(REQUIRE) == "1":
-        pytest.fail(f"{reason} ({REQUIRE}=1: CI promises this toolchain)")
-    pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")
 def libraries(tmp_path_factory):
     """{"system" | "zig": Core} with every variant, built into a fresh cache by each toolchain."""
-    if toolchain.system_compiler() is None:
-        missing("no system C compiler: nothing to compare ziglang's core with")
-    if not toolchain.zig_installed():
-        missing(f"the {toolchain.ZIG_PACKAGE} package is not installed "
-                f"(pip install {toolchain.ZIG_EXTRA})")
+    require_zig("ziglang core to compare with the system compiler's")
     cache = tmp_path_factory.mktemp("cache")
     saved = {k: os.environ.get(k) for k in (build.ENV_CACHE, toolchain.ENV_CHOICE)}
     cores, paths = {}, {}

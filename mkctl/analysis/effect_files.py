@@ -52,13 +52,17 @@ is harmless; another effect under a name already taken is a one-line error.
 from __future__ import annotations
 
 import ast
+import contextlib
 import hashlib
 import inspect
 import json
 import keyword
 import math
+import os
 import runpy
 import shlex
+import sys
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -161,22 +165,97 @@ def sympy_namespace():
 
 # --- Loading and checking --------------------------------------------------------------------------------
 
+@dataclass(frozen=True)
+class InterpreterState:
+    """The interpreter-wide settings a user's file (an effect or a mechanism file) can change, by
+    accident or not, that mkctl itself depends on: :meth:`now` takes them, :meth:`restore` puts
+    them back (see :func:`interpreter_kept`).
+
+    ``sys.setrecursionlimit(50)`` made every later sympy trace a RecursionError; ``sys.stdout =
+    None`` made mkctl's own report a traceback; ``os.chdir`` sent its output elsewhere;
+    ``numpy.seterr(all="raise")`` or ``warnings.simplefilter("error")`` turned the model's handled
+    overflows into tracebacks. Not restored: ``sys.path`` and ``sys.modules`` (a file may import
+    helpers of its own), ``os.environ``, signal handlers, and changes made to other modules'
+    contents: a user's file is code the user chose to run, not a sandbox.
+    """
+
+    recursion_limit: int
+    streams: tuple  #: sys.stdin, sys.stdout, sys.stderr
+    cwd: object  #: the working folder, or None where it no longer exists
+    argv: tuple
+    numpy_errors: dict
+    hooks: tuple  #: sys.excepthook, sys.displayhook, the trace and the profile function
+    int_max_str_digits: int
+
+    @classmethod
+    def now(cls) -> "InterpreterState":
+        try:
+            cwd = os.getcwd()
+        except OSError:
+            cwd = None
+        return cls(sys.getrecursionlimit(), (sys.stdin, sys.stdout, sys.stderr), cwd,
+                   tuple(sys.argv), np.geterr(),
+                   (sys.excepthook, sys.displayhook, sys.gettrace(), sys.getprofile()),
+                   sys.get_int_max_str_digits())
+
+    def restore(self) -> None:
+        sys.setrecursionlimit(self.recursion_limit)
+        sys.stdin, sys.stdout, sys.stderr = self.streams
+        if self.cwd is not None:
+            with contextlib.suppress(OSError):  # a folder the file removed: nowhere to return
+                os.chdir(self.cwd)
+        sys.argv[:] = self.argv
+        np.seterr(**self.numpy_errors)
+        sys.excepthook, sys.displayhook = self.hooks[:2]
+        sys.settrace(self.hooks[2])
+        sys.setprofile(self.hooks[3])
+        sys.set_int_max_str_digits(self.int_max_str_digits)
+
+
+@contextlib.contextmanager
+def interpreter_kept():
+    """Run the block (a user's file loaded and checked), then restore the interpreter's settings
+    (:class:`InterpreterState`) and the warning filters as they were before it."""
+    state = InterpreterState.now()
+    try:
+        with warnings.catch_warnings():  # restores the filters the file changed
+            yield
+    finally:
+        state.restore()
+
+
+def run_user_file(path: Path, where: str, error: type) -> dict:
+    """The namespace of a user's Python file (an effect or a mechanism file), run with
+    :func:`interpreter_kept`; a missing file, a syntax error and any failure of its code
+    (``sys.exit`` too, which would end mkctl with status 0 and nothing done) raise ``error``
+    (an :class:`~mkctl.errors.MkctlError`) in one line that starts with ``where``."""
+    if not path.is_file():
+        raise error(f"{where}: no such file")
+    try:
+        with interpreter_kept():
+            return runpy.run_path(str(path))
+    except SyntaxError as failure:
+        raise error(f"{where} line {failure.lineno}: not valid Python: {failure.msg}") from None
+    except (Exception, SystemExit) as failure:  # the user's code: any failure is theirs
+        raise error(f"{where}: running it failed: {type(failure).__name__}: {failure}") from None
+
+
 def load_effect_file(path, params: Params = DEFAULT) -> list[UserEffect]:
     """Read an effect file (module docstring) and check every effect in it; one-line errors.
 
+    The file runs, and its functions are checked, inside :func:`interpreter_kept`: what it changes
+    of the interpreter's settings (the recursion limit, sys.stdout, the working folder, ...) is
+    put back afterwards.
+
     Raises :class:`EffectFileError` naming the file, the effect and the problem.
     """
-    path = Path(path)
+    with interpreter_kept():
+        return _load_effect_file(Path(path), params)
+
+
+def _load_effect_file(path: Path, params: Params) -> list[UserEffect]:
     where = f"effect file {path.name}"
-    if not path.is_file():
-        raise EffectFileError(f"{where}: no such file")
-    try:
-        namespace = runpy.run_path(str(path))
-    except SyntaxError as error:
-        raise EffectFileError(f"{where} line {error.lineno}: not valid Python: {error.msg}") from None
-    except Exception as error:  # the user's code: any failure is theirs, in one line
-        raise EffectFileError(f"{where}: running it failed: {type(error).__name__}: {error}") from None
-    effects = namespace.get("EFFECTS")
+    effects = run_user_file(path, where, EffectFileError).get("EFFECTS")
     if not isinstance(effects, (list, tuple)) or not effects:
         raise EffectFileError(f"{where}: defines no EFFECTS list (a list of dicts, one per effect; see "
                               f"docs/effects.md)")
@@ -261,27 +340,41 @@ def _check_parameters(raw, fail) -> tuple:
         if pname in reserved_parameters():
             raise fail(f"parameter '{pname}' is an mkctl parameter's name; choose another")
         names.add(pname)
-        values = {}
-        for key in ("off", "lower", "upper", "typical"):
-            value = item[key]
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
-            values[key] = float(value)
-        if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the upper "
-                       f"{values['upper']:g}")
-        if not values["lower"] <= values["off"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its off "
-                       f"value {values['off']:g}")
-        if not values["lower"] <= values["typical"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] exclude its typical "
-                       f"value {values['typical']:g}")
+        values = bounded_values(item, ("off", "lower", "upper", "typical"), pname, fail)
         if not isinstance(item["unit"], str):
             raise fail(f"parameter '{pname}': unit must be a text, got {type(item['unit']).__name__}")
         _check_text(item["unit"], f"parameter '{pname}': unit", fail)
         out.append(EffectParameter(pname, item["unit"], values["off"], values["lower"], values["upper"],
                                    values["typical"]))
     return tuple(out)
+
+
+#: How a refusal names each value of a user parameter that must lie within its bounds.
+VALUE_NAMES = {"off": "off value", "typical": "typical value", "default": "default"}
+
+
+def bounded_values(item: dict, keys: tuple, pname: str, fail) -> dict:
+    """{key: float} of a user parameter's values (an effect's off, lower, upper and typical; a
+    mechanism's default, lower and upper), checked in the order of ``keys``: each a finite number
+    (not a bool, a text, NaN or an int beyond any float such as 10**400), lower below upper, and
+    every other value within them. A problem raises ``fail(text)`` naming the parameter."""
+    values = {}
+    for key in keys:
+        value = item[key]
+        number = isinstance(value, (int, float)) and not isinstance(value, bool)
+        if number and isinstance(value, int) and abs(value) > 1e308:  # no float holds it
+            number = False
+        if not (number and math.isfinite(value)):
+            raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r:.60}")
+        values[key] = float(value)
+    lower, upper = values["lower"], values["upper"]
+    if not lower < upper:
+        raise fail(f"parameter '{pname}': lower bound {lower:g} is not below the upper {upper:g}")
+    for key in keys:
+        if key not in ("lower", "upper") and not lower <= values[key] <= upper:
+            raise fail(f"parameter '{pname}': bounds [{lower:g}, {upper:g}] exclude its "
+                       f"{VALUE_NAMES.get(key, key)} {values[key]:g}")
+    return values
 
 
 def _check_traceable(effect: UserEffect, params: Params, fail) -> None:
@@ -306,14 +399,19 @@ def _check_traceable(effect: UserEffect, params: Params, fail) -> None:
         Ldot = np.linspace(-0.2, 0.2, 7)
         P = np.linspace(0.0, 6e5, 7)
         try:
-            off = effect.tension(L, Ldot, P, effect.defaults, params)
-            typical = effect.tension(L, Ldot, P, {q.name: q.typical for q in effect.parameters}, params)
+            # an overflow or a division by zero is a term not finite: refused below in one line, not a
+            # RuntimeWarning printed before it
+            with np.errstate(all="ignore"):
+                off = effect.tension(L, Ldot, P, effect.defaults, params)
+                typical = effect.tension(L, Ldot, P, {q.name: q.typical for q in effect.parameters},
+                                         params)
         except EffectFileError as error:
             raise fail(str(error)) from None
         except Exception as error:
             raise fail(f"term fails with numpy arrays ({type(error).__name__}: {error})") from None
-        if not np.all(np.isfinite(typical)):
-            raise fail("term is not finite at the typical values")
+        if not (np.all(np.isfinite(typical)) and np.all(np.isfinite(off))):
+            raise fail("term is not finite at the typical values" if np.all(np.isfinite(off))
+                       else "term is not finite with every parameter at its off value")
         if np.any(np.abs(off) > 1e-12 * (1.0 + np.max(np.abs(typical)))):
             raise fail("term is not 0 with every parameter at its off value (an effect switched off must change "
                        "nothing)")
@@ -523,7 +621,11 @@ def register_effect_file(path) -> list[registry.Effect]:
     or a copy) is kept as it is; a different effect under a taken name, or any other problem, raises a one-line
     :class:`EffectFileError` naming the file and the effect. Nothing of a file is registered unless all of it is.
     """
-    path = Path(path)
+    with interpreter_kept():  # registering traces the file's functions again
+        return _register_effect_file(Path(path))
+
+
+def _register_effect_file(path: Path) -> list[registry.Effect]:
     loaded = load_effect_file(path)
     where = f"effect file {path.name}"
     plan = []

@@ -45,25 +45,23 @@ the file, the mechanism and the problem. :func:`mechanism` finds a built-in by n
 by path.
 
 Reading the file reuses the effect files' rules (:mod:`mkctl.analysis.effect_files`: the reserved
-parameter names and the symbolic namespace); running the file is the few lines of :func:`_run_file`,
-as :func:`mkctl.analysis.effect_files.load_effect_file` does inline.
+parameter names, the symbolic namespace, and :func:`~mkctl.analysis.effect_files.run_user_file`,
+which runs the file and restores the interpreter's settings it changed).
 """
 from __future__ import annotations
 
 import inspect
 import keyword
-import math
-import runpy
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import MkctlError
+from ..errors import DomainError, MkctlError
 from ..physics import actuator
 from ..physics.effects import Parameter
 from ..physics.mechanism import BUILTIN, Mechanism, kinematics, trace
 from ..physics.params import DEFAULT, PARAMETER_NAMES, Params
-from .effect_files import reserved_parameters
+from .effect_files import bounded_values, interpreter_kept, reserved_parameters, run_user_file
 
 #: The keys of MECHANISM, and which are required.
 KEYS = ("name", "description", "coordinate", "muscles", "parameters", "lengths", "inertia", "load",
@@ -81,29 +79,21 @@ class MechanismFileError(MkctlError, ValueError):
     """A mechanism file that cannot be loaded or breaks a rule of model-spec section 3b."""
 
 
-def _run_file(path: Path, where: str) -> dict:
-    """The file's namespace; its failures as one line."""
-    if not path.is_file():
-        raise MechanismFileError(f"{where}: no such file")
-    try:
-        return runpy.run_path(str(path))
-    except SyntaxError as error:
-        raise MechanismFileError(f"{where} line {error.lineno}: not valid Python: "
-                                 f"{error.msg}") from None
-    except (Exception, SystemExit) as error:  # the user's code: any failure is theirs, in one
-        # line (sys.exit in it would end mkctl with status 0 and nothing done)
-        raise MechanismFileError(f"{where}: running it failed: {type(error).__name__}: "
-                                 f"{error}") from None
-
-
 def load_mechanism_file(path, params: Params = DEFAULT) -> Mechanism:
     """Read a mechanism file (module docstring) and check it; returns the
     :class:`~mkctl.physics.mechanism.Mechanism` (picklable: a pickle reads the file again). Raises
     :class:`MechanismFileError` naming the file, the mechanism and the problem, in one line.
-    ``params``: the muscle whose domain ``0 < L < b`` the lengths are checked against."""
-    path = Path(path)
+    ``params``: the muscle whose domain ``0 < L < b`` the lengths are checked against. The file
+    runs, and its functions are checked, inside
+    :func:`~mkctl.analysis.effect_files.interpreter_kept`: the interpreter's settings it changes
+    (the recursion limit, sys.stdout, the working folder, ...) are put back afterwards."""
+    with interpreter_kept():
+        return _load_mechanism_file(Path(path), params)
+
+
+def _load_mechanism_file(path: Path, params: Params) -> Mechanism:
     where = f"mechanism file {path.name}"
-    entry = _run_file(path, where).get("MECHANISM")
+    entry = run_user_file(path, where, MechanismFileError).get("MECHANISM")
     if not isinstance(entry, dict):
         raise MechanismFileError(f"{where}: defines no MECHANISM dict (see docs/mechanisms.md)")
     name = entry.get("name")
@@ -207,21 +197,7 @@ def _parameters(raw, fail) -> tuple:
         if pname in reserved:
             raise fail(f"parameter '{pname}' is an mkctl parameter's name; choose another")
         names.add(pname)
-        values = {}
-        for key in ("default", "lower", "upper"):
-            value = item[key]
-            number = isinstance(value, (int, float)) and not isinstance(value, bool)
-            if number and isinstance(value, int) and abs(value) > 1e308:  # 10**400: no float
-                number = False
-            if not (number and math.isfinite(value)):
-                raise fail(f"parameter '{pname}': {key} must be a finite number, got {value!r}")
-            values[key] = float(value)
-        if not values["lower"] < values["upper"]:
-            raise fail(f"parameter '{pname}': lower bound {values['lower']:g} is not below the "
-                       f"upper {values['upper']:g}")
-        if not values["lower"] <= values["default"] <= values["upper"]:
-            raise fail(f"parameter '{pname}': bounds [{values['lower']:g}, {values['upper']:g}] "
-                       f"exclude its default {values['default']:g}")
+        values = bounded_values(item, ("default", "lower", "upper"), pname, fail)
         out.append(Parameter(pname, str(item["unit"]), values["default"], values["lower"],
                              values["upper"], default=values["default"],
                              description="parameter of a user mechanism"))
@@ -287,8 +263,12 @@ def _check_range(mechanism: Mechanism, params: Params, fail) -> None:
                        f"finite between the stops")
         with np.errstate(all="ignore"):  # a length so short (1e-300 m) that L**3 underflows
             rest = np.zeros_like(L)
-            tension = (actuator.static_tension(L, rest, params),
-                       actuator.static_tension_dL(L, rest, params))
+            try:
+                tension = (actuator.static_tension(L, rest, params),
+                           actuator.static_tension_dL(L, rest, params))
+            except DomainError as error:  # the rubber's energy not finite (mkctl.physics.braid)
+                raise fail(f"muscle '{muscle}' between the stops ({low:g}, {high:g}): "
+                           f"{error}") from None
         if not all(np.isfinite(t).all() for t in tension):
             i = int(np.argmax(~(np.isfinite(tension[0]) & np.isfinite(tension[1]))))
             raise fail(f"muscle '{muscle}' has length L = {L[i]:.6g} m at {mechanism.coordinate} = "

@@ -177,6 +177,9 @@ def _check_ranges(experiment, seed, samples, rate, noise, noise_factor, output_k
         if not (np.isfinite(value) and 0 <= value <= largest):
             raise ParameterError(f"{name} = {value!r} is outside [0, {largest:g}] (the output column's unit; beyond "
                                  "it no real sensor reads)")
+    if 0 < resolution < largest * 1e-12:  # the output / resolution overflows; no sensor resolves that finely
+        raise ParameterError(f"resolution = {resolution!r} is below {largest * 1e-12:g} (the output column's unit; "
+                             "finer than any sensor resolves); 0 means no rounding")
     if not (np.isfinite(input_noise) and 0 <= input_noise <= LARGEST["pressure"] / 1e3):
         raise ParameterError(f"input noise = {input_noise!r} kPa is outside [0, {LARGEST['pressure'] / 1e3:g}] kPa")
     if input_noise and experiment == "knee" and not pressures:

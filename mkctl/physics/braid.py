@@ -20,10 +20,13 @@ True
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from ..errors import DomainError
 from .tables import TABLE_I_MUSCLE
-from .xp import as_values, math_for
+from .xp import as_values, is_symbolic, math_for
 
 
 # --- Braid geometry (Eq. 5-6) -------------------------------------------------------------------
@@ -140,6 +143,43 @@ def pressure_gain_slope(L, b: float, n: float):
     return 6 * L / (4 * np.pi * n * n)
 
 
+def _finite_rubber(formula, L, params):
+    """``formula(L, params)`` (one of the rubber's equations, Eq. 10-13), checked: a finite length
+    whose value is not finite is a :class:`~mkctl.errors.DomainError` naming it.
+
+    The equations divide by L^3 and by b^2 - L^2: inside 0 < L < b they are finite in exact
+    arithmetic, but not in floating point when L is tiny (a record's 1e-320 mm) or one rounding
+    from b. A NaN length passes through as NaN (the callers' own domain checks name it); a
+    symbolic length is traced unchecked (the generated code checks its own domain).
+    """
+    L = as_values(L)
+    if type(L) is float:
+        try:
+            value = formula(L, params)
+        except ZeroDivisionError:  # Python floats raise where numpy gives inf
+            value = math.inf
+        if type(value) is not float or math.isfinite(value) or math.isnan(L):
+            return value  # (symbolic parameters give an expression: traced, not checked)
+        raise DomainError(_not_finite_message(L, params.b))
+    if is_symbolic(L):
+        return formula(L, params)
+    with np.errstate(divide="ignore", over="ignore", invalid="ignore"):
+        value = formula(L, params)
+    bad = ~np.isfinite(value) & np.isfinite(L)
+    if bad.any():
+        raise DomainError(_not_finite_message(float(np.broadcast_to(L, bad.shape)[bad][0]),
+                                              params.b))
+    return value
+
+
+def _not_finite_message(L: float, b: float) -> str:
+    if not 0 < L < b:
+        return f"actuator length L = {L!r} m is outside the model's domain 0 < L < b = {b} m"
+    end = "0" if L < b / 2 else f"b = {b} m"
+    return (f"actuator length L = {L!r} m is too near {end} for the rubber's elastic energy "
+            f"(Eq. 10-13) to be a finite number: no tension of model 2 there")
+
+
 def _stretch_constant(params) -> float:
     """``q = D0^2 n^2 pi^2`` [m^2], so that lambda_2^2 = (b^2 - L^2) / q (Eq. 11)."""
     return (params.D0 * params.n * np.pi) ** 2
@@ -166,12 +206,21 @@ def strain_energy_density(L, params=TABLE_I_MUSCLE):
     W : float, array or sympy expression
         Strain energy density [J/m^3 = Pa]; 0 at rest (L = L0).
 
+    Raises
+    ------
+    DomainError
+        Where a finite length gives no finite value (:func:`_finite_rubber`): L so near 0 that
+        L^3 underflows (1e-320 m), or so near b that b^2 - L^2 rounds to 0.
+
     References
     ----------
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 10-12.
     .. [2] model-spec section 2.
     """
-    L = as_values(L)
+    return _finite_rubber(_density, L, params)
+
+
+def _density(L, params):
     q, s, L0 = _stretch_constant(params), params.b**2 - L * L, params.L0
     l1sq, l2sq = (L / L0) ** 2, s / q
     l3sq = 1.0 / (l1sq * l2sq)
@@ -199,12 +248,21 @@ def strain_energy_gradient(L, params=TABLE_I_MUSCLE):
     float, array or sympy expression
         dW/dL [Pa/m]; 0 at rest (L = L0, where lambda_2 = 1).
 
+    Raises
+    ------
+    DomainError
+        Where a finite length gives no finite value (:func:`_finite_rubber`): L so near 0 that
+        L^3 underflows (1e-320 m), or so near b that b^2 - L^2 rounds to 0.
+
     References
     ----------
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 13.
     .. [2] model-spec section 2 (model 2: f2 = f1 + V_r dW/dL).
     """
-    L = as_values(L)
+    return _finite_rubber(_gradient, L, params)
+
+
+def _gradient(L, params):
     q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
     L3 = L * L * L  # products, not powers: several times faster on scalars
     c1 = 2 * L / L0sq - 2 * L / q - 2 * L0sq * q * (b2 - 2 * L * L) / (L3 * s * s)
@@ -228,13 +286,22 @@ def strain_energy_curvature(L, params=TABLE_I_MUSCLE):
     float, array or sympy expression
         d^2W/dL^2 [Pa/m^2].
 
+    Raises
+    ------
+    DomainError
+        Where a finite length gives no finite value (:func:`_finite_rubber`): L so near 0 that
+        L^3 underflows (1e-320 m), or so near b that b^2 - L^2 rounds to 0.
+
     References
     ----------
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
        Eq. 13 and 23.
     .. [2] model-spec section 2.
     """
-    L = as_values(L)
+    return _finite_rubber(_curvature, L, params)
+
+
+def _curvature(L, params):
     q, s, b2, L0sq = _stretch_constant(params), params.b**2 - L * L, params.b**2, params.L0**2
     u = b2 - 2 * L * L
     L2, L4, s2, s3 = L * L, L * L * L * L, s * s, s * s * s

@@ -421,7 +421,13 @@ def _evaluate(mechanism: Mechanism, which: str, q, qdot, p) -> list:
         return [sympy.sympify(e).xreplace(values) for e in expressions]
     scalar = type(q) is float and type(qdot) is float
     function = getattr(traced, which)["math" if scalar else "numpy"]
-    values = function(q, qdot, *values)
+    try:
+        values = function(q, qdot, *values)
+    except (OverflowError, ZeroDivisionError, ValueError) as error:
+        # Python's math raises where numpy gives inf or NaN: q**2 beyond any float (an integrator's
+        # step from an inertia of 1e-320), a square root of a negative
+        raise DomainError(f"mechanism '{mechanism.name}' at {mechanism.coordinate} = {q:.6g} "
+                          f"{mechanism.unit}: its {which} is not a finite number ({error})") from None
     if scalar:
         return [float(v) for v in values]
     shape = np.broadcast(q, qdot).shape
