@@ -107,7 +107,7 @@ def hosts(tmp_path_factory, qemu):
     for aarch64."""
     folder = tmp_path_factory.mktemp("hosts")
     built = {}
-    for version in ("fmi2", "fmi3"):
+    for version in ("fmi2", "fmi3", "fmi2_me"):  # fmi2_me: fmu/fmi2_me_host.c, Model Exchange
         for kind, compiler in (("linux", toolchain.system_compiler()),
                                ("aarch64", toolchain.zig_command(AARCH64.zig_target))):
             built[version, kind] = compile_host(compiler, version, folder / f"{version}_host_{kind}")
@@ -145,6 +145,27 @@ def test_the_aarch64_binary_under_qemu_gives_the_linux_results(qemu, hosts, fmus
     if model == "knee":  # the actuator's inputs are held from the start: its tension is constant
         assert np.ptp(linux[:, 1]) > 1e-3 * np.abs(linux[:, 1]).max()  # it moved
     np.testing.assert_allclose(arm, linux, rtol=0, atol=1e-12 * max(1.0, np.abs(linux).max()))
+
+
+@pytest.mark.parametrize("model", ["knee", "actuator"])
+def test_the_aarch64_binary_under_qemu_integrates_model_exchange_as_linux(qemu, hosts, fmus, model):
+    """Model Exchange: the host (fmu/fmi2_me_host.c) integrates the FMU's states itself, in fixed
+    Runge-Kutta steps, so both platforms do the same arithmetic; the knee's result is also the
+    library's to the integrator's error."""
+    from fmpy import read_model_description
+    folder = fmus["fmi2", model]
+    _compile_fmi2_sources_for_aarch64(folder)
+    output, stop, start = HOST_CASES[model]
+    states = read_model_description(str(folder)).numberOfContinuousStates
+    common = host_arguments(folder, output, stop, **start)
+    arguments = [*common[:4], "4", str(states), *common[4:]]  # 4 RK4 steps per 1 ms output
+    linux = run_host([str(hosts["fmi2_me", "linux"]), *arguments])
+    arm = run_host([*qemu, str(hosts["fmi2_me", "aarch64"]), *arguments])
+    assert linux.shape == arm.shape == (round(stop / 1e-3) + 1, 2)
+    np.testing.assert_allclose(arm, linux, rtol=0, atol=1e-12 * max(1.0, np.abs(linux).max()))
+    co_simulation = run_host([str(hosts["fmi2", "linux"]), *common])  # the FMU's own integrator
+    scale = max(np.ptp(co_simulation[:, 1]), 1e-3 * np.abs(co_simulation[:, 1]).max())
+    np.testing.assert_allclose(linux[:, 1], co_simulation[:, 1], rtol=0, atol=1e-6 * scale)
 
 
 def test_the_aarch64_binary_is_an_arm_elf_library(fmus):

@@ -57,7 +57,8 @@ def unzipped_fmus(out: Path) -> dict:
 
 
 def compile_host(compiler: list, version: str, target: Path, flags=(), libraries=("-ldl",)) -> Path:
-    """Compile ``fmu/{version}_host.c`` (version ``fmi2`` or ``fmi3``) with ``compiler`` (a command
+    """Compile ``fmu/{version}_host.c`` (version ``fmi2``, ``fmi3`` or ``fmi2_me``, the Model Exchange
+    host) with ``compiler`` (a command
     list: gcc, MinGW-w64, ``zig cc -target ...``) into ``target``, warnings as errors."""
     from mkctl.native.fmu import fmi2_headers
 
