@@ -122,6 +122,9 @@ def test_synthesized_calibrated_diagnosed_pictured_and_discovered(run_python, tm
     muscle = seen["calibrated"]
     assert muscle["effects"] == ["quadratic_pressure_friction"], muscle["effects"]
     assert abs(muscle["params"]["Fq"] - 0.8) <= 3 * muscle["stderr"]["Fq"]
+    # the gap between the branches grows with pressure, and the new effect, added, follows it: no note that
+    # "the constant Fc cannot follow" it, nor one that sends the user to the built-in pressure friction
+    assert not [note for note in muscle["notes"] if "cannot follow" in note], muscle["notes"]
     report = seen["diagnosed"]
     assert report["verdict"] == "diagnosed" and report["missing"] == ["quadratic_pressure_friction"]
     value, error = report["params"]["Fq"], report["uncertainty"]["Fq"]

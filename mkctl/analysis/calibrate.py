@@ -1033,10 +1033,11 @@ def _settle_bounds(records, current: _Fit, notes: list) -> list:
     return at_bound
 
 
-def play_growing_with_pressure() -> str | None:
-    """The calibration candidate whose quasi-static friction band widens with the pressure (its definition's
-    ``play`` at its typical value: larger at 600 kPa than at 100 kPa), or None: what a branch gap that grows with
-    pressure asks for."""
+def plays_growing_with_pressure() -> tuple[str, ...]:
+    """The calibration candidates whose quasi-static friction band widens with the pressure (their definition's
+    ``play`` at its typical value: larger at 600 kPa than at 100 kPa), in the registry's order: what a branch gap
+    that grows with pressure asks for."""
+    growing = []
     for name in CANDIDATES:
         effect = effects.get(name)
         if effect.quasi_static != "play" or not CANDIDATES[name]:
@@ -1044,8 +1045,14 @@ def play_growing_with_pressure() -> str | None:
         p = Params().replace(**effect.on_values)
         xp = actuator.math_for(1.0)
         if effect.play(6e5, p, xp) > effect.play(1e5, p, xp):
-            return name
-    return None
+            growing.append(name)
+    return tuple(growing)
+
+
+def play_growing_with_pressure() -> str | None:
+    """The first of :func:`plays_growing_with_pressure` (the built-in one), or None."""
+    growing = plays_growing_with_pressure()
+    return growing[0] if growing else None
 
 
 def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None, candidates=()) -> None:
@@ -1066,7 +1073,10 @@ def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None,
 
     (low, gap_low), (high, gap_high) = growth["low"], growth["high"]
     intercept = growth["intercept"]
-    grows = play_growing_with_pressure()  # the candidate whose friction band widens with pressure
+    growing = plays_growing_with_pressure()  # the candidates whose friction band widens with pressure
+    grows = growing[0] if growing else None
+    if any(name in added for name in growing if name != grows):
+        return  # another friction growing with pressure (a user's) was added: it follows the gap
     if grows in added:
         notes.append(f"friction that grows with pressure, fitted as {grows}: Fc_p = {value('Fc_p')} N/Pa"
                      + (f" with Fc = {value('Fc')} N" if "Fc" in current.values else "") + "; cross-check from the "
