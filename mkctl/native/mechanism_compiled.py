@@ -10,8 +10,10 @@ The C is the native FMU's (:func:`mkctl.native.mechanism_fmu.generate_core`: the
 traced from :func:`~mkctl.physics.mechanism.mechanism_derivatives` for every variant, the core's
 integrator), plus :data:`RECORD_C`: ``mk_mech_record``, the record loop of
 :func:`mkctl.physics.mechanism._run` (runs of held commands, the samples read off the dense
-output), the knee's ``mk_knee_record`` line by line with the mechanism's right-hand side. It is
-compiled with the knee's core (its ``mk_variant``) into ``mech-<key>.so`` in
+output), the knee's ``mk_knee_record`` line by line with the mechanism's right-hand side. With
+``mk_variant`` (the variants' numbering, from the same
+:meth:`~mkctl.native.variants.Variant.c_condition` as the knee core's) it is compiled into
+``mech-<key>.so`` in
 :func:`mkctl.native.build.cache_dir`; the generated source is cached there too
 (``mech-gen-<key>.c``), keyed on everything :func:`mkctl.native.build.input_key` hashes, the
 generator modules and the mechanism itself (:func:`mechanism_fingerprint`: its fields, the code of
@@ -156,8 +158,13 @@ def generate_source(mechanism: mech.Mechanism) -> str:
     :data:`RECORD_C`. Raises :class:`mkctl.native.fmu.NativeBuildError` when it cannot be traced."""
     from .mechanism_fmu import generate_core
     vr, inputs, outputs = _interface_names(mechanism)
+    from .variants import all_variants
     source, _ = generate_core(mechanism, vr, False, inputs, outputs)
-    return source + RECORD_C
+    # the variants in generate_core's order (the knee core's mk_variant, which an FMU links)
+    variant = ["/* index of the compiled variant for parameter vector p, or -1 */",
+               "int mk_variant(const double *p)", "{"]
+    variant += [f"    if ({v.c_condition()}) return {i};" for i, v in enumerate(all_variants())]
+    return "\n".join([source, RECORD_C, *variant, "    return -1;", "}", ""])
 
 
 def generated_source(mechanism: mech.Mechanism) -> Path:
@@ -177,15 +184,13 @@ def generated_source(mechanism: mech.Mechanism) -> Path:
 def build_library(mechanism: mech.Mechanism) -> Path:
     """The mechanism's compiled library (built now if not cached). Raises
     :class:`mkctl.native.build.BuildUnavailable`."""
-    from .variants import all_variants
     if not build.enabled():
         raise build.BuildUnavailable(f"switched off by {build.ENV_SWITCH}")
     compiler = build.find_compiler()
     if compiler is None:
         from . import toolchain
         raise build.BuildUnavailable(toolchain.missing_host_compiler())
-    knee = build.generated_source(all_variants())  # mk_variant: the variants' numbering
-    return build.cached_library(compiler, [knee, generated_source(mechanism)], "mech")
+    return build.cached_library(compiler, [generated_source(mechanism)], "mech")
 
 
 class MechanismCore:
