@@ -25,8 +25,19 @@ def _compiled_core(params):
     return compiled.core_for(params)
 
 
-# the physics layer is handed the compiled core; it never imports the layer above it
+def _mechanism_core(mechanism, params):
+    """The compiled core of a mechanism (:mod:`mkctl.native.mechanism_compiled`) for params, or
+    None (as :func:`_compiled_core`)."""
+    try:
+        from .native import mechanism_compiled
+    except ImportError:
+        return None
+    return mechanism_compiled.core_for(mechanism, params)
+
+
+# the physics layer is handed the compiled cores; it never imports the layer above it
 _backend.install(_compiled_core)
+_backend.install_mechanism(_mechanism_core)
 
 __version__ = "0.1.0"
 

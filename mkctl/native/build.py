@@ -226,24 +226,31 @@ def build_library(variants) -> Path:
     compiler = find_compiler()
     if compiler is None:
         raise BuildUnavailable(toolchain.missing_host_compiler())
-    source_path = generated_source(variants)
-    source = source_path.read_bytes()
-    expected = {"source_sha256": _digest(source), "compiler": compiler_identity(compiler), "cflags": list(CFLAGS)}
+    return cached_library(compiler, [generated_source(variants)], "core")
+
+
+def cached_library(compiler: list[str], source_paths: list[Path], prefix: str) -> Path:
+    """The library ``<prefix>-<key>`` compiled from the sources (one command), from the cache when
+    its record matches them (their SHA-256), the compiler and the flags; compiled now otherwise."""
+    hashes = [_digest(path.read_bytes()) for path in source_paths]
+    expected = {"source_sha256": hashes[0] if len(hashes) == 1 else hashes,
+                "compiler": compiler_identity(compiler), "cflags": list(CFLAGS)}
     # the name is keyed by the compiler too: the system compiler's library and ziglang's coexist
     key = _digest(json.dumps(expected, sort_keys=True).encode())[:20]
-    library = cache_dir() / f"core-{key}{_library_suffix()}"
+    library = cache_dir() / f"{prefix}-{key}{_library_suffix()}"
     if library.exists() and _verified(library, expected):
         return library
     with cache_lock(library):
         if library.exists() and _verified(library, expected):  # another process built it meanwhile
             return library
-        return _compile_library(compiler, source_path, library, expected)
+        return _compile_library(compiler, source_paths, library, expected)
 
 
-def _compile_library(compiler: list[str], source_path: Path, library: Path, expected: dict) -> Path:
+def _compile_library(compiler: list[str], source_paths: list[Path], library: Path,
+                     expected: dict) -> Path:
     handle, temporary = tempfile.mkstemp(dir=library.parent, prefix=library.name + ".", suffix=".tmp")
     os.close(handle)
-    command = [*compiler, *CFLAGS, "-o", temporary, str(source_path), "-lm"]
+    command = [*compiler, *CFLAGS, "-o", temporary, *map(str, source_paths), "-lm"]
     try:
         done = subprocess.run(command, capture_output=True, text=True)
         if done.returncode != 0:

@@ -47,3 +47,46 @@ def compiled_core(params):
     """
     provider = _provider[0]
     return None if provider is None else provider(params)
+
+
+_mechanism_provider: list = [None]
+
+
+def install_mechanism(provider: Callable | None) -> Callable | None:
+    """Install the provider of mechanisms' compiled cores, replacing the previous one.
+
+    Parameters
+    ----------
+    provider : callable or None
+        ``provider(mechanism, params) -> core or None``: the compiled core of a mechanism
+        (:class:`mkctl.physics.mechanism.Mechanism`) for a parameter set; the core's
+        ``run(time, commands, p, state, stops, rtol, atol, hint)`` gives a record's states, or
+        None after a fault. None removes the provider (the Python loop then runs).
+
+    Returns
+    -------
+    callable or None
+        The provider installed before (None if there was none), to put back later.
+    """
+    previous, _mechanism_provider[0] = _mechanism_provider[0], provider
+    return previous
+
+
+def mechanism_core(mechanism, params):
+    """The compiled core of a mechanism for a parameter set, or None.
+
+    Parameters
+    ----------
+    mechanism : Mechanism
+        The mechanism (a built-in or a user's file) whose traced functions the core is made from.
+    params : MechanismParams
+        Its parameters (the muscle's effects decide whether the core carries them).
+
+    Returns
+    -------
+    core or None
+        The core the installed provider gives; None when no provider is installed or the
+        provider has none (no compiler, ``MKCTL_NATIVE=0``, the air on).
+    """
+    provider = _mechanism_provider[0]
+    return None if provider is None else provider(mechanism, params)

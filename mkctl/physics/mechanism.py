@@ -50,7 +50,7 @@ import numpy as np
 
 from ..errors import DomainError, ParameterError
 from ..results import Result
-from . import actuator, knee, simulate
+from . import actuator, backend, knee, simulate
 from .effects import Parameter
 from .integrate import integrate
 from .params import DEFAULT, PARAMETER_NAMES, Params
@@ -1312,6 +1312,13 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     states[0] = state
     hint = RUN_FIRST_STEP
     # the knee's runs of held commands (it takes two columns: one muscle's twice)
+    # first in the compiled core (mkctl.native.mechanism_compiled, handed in through backend): the
+    # same loop in C; after a fault (None) the loop below runs, to raise its own error in its words
+    core = backend.mechanism_core(mechanism, p) if time.size > 1 else None
+    compiled = None if core is None else core.run(time, commands, p, state, stop_positions,
+                                                  rtol, atol, hint)
+    if compiled is not None:
+        return compiled
     for start, end in simulate.held_command_runs(commands[:, 0], commands[:, -1]):
         held = commands[start]
 
