@@ -427,7 +427,8 @@ def _evaluate(mechanism: Mechanism, which: str, q, qdot, p) -> list:
         # Python's math raises where numpy gives inf or NaN: q**2 beyond any float (an integrator's
         # step from an inertia of 1e-320), a square root of a negative
         raise DomainError(f"mechanism '{mechanism.name}' at {mechanism.coordinate} = {q:.6g} "
-                          f"{mechanism.unit}: its {which} is not a finite number ({error})") from None
+                          f"{mechanism.unit}: its {which} is not a finite number ({error})"
+                          ) from None
     if scalar:
         return [float(v) for v in values]
     shape = np.broadcast(q, qdot).shape
