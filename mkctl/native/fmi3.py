@@ -163,10 +163,13 @@ def write_sources(interface: Interface, token: str, dest: Path, model_source: Pa
     return ["fmi3_wrapper.c" if name == "fmi2_wrapper.c" else name for name in units]
 
 
-def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None) -> Path:
-    """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`)."""
+def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
+              air: bool = False, windows: bool = True) -> Path:
+    """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`;
+    air: the knee with the air, as :func:`mkctl.native.fmu.build_native`; windows=False: this platform's binary
+    only, as :func:`mkctl.native.fmu.build_one`)."""
     from .cross import add_platform_binaries
-    interface = fmi2.slave_interface(model_name, params)
+    interface = fmi2.slave_interface(model_name, params, air)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_fmi3_") as temp:
         stage = Path(temp) / "fmu"
@@ -174,10 +177,11 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         units = write_sources(interface, token, sources, model_source)
         (sources / "buildDescription.xml").write_bytes(build_description(model_name, units))
         (stage / "modelDescription.xml").write_bytes(
-            model_description(interface, token, fmi2.core_event_indicators(model_name)))
+            model_description(interface, token, fmi2.core_event_indicators(model_name, air)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
-        add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
-                              fmi2.compile_binary)
+        if windows:
+            add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
+                                  fmi2.compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
         with zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as archive:
             for path in sorted(stage.rglob("*")):
@@ -187,11 +191,12 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     return target
 
 
-def build_fmi3(out: Path, params: Params | None = None) -> dict[str, Path]:
+def build_fmi3(out: Path, params: Params | None = None, air: bool | None = None) -> dict[str, Path]:
     """Write ``out/fmi3/McKibbenKnee.fmu`` and ``out/fmi3/McKibbenActuator.fmu``; returns their paths by model
-    name. params: as :func:`mkctl.native.fmu.build_native`. Raises :class:`NativeBuildError`."""
+    name. params, air: as :func:`mkctl.native.fmu.build_native`. Raises :class:`NativeBuildError`."""
     folder = Path(out) / "fmi3"
-    return {name: build_one(name, folder / f"{name}.fmu", params) for name in MODEL_NAMES}
+    air = fmi2.wants_air(params) if air is None else air
+    return {name: build_one(name, folder / f"{name}.fmu", params, air=air) for name in MODEL_NAMES}
 
 
 def main(argv=None) -> int:
