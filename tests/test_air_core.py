@@ -248,3 +248,41 @@ def test_model_exchange_knee_with_the_air_agrees_with_the_library(air_fmus, vers
         scale = np.ptp(ref[name]) + np.abs(ref[name]).max()
         # CVode's error, largest just after a command step (measured 1.4e-6 of Pf's range at 456 ms)
         assert np.abs(rows[name] - expected).max() <= 1e-5 * scale, name
+
+
+_BAD_VALUES = r"""
+import json, sys
+sys.path.insert(0, sys.argv[3])
+from test_air_core import _Knee
+path, kind = sys.argv[1], sys.argv[2]
+found = {}
+for name, value in [("C_fill", -1e-9), ("band", 0.0), ("V_dead", -1e-6), ("P_supply", -2e5), ("k_poly", 0.0)]:
+    knee = _Knee(path, sys.argv[4] + "/" + name, kind=kind, valve_flow=1, **{name: value})
+    try:
+        status = knee.fmu.exitInitializationMode()
+        outcome = "accepted"
+    except Exception as error:  # fmpy raises on fmi2Error / fmi3Error
+        outcome = str(error)
+    found[name] = {"outcome": outcome, "messages": knee.messages}
+    knee.fmu.freeInstance()
+print(json.dumps(found))
+"""
+
+
+@pytest.mark.parametrize("version,kind", [("fmi2", "cs"), ("fmi3", "cs"), ("fmi2", "me"), ("fmi3", "me")])
+def test_bad_air_values_answer_an_error_with_a_logged_message(air_fmus, tmp_path, version, kind):
+    # in a subprocess (a crash there cannot take the tests down): each bad value ends initialization with
+    # fmi2Error / fmi3Error and one logged line naming the parameter and its value
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+    done = subprocess.run([sys.executable, "-c", _BAD_VALUES, str(air_fmus[version]), kind,
+                           str(Path(__file__).parent), str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    for name, result in found.items():
+        assert result["outcome"] != "accepted", name
+        assert "status 3" in result["outcome"] or "Error" in result["outcome"], (name, result["outcome"])
+        assert any(name in message for message in result["messages"]), (name, result["messages"])
+        assert not any("nan" in message.lower() for message in result["messages"]), result["messages"]
