@@ -6,7 +6,7 @@ import pytest
 
 from mkctl.native import build, compiled
 from mkctl.native.variants import Variant, air_effects, all_variants
-from mkctl.physics import backend, knee
+from mkctl.physics import actuator, backend, knee
 from mkctl.physics.params import Params
 from mkctl.physics.simulate import default_commands, simulate_knee
 
@@ -181,7 +181,7 @@ class _Knee:
                                                                           for n in names])
 
 
-AIR_START = {**MODERATE, "P_supply": 7e5, "band": 3e4, "V_dead": 8e-6}
+AIR_START = {**MODERATE, "P_supply": 3e6, "band": 3e4, "V_dead": 8e-6}  # the commands reach 2.2 MPa
 
 
 def _commands(p, k):
@@ -197,7 +197,7 @@ def test_co_simulation_knee_with_the_air_agrees_with_the_library(air_fmus, tmp_p
     p = Params(**AIR_START)
     names = {v.name for v in _Knee(air_fmus[version], tmp_path / "probe").md.modelVariables}
     assert {"valve_flow", "C_fill", "C_exhaust", "P_supply", "band", "b_cr", "m_sub", "k_poly", "V_dead",
-            "T_air", "C_leak"} <= names and "tau_heat" not in names  # section 4d's names; no heat state
+            "T_air", "C_leak", "qe", "qf"} <= names and "tau_heat" not in names  # section 4d's names; no heat
     knee_fmu = _Knee(air_fmus[version], tmp_path / "cs", **AIR_START)
     knee_fmu.fmu.exitInitializationMode()
     sim = KneeSimulator(p, default_hip_height(p), *default_commands(p))
@@ -209,12 +209,17 @@ def test_co_simulation_knee_with_the_air_agrees_with_the_library(air_fmus, tmp_p
         got.append(knee_fmu.get(*KNEE_OUTPUTS))
         sim.step(1e-3, pe, pf)
         outputs = sim.outputs(pe, pf)
-        ref.append([outputs[name] for name in KNEE_OUTPUTS])
+        flows = [actuator.air_mass_flow(outputs[P], actuator.valve_opening(outputs[P], command, p), p)
+                 for P, command in (("Pe", pe), ("Pf", pf))]  # the library's own flow at its state
+        ref.append([outputs[name] for name in KNEE_OUTPUTS] + flows)
+        got[-1] = list(got[-1]) + knee_fmu.get("qe", "qf")
     got, ref = np.array(got), np.array(ref)
+    q = len(KNEE_OUTPUTS)
+    assert np.abs(ref[:, q]).max() > 1e-4 and ref[:, q].min() < 0 < ref[:, q].max()  # fills and exhausts
     pe_index = KNEE_OUTPUTS.index("Pe")
     assert np.ptp(ref[:, pe_index]) > 1e5 and abs(ref[100, pe_index] - _commands(p, 100)[0]) > 1e3  # a state
-    for j, name in enumerate(KNEE_OUTPUTS):
-        scale = max(1.0, np.abs(ref[:, j]).max())
+    for j, name in enumerate(KNEE_OUTPUTS + ("qe", "qf")):
+        scale = max(1.0, np.abs(ref[:, j]).max()) if name not in ("qe", "qf") else np.abs(ref[:, j]).max()
         assert np.abs(got[:, j] - ref[:, j]).max() <= 1e-9 * scale, name
 
 

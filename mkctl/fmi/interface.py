@@ -233,10 +233,17 @@ KNEE = Model(
 #: ``valve_flow`` = 1 the pressures Pe, Pf are states of the muscles' mass balance, fed by the valves that the
 #: commands pe_cmd, pf_cmd set as pressure regulators.
 KNEE_PARAMETERS_WITH_AIR = LiveSequence(lambda: [*_MUSCLE, *TABLE_II, *_effect_reals(air=True)])
+#: The air knee's added outputs: each muscle's net air mass flow (mkctl.physics.actuator.air_mass_flow at the
+#: regulator's opening), 0 with valve_flow = 0.
+AIR_FLOW_OUTPUTS = {"qe": "extensor's net air mass flow in (valve and leak; negative: out), 0 without the air",
+                    "qf": "flexor's net air mass flow in (valve and leak; negative: out), 0 without the air"}
 KNEE_WITH_AIR = dataclasses.replace(
     KNEE, parameters=KNEE_PARAMETERS_WITH_AIR, air=True,
     description=KNEE.description + "; the air in the muscles (model-spec 4d) when valve_flow = 1",
-    units=LiveMapping(lambda: {**KNEE_UNITS, **{name: UNITS[name] for name in KNEE_PARAMETERS_WITH_AIR}}))
+    outputs=(*KNEE.outputs, *AIR_FLOW_OUTPUTS),
+    descriptions=LiveMapping(lambda: {**_KNEE_DESCRIPTIONS, **AIR_FLOW_OUTPUTS}),
+    units=LiveMapping(lambda: {**KNEE_UNITS, **{name: UNITS[name] for name in KNEE_PARAMETERS_WITH_AIR},
+                               **{name: "kg/s" for name in AIR_FLOW_OUTPUTS}}))
 
 # --- one actuator -----------------------------------------------------------------------------------------------
 #: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them): Table I, then every

@@ -547,6 +547,8 @@ def generate_core_source(air: bool = False) -> str:
         "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
         "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
         model_exchange_functions(core_table.emitted, table, variants)]
+    if air:
+        extra.append(air_flow_functions(variants, table))
     sim = KneeSimulator(Params(tau=1.0))
     lines = ["", "/* ---- added for the native FMUs by mkctl/native/fmu.py (generated too) ---- */", *extra,
              "const char *const mk_fmu_fault_templates[] = {",
@@ -559,6 +561,38 @@ def generate_core_source(air: bool = False) -> str:
              "const double MK_FMU_KNEE_ATOL[4] = {" + ", ".join(_c_double(a) for a in sim.atol) + "};",
              f"const double MK_FMU_KNEE_H0 = {_c_double(sim.step_hint)};", ""]
     return source + "\n".join(lines)
+
+
+def air_flow_functions(variants, table) -> str:
+    """``mk_fmu_air_flows(p, Pe, Pf, pe_cmd, pf_cmd, out, fault)``: each muscle's net air mass flow [kg/s], out[0]
+    the extensor's, out[1] the flexor's, traced from :func:`mkctl.physics.actuator.air_mass_flow` at the
+    regulator's opening (:func:`mkctl.physics.actuator.valve_opening`) for the air's variants, 0 for the others
+    (the knee built with the air, outputs ``qe``, ``qf``)."""
+    import sympy
+
+    from ..physics import actuator
+    from . import codegen
+    Pe, Pf, pe_cmd, pf_cmd = (sympy.Symbol(n, real=True) for n in ("Pe", "Pf", "pe_cmd", "pf_cmd"))
+    bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+    bindings.update(Pe="Pe", Pf="Pf", pe_cmd="pe_cmd", pf_cmd="pf_cmd")
+    arguments = "double Pe, double Pf, double pe_cmd, double pf_cmd, double *out, mk_fault *fault"
+    call = "Pe, Pf, pe_cmd, pf_cmd, out, fault"
+
+    def flows(params):
+        return [actuator.air_mass_flow(P, actuator.valve_opening(P, command, params), params)
+                for P, command in ((Pe, pe_cmd), (Pf, pf_cmd))]
+
+    parts, cases = [], []
+    for k, variant in enumerate(variants):
+        if variant.air:
+            name = f"fmu_air_flows_{variant.name}"
+            parts.append(codegen.emit_function(name, arguments, call, bindings, set(PARAMETER_NAMES),
+                                               codegen.trace(flows, codegen.SymbolicParams(variant)), "out", table))
+            cases.append(f"    case {k}: return {name}_once(p, NULL, {call});")
+    parts += ["/* each muscle's net air mass flow [kg/s] (actuator.air_mass_flow at the regulator's opening) */",
+              f"int mk_fmu_air_flows(const double *p, {arguments})", "{", "    out[0] = out[1] = 0.0;",
+              "    switch (mk_variant(p)) {", *cases, "    }", "    return 0; /* no air: no flow */", "}", ""]
+    return "\n".join(parts)
 
 
 def switching_functions(expressions, fixed: set[str]) -> list:
