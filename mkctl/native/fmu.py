@@ -497,7 +497,7 @@ def core_source(air: bool = False) -> str:
         if path.is_file():
             text = path.read_text()
         else:
-            text = generate_core_source(air)
+            text = generate_core_source(air) if air else generate_core_source()
             try:
                 build._write_atomic(path, text.encode())
             except OSError:  # a read-only cache only costs time
