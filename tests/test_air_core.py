@@ -135,7 +135,7 @@ def air_fmus(tmp_path_factory) -> dict:
     from mkctl.native import fmi3, fmu
     out = tmp_path_factory.mktemp("air_fmus")
     return {"fmi2": fmu.build_one("McKibbenKnee", out / "knee2.fmu", air=True, windows=False),
-            "fmi3": fmi3.build_one("McKibbenKnee", out / "knee3.fmu", air=True, windows=False)}
+            "fmi3": fmi3.build_one("McKibbenKnee", out / "knee3.fmu", air=True, platforms=False)}
 
 
 class _Knee:

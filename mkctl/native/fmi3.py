@@ -164,10 +164,10 @@ def write_sources(interface: Interface, token: str, dest: Path, model_source: Pa
 
 
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
-              air: bool = False, windows: bool = True) -> Path:
+              air: bool = False, platforms: bool = True) -> Path:
     """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`;
-    air: the knee with the air, as :func:`mkctl.native.fmu.build_native`; windows=False: this platform's binary
-    only, as :func:`mkctl.native.fmu.build_one`)."""
+    air: the knee with the air, as :func:`mkctl.native.fmu.build_native`; platforms=False: this platform's
+    binary only)."""
     from .cross import add_platform_binaries
     interface = fmi2.slave_interface(model_name, params, air)
     token = "{" + str(uuid.uuid4()) + "}"
@@ -179,7 +179,7 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
         (stage / "modelDescription.xml").write_bytes(
             model_description(interface, token, fmi2.core_event_indicators(model_name, air)))
         fmi2.compile_binary(sources, units, stage / "binaries" / LINUX / f"{model_name}.so")
-        if windows:
+        if platforms:
             add_platform_binaries(sources, units, stage / "binaries", model_name, "3.0",
                                   fmi2.compile_binary)
         target.parent.mkdir(parents=True, exist_ok=True)
