@@ -168,7 +168,7 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
     return Interface(model_name, model.description, model.author, default_experiment, variables,
-                     model.undefined_outputs, dict(model.pressure_outputs), model.air)
+                     model.undefined_outputs, dict(model.pressure_outputs), air=model.air)
 
 
 def parameter_rule(name: str) -> str:
