@@ -33,14 +33,22 @@ N_DESCRIPTION = ("turns of a thread; left at its start value while b, L0 or D0 c
 #: Description of the parameter ``P_rated``, common to both FMUs.
 P_RATED_DESCRIPTION = ("rated gauge pressure of a muscle: a pressure above it is logged as a warning (once per "
                        "excursion); the model itself has no limit")
-def carried(effect) -> bool:
-    """Whether the FMUs carry an effect: not yet the air's (model-spec 4d, 7d: an effect that moves
-    the air), whose parameters would do nothing there."""
-    return not effect.moves_air
+def carried(effect, air: bool = False) -> bool:
+    """Whether the FMUs carry an effect. The air's (model-spec 4d, 7d: an effect that moves the air)
+    only in a knee built with the air (``air``: the native FMUs, :func:`mkctl.native.fmu.build_native`),
+    and there not the air's temperature as a state (``air_temperature``), which the knee refuses."""
+    return not effect.moves_air or (air and effect.air_temperature is None)
 
 
-def check_carried(params: Params) -> None:
+def check_carried(params: Params, air: bool = False) -> None:
     """Refuse, in one line, a parameter set that switches on an effect the FMUs do not carry.
+
+    Parameters
+    ----------
+    params : Params
+        The FMU's start values.
+    air : bool
+        Whether the FMU is built with the air (the native knee's air variants).
 
     Raises
     ------
@@ -48,14 +56,20 @@ def check_carried(params: Params) -> None:
         Naming the first such effect.
     """
     for effect in effects.all_effects():
-        if effect.is_on(params) and not carried(effect):
-            raise ParameterError(f"the FMUs do not carry the effect {effect.name} yet (the air in the "
-                                 f"muscle, model-spec 7d): switch it off to build them")
+        if effect.is_on(params) and not carried(effect, air):
+            where = ("a knee built with the air carries the polytropic law only" if air else
+                     "the air in the muscle, model-spec 7d: the native FMUs carry it when built with the air")
+            raise ParameterError(f"the FMUs do not carry the effect {effect.name} ({where}): switch it off to "
+                                 "build them")
+
+
+def fmu_integer_parameters(air: bool = False) -> list[str]:
+    """The Integer parameters of the FMUs: the switches of the effects they carry (``air``: built with the air)."""
+    return [q.name for e in effects.all_effects() if carried(e, air) for q in e.parameters if q.switch]
 
 
 #: The Integer parameters of the FMUs: the switches of the effects they carry.
-FMU_INTEGER_PARAMETERS = LiveSequence(lambda: [q.name for e in effects.all_effects() if carried(e)
-                                               for q in e.parameters if q.switch])
+FMU_INTEGER_PARAMETERS = LiveSequence(fmu_integer_parameters)
 
 #: Descriptions of the Integer parameters (the effects' switches, from their definitions) that a model's own
 #: descriptions leave out.
@@ -108,10 +122,16 @@ class Model:
     undefined_outputs: str  #: the start of the message reported when the outputs cannot be computed
     derived_starts: Callable[[Params], dict]  #: start values of the inputs and of the extra parameters but P_rated
     author: str = "mkctl"
+    air: bool = False  #: built with the air (model-spec 7d): the air's parameters and switch offered
+
+    @property
+    def integer_parameters(self) -> list[str]:
+        """The Integer parameters: the switches of the effects this model carries."""
+        return fmu_integer_parameters(self.air)
 
     def start_values(self, params: Params = DEFAULT) -> dict:
         """The start value of every settable variable of an FMU built for params (JSON-ready)."""
-        values = {name: getattr(params, name) for name in (*self.parameters, *FMU_INTEGER_PARAMETERS)}
+        values = {name: getattr(params, name) for name in (*self.parameters, *self.integer_parameters)}
         values["P_rated"] = RATED_PRESSURE
         values.update(self.derived_starts(params))
         return values
@@ -130,7 +150,7 @@ class Model:
         starts = None if params is None else self.start_values(params)
         kinds = ([(name, "Real", "input", "continuous") for name in self.inputs]
                  + [(name, "Real", "parameter", "fixed") for name in self.parameters]
-                 + [(name, "Integer", "parameter", "fixed") for name in FMU_INTEGER_PARAMETERS]
+                 + [(name, "Integer", "parameter", "fixed") for name in self.integer_parameters]
                  + [(name, "Real", "parameter", "fixed") for name in self.extra_parameters]
                  + [(name, "Boolean", "output", "discrete") if name in self.boolean_outputs
                     else (name, "Real", "output", "continuous") for name in self.outputs])
@@ -145,13 +165,13 @@ class Model:
 
     def settable(self) -> tuple[str, ...]:
         """The names of the variables a host can set (inputs and parameters), in the order of the value references."""
-        return (*self.inputs, *self.parameters, *FMU_INTEGER_PARAMETERS, *self.extra_parameters)
+        return (*self.inputs, *self.parameters, *self.integer_parameters, *self.extra_parameters)
 
 
-def _effect_reals() -> list[str]:
+def _effect_reals(air: bool = False) -> list[str]:
     """The Real parameters of every registered effect the FMUs carry, in the registry's order (switches are
     Integers)."""
-    return [q.name for e in effects.all_effects() if carried(e) for q in e.parameters if not q.switch]
+    return [q.name for e in effects.all_effects() if carried(e, air) for q in e.parameters if not q.switch]
 
 
 #: The actuator's Real parameters of Table I, n second (model-spec section 7).
@@ -208,6 +228,23 @@ KNEE = Model(
     derived_starts=_knee_starts,
 )
 
+#: The knee built with the air (model-spec 4d, 7d; only the native FMUs, when asked): the knee's variables and the
+#: air's parameters (the valve's, the volume's, the leak's: section 4d's names) and switch ``valve_flow``. With
+#: ``valve_flow`` = 1 the pressures Pe, Pf are states of the muscles' mass balance, fed by the valves that the
+#: commands pe_cmd, pf_cmd set as pressure regulators.
+KNEE_PARAMETERS_WITH_AIR = LiveSequence(lambda: [*_MUSCLE, *TABLE_II, *_effect_reals(air=True)])
+#: The air knee's added outputs: each muscle's net air mass flow (mkctl.physics.actuator.air_mass_flow at the
+#: regulator's opening), 0 with valve_flow = 0.
+AIR_FLOW_OUTPUTS = {"qe": "extensor's net air mass flow in (valve and leak; negative: out), 0 without the air",
+                    "qf": "flexor's net air mass flow in (valve and leak; negative: out), 0 without the air"}
+KNEE_WITH_AIR = dataclasses.replace(
+    KNEE, parameters=KNEE_PARAMETERS_WITH_AIR, air=True,
+    description=KNEE.description + "; the air in the muscles (model-spec 4d) when valve_flow = 1",
+    outputs=(*KNEE.outputs, *AIR_FLOW_OUTPUTS),
+    descriptions=LiveMapping(lambda: {**_KNEE_DESCRIPTIONS, **AIR_FLOW_OUTPUTS}),
+    units=LiveMapping(lambda: {**KNEE_UNITS, **{name: UNITS[name] for name in KNEE_PARAMETERS_WITH_AIR},
+                               **{name: "kg/s" for name in AIR_FLOW_OUTPUTS}}))
+
 # --- one actuator -----------------------------------------------------------------------------------------------
 #: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them): Table I, then every
 #: registered effect's.
@@ -252,3 +289,8 @@ ACTUATOR = Model(
 
 #: Both FMUs, by model name.
 MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
+
+
+def model_for(name: str, air: bool = False) -> Model:
+    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator does not)."""
+    return KNEE_WITH_AIR if air and name == KNEE.name else MODELS[name]

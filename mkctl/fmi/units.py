@@ -15,6 +15,8 @@ FMI_BASE_UNITS = {
     "N": {"kg": 1, "m": 1, "s": -2}, "Pa": {"kg": 1, "m": -1, "s": -2}, "m/s": {"m": 1, "s": -1},
     "m/s2": {"m": 1, "s": -2}, "N.s/m": {"kg": 1, "s": -1}, "1/s": {"s": -1}, "1/s2": {"s": -2},
     "Pa/s": {"kg": 1, "m": -1, "s": -3},
+    # the air's (model-spec 4d): the air's temperature, a sonic conductance C [m^3/(s Pa)], a mass flow
+    "K": {"K": 1}, "m3/(s.Pa)": {"kg": -1, "m": 4, "s": 1}, "kg/s": {"kg": 1, "s": -1},
 }
 
 

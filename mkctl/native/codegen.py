@@ -308,7 +308,15 @@ PRESSURE_RATE_ARGUMENTS = "double P, double P_cmd, double *out, mk_fault *fault"
 def integrates_pressure(variant: Variant) -> bool:
     """Whether the variant has pressure dynamics that no effect's exact step covers (a user effect with only a
     ``pressure_rate``): its pressure step is then the traced rate integrated in C (``mk_pressure_integrate``)."""
+    variant = actuator_variant(variant)
     return variant.lag and actuator.exact_pressure_step(SymbolicParams(variant)) is None
+
+
+def actuator_variant(variant: Variant) -> Variant:
+    """The structure one actuator's functions are traced with: the variant's, without the air (one muscle's air
+    is no state of these functions, which take the pressure as given; with the air the knee's right-hand side
+    and outputs are what carries it)."""
+    return variant._replace(air=False)
 
 
 def _integrated_pressure_step(v: str) -> str:
@@ -409,7 +417,7 @@ static int mk_pressure_integrate(mk_pressure_rate rate, const double *p, const d
 
 def variant_functions(variant: Variant, checks: CheckTable) -> str:
     """The C of every variant-dependent function for one variant."""
-    sp = SymbolicParams(variant)
+    sp, sp_actuator = SymbolicParams(variant), SymbolicParams(actuator_variant(variant))
     X, V, Pe, Pf, pe_cmd, pf_cmd = (_real(n) for n in ("X", "V", "Pe", "Pf", "pe_cmd", "pf_cmd"))
     X_low, X_high = _real("X_low"), _real("X_high")
     P_, L_, Ldot_, P_cmd_, dt_ = (_real(n) for n in ("P", "L", "Ldot", "P_cmd", "dt"))
@@ -436,17 +444,17 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
     parts.append(emit("knee_outputs", {**parameters, "X": "X", "V": "V", "Pe": "Pe", "Pf": "Pf"}, constant, traced,
                       (f"    out[{stable}] = (out[{a1}] < 0 && out[{a2}] < 0) ? 1.0 : 0.0;",)))
     parts.append(emit("actuator_tension", {**parameters, "L": "L", "P": "P", "Ldot": "Ldot"}, constant,
-                      trace(actuator.tension, L_, P_, Ldot_, sp)))
+                      trace(actuator.tension, L_, P_, Ldot_, sp_actuator)))
     if integrates_pressure(variant):  # no exact step: the traced rate, integrated in C as pressure_after does
         parts.append(emit_function(f"actuator_pressure_rate_{v}", PRESSURE_RATE_ARGUMENTS, "P, P_cmd, out, fault",
                                    {**parameters, "P": "P", "P_cmd": "P_cmd"}, constant,
-                                   trace(actuator.pressure_derivative, P_, P_cmd_, sp), "out", checks))
+                                   trace(actuator.pressure_derivative, P_, P_cmd_, sp_actuator), "out", checks))
         parts.append(_integrated_pressure_step(v))
     else:
         parts.append(emit("actuator_lagged_pressure", {**parameters, "P": "P", "P_cmd": "P_cmd", "dt": "dt"},
-                          constant, trace(actuator.pressure_after, P_, P_cmd_, dt_, sp)))
+                          constant, trace(actuator.pressure_after, P_, P_cmd_, dt_, sp_actuator)))
     parts.append(emit("actuator_static", {**parameters, "L": "L", "P": "P"}, constant,
-                      trace(_static_tension_and_slope, L_, P_, sp)))
+                      trace(_static_tension_and_slope, L_, P_, sp_actuator)))
     return "\n".join(parts)
 
 
@@ -493,7 +501,8 @@ def _dispatch(variants: tuple[Variant, ...]) -> str:
              "",
              "/* index of the compiled variant for parameter vector p, or -1 */",
              "int mk_variant(const double *p)", "{"]
-    for i, v in enumerate(variants):
+    # the air's variants first: the others' tests name no air parameter (variants.Variant.c_condition)
+    for i, v in sorted(enumerate(variants), key=lambda pair: not pair[1].air):
         lines.append(f"    if ({v.c_condition()}) return {i};")
     lines += ["    return -1;", "}", "",
               "static int mk_variant_nstate(int variant)", "{",

@@ -180,8 +180,8 @@ class Core:
         return n - 1 if rc == 0 else int(fault.sample)
 
 
-#: Why params with the air on take the Python path (model-spec 4d, 7d: the core does not carry it yet).
-AIR_NOT_CARRIED = "the compiled core does not carry the air in the muscle yet"
+#: Why params whose air temperature is a state take the Python path (model-spec 4d: the knee refuses it there).
+AIR_NOT_CARRIED = "the compiled core does not carry the air's temperature as a state"
 
 _cores: dict[tuple[int, Variant], Core | None] = {}
 _reasons: dict[tuple[int, Variant], str] = {}
@@ -189,16 +189,22 @@ _lock = threading.Lock()
 
 
 def moves_air(params: Params) -> bool:
-    """Whether params switch on an effect that moves the air (model-spec 4d), which the core does not carry."""
+    """Whether params switch on an effect that moves the air (model-spec 4d): the core's air variants carry it."""
     return any(e.moves_air for e in effects.all_effects() if e.is_on(params))
+
+
+def carries(params: Params) -> bool:
+    """Whether the core carries params' effects: all but an air temperature as a state (``air_temperature``,
+    which the knee refuses in Python, in its own words)."""
+    return not any(e.air_temperature is not None for e in effects.all_effects() if e.is_on(params))
 
 
 def core_for(params: Params) -> Core | None:
     """The compiled core for params' structure, built on first use; None when it is not available."""
     # keyed by the registry's generation too: an effect registered since (a user's, spec 4c) changes the
     # parameter vector and the traced terms even where the structure is the same
-    if moves_air(params):
-        return None  # the core does not carry the air yet: the Python path
+    if not carries(params):
+        return None  # the Python path, which refuses it in one line
     variant = (effects.generation(), Variant.of(params))
     core = _cores.get(variant, False)
     if core is not False and build.enabled():
@@ -223,7 +229,7 @@ def status(params: Params | None = None) -> str:
     params = Params() if params is None else params
     if not build.enabled():
         return f"python (switched off by {build.ENV_SWITCH})"
-    if moves_air(params):
+    if not carries(params):
         return f"python ({AIR_NOT_CARRIED})"
     core = core_for(params)
     if core is None:

@@ -55,7 +55,7 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
-from ..fmi.interface import MODELS, check_carried
+from ..fmi.interface import check_carried, model_for
 from ..fmi.units import fmi_unit, unit_definitions
 from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
@@ -147,22 +147,24 @@ class Interface:
     model_sources: tuple | None = None  #: its model part and Model Exchange part in fmu_c/ (None: by name)
     generated_sources: tuple = ()  #: ((file name, C text), ...): further compilation units, generated
     core_parameters: tuple = ()  #: Real parameters after Params' fields in the core's parameter vector p
+    air: bool = False  #: built with the air: the core's air variants and the air's parameters (model-spec 7d)
 
     def by_name(self) -> dict[str, Variable]:
         return {v.name: v for v in self.variables}
 
 
-def slave_interface(model_name: str, params: Params | None = None) -> Interface:
+def slave_interface(model_name: str, params: Params | None = None, air: bool = False) -> Interface:
     """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
     start values taken from params (default: :data:`~mkctl.physics.params.DEFAULT`, the slave's own).
+    ``air``: the knee built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
-    model = MODELS[model_name]
+    model = model_for(model_name, air)
     if params is not None:
         try:
-            check_carried(params)
+            check_carried(params, model.air)
         except ParameterError as error:
             raise NativeBuildError(str(error)) from None
     variables = tuple(Variable(v.name, v.vr, v.type, v.causality, v.variability, v.description,
@@ -172,7 +174,7 @@ def slave_interface(model_name: str, params: Params | None = None) -> Interface:
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
     return Interface(model_name, model.description, model.author, default_experiment, variables,
-                     model.undefined_outputs, dict(model.pressure_outputs))
+                     model.undefined_outputs, dict(model.pressure_outputs), air=model.air)
 
 
 def parameter_rule(name: str) -> str:
@@ -227,7 +229,7 @@ def event_indicator_count(interface: Interface) -> int:
     """The number of event indicators: the interface's own, else :func:`core_event_indicators`."""
     if interface.event_indicators is not None:
         return interface.event_indicators
-    return core_event_indicators(interface.model_name)
+    return core_event_indicators(interface.model_name, interface.air)
 
 
 def me_variables(interface: Interface) -> tuple[Variable, ...]:
@@ -338,12 +340,12 @@ def c_identifier(name: str) -> str:
     return text
 
 
-def core_event_indicators(model_name: str) -> int:
+def core_event_indicators(model_name: str, air: bool = False) -> int:
     """The number of event indicators of a model's Model Exchange interface: the most switching functions of any
     variant in the generated core (:func:`generate_core_source`; a variant with fewer pads with constants)."""
     import re
     key = {"McKibbenKnee": "KNEE", "McKibbenActuator": "ACTUATOR"}[model_name]
-    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(), re.MULTILINE)
+    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(air), re.MULTILINE)
     if found is None:
         raise NativeBuildError(f"the generated core has no event-indicator count for {model_name}")
     return int(found.group(1))
@@ -497,16 +499,16 @@ def _c_template(text: str) -> str:
 _CORE_SOURCES: dict[str, str] = {}
 
 
-def core_source() -> str:
+def core_source(air: bool = False) -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
     (:func:`mkctl.native.build.cache_dir`) and in this process, keyed by everything it is generated from (the
     core's inputs, the effect registry and this module): tracing the equations takes seconds, and every build of
-    the FMUs needs the same text."""
+    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air)."""
     import hashlib
 
     from . import build
     from .variants import all_variants
-    digest = hashlib.sha256(build.input_key(all_variants()).encode())
+    digest = hashlib.sha256(build.input_key(all_variants(air)).encode())
     digest.update(Path(__file__).read_bytes())
     key = digest.hexdigest()[:20]
     if key in _CORE_SOURCES:
@@ -516,7 +518,7 @@ def core_source() -> str:
         if path.is_file():
             text = path.read_text()
         else:
-            text = generate_core_source()
+            text = generate_core_source(air) if air else generate_core_source()
             try:
                 build._write_atomic(path, text.encode())
             except OSError:  # a read-only cache only costs time
@@ -525,8 +527,9 @@ def core_source() -> str:
     return text
 
 
-def generate_core_source() -> str:
-    """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant) with the FMUs' additions, all
+def generate_core_source(air: bool = False) -> str:
+    """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant; ``air``: the air's too, after the
+    others: :func:`mkctl.native.variants.all_variants`) with the FMUs' additions, all
     generated from mkctl's equations: the hip height at a kneecap angle (knee.X_from_alpha, for the default X0),
     the posture at a hip height (knee.geometry_at_X, for the outputs that can still be given when the pressures
     are not numbers), every domain check's message, and KneeSimulator's integrator settings."""
@@ -539,7 +542,8 @@ def generate_core_source() -> str:
     from . import build, codegen
     from .variants import all_variants
 
-    source, core_table = build.generation(all_variants())
+    variants = all_variants(air)
+    source, core_table = build.generation(variants)
     table = core_table.copy()  # the additions' checks number on from the core's
     sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
     bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
@@ -563,7 +567,9 @@ def generate_core_source() -> str:
         "{", "    return fmu_X_from_alpha_once(p, NULL, alpha, out, fault);", "}", "",
         "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
         "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
-        model_exchange_functions(core_table.emitted, table, all_variants())]
+        model_exchange_functions(core_table.emitted, table, variants)]
+    if air:
+        extra.append(air_flow_functions(variants, table))
     sim = KneeSimulator(Params(tau=1.0))
     lines = ["", "/* ---- added for the native FMUs by mkctl/native/fmu.py (generated too) ---- */", *extra,
              "const char *const mk_fmu_fault_templates[] = {",
@@ -576,6 +582,38 @@ def generate_core_source() -> str:
              "const double MK_FMU_KNEE_ATOL[4] = {" + ", ".join(_c_double(a) for a in sim.atol) + "};",
              f"const double MK_FMU_KNEE_H0 = {_c_double(sim.step_hint)};", ""]
     return source + "\n".join(lines)
+
+
+def air_flow_functions(variants, table) -> str:
+    """``mk_fmu_air_flows(p, Pe, Pf, pe_cmd, pf_cmd, out, fault)``: each muscle's net air mass flow [kg/s], out[0]
+    the extensor's, out[1] the flexor's, traced from :func:`mkctl.physics.actuator.air_mass_flow` at the
+    regulator's opening (:func:`mkctl.physics.actuator.valve_opening`) for the air's variants, 0 for the others
+    (the knee built with the air, outputs ``qe``, ``qf``)."""
+    import sympy
+
+    from ..physics import actuator
+    from . import codegen
+    Pe, Pf, pe_cmd, pf_cmd = (sympy.Symbol(n, real=True) for n in ("Pe", "Pf", "pe_cmd", "pf_cmd"))
+    bindings = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+    bindings.update(Pe="Pe", Pf="Pf", pe_cmd="pe_cmd", pf_cmd="pf_cmd")
+    arguments = "double Pe, double Pf, double pe_cmd, double pf_cmd, double *out, mk_fault *fault"
+    call = "Pe, Pf, pe_cmd, pf_cmd, out, fault"
+
+    def flows(params):
+        return [actuator.air_mass_flow(P, actuator.valve_opening(P, command, params), params)
+                for P, command in ((Pe, pe_cmd), (Pf, pf_cmd))]
+
+    parts, cases = [], []
+    for k, variant in enumerate(variants):
+        if variant.air:
+            name = f"fmu_air_flows_{variant.name}"
+            parts.append(codegen.emit_function(name, arguments, call, bindings, set(PARAMETER_NAMES),
+                                               codegen.trace(flows, codegen.SymbolicParams(variant)), "out", table))
+            cases.append(f"    case {k}: return {name}_once(p, NULL, {call});")
+    parts += ["/* each muscle's net air mass flow [kg/s] (actuator.air_mass_flow at the regulator's opening) */",
+              f"int mk_fmu_air_flows(const double *p, {arguments})", "{", "    out[0] = out[1] = 0.0;",
+              "    switch (mk_variant(p)) {", *cases, "    }", "    return 0; /* no air: no flow */", "}", ""]
+    return "\n".join(parts)
 
 
 def switching_functions(expressions, fixed: set[str]) -> list:
@@ -750,7 +788,7 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
             units.append(name)
     (dest / "model_variables.h").write_text(variables_header(interface, guid))
     (dest / "model_variables.c").write_text(variables_source(interface))
-    (dest / "mkctl_core.c").write_text(core_source())
+    (dest / "mkctl_core.c").write_text(core_source(interface.air))
     units.append("mkctl_core.c")
     return units
 
@@ -810,12 +848,13 @@ def _validate(fmu: Path) -> None:
 
 
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
-              windows: bool = True, interface: Interface | None = None) -> Path:
+              windows: bool = True, interface: Interface | None = None, air: bool = False) -> Path:
     """Generate, compile, pack and validate one native FMU at target (model_source: see :func:`write_sources`).
     windows=False leaves out the other platforms' binaries (otherwise added when their toolchains
     are installed: :mod:`mkctl.native.cross`): a fraction of the build's compiling, for an FMU that
-    will only run here. interface: another model's (a mechanism's), in place of the slave's."""
-    interface = slave_interface(model_name, params) if interface is None else interface
+    will only run here. interface: another model's (a mechanism's), in place of the slave's. air:
+    the knee built with the air (:func:`build_native`)."""
+    interface = slave_interface(model_name, params, air) if interface is None else interface
     guid = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
         stage = Path(temp) / "fmu"
@@ -836,12 +875,21 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     return target
 
 
-def build_native(out: Path, params: Params | None = None) -> dict[str, Path]:
+def build_native(out: Path, params: Params | None = None, air: bool | None = None) -> dict[str, Path]:
     """Write ``out/native/McKibbenKnee.fmu`` and ``out/native/McKibbenActuator.fmu``; returns their paths by
     model name. params: a :class:`Params` whose values become the start values (default: Table I, II, effects off).
-    Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's validation failing)."""
+    air: build the knee with the air (model-spec 7d: its parameters offered, the core's air variants compiled in);
+    None: when params switch it on. Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's
+    validation failing)."""
     folder = Path(out) / "native"
-    return {name: build_one(name, folder / f"{name}.fmu", params) for name in MODEL_NAMES}
+    air = wants_air(params) if air is None else air
+    return {name: build_one(name, folder / f"{name}.fmu", params, air=air) for name in MODEL_NAMES}
+
+
+def wants_air(params: Params | None) -> bool:
+    """Whether params switch on an effect that moves the air (an FMU built for them needs the air)."""
+    from ..physics.actuator import air_is_on
+    return params is not None and air_is_on(params)
 
 
 def command_line(argv, build, description: str, folder: str, program: str) -> int:
@@ -850,9 +898,11 @@ def command_line(argv, build, description: str, folder: str, program: str) -> in
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--out", type=Path, default=Path("dist"), help="output folder (default: dist in the "
                         f"working folder); the FMUs go into OUT/{folder}")
+    parser.add_argument("--air", action="store_true", help="build the knee with the air in the muscles "
+                        "(model-spec 7d: the valve's and the volume's parameters; about a third more C)")
     args = parser.parse_args(argv)
     try:
-        built = build(args.out)
+        built = build(args.out, air=True) if args.air else build(args.out)
     except MkctlError as error:
         print(f"{program}: {error}", file=sys.stderr)
         return 2

@@ -119,6 +119,19 @@ int mk_model_outputs(mk_data *d, char *msg, size_t size)
     d->v[VR_Le] = out[4]; d->v[VR_Lf] = out[5]; d->v[VR_fe] = out[6]; d->v[VR_ff] = out[7];
     d->v[VR_Pe] = out[8]; d->v[VR_Pf] = out[9]; d->v[VR_F] = out[10]; d->v[VR_a1] = out[11];
     d->v[VR_a2] = out[12]; d->v[VR_stable] = out[13] != 0;
+#ifdef VR_qe /* built with the air (mkctl.native.fmu, air): each muscle's air mass flow, generated */
+    {
+        int mk_fmu_air_flows(const double *p, double Pe, double Pf, double pe_cmd, double pf_cmd, double *out,
+                             mk_fault *fault);
+        double q[2];
+        if (mk_fmu_air_flows(p, out[8], out[9], seen[0], seen[1], q, &fault) != 0) {
+            mk_fault_message(&fault, msg, size);
+            return 1;
+        }
+        d->v[VR_qe] = q[0];
+        d->v[VR_qf] = q[1];
+    }
+#endif
     return 0;
 }
 
