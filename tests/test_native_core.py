@@ -410,7 +410,7 @@ def _random_params(rng, variant) -> Params:
     values = {name: getattr(DEFAULT, name) * rng.uniform(0.97, 1.03) for name in BASE_NAMES if name != "n"}
     for effect in effects.all_effects():
         if effect.moves_air:
-            continue  # the core does not carry the air yet (model-spec 7d): its params take the Python path
+            continue  # the air has variants of its own (Variant.air; tests/test_air_core.py checks them)
         on = effect.name in variant.on if effect.structural else bool(rng.integers(2))
         for q in effect.parameters:
             if q.switch:

@@ -216,7 +216,8 @@ def run_linearize(args) -> int:
     fmu = _fmu_path(args)
     p = op.params
     if fmu is not None and _air_on(p):
-        print("note: the FMUs do not carry the air yet (model-spec 7d); FMU part skipped")
+        print("note: the default FMUs do not carry the air (the native knee does when built with --air, "
+              "docs/fmu.md); FMU part skipped")
         fmu = None
     lin = mc.analytic_linearization(op)
     a2, a1 = lin.A[1, 0] + 0.0, lin.A[1, 1] + 0.0  # + 0.0: print 0, not -0

@@ -482,9 +482,9 @@ BUILTIN = (
         separation=_separations("dead_time"),
     ),
     # --- model-spec section 4d: the air in the muscle ---
-    # Not structural yet: the compiled core and the native FMUs do not carry the air (the core
-    # answers None, a native build refuses it, the FMUs do not offer these parameters); the knee
-    # with the air makes them structural when it carries them.
+    # Not structural: the compiled core carries the air in variants of their own
+    # (mkctl.native.variants: Variant.air), and the native knee FMUs offer these parameters only
+    # when built with the air (--air); air_heat's temperature state is not carried (Python path).
     Effect(
         "valve_flow",
         "the pressure from the air's mass balance: ISO 6358 flow through a valve from the supply "
