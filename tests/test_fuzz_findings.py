@@ -148,7 +148,9 @@ def test_a_mechanism_parameter_too_large_for_a_float_is_one_line(tmp_path):
 
 #: Lines at the top of a user's file that change the interpreter mkctl runs in, and how to read the setting.
 CHANGES = {
-    "recursion limit": ("import sys\nsys.setrecursionlimit(50)\n", lambda: sys.getrecursionlimit()),
+    # (relative to the stack it is loaded from: a pytest-xdist worker's is deeper than a script's)
+    "recursion limit": ("import inspect, sys\nsys.setrecursionlimit(len(inspect.stack()) + 60)\n",
+                        lambda: sys.getrecursionlimit()),
     "stdout": ("import sys\nsys.stdout = None\n", lambda: sys.stdout),
     "stderr": ("import io, sys\nsys.stderr = io.StringIO()\n", lambda: sys.stderr),
     "working folder": ("import os\nos.chdir('..')\n", lambda: os.getcwd()),

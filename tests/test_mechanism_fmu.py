@@ -350,7 +350,7 @@ def test_the_windows_binary_under_wine_gives_the_linux_results(wine, hosts, tmp_
     cross-compiled C host under Wine against the Linux one, to 1e-9."""
     import zipfile
 
-    from test_win64 import _arguments, _run as _run_host
+    from toolchain_helpers import host_arguments as _arguments, run_host as _run_host
     from mkctl.native.mechanism_fmu import build_mechanism
     command, env = wine
     out = tmp_path_factory.mktemp("mechanism_win64")

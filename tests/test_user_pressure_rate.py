@@ -23,7 +23,7 @@ def leak(P, P_cmd, p, xp):
     return -p.k_leak * P
 
 
-EFFECTS = [{"name": "leak", "description": "a bladder leak, -k_leak P",
+EFFECTS = [{"name": "bladder_leak", "description": "a bladder leak, -k_leak P",
             "parameters": [{"name": "k_leak", "unit": "1/s", "off": 0.0, "lower": 0.0, "upper": 100.0,
                             "typical": 2.0}],
             "pressure_rate": leak}]
