@@ -17,6 +17,7 @@ from ...physics.params import UNITS, Params
 from ..compare import rmse
 from ..diagnosis_rule import (RULE, Candidate as Outcome, Rule, Score, at_bound, decide,
                               extension_needed, forward_selection, judge, pair_needed, to_drop)
+from .air import air_parameters
 from .candidates import CANDIDATES, experiment_to_separate
 from .noise import NoiseModel
 from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit
@@ -281,10 +282,23 @@ class Search:
         name, together = decision.effect, list(decision.together)
         self.added.extend([name, *together])
         self.current = self.fits[name]
+        self._refit_air_with(self.current.params)
         dropped = self._drop(len(together) + 1)
         self.current = self._refit(self.current)
         self._record({"added": name, "added_with": together, "dropped": dropped, **self.context})
         return self.current.score
+
+    def _refit_air_with(self, params: Params) -> None:
+        """On a pressure record, the air's parameters of what was added (a valve's critical ratio,
+        its subsonic index, its regulator's band) join those refitted with every later candidate
+        (:attr:`Problem.refit`): held at their typical values, they leave a shape another candidate
+        would be credited with (measured: a heat found on a set-point fill that has none)."""
+        m = self.problem.measurement
+        if m.experiment != "pressure":
+            return
+        more = tuple(q for q in air_parameters(params, m.overrides) if q not in self.problem.refit)
+        if more:
+            self.problem = dataclasses.replace(self.problem, refit=(*self.problem.refit, *more))
 
     def _stop(self, decision) -> None:
         """Record why the selection ended: nothing left, nothing passing, or a tie the record cannot break."""
@@ -366,6 +380,7 @@ class Search:
             return False
         replaced = list(self.added)
         self.added = list(combo)
+        self._refit_air_with(fit.params)
         self.current = self._refit(fit)
         self.undecided, self.stopped = [], None  # the combination settles what forward selection could not
         self._record({"added": combo[0], "added_with": list(combo[1:]),
