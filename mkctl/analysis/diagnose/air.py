@@ -101,6 +101,12 @@ def to_search(q, value: float) -> float:
     return math.log10(value) if _log_space(q) else value / q.scale
 
 
+def searchable(q, value: float) -> bool:
+    """Whether a value can be searched as :func:`to_search` does (not 0 on a log scale: an effect
+    switched off)."""
+    return value > 0 or not _log_space(q)
+
+
 def from_search(q, x: float) -> float:
     """The inverse of :func:`to_search`."""
     return 10.0 ** x if _log_space(q) else x * q.scale

@@ -17,7 +17,7 @@ from ...physics.params import Params
 from ..compare import simulate_output
 from ..statistics import covariance, effective_samples, every_kth, lag_one_correlation
 from ..diagnosis_rule import RULE, Rule, Score, best_value
-from .air import from_search, search_bounds, to_search
+from .air import from_search, search_bounds, searchable, to_search
 from .candidates import CANDIDATES, Candidate
 from .noise import QUASI_STATIC, NoiseModel
 
@@ -191,7 +191,7 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
     own = {c.parameter for c in cands}
     # the air's values the record identifies, refitted beside them (their starts: base's)
     # (not one at 0 in base: the switch of an effect off there, a dropped one's)
-    air = [q for q in problem.refit if q.name not in own and getattr(base, q.name) != q.off]
+    air = [q for q in problem.refit if q.name not in own and searchable(q, getattr(base, q.name))]
     air_start = [getattr(base, q.name) for q in air]
     air_bounds = [search_bounds(q, v) for q, v in zip(air, air_start)]
     lows = np.concatenate([np.log10([c.bounds[experiment][0] for c in cands]),
