@@ -12,7 +12,7 @@ import warnings
 
 import numpy as np
 
-from ..physics import effects
+from ..physics import actuator, effects
 from ..physics.params import PARAMETER_NAMES, Params
 from . import build
 from .variants import Variant
@@ -188,16 +188,11 @@ _reasons: dict[tuple[int, Variant], str] = {}
 _lock = threading.Lock()
 
 
-def moves_air(params: Params) -> bool:
-    """Whether params switch on an effect that moves the air (model-spec 4d), which the core does not carry."""
-    return any(e.moves_air for e in effects.all_effects() if e.is_on(params))
-
-
 def core_for(params: Params) -> Core | None:
     """The compiled core for params' structure, built on first use; None when it is not available."""
     # keyed by the registry's generation too: an effect registered since (a user's, spec 4c) changes the
     # parameter vector and the traced terms even where the structure is the same
-    if moves_air(params):
+    if actuator.air_is_on(params):
         return None  # the core does not carry the air yet: the Python path
     variant = (effects.generation(), Variant.of(params))
     core = _cores.get(variant, False)
@@ -223,7 +218,7 @@ def status(params: Params | None = None) -> str:
     params = Params() if params is None else params
     if not build.enabled():
         return f"python (switched off by {build.ENV_SWITCH})"
-    if moves_air(params):
+    if actuator.air_is_on(params):
         return f"python ({AIR_NOT_CARRIED})"
     core = core_for(params)
     if core is None:
