@@ -26,6 +26,15 @@ class Candidate:
         """An effect that is on or off (slack): its search interval is one point, never a bound it hits."""
         return effects.get(self.effect).is_switch
 
+    def typical_start(self) -> float:
+        """Where a fit of this parameter starts without a better guess: its typical value (the
+        registry's), else the middle of its search range in log space."""
+        typical = getattr(effects.get(self.effect).parameter(self.parameter), "typical", None)
+        if typical:
+            return float(typical)
+        low, high = next(iter(self.bounds.values()))
+        return (low * high) ** 0.5
+
     def apply(self, params: Params, value: float) -> Params:
         """params with this effect switched on at ``value`` (a whole-number switch that chooses the model, as
         elasticity's ``model``, at its on value beside it)."""

@@ -239,14 +239,10 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
 
 def _restart(candidate: Candidate, individual: dict) -> float:
     """Where a candidate switched off by its one-parameter fit restarts a joint fit: its value in
-    round 1, else its parameter's typical value, else the middle of its bounds (log space)."""
+    round 1, else :meth:`Candidate.typical_start`."""
     if individual.get(candidate.effect, 0.0) > 0:
         return individual[candidate.effect]
-    typical = getattr(effects.get(candidate.effect).parameter(candidate.parameter), "typical", None)
-    if typical:
-        return float(typical)
-    low, high = next(iter(candidate.bounds.values()))
-    return math.sqrt(low * high)
+    return candidate.typical_start()
 
 
 def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list, individual: dict, name: str,

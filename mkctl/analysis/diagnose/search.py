@@ -471,11 +471,7 @@ def dependent_start(name: str, values: dict) -> float:
         same_unit = other is not None and UNITS.get(other) == UNITS.get(parameter)
         if same_unit and values.get(other, 0.0) > 0:
             return float(values[other])
-    typical = getattr(effect.parameter(parameter), "typical", None)
-    if typical:
-        return float(typical)
-    low, high = next(iter(CANDIDATES[name].bounds.values()))
-    return math.sqrt(low * high)
+    return CANDIDATES[name].typical_start()
 
 
 def _pinned(values: dict, effects, experiment: str) -> bool:
