@@ -223,7 +223,8 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
 
     tolerance = 1e-4 if rough else 1e-6
     result = least_squares(residual, x0, bounds=(lows, highs), x_scale=1.0, diff_step=1e-4, xtol=tolerance,
-                           ftol=tolerance * 1e-2, max_nfev=(6 if rough else 25) * (x0.size + 1))
+                           ftol=tolerance * 1e-2,
+                           max_nfev=6 * (x0.size + 1) if rough else 25 * (len(cands) + 1))
     values = {c.parameter: float(10.0 ** v) for c, v in zip(cands, result.x)}
     n, k = size, x0.size + problem.extra_parameters
     errors = {}
@@ -237,12 +238,12 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
     return values, errors, result, params_at(result.x)
 
 
-def _restart(candidate: Candidate, individual: dict) -> float:
-    """Where a candidate switched off by its one-parameter fit restarts a joint fit: its value in
-    round 1, else :meth:`Candidate.typical_start`."""
-    if individual.get(candidate.effect, 0.0) > 0:
-        return individual[candidate.effect]
-    return candidate.typical_start()
+def with_air_of(base: Params, fitted: Params, problem: Problem) -> Params:
+    """``base`` with the air's values (:attr:`Problem.refit`) of ``fitted``: a joint fit from
+    ``base`` then starts the air where the last fit left it, not where the calibration did."""
+    if not problem.refit:
+        return base
+    return base.replace(**{q.name: getattr(fitted, q.name) for q in problem.refit})
 
 
 def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list, individual: dict, name: str,
@@ -264,13 +265,11 @@ def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list,
     refines = bool(set(effects.get(name).requires) & set(added))
     promising = fit is not None and fit is not current and (rule.promising(fit.score.bic - current.score.bic)
                                                             or refines)
-    if problem.refit and fit is not None:
+    if problem.refit and fit is not None and fit is not current:
         # with the air's values refitted beside it (Problem.refit): a candidate judged with the
-        # valve held at values that absorbed what the candidate explains is judged short (or
-        # switched off: then from the value it took in round 1, else its typical value)
-        start = values if value > 0 else {**values, cand.parameter: _restart(cand, individual)}
-        joint_values, _, result, params = joint_fit(problem, baseline, [*added, name], start,
-                                                     train_only=True, rough=True)
+        # valve held at values that absorbed what the candidate explains is judged short
+        joint_values, _, result, params = joint_fit(problem, with_air_of(baseline, current.params, problem),
+                                                     [*added, name], values, train_only=True, rough=True)
         evaluations += result.nfev + 1
         joint = evaluate(problem, params, joint_values)
         if joint is not None and joint.rss_train < fit.rss_train:

@@ -23,7 +23,7 @@ from .alternatives import _alternative_models, _best_alternative, _shared_values
 from .candidates import candidates_for
 from .noise import QUASI_STATIC
 from .preparation import Record, _blocked_problem, _prepare, _with_input_noise, input_noise_through_model
-from .problem import Problem, evaluate, joint_fit, fit_problem
+from .problem import Problem, evaluate, joint_fit, fit_problem, with_air_of
 from .result import DiagnosisResult, _adequacy_at, verdict_of
 from .search import WIDER_SEARCH_FACTOR, Search, _inadequacy
 
@@ -197,8 +197,9 @@ def _final_fit(problem: Problem, record: Record, state: "Search", offset_before:
     final_params, final_values, offset = start, {}, offset_before
     if added:
         say("final fit of " + ", ".join(added) + " on the whole record")
-        final_values, uncertainty, _, final_params = joint_fit(problem, start, added, state.current.values,
-                                                                train_only=False)
+        final_values, uncertainty, _, final_params = joint_fit(
+            problem, with_air_of(start, state.current.params, problem), added, state.current.values,
+            train_only=False)
         offset = problem.offset(problem.measured - problem.simulate(final_params)) if problem.fit_offset else 0.0
     simulated = (simulate_output(record.prepared, final_params) + offset if (added or start is not m.params)
                  else record.full_before + offset_before)

@@ -20,7 +20,7 @@ from ..diagnosis_rule import (RULE, Candidate as Outcome, Rule, Score, at_bound,
 from .air import air_parameters
 from .candidates import CANDIDATES, experiment_to_separate
 from .noise import NoiseModel
-from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit
+from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit, with_air_of
 from .signatures import signatures
 
 
@@ -296,7 +296,11 @@ class Search:
         m = self.problem.measurement
         if m.experiment != "pressure":
             return
-        more = tuple(q for q in air_parameters(params, m.overrides) if q not in self.problem.refit)
+        # (not a candidate's own parameter: the joint fits carry those with their effects, and
+        # a refitted switch would keep an effect on that the drop step has taken out)
+        own = {CANDIDATES[e].parameter for e in self.pending_all}
+        more = tuple(q for q in air_parameters(params, m.overrides)
+                     if q not in self.problem.refit and q.name not in own)
         if more:
             self.problem = dataclasses.replace(self.problem, refit=(*self.problem.refit, *more))
 
@@ -318,7 +322,11 @@ class Search:
     def _refit(self, fit: Fit) -> Fit:
         """The added effects refitted jointly (full tolerance), so that the next round starts from their
         best values and no later candidate is credited with what a better refit of these would give."""
-        values, _, _, params = self.fitting.joint(self.problem, self.start, self.added, fit.values, train_only=True)
+        start = with_air_of(self.start, fit.params, self.problem)
+        # with the air's values beside them (a pressure record) at the candidates' tolerance: the
+        # final fits refine them all, and at full tolerance this refit cost half the diagnosis
+        values, _, _, params = self.fitting.joint(self.problem, start, self.added, fit.values, train_only=True,
+                                                  **({"rough": True} if self.problem.refit else {}))
         refit = self.fitting.evaluate(self.problem, params, values)
         return refit if refit is not None and refit.rss_train < fit.rss_train else fit
 
@@ -332,7 +340,8 @@ class Search:
                 if any(earlier in effects.get(e).requires for e in rest):  # the lag under an asymmetric lag
                     continue
                 rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
-                values, _, _, params = self.fitting.joint(self.problem, self.start, rest, rest_values, train_only=True)
+                start = with_air_of(self.start, self.current.params, self.problem)
+                values, _, _, params = self.fitting.joint(self.problem, start, rest, rest_values, train_only=True)
                 without[earlier] = self.fitting.evaluate(self.problem, params, values)
             gone = to_drop(self.current.score, {e: f.score if f else None for e, f in without.items()}, self.rule)
             if gone is None:
