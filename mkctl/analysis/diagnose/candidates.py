@@ -3,6 +3,7 @@
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ...io.measurements import Measurement
@@ -33,7 +34,7 @@ class Candidate:
         if typical:
             return float(typical)
         low, high = next(iter(self.bounds.values()))
-        return (low * high) ** 0.5
+        return math.sqrt(low * high)
 
     def apply(self, params: Params, value: float) -> Params:
         """params with this effect switched on at ``value`` (a whole-number switch that chooses the model, as

@@ -224,7 +224,7 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
     tolerance = 1e-4 if rough else 1e-6
     result = least_squares(residual, x0, bounds=(lows, highs), x_scale=1.0, diff_step=1e-4, xtol=tolerance,
                            ftol=tolerance * 1e-2,
-                           max_nfev=6 * (x0.size + 1) if rough else 25 * (len(cands) + 1))
+                           max_nfev=(6 if rough else 25) * (len(cands) + 1))
     values = {c.parameter: float(10.0 ** v) for c, v in zip(cands, result.x)}
     n, k = size, x0.size + problem.extra_parameters
     errors = {}

@@ -341,7 +341,8 @@ class Search:
                     continue
                 rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
                 start = with_air_of(self.start, self.current.params, self.problem)
-                values, _, _, params = self.fitting.joint(self.problem, start, rest, rest_values, train_only=True)
+                values, _, _, params = self.fitting.joint(self.problem, start, rest, rest_values, train_only=True,
+                                                          **({"rough": True} if self.problem.refit else {}))
                 without[earlier] = self.fitting.evaluate(self.problem, params, values)
             gone = to_drop(self.current.score, {e: f.score if f else None for e, f in without.items()}, self.rule)
             if gone is None:
