@@ -3,10 +3,10 @@
 The records come from tests/rig_pressure_records.py: the independent pneumatic simulator
 (tests/independent_pneumatics.py, its own ISO 6358 flow, volume and energy balance, solve_ivp), a
 jittered 80 Hz clock, a 0.76 kPa quantum, 0.25 kPa of sensor noise and the valve acting 15 ms after
-the logged command, with a dead volume of 8 cm^3 the diagnosis does not know (it assumes 5). What the
-diagnosis reads is compared with the values hidden there: the dead time, and what a held muscle's
-record identifies of a conductance, ``C / V``, at the TRUE volume (a confident C alone would be off by
-the volume's error, 2 %, tens of its standard errors).
+the logged command, with a dead volume of 8 cm^3 the diagnosis does not know (it assumes 5). What
+the diagnosis reads is compared with the values hidden there: the dead time, and what a held
+muscle's record identifies of a conductance, ``C / V``, at the TRUE volume (a confident C alone
+would be off by the volume's error, 2 %, tens of its standard errors).
 """
 from __future__ import annotations
 
@@ -97,7 +97,8 @@ def _set_point_fill(path, seed=0, level=600e3, duration=3.0, dead_time=rig.DEAD_
     lines = ["# experiment = pressure", f"# L0 = {rig.L0}", f"# D0 = {rig.D0}",
              f"# b = {rig.B:.6f}", f"# n = {rig.N:.6f}", f"# length_mm = {rig.L0 * 1e3:.3f}",
              f"# supply_kPa = {rig.RIG['P_supply'] / 1e3:g}", "time_s,p_cmd_kPa,p_kPa"]
-    lines += [f"{t:.4f},{u / 1e3:g},{p / 1e3 + 0.0:.2f}" for t, u, p in zip(times, logged, measured)]
+    lines += [f"{t:.4f},{u / 1e3:g},{p / 1e3 + 0.0:.2f}"
+              for t, u, p in zip(times, logged, measured)]
     path.write_text("\n".join(lines) + "\n")
     return path
 

@@ -61,7 +61,8 @@ class Rule:
     holdout_fraction: float = 0.3  #: share of the record (at its end) held out from fitting
     #: experiments whose held-out part is every ``round(1 / holdout_fraction)``-th sample instead
     #: (:func:`mkctl.analysis.statistics.every_kth`): a pressure record's events (a valve's
-    #: switches) are brief and it ends on a plateau that every candidate predicts alike (docs/diagnosis.md)
+    #: switches) are brief, and it ends on a plateau every candidate predicts alike
+    #: (docs/diagnosis.md, "Split")
     interleaved_holdout: tuple = ("pressure",)
     #: ... and its own force term must not anti-correlate with the force the model lacks (criterion 6)
     min_signature_correlation: float = 0.0

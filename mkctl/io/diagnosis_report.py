@@ -483,7 +483,8 @@ def summary(result) -> list[str]:
         lines.append("missing: nothing (no candidate effect is supported by the data)")
     for key, (value, error) in (getattr(result, "identified", None) or {}).items():
         plus = f" +- {error:.2g}" if error is not None else ""
-        lines.append(f"identified: {key} = {value:.4g}{plus} 1/(s Pa) (the {key.split('/')[0]} above "
+        conductance = key.split("/")[0]
+        lines.append(f"identified: {key} = {value:.4g}{plus} 1/(s Pa) (the {conductance} above "
                      "holds only for the assumed dead volume)")
     if result.offset is not None:
         lines.append(f"sensor offset (fitted): {result.offset:.4g} {unit}")

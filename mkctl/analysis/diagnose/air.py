@@ -333,7 +333,9 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
         if len(unheld) == len(active) or not unheld:
             break
         active = unheld  # refit without the held ones, at their start values
-    values = {q.name: float(from_search(q, x)) for q, x in zip(active, result.x) if q.name not in held}
+    values = {
+        q.name: float(from_search(q, x)) for q, x in zip(active, result.x) if q.name not in held
+    }
     fitted = params.replace(**values, **{name: starts[name] for name in held})
     errors = {}
     for i, q in enumerate(active):
@@ -359,8 +361,8 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
                 f"the record identifies {name} / V = {ratio:.4g} +- {error:.2g} 1/(s Pa) (V = "
                 f"{volume * 1e6:.4g} cm^3 at its length, with V_dead = "
                 f"{fitted.V_dead * 1e6:.3g} cm^3 as assumed): a held muscle cannot tell {name} "
-                f"and V_dead apart, so {name} = {values[name]:.4g} {q_unit(names, name)} holds only "
-                "for that V_dead"
+                f"and V_dead apart, so {name} = {values[name]:.4g} {q_unit(names, name)} "
+                "holds only for that V_dead"
             )
     for text in notes:
         say("    air: " + text)

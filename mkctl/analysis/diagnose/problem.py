@@ -50,7 +50,7 @@ class Problem:
     n_train: int  #: samples (of the record) the training simulations run over
     fit_offset: bool = False
     noise_correlation: float = 0.0  #: the output noise's correlation between neighbouring grid samples
-    #: the air's parameters (:class:`mkctl.physics.effect.Parameter`) the record identifies, refitted
+    #: the air's parameters (:class:`mkctl.physics.effect.Parameter`) the record moves, refitted
     #: with every candidate (as the calibration refits the statics): a valve calibrated without a
     #: dead time has absorbed it, and a dead time fitted with the valve held finds a third of it
     refit: tuple = ()
@@ -107,7 +107,7 @@ def fit_problem(measurement: Measurement, fit_offset: bool, rule: Rule = RULE, n
         grid = np.append(grid, n - 1)
     t = measurement.time
     if measurement.experiment in rule.interleaved_holdout:
-        # every k-th sample held out, the whole record simulated (docs/diagnosis.md, "held-out part")
+        # every k-th sample held out, the whole record simulated (docs/diagnosis.md, "Split")
         n_train = n
         train = ~every_kth(grid.size, rule.holdout_every())
     else:
@@ -191,7 +191,8 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
     own = {c.parameter for c in cands}
     # the air's values the record identifies, refitted beside them (their starts: base's)
     # (not one at 0 in base: the switch of an effect off there, a dropped one's)
-    air = [q for q in problem.refit if q.name not in own and searchable(q, getattr(base, q.name))]
+    air = [q for q in refitted(problem)
+           if q.name not in own and searchable(q, getattr(base, q.name))]
     air_start = [getattr(base, q.name) for q in air]
     air_bounds = [search_bounds(q, v) for q, v in zip(air, air_start)]
     lows = np.concatenate([np.log10([c.bounds[experiment][0] for c in cands]),
@@ -238,12 +239,18 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
     return values, errors, result, params_at(result.x)
 
 
+def refitted(problem) -> tuple:
+    """The air's parameters refitted with every candidate (:attr:`Problem.refit`); none for a
+    stand-in of the problem (a test's table of fits, :class:`.search.Fitting`)."""
+    return getattr(problem, "refit", ())
+
+
 def with_air_of(base: Params, fitted: Params, problem: Problem) -> Params:
     """``base`` with the air's values (:attr:`Problem.refit`) of ``fitted``: a joint fit from
     ``base`` then starts the air where the last fit left it, not where the calibration did."""
-    if not problem.refit:
+    if not refitted(problem):
         return base
-    return base.replace(**{q.name: getattr(fitted, q.name) for q in problem.refit})
+    return base.replace(**{q.name: getattr(fitted, q.name) for q in refitted(problem)})
 
 
 def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list, individual: dict, name: str,
@@ -265,11 +272,12 @@ def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list,
     refines = bool(set(effects.get(name).requires) & set(added))
     promising = fit is not None and fit is not current and (rule.promising(fit.score.bic - current.score.bic)
                                                             or refines)
-    if problem.refit and fit is not None and fit is not current:
+    if refitted(problem) and fit is not None and fit is not current:
         # with the air's values refitted beside it (Problem.refit): a candidate judged with the
         # valve held at values that absorbed what the candidate explains is judged short
-        joint_values, _, result, params = joint_fit(problem, with_air_of(baseline, current.params, problem),
-                                                     [*added, name], values, train_only=True, rough=True)
+        start = with_air_of(baseline, current.params, problem)
+        joint_values, _, result, params = joint_fit(problem, start, [*added, name], values,
+                                                     train_only=True, rough=True)
         evaluations += result.nfev + 1
         joint = evaluate(problem, params, joint_values)
         if joint is not None and joint.rss_train < fit.rss_train:

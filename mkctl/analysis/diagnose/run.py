@@ -63,7 +63,7 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     problem = fit_problem(record.prepared, fit_offset, rule, record.noise)
     problem = _with_input_noise(problem, record, say)
     problem = _blocked_problem(problem, record.start, record.full_before, record.noise.sigma, record.notes, say)
-    if calibration is not None:  # the air's values the record identifies, refitted with each candidate
+    if calibration is not None:  # the air's values the record moves, refitted with each candidate
         problem = dataclasses.replace(problem, refit=tuple(
             q for q in air_parameters(m.params, m.overrides) if q.name in calibration.moved))
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "

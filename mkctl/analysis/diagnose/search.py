@@ -20,7 +20,7 @@ from ..diagnosis_rule import (RULE, Candidate as Outcome, Rule, Score, at_bound,
 from .air import air_parameters
 from .candidates import CANDIDATES, experiment_to_separate
 from .noise import NoiseModel
-from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit, with_air_of
+from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit, refitted, with_air_of
 from .signatures import signatures
 
 
@@ -300,9 +300,9 @@ class Search:
         # a refitted switch would keep an effect on that the drop step has taken out)
         own = {CANDIDATES[e].parameter for e in self.pending_all}
         more = tuple(q for q in air_parameters(params, m.overrides)
-                     if q not in self.problem.refit and q.name not in own)
+                     if q not in refitted(self.problem) and q.name not in own)
         if more:
-            self.problem = dataclasses.replace(self.problem, refit=(*self.problem.refit, *more))
+            self.problem = dataclasses.replace(self.problem, refit=(*refitted(self.problem), *more))
 
     def _stop(self, decision) -> None:
         """Record why the selection ended: nothing left, nothing passing, or a tie the record cannot break."""
@@ -325,8 +325,9 @@ class Search:
         start = with_air_of(self.start, fit.params, self.problem)
         # with the air's values beside them (a pressure record) at the candidates' tolerance: the
         # final fits refine them all, and at full tolerance this refit cost half the diagnosis
-        values, _, _, params = self.fitting.joint(self.problem, start, self.added, fit.values, train_only=True,
-                                                  **({"rough": True} if self.problem.refit else {}))
+        rough = {"rough": True} if refitted(self.problem) else {}
+        values, _, _, params = self.fitting.joint(self.problem, start, self.added, fit.values,
+                                                  train_only=True, **rough)
         refit = self.fitting.evaluate(self.problem, params, values)
         return refit if refit is not None and refit.rss_train < fit.rss_train else fit
 
@@ -341,8 +342,9 @@ class Search:
                     continue
                 rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
                 start = with_air_of(self.start, self.current.params, self.problem)
-                values, _, _, params = self.fitting.joint(self.problem, start, rest, rest_values, train_only=True,
-                                                          **({"rough": True} if self.problem.refit else {}))
+                rough = {"rough": True} if refitted(self.problem) else {}  # as in _refit
+                values, _, _, params = self.fitting.joint(self.problem, start, rest, rest_values,
+                                                          train_only=True, **rough)
                 without[earlier] = self.fitting.evaluate(self.problem, params, values)
             gone = to_drop(self.current.score, {e: f.score if f else None for e, f in without.items()}, self.rule)
             if gone is None:
