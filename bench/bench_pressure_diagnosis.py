@@ -63,10 +63,15 @@ def main(argv=None) -> None:
         f"{result.rmse_after:.3g} kPa"
     )
     for name, value in result.params.items():
+        if name not in result.uncertainty:  # a conductance: the record identifies it over V
+            print(f"  {name} = {value:.4g} (truth {getattr(truth, name):.4g}; held muscle: C / V)")
+            continue
         print(
-            f"  {name} = {value:.4g} +- {result.uncertainty.get(name, float('nan')):.2g}"
+            f"  {name} = {value:.4g} +- {result.uncertainty[name]:.2g}"
             f" (truth {getattr(truth, name):.4g})"
         )
+    for key, (value, error) in result.identified.items():
+        print(f"  {key} = {value:.4g} +- {error:.2g} 1/(s Pa)")
 
 
 if __name__ == "__main__":

@@ -234,7 +234,8 @@ def test_a_candidate_that_could_not_be_simulated_fails_every_criterion():
 def test_rule_fields_and_training_rmse():
     assert Rule().as_dict() == {"bic_threshold": 10.0, "holdout_gain": 0.02, "holdout_margin": 0.02,
                                 "holdout_fraction": 0.3, "min_signature_correlation": 0.0, "adequate_factor": 2.0,
-                                "adequacy_level": 1e-3}
+                                "adequacy_level": 1e-3, "interleaved_holdout": ["pressure"],
+                                "holdout_every": 3}
     assert rule.RULE == Rule()
     s = Score.from_residuals(np.array([3.0, 4.0]), np.array([1.0]), 0)
     assert s.rmse_train == pytest.approx(math.sqrt(12.5))

@@ -242,7 +242,7 @@ def pressure_output(measurement: Measurement, params: Params, stop: int | None =
     """
     n = measurement.samples if stop is None else int(stop)
     time, inputs, settings = measurement.time[:n], measurement.inputs, measurement.settings
-    if pneumatics.moves_air(params):
+    if actuator.air_is_on(params):
         if "length" in inputs:
             muscle = {"length": inputs["length"][:n]}
         elif "load" in settings:

@@ -59,6 +59,11 @@ class Rule:
     holdout_gain: float = 0.02  #: ... and the held-out RMSE by at least this fraction
     holdout_margin: float = 0.02  #: ... and beat every other physical candidate's held-out RMSE by this fraction
     holdout_fraction: float = 0.3  #: share of the record (at its end) held out from fitting
+    #: experiments whose held-out part is every ``round(1 / holdout_fraction)``-th sample instead
+    #: (:func:`mkctl.analysis.statistics.every_kth`): a pressure record's events (a valve's
+    #: switches) are brief, and it ends on a plateau every candidate predicts alike
+    #: (docs/diagnosis.md, "Split")
+    interleaved_holdout: tuple = ("pressure",)
     #: ... and its own force term must not anti-correlate with the force the model lacks (criterion 6)
     min_signature_correlation: float = 0.0
     #: "diagnosed" needs the final residual within this many times the output noise, everywhere ...
@@ -69,6 +74,8 @@ class Rule:
     def as_dict(self) -> dict:
         return {"bic_threshold": self.bic_threshold, "holdout_gain": self.holdout_gain,
                 "holdout_margin": self.holdout_margin, "holdout_fraction": self.holdout_fraction,
+                "interleaved_holdout": list(self.interleaved_holdout),
+                "holdout_every": self.holdout_every(),
                 "min_signature_correlation": self.min_signature_correlation,
                 "adequate_factor": self.adequate_factor, "adequacy_level": self.adequacy_level}
 
@@ -76,6 +83,10 @@ class Rule:
         """The time that ends the training part of a record from ``start`` to ``end`` [s]: the last
         ``holdout_fraction`` is held out."""
         return start + (1.0 - self.holdout_fraction) * (end - start)
+
+    def holdout_every(self) -> int:
+        """Every how many samples one is held out on an interleaved record (3 for 30 %)."""
+        return max(2, round(1.0 / self.holdout_fraction))
 
     def passes_bic(self, delta_bic: float) -> bool:
         """Criterion 2: BIC falls by more than the threshold."""

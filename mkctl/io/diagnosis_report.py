@@ -406,8 +406,11 @@ def summary(result) -> list[str]:
                          f"{', '.join(step['replaced']) or 'the baseline'}: "
                          f"RMSE {step['rmse']:.4g} {unit} (whole record)")
             continue
+        interleaved = result.experiment in result.rule.get("interleaved_holdout", ())
+        held_out = (f"one sample in {result.rule['holdout_every']}"
+                    if interleaved else f"the last {result.rule['holdout_fraction']:.0%}")
         lines.append(f"round {number}: candidates (best BIC first; RMSE over the compared samples, held-out "
-                     f"over the last {result.rule['holdout_fraction']:.0%})")
+                     f"over {held_out})")
         for row in step["candidates"]:
             if row["bic"] is None:
                 lines.append(f"  {row['effect']:<17} could not be simulated")
@@ -478,6 +481,11 @@ def summary(result) -> list[str]:
         lines.append("missing: none of the candidates (the tied ones leave more than the noise: see the note)")
     else:
         lines.append("missing: nothing (no candidate effect is supported by the data)")
+    for key, (value, error) in (getattr(result, "identified", None) or {}).items():
+        plus = f" +- {error:.2g}" if error is not None else ""
+        conductance = key.split("/")[0]
+        lines.append(f"identified: {key} = {value:.4g}{plus} 1/(s Pa) (the {conductance} above "
+                     "holds only for the assumed dead volume)")
     if result.offset is not None:
         lines.append(f"sensor offset (fitted): {result.offset:.4g} {unit}")
     lines.append(f"after: RMSE {result.rmse_after:.4g} {unit} (whole record), {fit_text(result.fit_percent_after)}"

@@ -12,7 +12,7 @@ import warnings
 
 import numpy as np
 
-from ..physics import effects
+from ..physics import actuator, effects
 from ..physics.params import PARAMETER_NAMES, Params
 from . import build
 from .variants import Variant
@@ -186,11 +186,6 @@ AIR_NOT_CARRIED = "the compiled core does not carry the air's temperature as a s
 _cores: dict[tuple[int, Variant], Core | None] = {}
 _reasons: dict[tuple[int, Variant], str] = {}
 _lock = threading.Lock()
-
-
-def moves_air(params: Params) -> bool:
-    """Whether params switch on an effect that moves the air (model-spec 4d): the core's air variants carry it."""
-    return any(e.moves_air for e in effects.all_effects() if e.is_on(params))
 
 
 def carries(params: Params) -> bool:

@@ -2,7 +2,7 @@
 
 :func:`core_for` returns the :class:`MechanismCore` of a mechanism (a built-in or a user's file)
 for a parameter set, or None when there is none here (no compiler, ``MKCTL_NATIVE=0``, the air on:
-:func:`mkctl.native.compiled.moves_air`); :func:`mkctl.physics.mechanism.simulate_mechanism` then
+:func:`mkctl.physics.actuator.air_is_on`); :func:`mkctl.physics.mechanism.simulate_mechanism` then
 runs its Python loop. mkctl hands it to the physics layer through
 :func:`mkctl.physics.backend.install_mechanism`.
 
@@ -31,8 +31,9 @@ import numpy as np
 
 from ..physics import effects
 from ..physics import mechanism as mech
+from ..physics.actuator import air_is_on
 from . import build
-from .compiled import Fault, _pointer, moves_air, parameter_vector
+from .compiled import Fault, _pointer, parameter_vector
 
 #: The record loop appended to the generated ``mechanism_core.c`` (same translation unit: it calls
 #: the static integrator and right-hand side there).
@@ -234,7 +235,7 @@ class MechanismCore:
 def core_for(mechanism: mech.Mechanism, params) -> MechanismCore | None:
     """The compiled core of the mechanism, built on first use; None when it is not available here
     (switched off, no compiler, the air on, a mechanism that cannot be generated into C)."""
-    if not build.enabled() or moves_air(mech.muscle_params(params)):
+    if not build.enabled() or air_is_on(mech.muscle_params(params)):
         return None
     key = (effects.generation(), mechanism)
     if key in _cores:
@@ -258,7 +259,7 @@ def status(mechanism: mech.Mechanism, params=None) -> str:
     params = mech.DEFAULT if params is None else params
     if not build.enabled():
         return f"python (switched off by {build.ENV_SWITCH})"
-    if moves_air(mech.muscle_params(params)):
+    if air_is_on(mech.muscle_params(params)):
         from .compiled import AIR_NOT_CARRIED
         return f"python ({AIR_NOT_CARRIED})"
     core = core_for(mechanism, params)

@@ -216,11 +216,12 @@ def valve_opening(P, P_cmd, params):
     return u
 
 
-def air_mass_flow(P, u, params):
+def air_mass_flow(P, u, params, T=None):
     """Net mass flow into one muscle [kg/s] at the valve's opening u (model-spec 4d, 7d).
 
     The sum of the switched-on effects' ``air_flow`` terms (valve_flow: the valve, leak: the
-    laminar leak), the muscle's air at ``T_air`` (the polytropic law).
+    laminar leak), the muscle's air at temperature ``T`` (``T_air`` by default: the polytropic
+    law; a state where air_heat makes it one).
 
     Parameters
     ----------
@@ -230,6 +231,8 @@ def air_mass_flow(P, u, params):
         The valve's opening [-] in [-1, 1].
     params : Params, MechanismParams or SymbolicParams
         Section 4d's values.
+    T : float, array_like or sympy expression, optional
+        The muscle's air temperature [K]; None: ``params.T_air``.
 
     Returns
     -------
@@ -240,11 +243,12 @@ def air_mass_flow(P, u, params):
     ----------
     .. [1] model-spec sections 4d and 7d (each muscle's air mass flow as an output).
     """
-    xp = math_for_all(P, u)
+    T = params.T_air if T is None else T
+    xp = math_for_all(P, u, T)
     q = 0.0
     for effect in active_effects(params):
         if effect.air_flow is not None:
-            q = q + effect.air_flow(P, params.T_air, u, params, xp)
+            q = q + effect.air_flow(P, T, u, params, xp)
     return q
 
 

@@ -276,8 +276,12 @@ def simulate_muscle_pressure(
                         rtol=rtol, atol=atol)
 
 
-def air_terms(params):
-    """What the effects params switch on do to the air (model-spec 4d), read from the registry.
+def heat_term(params):
+    """The air's temperature as a state, as the effects params switch on define it (model-spec 4d).
+
+    The valve's opening and the mass flows are :func:`mkctl.physics.actuator.valve_opening` and
+    :func:`mkctl.physics.actuator.air_mass_flow` (each defined once, there); this gives the one
+    term they do not: the heat's.
 
     Parameters
     ----------
@@ -286,50 +290,27 @@ def air_terms(params):
 
     Returns
     -------
-    flows : tuple of callable
-        Each effect's ``air_flow(P, T, u, p, xp)`` [kg/s] (the valve, the leak).
-    opening : callable or None
-        The ``valve_opening(P, P_cmd, p, xp)`` a pressure command drives (the regulator).
-    temperature : callable or None
+    callable or None
         The ``air_temperature(P, T, V, dV_dt, q_m, p, xp)`` that makes T a state (the heat), else
         None: the polytropic law.
 
     Raises
     ------
     ParameterError
-        When an effect of the section 4 pressure path (a ``pressure_rate``) is on beside the air,
-        which replaces it.
+        When no effect that moves the air is on, or an effect of the section 4 pressure path (a
+        ``pressure_rate``) is on beside the air, which replaces it.
     """
     active = actuator.active_effects(params)
     air_effects = [e for e in active if e.moves_air]
+    if not air_effects:
+        raise ParameterError("no effect that moves the air is on (switch valve_flow on)")
     lags = [e.name for e in active if e.pressure_rate is not None]
-    if air_effects and lags:
+    if lags:
         raise ParameterError(
             f"{air_effects[0].name} replaces the section 4 pressure path: switch {lags[0]} off "
             f"(its lag is the valve's small-signal limit)"
         )
-    flows = tuple(e.air_flow for e in air_effects if e.air_flow is not None)
-    opening = next((e.valve_opening for e in air_effects if e.valve_opening is not None), None)
-    temperature = next(
-        (e.air_temperature for e in air_effects if e.air_temperature is not None), None
-    )
-    return flows, opening, temperature
-
-
-def moves_air(params) -> bool:
-    """Whether params switch on an effect that moves the air (model-spec 4d).
-
-    Parameters
-    ----------
-    params : Params
-        The parameter set.
-
-    Returns
-    -------
-    bool
-        True when the pressure comes from the air's mass balance.
-    """
-    return any(e.moves_air for e in actuator.active_effects(params))
+    return next((e.air_temperature for e in air_effects if e.air_temperature is not None), None)
 
 
 def simulate_air(
@@ -349,8 +330,9 @@ def simulate_air(
     r"""Simulate one muscle's gauge pressure over a record with the air's effects of a Params.
 
     As :func:`simulate_muscle_pressure`, with the air's equations taken from the effects ``params``
-    switches on (:func:`air_terms`: each effect's ``air_flow``, the valve's ``valve_opening``, the
-    heat's ``air_temperature``, else the polytropic law), and the command (or the opening) seen
+    switches on (:func:`mkctl.physics.actuator.air_mass_flow`: each effect's ``air_flow``;
+    :func:`mkctl.physics.actuator.valve_opening`: the valve's; :func:`heat_term`: the heat's
+    ``air_temperature``, else the polytropic law), and the command (or the opening) seen
     through the dead time of ``params`` (:func:`mkctl.physics.actuator.command_delay`: the input
     given at a sample acts ``delay`` later, the first one held before that).
 
@@ -385,10 +367,9 @@ def simulate_air(
     from .isotonic import static_length
     from .simulate import delayed_commands
 
-    flows, opening_of, temperature_of = air_terms(params)
-    if not flows and temperature_of is None:
-        raise ParameterError("no effect that moves the air is on (switch valve_flow on)")
-    if command is not None and opening_of is None:
+    temperature_of = heat_term(params)
+    regulated = any(e.valve_opening is not None for e in actuator.active_effects(params))
+    if command is not None and not regulated:
         raise ParameterError("a pressure command needs a valve to drive (switch valve_flow on)")
     a, xf = params, math_for(1.0)
 
@@ -466,8 +447,8 @@ def simulate_air(
         L, Ldot = length_at(t, y)
         V = air_volume(L, b, n, a.V_dead)
         slope = air_volume_slope(L, b, n)
-        u = opening_of(P, u_in, a, xf) if command is not None else u_in
-        q = sum(flow(P, T, u, a, xf) for flow in flows)
+        u = actuator.valve_opening(P, u_in, a) if command is not None else u_in
+        q = actuator.air_mass_flow(P, u, a, T)
         # dV/dt = slope Ldot + slope dL/dP dP/dt: the rate is affine in dP/dt, solved for it exactly
         dL_dP = 0.0
         if free:
@@ -540,8 +521,8 @@ def simulate_air(
     else:
         L = np.full(time.shape, L_start)
     xa = math_for(P)
-    u = opening_of(P, seen, a, xa) if command is not None else seen
-    q = sum(flow(P, T, u, a, xa) for flow in flows) + 0.0 * P
+    u = actuator.valve_opening(P, seen, a) if command is not None else seen
+    q = actuator.air_mass_flow(P, u, a, T) + 0.0 * P
     return PressureSimulation(
         time, P, q, T, air_volume(L, b, n, a.V_dead), L, u, method, evaluations
     )

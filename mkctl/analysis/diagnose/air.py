@@ -11,7 +11,7 @@ correlated residuals (:func:`mkctl.analysis.statistics.covariance`). A value the
 identify (a relative standard error above :data:`IDENTIFIED`, a fit on its bound, or a column the
 record does not move) is held at its start with a note, never reported as a confident value: the
 rig's numbers (``V_dead``, the supply, ``T_air``, ``k_poly``) are never fitted, so on a held
-muscle ``C_fill`` stands for ``C_fill / V`` (:func:`identified_ratio`).
+muscle a conductance ``C`` stands for ``C / V`` (:func:`identified_ratios`), reported as such.
 
 It runs before the search on a record whose baseline already has the valve (a record driven by
 openings: the valve's calibration, model-spec 5c), and after it when the search added the valve.
@@ -51,6 +51,11 @@ class AirFit:
     notes: list = field(default_factory=list)
     rmse_before: float = math.nan
     rmse_after: float = math.nan
+    #: what the record moves (held or not): what a candidate effect is refitted beside
+    moved: tuple = ()
+    #: what a held muscle's record identifies of a conductance: ``"C_fill/V"`` -> (value, standard
+    #: error) [1/(s Pa)] (:func:`identified_ratios`)
+    identified: dict = field(default_factory=dict)
 
 
 def air_parameters(params: Params, known=()) -> list:
@@ -90,24 +95,33 @@ def _log_space(q) -> bool:
     return q.lower >= 0 and (q.upper / max(q.lower, q.smallest_on, 1e-300) > 100 or q.lower == 0)
 
 
-def _to_x(q, value: float) -> float:
+def to_search(q, value: float) -> float:
+    """A parameter's value as the fits search it: log10 for a conductance or a time constant
+    (:func:`_log_space`), value / scale for a ratio."""
     return math.log10(value) if _log_space(q) else value / q.scale
 
 
-def _from_x(q, x: float) -> float:
+def searchable(q, value: float) -> bool:
+    """Whether a value can be searched as :func:`to_search` does (not 0 on a log scale: an effect
+    switched off)."""
+    return value > 0 or not _log_space(q)
+
+
+def from_search(q, x: float) -> float:
+    """The inverse of :func:`to_search`."""
     return 10.0 ** x if _log_space(q) else x * q.scale
 
 
-def _bounds(q, value: float) -> tuple[float, float]:
+def search_bounds(q, value: float) -> tuple[float, float]:
     """The search range in x: the parameter's bounds (its fit range), four decades around the value
     where a bound is 0 or infinite."""
     high = q.fit_range[1] if q.fit_range else q.upper
     if not math.isfinite(high):
         high = value * 1e4
     if not _log_space(q):
-        return _to_x(q, q.lower), _to_x(q, high)
+        return to_search(q, q.lower), to_search(q, high)
     low = max(q.lower, q.smallest_on, value * 1e-4)
-    return _to_x(q, low), _to_x(q, high)
+    return to_search(q, low), to_search(q, high)
 
 
 def start_from_slope(measurement: Measurement, params: Params) -> float | None:
@@ -151,20 +165,19 @@ def start_from_slope(measurement: Measurement, params: Params) -> float | None:
     return slope / per_unit if slope > 0 and per_unit > 0 else None
 
 
-def identified_ratio(measurement: Measurement, params: Params) -> tuple[float, float]:
-    """``C_fill / V`` [1/(s Pa)] and V [m^3] at the record's (median) length: what a held muscle's
-    record identifies of the valve and the volume.
+def record_volume(measurement: Measurement, params: Params) -> float:
+    """The muscle's air volume V [m^3] at the record's (median) length (Eq. 6 plus ``V_dead``).
 
     Parameters
     ----------
     measurement : Measurement
         A pressure record.
     params : Params
-        The fitted parameter set.
+        The parameter set (``b``, ``n``, ``V_dead``).
 
     Returns
     -------
-    ratio, volume : float
+    float
     """
     m = measurement
     length = (
@@ -172,8 +185,51 @@ def identified_ratio(measurement: Measurement, params: Params) -> tuple[float, f
         if "length" in m.inputs
         else m.settings.get("length", params.L0)
     )
-    volume = float(air_volume(float(length), params.b, params.n, params.V_dead))
-    return params.C_fill / volume, volume
+    return float(air_volume(float(length), params.b, params.n, params.V_dead))
+
+
+#: The unit of a conductance that fills or drains the muscle's volume (a valve's, a leak's).
+CONDUCTANCE_UNIT = "m^3/(s Pa)"
+
+
+def volume_unknown(measurement: Measurement, known=()) -> bool:
+    """Whether a record leaves the muscle's volume to the assumed dead volume: a held muscle (no
+    measured length, no load) whose record does not give ``V_dead``. Its pressure depends on a
+    conductance only through ``C / V`` (model-spec 4d: ``dP/dt = k R T q_m / V`` with ``q_m``
+    linear in C)."""
+    m = measurement
+    return "length" not in m.inputs and "load" not in m.settings and "V_dead" not in known
+
+
+def identified_ratios(measurement: Measurement, params: Params, values: dict, errors: dict,
+                      units: dict) -> dict:
+    """``C / V`` and its standard error for each fitted conductance (unit :data:`CONDUCTANCE_UNIT`)
+    of ``values``: what a held muscle's record identifies when V rests on an assumed dead volume.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        A pressure record.
+    params : Params
+        The fitted parameter set (its ``V_dead``, ``b``, ``n``).
+    values, errors : dict
+        Fitted values and their standard errors [SI].
+    units : dict
+        Each fitted parameter's unit.
+
+    Returns
+    -------
+    dict
+        ``"C_fill/V"`` -> (value, standard error) [1/(s Pa)].
+    """
+    ratios = {}
+    for name, value in values.items():
+        if units.get(name) != CONDUCTANCE_UNIT:
+            continue
+        volume = record_volume(measurement, params)
+        error = errors.get(name)
+        ratios[f"{name}/V"] = (value / volume, None if error is None else float(error / volume))
+    return ratios
 
 
 def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=()) -> AirFit | None:
@@ -216,11 +272,11 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
             return None
 
     def params_at(active, x):
-        return params.replace(**{q.name: _from_x(q, v) for q, v in zip(active, x)})
+        return params.replace(**{q.name: from_search(q, v) for q, v in zip(active, x)})
 
     def solve(active, start):
-        low, high = (np.array(v) for v in zip(*(_bounds(q, start[q.name]) for q in active)))
-        x0 = np.clip([_to_x(q, start[q.name]) for q in active], low + 1e-9, high - 1e-9)
+        low, high = (np.array(v) for v in zip(*(search_bounds(q, start[q.name]) for q in active)))
+        x0 = np.clip([to_search(q, start[q.name]) for q in active], low + 1e-9, high - 1e-9)
 
         def residual(x):
             y = simulate(params_at(active, x))
@@ -250,7 +306,7 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
         y = simulate(candidate)
         if y is not None and np.mean((y - m.output[at]) ** 2) < rmse_before**2:
             starts["C_fill"] = candidate.C_fill
-    active, held = list(names), {}
+    active, held, unmoved = list(names), {}, set()
     for _ in range(len(names)):
         say("    air: fitting " + ", ".join(q.name for q in active) + " on the whole record")
         result, low, high = solve(active, starts)
@@ -265,8 +321,9 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
             relative = sd * math.log(10.0) if _log_space(q) else sd * q.scale / (q.upper - q.lower)
             if column < 1e-9:
                 held[q.name] = "the record does not move it"
+                unmoved.add(q.name)
             elif min(x - low[i], high[i] - x) < 1e-3 * (high[i] - low[i]):
-                held[q.name] = f"the fit ran to its bound ({_from_x(q, x):.3g} {q.unit})"
+                held[q.name] = f"the fit ran to its bound ({from_search(q, x):.3g} {q.unit})"
             elif not relative <= IDENTIFIED:
                 held[q.name] = f"its standard error is {relative:.0%} of " + (
                     "it" if _log_space(q) else "its range"
@@ -276,7 +333,9 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
         if len(unheld) == len(active) or not unheld:
             break
         active = unheld  # refit without the held ones, at their start values
-    values = {q.name: float(_from_x(q, x)) for q, x in zip(active, result.x) if q.name not in held}
+    values = {
+        q.name: float(from_search(q, x)) for q, x in zip(active, result.x) if q.name not in held
+    }
     fitted = params.replace(**values, **{name: starts[name] for name in held})
     errors = {}
     for i, q in enumerate(active):
@@ -290,14 +349,27 @@ def fit_air(measurement: Measurement, params: Params, say=None, known=(), also=(
         return None
     rmse_after = float(np.sqrt(np.mean((after - m.output[at]) ** 2)))
     notes = [f"{name} held at {starts[name]:.4g}: {why}" for name, why in held.items()]
-    if "C_fill" in values and "length" not in m.inputs and "load" not in m.settings:
-        ratio, volume = identified_ratio(m, fitted)
-        notes.append(
-            f"the record identifies C_fill / V = {ratio:.4g} 1/(s Pa) (V = "
-            f"{volume * 1e6:.4g} cm^3 at its length, with V_dead = "
-            f"{fitted.V_dead * 1e6:.3g} cm^3 as given): a held muscle cannot tell C_fill "
-            "and V_dead apart"
-        )
+    identified = {}
+    if volume_unknown(m, known):
+        units = {q.name: q.unit for q in names}
+        identified = identified_ratios(m, fitted, values, errors, units)
+        volume = record_volume(m, fitted)
+        for key, (ratio, error) in identified.items():
+            name = key.split("/")[0]
+            errors.pop(name, None)  # the conductance alone is as uncertain as the assumed V_dead
+            notes.append(
+                f"the record identifies {name} / V = {ratio:.4g} +- {error:.2g} 1/(s Pa) (V = "
+                f"{volume * 1e6:.4g} cm^3 at its length, with V_dead = "
+                f"{fitted.V_dead * 1e6:.3g} cm^3 as assumed): a held muscle cannot tell {name} "
+                f"and V_dead apart, so {name} = {values[name]:.4g} {q_unit(names, name)} "
+                "holds only for that V_dead"
+            )
     for text in notes:
         say("    air: " + text)
-    return AirFit(fitted, values, errors, held, notes, rmse_before, rmse_after)
+    moved = tuple(q.name for q in names if q.name not in unmoved)
+    return AirFit(fitted, values, errors, held, notes, rmse_before, rmse_after, moved, identified)
+
+
+def q_unit(parameters, name: str) -> str:
+    """The unit of the parameter ``name`` among ``parameters``."""
+    return next(q.unit for q in parameters if q.name == name)

@@ -3,6 +3,7 @@
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ...io.measurements import Measurement
@@ -25,6 +26,15 @@ class Candidate:
     def switch(self) -> bool:
         """An effect that is on or off (slack): its search interval is one point, never a bound it hits."""
         return effects.get(self.effect).is_switch
+
+    def typical_start(self) -> float:
+        """Where a fit of this parameter starts without a better guess: its typical value (the
+        registry's), else the middle of its search range in log space."""
+        typical = getattr(effects.get(self.effect).parameter(self.parameter), "typical", None)
+        if typical:
+            return float(typical)
+        low, high = next(iter(self.bounds.values()))
+        return math.sqrt(low * high)
 
     def apply(self, params: Params, value: float) -> Params:
         """params with this effect switched on at ``value`` (a whole-number switch that chooses the model, as

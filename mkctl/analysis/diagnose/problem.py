@@ -15,8 +15,9 @@ from ...io.measurements import Measurement
 from ...physics import effects
 from ...physics.params import Params
 from ..compare import simulate_output
-from ..statistics import covariance, effective_samples, lag_one_correlation
+from ..statistics import covariance, effective_samples, every_kth, lag_one_correlation
 from ..diagnosis_rule import RULE, Rule, Score, best_value
+from .air import from_search, search_bounds, searchable, to_search
 from .candidates import CANDIDATES, Candidate
 from .noise import QUASI_STATIC, NoiseModel
 
@@ -49,6 +50,10 @@ class Problem:
     n_train: int  #: samples (of the record) the training simulations run over
     fit_offset: bool = False
     noise_correlation: float = 0.0  #: the output noise's correlation between neighbouring grid samples
+    #: the air's parameters (:class:`mkctl.physics.effect.Parameter`) the record moves, refitted
+    #: with every candidate (as the calibration refits the statics): a valve calibrated without a
+    #: dead time has absorbed it, and a dead time fitted with the valve held finds a third of it
+    refit: tuple = ()
 
     @property
     def measured(self) -> np.ndarray:
@@ -101,9 +106,14 @@ def fit_problem(measurement: Measurement, fit_offset: bool, rule: Rule = RULE, n
     if grid[-1] != n - 1:
         grid = np.append(grid, n - 1)
     t = measurement.time
-    split = rule.split_time(t[0], t[-1])
-    n_train = int(np.searchsorted(t, split, side="right"))
-    train = grid < n_train
+    if measurement.experiment in rule.interleaved_holdout:
+        # every k-th sample held out, the whole record simulated (docs/diagnosis.md, "Split")
+        n_train = n
+        train = ~every_kth(grid.size, rule.holdout_every())
+    else:
+        split = rule.split_time(t[0], t[-1])
+        n_train = int(np.searchsorted(t, split, side="right"))
+        train = grid < n_train
     if train.sum() < 5 or (~train).sum() < 3:
         raise MkctlError(f"{measurement.source}: too few samples to diagnose ({n}); need at least 20")
     correlation = noise.on_grid(stride) if noise is not None else 0.0
@@ -178,15 +188,29 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
     Returns (values, standard errors (dict), the least_squares result, the fitted Params)."""
     experiment = problem.measurement.experiment
     cands = [CANDIDATES[e] for e in effects]
-    lows = np.log10([c.bounds[experiment][0] for c in cands])
-    highs = np.log10([c.bounds[experiment][1] for c in cands])
-    x0 = np.clip(np.log10([max(start[c.parameter], 1e-300) for c in cands]), lows + 1e-9, highs - 1e-9)
+    own = {c.parameter for c in cands}
+    # the air's values the record identifies, refitted beside them (their starts: base's)
+    # (not one at 0 in base: the switch of an effect off there, a dropped one's)
+    air = [q for q in refitted(problem)
+           if q.name not in own and searchable(q, getattr(base, q.name))]
+    air_start = [getattr(base, q.name) for q in air]
+    air_bounds = [search_bounds(q, v) for q, v in zip(air, air_start)]
+    lows = np.concatenate([np.log10([c.bounds[experiment][0] for c in cands]),
+                           [b[0] for b in air_bounds]])
+    highs = np.concatenate([np.log10([c.bounds[experiment][1] for c in cands]),
+                            [b[1] for b in air_bounds]])
+    x0 = np.clip(np.concatenate([np.log10([max(start[c.parameter], 1e-300) for c in cands]),
+                                 [to_search(q, v) for q, v in zip(air, air_start)]]),
+                 lows + 1e-9, highs - 1e-9)
     size = int(problem.train.sum()) if train_only else problem.grid.size
 
     def params_at(x):
         params = base
         for c, value in zip(cands, x):
             params = c.apply(params, 10.0 ** value)
+        if air:
+            params = params.replace(**{q.name: from_search(q, v)
+                                       for q, v in zip(air, x[len(cands):])})
         return params
 
     def residual(x):
@@ -200,9 +224,10 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
 
     tolerance = 1e-4 if rough else 1e-6
     result = least_squares(residual, x0, bounds=(lows, highs), x_scale=1.0, diff_step=1e-4, xtol=tolerance,
-                           ftol=tolerance * 1e-2, max_nfev=(6 if rough else 25) * (len(cands) + 1))
+                           ftol=tolerance * 1e-2,
+                           max_nfev=(6 if rough else 25) * (len(cands) + 1))
     values = {c.parameter: float(10.0 ** v) for c, v in zip(cands, result.x)}
-    n, k = size, len(cands) + problem.extra_parameters
+    n, k = size, x0.size + problem.extra_parameters
     errors = {}
     if n > k:
         # widened for correlated residuals (statistics.covariance's rule, n_eff of AR(1) at their lag-one
@@ -212,6 +237,20 @@ def joint_fit(problem: Problem, base: Params, effects: list[str], start: dict, t
         for i, c in enumerate(cands):
             errors[c.parameter] = float(values[c.parameter] * _LN10 * math.sqrt(max(cov[i, i], 0.0)))
     return values, errors, result, params_at(result.x)
+
+
+def refitted(problem) -> tuple:
+    """The air's parameters refitted with every candidate (:attr:`Problem.refit`); none for a
+    stand-in of the problem (a test's table of fits, :class:`.search.Fitting`)."""
+    return getattr(problem, "refit", ())
+
+
+def with_air_of(base: Params, fitted: Params, problem: Problem) -> Params:
+    """``base`` with the air's values (:attr:`Problem.refit`) of ``fitted``: a joint fit from
+    ``base`` then starts the air where the last fit left it, not where the calibration did."""
+    if not refitted(problem):
+        return base
+    return base.replace(**{q.name: getattr(fitted, q.name) for q in refitted(problem)})
 
 
 def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list, individual: dict, name: str,
@@ -233,7 +272,17 @@ def fit_candidate(problem: Problem, baseline: Params, current: Fit, added: list,
     refines = bool(set(effects.get(name).requires) & set(added))
     promising = fit is not None and fit is not current and (rule.promising(fit.score.bic - current.score.bic)
                                                             or refines)
-    if added and promising:
+    if refitted(problem) and fit is not None and fit is not current:
+        # with the air's values refitted beside it (Problem.refit): a candidate judged with the
+        # valve held at values that absorbed what the candidate explains is judged short
+        start = with_air_of(baseline, current.params, problem)
+        joint_values, _, result, params = joint_fit(problem, start, [*added, name], values,
+                                                     train_only=True, rough=True)
+        evaluations += result.nfev + 1
+        joint = evaluate(problem, params, joint_values)
+        if joint is not None and joint.rss_train < fit.rss_train:
+            fit, values = joint, joint_values
+    elif added and promising:
         # effects interact (damping and a lag both calm the leg): refit jointly with the effects already
         # added, from this round's value and from the values each took alone in round 1
         starts = [values] if value > 0 else []

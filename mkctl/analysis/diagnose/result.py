@@ -60,6 +60,10 @@ class DiagnosisResult(Result):
     #: (see docs/diagnosis.md); the top level then holds only what they share
     alternatives: list = field(default_factory=list)
     rule: dict = field(default_factory=dict)
+    #: what the record identifies where a parameter alone is not: ``{"C_fill/V": [value, standard
+    #: error]}`` [1/(s Pa)] on a held muscle's pressure record (the conductance alone rests on the
+    #: assumed dead volume)
+    identified: dict = field(default_factory=dict)
     pictures: dict = field(default_factory=dict)
     # arrays for the pictures (SI), not part of the JSON
     params_after: Params | None = field(default=None, repr=False)  #: the final model's parameters
@@ -97,6 +101,7 @@ class DiagnosisResult(Result):
             "params": dict(self.params), "steps": self.steps,
             "verdict": self.verdict, "undecided": self.undecided, "problems": self.problems,
             "uncertainty": dict(self.uncertainty), "units": self.units,
+            "identified": dict(self.identified),
             "fit_percent_before": self.fit_percent_before, "fit_percent_after": self.fit_percent_after,
             "stopped": self.stopped, "notes": self.notes, "input_noise": self.input_noise,
             "output_noise": self.output_noise, "output_noise_correlation": self.output_noise_correlation,

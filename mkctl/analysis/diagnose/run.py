@@ -18,12 +18,12 @@ from ..discovery import discover
 from ..effect_files import discovery_effects
 from ..diagnosis_rule import RULE, Rule
 from ...physics import effects
-from .air import fit_air
+from .air import air_parameters, fit_air
 from .alternatives import _alternative_models, _best_alternative, _shared_values
 from .candidates import candidates_for
 from .noise import QUASI_STATIC
 from .preparation import Record, _blocked_problem, _prepare, _with_input_noise, input_noise_through_model
-from .problem import Problem, evaluate, joint_fit, fit_problem
+from .problem import Problem, evaluate, joint_fit, fit_problem, with_air_of
 from .result import DiagnosisResult, _adequacy_at, verdict_of
 from .search import WIDER_SEARCH_FACTOR, Search, _inadequacy
 
@@ -63,10 +63,13 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     problem = fit_problem(record.prepared, fit_offset, rule, record.noise)
     problem = _with_input_noise(problem, record, say)
     problem = _blocked_problem(problem, record.start, record.full_before, record.noise.sigma, record.notes, say)
+    if calibration is not None:  # the air's values the record moves, refitted with each candidate
+        problem = dataclasses.replace(problem, refit=tuple(
+            q for q in air_parameters(m.params, m.overrides) if q.name in calibration.moved))
     say(f"{Path(m.source).name}: {m.experiment}, {m.samples} samples, baseline {m.baseline} "
         f"(effects: {', '.join(m.params.effects) or 'none'}); fitting on {problem.grid.size} samples")
     state, offset_before = _select(problem, record, rule, say)
-    final = _final_fit(problem, record, state, offset_before, say)
+    final = _final_fit(state.problem, record, state, offset_before, say)
     final = _with_air(final, record, calibration, say)
     return _result(record, state, final, offset_before, rule, say)
 
@@ -84,11 +87,15 @@ def _with_air(final: "_Final", record: Record, calibration, say) -> "_Final":
             **calibration.uncertainty,
             **uncertainty,
         }
+        errors = (f"RMSE {calibration.rmse_before * record.to_file:.3g} -> "
+                  f"{calibration.rmse_after * record.to_file:.3g} {m.output_unit}")
         record.notes.append(
             "the air in the record's baseline calibrated first (a valve driven by openings): "
-            + ", ".join(f"{k} = {v:.4g}" for k, v in calibration.values.items())
-            + f" (RMSE {calibration.rmse_before * record.to_file:.3g} -> "
-            f"{calibration.rmse_after * record.to_file:.3g} {m.output_unit})"
+            + ", ".join(f"{k} = {v:.4g}" for k, v in calibration.values.items()) + f" ({errors})"
+            if calibration.values else
+            "the air in the record's baseline (a valve driven by openings) could not be calibrated "
+            f"alone ({errors}): the record shows more than the valve, and its values are fitted "
+            "with the effects the search adds"
         )
     added_air = any(effects.get(e).moves_air for e in final.added)
     refit = None
@@ -102,18 +109,26 @@ def _with_air(final: "_Final", record: Record, calibration, say) -> "_Final":
             and effects.get(e).fitted in effects.get(e).parameter_names
         ]
         refit = fit_air(record.prepared, final.params, say, known=m.overrides, also=also)
-    if refit is not None and refit.rmse_after < refit.rmse_before:
+    # (not worse: the search's joint fits may have refitted the air already; its values and
+    # standard errors are the refit's)
+    if refit is not None and refit.rmse_after <= refit.rmse_before * (1.0 + 1e-6):
         for name in refit.held:  # held: no value the record identifies, no standard error
             values.pop(name, None)
             uncertainty.pop(name, None)
         values, uncertainty = {**values, **refit.values}, {**uncertainty, **refit.uncertainty}
+        for key in refit.identified:  # a conductance whose record identifies only C / V
+            uncertainty.pop(key.split("/")[0], None)
         record.notes.extend(refit.notes)
         simulated = simulate_output(record.prepared, refit.params) + final.offset
         return dataclasses.replace(
-            final, values=values, uncertainty=uncertainty, simulated=simulated, params=refit.params
+            final, values=values, uncertainty=uncertainty, simulated=simulated, params=refit.params,
+            identified=refit.identified,
         )
     record.notes.extend(calibration.notes if calibration is not None else [])
-    return dataclasses.replace(final, values=values, uncertainty=uncertainty)
+    identified = calibration.identified if calibration is not None else {}
+    for key in identified:
+        uncertainty.pop(key.split("/")[0], None)
+    return dataclasses.replace(final, values=values, uncertainty=uncertainty, identified=identified)
 
 
 def _not_diagnosed(record: Record, say) -> DiagnosisResult:
@@ -169,6 +184,8 @@ class _Final:
     offset: float
     simulated: np.ndarray
     params: Params
+    #: what a held muscle's record identifies of a conductance: "C_fill/V" -> (value, error)
+    identified: dict = dataclasses.field(default_factory=dict)
 
 
 def _final_fit(problem: Problem, record: Record, state: "Search", offset_before: float, say) -> _Final:
@@ -180,8 +197,9 @@ def _final_fit(problem: Problem, record: Record, state: "Search", offset_before:
     final_params, final_values, offset = start, {}, offset_before
     if added:
         say("final fit of " + ", ".join(added) + " on the whole record")
-        final_values, uncertainty, _, final_params = joint_fit(problem, start, added, state.current.values,
-                                                                train_only=False)
+        final_values, uncertainty, _, final_params = joint_fit(
+            problem, with_air_of(start, state.current.params, problem), added, state.current.values,
+            train_only=False)
         offset = problem.offset(problem.measured - problem.simulate(final_params)) if problem.fit_offset else 0.0
     simulated = (simulate_output(record.prepared, final_params) + offset if (added or start is not m.params)
                  else record.full_before + offset_before)
@@ -287,7 +305,8 @@ def _result(record: Record, state: "Search", final: _Final, offset_before: float
     order, sigs = state.signatures_first if state.signatures_first else ([], {})
     return DiagnosisResult(
         **record.common, discovery=found, verdict=verdict, missing=missing, params=values,
-        uncertainty=uncertainty, alternatives=[a.report(record) for a in alternatives],
+        uncertainty=uncertainty, identified={k: list(v) for k, v in final.identified.items()},
+        alternatives=[a.report(record) for a in alternatives],
         alternative_simulated=[a.simulated for a in alternatives],
         rmse_before=rmse(y, before * to_file), rmse_after=rmse(y, simulated * to_file),
         fit_percent_before=fit_percent(y, before * to_file),

@@ -17,9 +17,10 @@ from ...physics.params import UNITS, Params
 from ..compare import rmse
 from ..diagnosis_rule import (RULE, Candidate as Outcome, Rule, Score, at_bound, decide,
                               extension_needed, forward_selection, judge, pair_needed, to_drop)
+from .air import air_parameters
 from .candidates import CANDIDATES, experiment_to_separate
 from .noise import NoiseModel
-from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit
+from .problem import Fit, Problem, evaluate, fit_candidate, joint_fit, refitted, with_air_of
 from .signatures import signatures
 
 
@@ -281,10 +282,27 @@ class Search:
         name, together = decision.effect, list(decision.together)
         self.added.extend([name, *together])
         self.current = self.fits[name]
+        self._refit_air_with(self.current.params)
         dropped = self._drop(len(together) + 1)
         self.current = self._refit(self.current)
         self._record({"added": name, "added_with": together, "dropped": dropped, **self.context})
         return self.current.score
+
+    def _refit_air_with(self, params: Params) -> None:
+        """On a pressure record, the air's parameters of what was added (a valve's critical ratio,
+        its subsonic index, its regulator's band) join those refitted with every later candidate
+        (:attr:`Problem.refit`): held at their typical values, they leave a shape another candidate
+        would be credited with (measured: a heat found on a set-point fill that has none)."""
+        m = self.problem.measurement
+        if m.experiment != "pressure":
+            return
+        # (not a candidate's own parameter: the joint fits carry those with their effects, and
+        # a refitted switch would keep an effect on that the drop step has taken out)
+        own = {CANDIDATES[e].parameter for e in self.pending_all}
+        more = tuple(q for q in air_parameters(params, m.overrides)
+                     if q not in refitted(self.problem) and q.name not in own)
+        if more:
+            self.problem = dataclasses.replace(self.problem, refit=(*refitted(self.problem), *more))
 
     def _stop(self, decision) -> None:
         """Record why the selection ended: nothing left, nothing passing, or a tie the record cannot break."""
@@ -304,7 +322,12 @@ class Search:
     def _refit(self, fit: Fit) -> Fit:
         """The added effects refitted jointly (full tolerance), so that the next round starts from their
         best values and no later candidate is credited with what a better refit of these would give."""
-        values, _, _, params = self.fitting.joint(self.problem, self.start, self.added, fit.values, train_only=True)
+        start = with_air_of(self.start, fit.params, self.problem)
+        # with the air's values beside them (a pressure record) at the candidates' tolerance: the
+        # final fits refine them all, and at full tolerance this refit cost half the diagnosis
+        rough = {"rough": True} if refitted(self.problem) else {}
+        values, _, _, params = self.fitting.joint(self.problem, start, self.added, fit.values,
+                                                  train_only=True, **rough)
         refit = self.fitting.evaluate(self.problem, params, values)
         return refit if refit is not None and refit.rss_train < fit.rss_train else fit
 
@@ -318,7 +341,10 @@ class Search:
                 if any(earlier in effects.get(e).requires for e in rest):  # the lag under an asymmetric lag
                     continue
                 rest_values = {CANDIDATES[e].parameter: self.current.values[CANDIDATES[e].parameter] for e in rest}
-                values, _, _, params = self.fitting.joint(self.problem, self.start, rest, rest_values, train_only=True)
+                start = with_air_of(self.start, self.current.params, self.problem)
+                rough = {"rough": True} if refitted(self.problem) else {}  # as in _refit
+                values, _, _, params = self.fitting.joint(self.problem, start, rest, rest_values,
+                                                          train_only=True, **rough)
                 without[earlier] = self.fitting.evaluate(self.problem, params, values)
             gone = to_drop(self.current.score, {e: f.score if f else None for e, f in without.items()}, self.rule)
             if gone is None:
@@ -366,6 +392,7 @@ class Search:
             return False
         replaced = list(self.added)
         self.added = list(combo)
+        self._refit_air_with(fit.params)
         self.current = self._refit(fit)
         self.undecided, self.stopped = [], None  # the combination settles what forward selection could not
         self._record({"added": combo[0], "added_with": list(combo[1:]),
@@ -456,11 +483,7 @@ def dependent_start(name: str, values: dict) -> float:
         same_unit = other is not None and UNITS.get(other) == UNITS.get(parameter)
         if same_unit and values.get(other, 0.0) > 0:
             return float(values[other])
-    typical = getattr(effect.parameter(parameter), "typical", None)
-    if typical:
-        return float(typical)
-    low, high = next(iter(CANDIDATES[name].bounds.values()))
-    return math.sqrt(low * high)
+    return CANDIDATES[name].typical_start()
 
 
 def _pinned(values: dict, effects, experiment: str) -> bool:
