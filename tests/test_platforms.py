@@ -168,6 +168,24 @@ def test_the_aarch64_binary_under_qemu_integrates_model_exchange_as_linux(qemu, 
     np.testing.assert_allclose(linux[:, 1], co_simulation[:, 1], rtol=0, atol=1e-6 * scale)
 
 
+def test_a_mechanism_fmus_aarch64_binary_under_qemu_gives_the_linux_results(qemu, hosts, tmp_path_factory):
+    """A mechanism's FMU (model-spec 7d) carries the same platforms as the knee's: its ARM binary, run by
+    the cross-compiled FMI 3.0 host under qemu-user, gives the Linux binary's numbers."""
+    from mkctl.native.mechanism_fmu import build_mechanism
+    from mkctl.physics.mechanism import builtin_mechanism
+    out = tmp_path_factory.mktemp("mechanism_aarch64")
+    paths = build_mechanism(builtin_mechanism("pulley_joint"), out)
+    folder = out / "unzipped"
+    with zipfile.ZipFile(paths["fmi3/McKibbenPulleyJoint"]) as archive:
+        archive.extractall(folder)
+    assert (folder / "binaries" / AARCH64.fmi3 / "McKibbenPulleyJoint.so").is_file()
+    arguments = host_arguments(folder, "q", 0.5, p_cmd_muscle1=3.3e5, tau=0.02, c=5.0)
+    linux = run_host([str(hosts["fmi3", "linux"]), *arguments])
+    arm = run_host([*qemu, str(hosts["fmi3", "aarch64"]), *arguments])
+    assert linux.shape == arm.shape == (501, 2) and np.ptp(linux[:, 1]) > 1e-2  # the joint turned
+    np.testing.assert_allclose(arm, linux, rtol=0, atol=1e-12 * max(1.0, np.abs(linux).max()))
+
+
 def test_the_aarch64_binary_is_an_arm_elf_library(fmus):
     data = (fmus["fmi3", "knee"] / "binaries" / AARCH64.fmi3 / "McKibbenKnee.so").read_bytes()
     assert data[:4] == b"\x7fELF" and data[4] == 2  # 64-bit
