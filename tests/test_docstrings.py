@@ -35,7 +35,7 @@ DONE = (
     "mkctl.physics.builtin_effects", "mkctl.physics.effect", "mkctl.physics.effects",
     "mkctl.physics.separations",
     "mkctl.physics.integrate", "mkctl.physics.isometric", "mkctl.physics.isotonic",
-    "mkctl.physics.knee", "mkctl.physics.mechanism", "mkctl.physics.params",
+    "mkctl.physics.knee", "mkctl.physics.mechanism", "mkctl.physics.model", "mkctl.physics.params",
     "mkctl.physics.air", "mkctl.physics.pneumatics", "mkctl.physics.results", "mkctl.physics.simulate",
     "mkctl.physics.stability", "mkctl.physics.tables", "mkctl.physics.xp",
     "mkctl.results", "mkctl.errors",

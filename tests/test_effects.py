@@ -112,7 +112,12 @@ def throwaway():
 def test_a_registered_effect_joins_params_and_the_physics(throwaway):
     assert "k_end" in PARAMETER_NAMES and UNITS["k_end"] == "Pa"
     p = Params(k_end=3e3)
-    assert p.effects == ("elasticity", "end_stiffening") and DEFAULT.k_end == 0.0
+    assert p.effects == ("elasticity", "end_stiffening") and Params().k_end == 0.0
+    # a set made before the registration stays of its model (the model is a value) ...
+    assert "k_end" not in DEFAULT.as_dict() and not hasattr(DEFAULT, "k_end")
+    assert DEFAULT.definition == effects.Model.builtin() != p.definition
+    # ... and a name of the new effect given to it makes a set of the wider model, the effect off unless set
+    assert DEFAULT.replace(k_end=3e3) == p and DEFAULT.replace(c=1.0).definition is DEFAULT.definition
     assert p.replace(k_end=0.0).effects == ("elasticity",) and p.as_dict()["k_end"] == 3e3
     with pytest.raises(ParameterError, match=r"k_end = 2e\+07 Pa is outside the model.s domain"):
         Params(k_end=2e7)

@@ -106,12 +106,12 @@ def test_a_registered_file_is_an_effect_like_the_built_ins(drag):
     assert float(actuator.tension(0.19, 3e5, -0.05, p)) == pytest.approx(plain + 2000.0 * -0.05 * 0.05, rel=1e-13)
     assert float(actuator.tension(np.array([0.19]), 3e5, -0.05, p)[0]) == pytest.approx(plain - 5.0, rel=1e-13)
     # again, the same file or a copy of it: nothing changes
-    generation = effects.generation()
+    model = effects.current()
     copy = drag.with_name("copy_of_drag.py")
     copy.write_text(drag.read_text())
     assert register_effect_file(drag)[0] is effects.get("quadratic_drag")
     assert register_effect_file(copy)[0] is effects.get("quadratic_drag")
-    assert effects.generation() == generation
+    assert effects.current() is model
     # another effect under the taken name: one line
     drag.with_name("other.py").write_text(DRAG.replace("Ldot * xp.abs(Ldot)", "Ldot ** 3"))
     with pytest.raises(EffectFileError, match=r"^effect file other.py: effect 'quadratic_drag': the name is "

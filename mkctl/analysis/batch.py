@@ -44,6 +44,7 @@ from typing import Any, Callable, Iterable
 from ..errors import MkctlError
 from ..io.text import write_text_atomic
 from ..results import Result
+from ..physics import effects as registry
 
 #: Seconds to wait for an existing scheduler before giving up (a typo should not hang the command).
 CONNECT_TIMEOUT_S = 5.0
@@ -89,18 +90,16 @@ def error_message(error: BaseException) -> str:
     return f"{type(error).__name__}: {text[0] if text else ''}".rstrip(": ")
 
 
-def _call(function: Callable, item, effect_files=()) -> tuple:
+def _call(function: Callable, item, model=None) -> tuple:
     """Run on a worker: (value, error message or None, seconds). Never raises for the function's errors.
 
-    ``effect_files``: the user's effect files registered in the submitting process (model-spec section 4c), which
-    the worker registers first (once: registering the same file again does nothing), so that it knows their
-    effects and parameters as the submitter does."""
+    ``model``: the submitting process's model (:func:`mkctl.physics.effects.current`: the built-in effects and the
+    user's, model-spec section 4c), current on the worker while the function runs, so that it knows their effects
+    and parameters as the submitter does (the effects travel with the model: no file is read again)."""
     start = time.perf_counter()
     try:
-        if effect_files:
-            from .effect_files import register_effect_files
-            register_effect_files(effect_files)
-        value, error = function(item), None
+        with registry.using(model or registry.current()):
+            value, error = function(item), None
     except Exception as exc:  # noqa: BLE001 - one bad item must not stop the batch
         value, error = None, error_message(exc)
     return value, error, time.perf_counter() - start
@@ -266,9 +265,8 @@ def run_batch(function: Callable, items: Iterable, jobs: int | None = None, sche
     bar = tqdm(total=len(items), desc=description, unit=description.rstrip("s") or "item", file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
     try:
-        from .effect_files import registered_files
-        effect_files = registered_files()  # workers need the same paths, as for the records
-        futures = [client.submit(_call, function, item, effect_files, pure=False) for item in items]
+        model = registry.current()  # workers get the model itself: the user's effects travel with it
+        futures = [client.submit(_call, function, item, model, pure=False) for item in items]
         index = {future.key: i for i, future in enumerate(futures)}
         for future in as_completed(futures):
             i = index[future.key]
@@ -345,11 +343,11 @@ def diagnose_file(path, base=None, fit_offset: bool = False, mechanism=None) -> 
     from .diagnose import diagnose, public
     from .mechanism_files import mechanism as load_mechanism
     from ..io.measurements import read_measurement
-    from ..physics.params import DEFAULT
+    from ..physics.params import Params
 
     start = time.perf_counter()
     mechanism = None if mechanism is None else load_mechanism(mechanism)
-    measurement = read_measurement(path, base=DEFAULT if base is None else base,
+    measurement = read_measurement(path, base=Params() if base is None else base,
                                    mechanism=mechanism)
     report = public(diagnose(measurement, fit_offset=fit_offset) if fit_offset else diagnose(measurement))
     for name in ("rmse_before", "rmse_after"):

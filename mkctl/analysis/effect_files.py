@@ -610,7 +610,8 @@ def to_registry_effect(effect: UserEffect) -> registry.Effect:
         tension=effect.term, pressure_rate=effect.pressure_rate, quasi_static="static", structural=structural,
         fitted=first.name if candidate else None, experiments=experiments,
         regressor=f"the force of {effect.name} per unit {first.name}",
-        signature_axis="velocity [mm/s] (what the diagnosis plots a user effect against)", calibrate=candidate and static and effect.pressure_rate is None)
+        signature_axis="velocity [mm/s] (what the diagnosis plots a user effect against)",
+        calibrate=candidate and static and effect.pressure_rate is None, origin=effect)
 
 
 def register_effect_file(path) -> list[registry.Effect]:
@@ -665,20 +666,15 @@ def register_effect_files(paths) -> list[registry.Effect]:
     return [e for path in paths or () for e in register_effect_file(path)]
 
 
-def registered_files() -> tuple[str, ...]:
-    """The effect files whose effects are registered in this process (absolute paths, each effect's first file, in
-    the order of registration), for worker processes to register alike."""
-    return tuple(dict.fromkeys(path for name, (_, _, path) in _registered.items() if name in registry.names()))
-
-
 def registered_definitions() -> dict[str, str]:
     """{effect name: fingerprint of its definition} of the user effects registered in this process."""
     return {name: fingerprint for name, (fingerprint, _, _) in _registered.items() if name in registry.names()}
 
 
 def registered_user_effects() -> tuple[UserEffect, ...]:
-    """The user effects registered from files in this process that are still registered, as loaded."""
-    return tuple(effect for name, (_, effect, _) in _registered.items() if name in registry.names())
+    """The user effects of the current model that came from files, as loaded (each effect carries its
+    file's definition: a Dask worker handed the model knows them without the file)."""
+    return tuple(e.origin for e in registry.current().effects if isinstance(e.origin, UserEffect))
 
 
 def discovery_effects() -> tuple[UserEffect, ...]:

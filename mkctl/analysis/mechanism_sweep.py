@@ -28,7 +28,7 @@ import numpy as np
 
 from ..errors import DomainError, MkctlError, ParameterError
 from ..physics.mechanism import Mechanism, equilibrium, stability_coefficients, trace
-from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS
+from ..physics.params import PARAMETER_NAMES, UNITS, Params
 from ..physics.tables import TABLE_II
 from .sweep import DYNAMICS, SweepError, SweepResult, _corners, dynamics_columns, sweep
 
@@ -87,7 +87,7 @@ class MechanismSweep:
         mech = self.mechanism
         own = {k: v for k, v in values.items() if k in mech.parameter_names}
         muscle = {k: v for k, v in values.items() if k in PARAMETER_NAMES}
-        p = mech.bind(DEFAULT.replace(**muscle) if muscle else DEFAULT, **own)
+        p = mech.bind(Params(**muscle), **own)
         pressures = []
         for name in self.pressure_names:
             kpa = values.get(name, DEFAULT_PRESSURE_KPA)

@@ -117,15 +117,15 @@ def run_command(args) -> int:
 def base_params(args):
     """The parameter set a command starts from: the ``--params`` muscle file, or the paper's defaults."""
     from ..io.muscle import read_muscle
-    from ..physics.params import DEFAULT
+    from ..physics.params import Params
     path = getattr(args, "params", None)
-    return DEFAULT if path is None else read_muscle(path)
+    return Params() if path is None else read_muscle(path)
 
 
 def muscle_values(args) -> dict[str, float]:
     """The ``--params`` muscle file's values that differ from the paper's defaults (SI, by name), e.g. to write
     them as known parameters into a measurement file's metadata; empty without ``--params``."""
-    from ..physics.params import DEFAULT
-    params = base_params(args)
+    from ..physics.params import Params
+    params, defaults = base_params(args), Params()
     return {name: value for name, value in params.as_dict().items()
-            if name != "model" and value != getattr(DEFAULT, name)}
+            if name != "model" and value != getattr(defaults, name, None)}

@@ -23,7 +23,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 from ..errors import ParameterError
 from ..physics import effects
-from ..physics.params import (DEFAULT, EFFECTS_TABLE, INTEGER_PARAMETERS, RATED_PRESSURE, TABLE_I, TABLE_II, UNITS,
+from ..physics.model import model_of
+from ..physics.params import (EFFECTS_TABLE, INTEGER_PARAMETERS, RATED_PRESSURE, TABLE_I, TABLE_II, UNITS,
                               LiveMapping, LiveSequence, Params)
 from ..physics.simulate import KNEE_OUTPUTS, default_commands, default_hip_height
 
@@ -55,7 +56,7 @@ def check_carried(params: Params, air: bool = False) -> None:
     ParameterError
         Naming the first such effect.
     """
-    for effect in effects.all_effects():
+    for effect in model_of(params).effects:
         if effect.is_on(params) and not carried(effect, air):
             where = ("a knee built with the air carries the polytropic law only" if air else
                      "the air in the muscle, model-spec 7d: the native FMUs carry it when built with the air")
@@ -129,8 +130,10 @@ class Model:
         """The Integer parameters: the switches of the effects this model carries."""
         return fmu_integer_parameters(self.air)
 
-    def start_values(self, params: Params = DEFAULT) -> dict:
-        """The start value of every settable variable of an FMU built for params (JSON-ready)."""
+    def start_values(self, params: Params | None = None) -> dict:
+        """The start value of every settable variable of an FMU built for params (JSON-ready; default: the current
+        model's defaults)."""
+        params = Params() if params is None else params
         values = {name: getattr(params, name) for name in (*self.parameters, *self.integer_parameters)}
         values["P_rated"] = RATED_PRESSURE
         values.update(self.derived_starts(params))

@@ -45,7 +45,7 @@ from xml.etree import ElementTree as ET
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError
 from ..fmi.interface import check_carried
-from ..physics.params import DEFAULT, Params
+from ..physics.params import Params
 from ..fmi.units import fmi_unit, unit_definitions
 
 SCRIPTS = Path(__file__).resolve().parent / "scripts"
@@ -275,7 +275,7 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
 
     Parameters: out, the folder to write ``McKibbenKnee.fmu`` and ``McKibbenActuator.fmu`` to (created if
     needed); run, whether to run each default experiment (in a fresh process) as a check; params, the muscle and
-    knee whose values become the FMUs' start values (default :data:`mkctl.physics.params.DEFAULT`: Table I and
+    knee whose values become the FMUs' start values (default: the current model's defaults, Table I and
     II, effects off). ``_fix_exit=False`` leaves pythonfmu's binary as it is: only for the tests and the bench
     that show what the fix prevents. effects, the user's effect files (model-spec section 4c) the FMUs carry: they
     are registered here (before params' values are read, so a muscle file may set their parameters: register them
@@ -293,7 +293,7 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
     from ..analysis.effect_files import register_effect_files
     effect_files = [Path(f).resolve() for f in effects or ()]
     register_effect_files(effect_files)
-    params = DEFAULT if params is None else params
+    params = Params() if params is None else params
     check_carried(params)  # the FMUs do not carry the air yet: refused, not silently dropped
     out = Path(out).resolve()  # the checks run in another folder
     out.mkdir(parents=True, exist_ok=True)
@@ -344,7 +344,7 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platfo
     from ..analysis.mechanism_files import mechanism
     from ..native.build import find_compiler
     from ..native.mechanism_fmu import build_mechanism
-    params = DEFAULT if params is None else params
+    params = Params() if params is None else params
     found = mechanism(str(name_or_path), params)
     if find_compiler() is None:
         raise BuildError("no C compiler found (CC, cc, gcc, clang): a mechanism's native FMUs need one")

@@ -191,16 +191,18 @@ _lock = threading.Lock()
 def carries(params: Params) -> bool:
     """Whether the core carries params' effects: all but an air temperature as a state (``air_temperature``,
     which the knee refuses in Python, in its own words)."""
-    return not any(e.air_temperature is not None for e in effects.all_effects() if e.is_on(params))
+    return not any(e.air_temperature is not None for e in params.definition.effects if e.is_on(params))
 
 
 def core_for(params: Params) -> Core | None:
     """The compiled core for params' structure, built on first use; None when it is not available."""
-    # keyed by the registry's generation too: an effect registered since (a user's, spec 4c) changes the
-    # parameter vector and the traced terms even where the structure is the same
+    # keyed by the model too: an effect registered since (a user's, spec 4c) changes the parameter vector and
+    # the traced terms even where the structure is the same
+    if params.definition != effects.current():
+        return None  # the core is generated for the current model: a set of another runs the Python path
     if not carries(params):
         return None  # the Python path, which refuses it in one line
-    variant = (effects.generation(), Variant.of(params))
+    variant = (params.definition, Variant.of(params))
     core = _cores.get(variant, False)
     if core is not False and build.enabled():
         return core
@@ -228,5 +230,7 @@ def status(params: Params | None = None) -> str:
         return f"python ({AIR_NOT_CARRIED})"
     core = core_for(params)
     if core is None:
-        return f"python ({_reasons.get((effects.generation(), Variant.of(params)), 'unavailable')})"
+        if params.definition != effects.current():
+            return "python (a parameter set of a model other than the current one)"
+        return f"python ({_reasons.get((params.definition, Variant.of(params)), 'unavailable')})"
     return f"compiled ({core.path})"

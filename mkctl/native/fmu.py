@@ -57,7 +57,7 @@ from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
 from ..fmi.interface import check_carried, model_for
 from ..fmi.units import fmi_unit, unit_definitions
-from ..physics.params import DEFAULT, PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
+from ..physics.params import PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
 HERE = Path(__file__).resolve().parent
 C_DIR = HERE / "fmu_c"
@@ -155,7 +155,7 @@ class Interface:
 
 def slave_interface(model_name: str, params: Params | None = None, air: bool = False) -> Interface:
     """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
-    start values taken from params (default: :data:`~mkctl.physics.params.DEFAULT`, the slave's own).
+    start values taken from params (default: the current model's defaults, the slave's own).
     ``air``: the knee built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
@@ -169,7 +169,7 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
             raise NativeBuildError(str(error)) from None
     variables = tuple(Variable(v.name, v.vr, v.type, v.causality, v.variability, v.description,
                                fmi_unit(v.unit) if v.type == "Real" else None, v.start)
-                      for v in model.variables(DEFAULT if params is None else params))
+                      for v in model.variables(Params() if params is None else params))
     experiment = {"startTime": "start_time", "stopTime": "stop_time", "stepSize": "step_size", "tolerance": "tolerance"}
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
@@ -183,11 +183,12 @@ def parameter_rule(name: str) -> str:
     Read from Params itself (a value of 0 or -1 in an otherwise default set), so that the C wrapper checks what
     the library checks. ``n`` is "any" here: the wrapper checks it only when it is given (not left at its start).
     """
-    if name not in DEFAULT.as_dict() or name in ("n", "model"):
+    defaults = Params()  # the current model's: an effect registered at run time (spec 4c) included
+    if name not in defaults.as_dict() or name in ("n", "model"):
         return "any"
     for value, rule, words in ((0.0, "positive", "must be positive"), (-1.0, "not_negative", "must not be negative")):
         try:
-            DEFAULT.replace(**{name: value})
+            defaults.replace(**{name: value})
         except ParameterError as error:
             if words in str(error):
                 return rule
@@ -197,10 +198,10 @@ def parameter_rule(name: str) -> str:
 def integer_rule(name: str) -> tuple[int, int, str]:
     """(low, high, message) of an Integer parameter: the values Params accepts (a range) and its message for a
     bad one, with "%d" for the value; read from Params itself."""
-    allowed = []
+    allowed, defaults = [], Params()  # the current model's
     for value in range(-3, 6):
         try:
-            DEFAULT.replace(**{name: value})
+            defaults.replace(**{name: value})
             allowed.append(value)
         except ParameterError:
             pass
@@ -208,7 +209,7 @@ def integer_rule(name: str) -> tuple[int, int, str]:
         raise NativeBuildError(f"Integer parameter {name}: Params accepts {allowed}, not a range")
     bad = 987654
     try:
-        DEFAULT.replace(**{name: bad})
+        defaults.replace(**{name: bad})
     except ParameterError as error:
         message = str(error).replace("%", "%%")
     else:
@@ -399,7 +400,7 @@ def variables_source(interface: Interface) -> str:
                      f"{_c_string(v.unit or '')}, {start}}}, /* vr {v.vr} */")
     lines.append("};")
     names = interface.by_name()
-    order = [names[f].vr for f in DEFAULT.as_dict()
+    order = [names[f].vr for f in PARAMETER_NAMES
              if f in names and names[f].causality == "parameter" and names[f].type == "Real"]
     inputs = [v.vr for v in interface.variables if v.causality == "input"]
     pressures = [v.vr for v in interface.variables if v.causality == "input" and v.unit == "Pa"]
@@ -455,7 +456,7 @@ def variables_source(interface: Interface) -> str:
         elif name in names:
             lines.append(f"    p[{index}] = d->v[VR_{name}];")
         else:
-            lines.append(f"    p[{index}] = {_c_double(getattr(DEFAULT, name))}; /* {name}: not a variable here, "
+            lines.append(f"    p[{index}] = {_c_double(getattr(Params(), name))}; /* {name}: not a variable here, "
                          "Params' default */")
     for index, name in enumerate(interface.core_parameters, start=len(PARAMETER_NAMES)):
         lines.append(f"    p[{index}] = d->v[VR_{c_identifier(name)}];")

@@ -237,7 +237,10 @@ def core_for(mechanism: mech.Mechanism, params) -> MechanismCore | None:
     (switched off, no compiler, the air on, a mechanism that cannot be generated into C)."""
     if not build.enabled() or air_is_on(mech.muscle_params(params)):
         return None
-    key = (effects.generation(), mechanism)
+    model = mech.muscle_params(params).definition
+    if model != effects.current():
+        return None  # the core is generated for the current model: a set of another runs the Python path
+    key = (model, mechanism)
     if key in _cores:
         return _cores[key]
     with _lock:
@@ -264,5 +267,5 @@ def status(mechanism: mech.Mechanism, params=None) -> str:
         return f"python ({AIR_NOT_CARRIED})"
     core = core_for(mechanism, params)
     if core is None:
-        return f"python ({_reasons.get((effects.generation(), mechanism), 'unavailable')})"
+        return f"python ({_reasons.get((effects.current(), mechanism), 'unavailable')})"
     return f"compiled ({core.path})"

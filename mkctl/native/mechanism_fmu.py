@@ -48,7 +48,7 @@ from pathlib import Path
 from ..errors import DomainError, ParameterError
 from ..physics import actuator
 from ..physics import mechanism as mech
-from ..physics.params import (DEFAULT, INTEGER_PARAMETERS, PARAMETER_NAMES, RATED_PRESSURE,
+from ..physics.params import (INTEGER_PARAMETERS, PARAMETER_NAMES, RATED_PRESSURE,
                               TABLE_II, UNITS, Params)
 from . import TEMPLATE
 from . import fmu as fmi2
@@ -97,7 +97,7 @@ def _mechanism_params_used(mechanism) -> list[str]:
 def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
                         alone: bool = False) -> Interface:
     """What a mechanism FMU shows a host (see the module docstring), start values from params (the
-    muscle's; default :data:`~mkctl.physics.params.DEFAULT`) and the mechanism's own defaults.
+    muscle's; default: the current model's defaults) and the mechanism's own defaults.
 
     alone: the mechanism alone (model-spec 7d, the SSP system of :mod:`mkctl.native.ssp`), model
     ``McKibben<Name>Mechanism``: inputs each muscle's tension ``f_<muscle>`` [N]; outputs ``q``,
@@ -111,7 +111,7 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
     """
     from ..fmi.interface import _MUSCLE, ACTUATOR, ACTUATOR_PARAMETERS, P_RATED_DESCRIPTION
     from ..fmi.units import fmi_unit
-    params = DEFAULT if params is None else params
+    params = Params() if params is None else params
     if mechanism.name == "knee" and not alone:
         raise NativeBuildError("the knee has its own FMU (McKibbenKnee): build it without "
                                "--mechanism")

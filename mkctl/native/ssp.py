@@ -25,7 +25,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
-from ..physics.params import DEFAULT, Params
+from ..physics.params import Params
 from .fmu import NativeBuildError
 
 SSD = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -95,13 +95,13 @@ def system_description(muscles, mechanism_fmu: str, actuator_fmu: str, commands,
 
 def build_knee_ssp(out, params: Params | None = None, platforms: bool = True) -> Path:
     """Write ``out/McKibbenKneeSystem.ssp`` (see the module docstring); params: the start values of
-    both FMUs (default :data:`~mkctl.physics.params.DEFAULT`). Returns its path. Raises
+    both FMUs (default: the current model's defaults). Returns its path. Raises
     :class:`NativeBuildError`."""
     from ..physics.mechanism import KNEE
     from ..physics.simulate import default_commands
     from . import fmu
     from .mechanism_fmu import build_mechanism
-    params = DEFAULT if params is None else params
+    params = Params() if params is None else params
     target = Path(out) / f"{SYSTEM_NAME}.ssp"
     with tempfile.TemporaryDirectory(prefix="mkctl_ssp_") as temp:
         temp = Path(temp)

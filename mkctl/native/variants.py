@@ -20,6 +20,7 @@ import itertools
 from typing import NamedTuple
 
 from ..physics import effects
+from ..physics.model import model_of
 from ..physics.params import Params
 
 
@@ -36,8 +37,10 @@ class Variant(NamedTuple):
 
     @classmethod
     def of(cls, params: Params) -> "Variant":
-        air = any(e.moves_air and e.is_on(params) for e in effects.all_effects())
-        return cls(tuple(e.name for e in structural_effects() if e.is_on(params)
+        # an effect of the current model that params' model lacks is off in params
+        on = {e.name for e in model_of(params).effects if e.is_on(params)}
+        air = any(e.moves_air for e in effects.all_effects() if e.name in on)
+        return cls(tuple(e.name for e in structural_effects() if e.name in on
                          and not (air and e.pressure_rate is not None)), air)
 
     @property

@@ -29,7 +29,8 @@ from .braid import (bladder_volume, braid_diameter, pressure_gain,  # noqa: F401
                     pressure_gain_slope, strain_energy_curvature, strain_energy_density,
                     strain_energy_gradient)
 from .effects import SymbolicParams  # noqa: F401 (re-exported: what the equations are traced on)
-from .params import DEFAULT, PARAMETER_NAMES, Params
+from .model import model_of
+from .params import DEFAULT, Params
 from .xp import (MATH_FUNCTIONS, _symbolic_math, as_values, is_symbolic,  # noqa: F401 (re-exported)
                  math_for, math_for_all, symbolic_math)
 
@@ -50,7 +51,7 @@ class Structure(NamedTuple):
 
 
 def structure(params) -> Structure:
-    """The :class:`Structure` of params (cached on params until the registry changes).
+    """The :class:`Structure` of params (cached on params: a set never changes).
 
     Parameters
     ----------
@@ -64,18 +65,15 @@ def structure(params) -> Structure:
         and whether the pressures are states.
     """
     own = getattr(params, "__dict__", None)
-    generation = _effects._generation[0]
-    if own is not None:
-        cached = own.get("_structure")
-        if cached is not None and cached[0] == generation:
-            return cached[1]
-    active = tuple(e for e in _effects.all_effects() if e.is_on(params))
+    if own is not None and "_structure" in own:
+        return own["_structure"]  # a set never changes, nor does its model
+    active = tuple(e for e in model_of(params).effects if e.is_on(params))
     pressure = tuple(e.pressure_rate for e in active if e.pressure_rate is not None)
     result = Structure(active, tuple((e, e.tension) for e in active if e.tension is not None),
                        tuple(e.final for e in active if e.final is not None), pressure,
                        bool(pressure))
     if own is not None:
-        own["_structure"] = (generation, result)
+        own["_structure"] = result
     return result
 
 
@@ -821,7 +819,7 @@ def _derivative_function(params, build, scalar: bool = False):
     (function, parameter names). scalar: the version for Python floats (the math module: much
     cheaper than numpy on one value). Each version is made when first asked for: most structures
     are only ever evaluated on floats or only on arrays."""
-    key = (build, _effects.generation(), tuple(e.name for e in active_effects(params)))
+    key = (build, model_of(params), tuple(e.name for e in active_effects(params)))
     entry = _DERIVATIVES.get(key)
     if entry is None:
         import sympy
@@ -849,7 +847,8 @@ def _traced_expressions(params, build):
     Anything else is built afresh."""
     if not isinstance(params, SymbolicParams):
         return build(params)
-    key = (build, _effects.generation(), tuple(getattr(params, name) for name in PARAMETER_NAMES))
+    model = model_of(params)
+    key = (build, model, tuple(getattr(params, name) for name in model.parameter_names))
     entry = _DERIVATIVES.get(key)
     if entry is None:
         entry = _DERIVATIVES[key] = build(params)

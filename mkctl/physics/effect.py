@@ -233,6 +233,9 @@ class Effect:
     #: (params) -> its :class:`DiscoveryColumn` s of the discovery's library
     discovery: Callable | None = None
     builtin: bool = False
+    #: where a user's effect came from (an effect file's definition, which the discovery's library
+    #: reads its term from); it travels with the effect, so a Dask worker needs no file path
+    origin: object = dataclasses.field(default=None, compare=False)
 
     @property
     def moves_air(self) -> bool:

@@ -29,6 +29,7 @@ from types import MappingProxyType
 from typing import NamedTuple
 
 from . import effects
+from .model import Model
 from .effects import outside_domain_message  # noqa: F401  (re-exported: native FMUs write it in C)
 from ..errors import ParameterError
 from .tables import (BASE_NAMES, RATED_PRESSURE, TABLE_I, TABLE_II,  # noqa: F401 (re-exported)
@@ -42,13 +43,16 @@ _NOT_NEGATIVE = ("C1", "C2", "Lec", "Lfc")
 
 
 class LiveSequence(Sequence):
-    """A tuple-like view that follows the effect registry (names registered at run time included).
+    """A tuple-like view of the current model's names (effects registered at run time included).
+
+    The current model (:func:`mkctl.physics.effects.current`) is the one ``Params()`` makes its
+    sets of.
 
     Parameters
     ----------
     compute : callable
-        ``compute() -> iterable``, the items; called again whenever the registry changes (its
-        generation), its result kept until then.
+        ``compute() -> iterable``, the items; called again whenever the current model is another
+        value, its result kept until then.
     """
 
     def __init__(self, compute):
@@ -56,8 +60,8 @@ class LiveSequence(Sequence):
         self._cache = (None, ())
 
     def _items(self) -> tuple:
-        key = effects.generation()
-        if self._cache[0] != key:
+        key = effects.current()
+        if self._cache[0] is not key:
             self._cache = (key, tuple(self._compute()))
         return self._cache[1]
 
@@ -91,13 +95,13 @@ class LiveSequence(Sequence):
 
 
 class LiveMapping(Mapping):
-    """A read-only mapping that follows the effect registry.
+    """A read-only mapping of the current model (as :class:`LiveSequence`).
 
     Parameters
     ----------
     compute : callable
-        ``compute() -> mapping`` (or (key, value) pairs); called again whenever the registry
-        changes (its generation), its result kept until then.
+        ``compute() -> mapping`` (or (key, value) pairs); called again whenever the current model
+        is another value, its result kept until then.
     """
 
     def __init__(self, compute):
@@ -105,8 +109,8 @@ class LiveMapping(Mapping):
         self._cache = (None, {})
 
     def _items(self) -> dict:
-        key = effects.generation()
-        if self._cache[0] != key:
+        key = effects.current()
+        if self._cache[0] is not key:
             self._cache = (key, dict(self._compute()))
         return self._cache[1]
 
@@ -151,10 +155,16 @@ class Params:
     Defaults are Table I, Table II and "effects off" (every effect parameter at its off value,
     model 2: elasticity on). Switches (``model`` 1 or 2, ``slack`` 0 or 1) are whole numbers;
     everything else is a float. ``n`` is derived from b, L0 and D0 unless given:
-    ``n = sqrt(b^2 - L0^2) / (pi D0)``. The effect parameters are those of the registry
-    (:mod:`mkctl.physics.effects`), effects registered at run time included: a set made before an
-    effect was registered reads its parameters at their off values. Invalid values raise
-    :class:`ParameterError`.
+    ``n = sqrt(b^2 - L0^2) / (pi D0)``. A set is of a model (:attr:`definition`, a
+    :class:`~mkctl.physics.model.Model`): the effects whose parameters it has. ``Params(...)``
+    makes a set of the current model (the built-ins and the effects registered so far);
+    ``model.params(...)`` or :meth:`of` a set of any model. A set made before an effect was
+    registered stays of the model it was made of. Invalid values raise :class:`ParameterError`.
+
+    Attributes
+    ----------
+    definition : Model
+        The model the set is of; it travels with the set (a pickle, a Dask worker).
 
     Parameters
     ----------
@@ -188,21 +198,50 @@ class Params:
     """
 
     def __init__(self, **values):
-        unknown = [k for k in values if k not in PARAMETER_NAMES]
+        self._fill(effects.current(), values)
+
+    @classmethod
+    def of(cls, definition: Model, /, **values) -> "Params":
+        """A parameter set of a given model (:meth:`mkctl.physics.model.Model.params`).
+
+        Parameters
+        ----------
+        definition : Model
+            The model: the effects the set's names and values are of (positional: ``model`` is
+            the elasticity's parameter).
+        **values : float or int
+            Any names of the model's :attr:`~mkctl.physics.model.Model.parameter_names`, SI.
+
+        Returns
+        -------
+        Params
+
+        Raises
+        ------
+        ParameterError
+            As :class:`Params`.
+        """
+        params = cls.__new__(cls)
+        params._fill(definition, values)
+        return params
+
+    def _fill(self, model: Model, values: dict) -> None:
+        names = model.parameter_names
+        unknown = [k for k in values if k not in names]
         if unknown:
-            raise ParameterError(f"unknown parameter {unknown[0]!r} "
-                                 f"(known: {', '.join(PARAMETER_NAMES)})")
+            raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(names)})")
         own = self.__dict__
+        own["definition"] = model
         for name in BASE_NAMES:
             own[name] = values.get(name, None if name == "n" else _BASE_DEFAULTS[name])
-        for q in effects.parameters():
+        for q in model.parameters:
             own[q.name] = values.get(q.name, q.start)
-        self._validate(own)
+        self._validate(own, model)
 
     @staticmethod
-    def _validate(own: dict) -> None:
-        switches = set(INTEGER_PARAMETERS)
-        for name in PARAMETER_NAMES:
+    def _validate(own: dict, model: Model) -> None:
+        switches = {q.name for q in model.parameters if q.switch}
+        for name in model.parameter_names:
             value = own[name]
             if value is None:
                 continue
@@ -218,14 +257,14 @@ class Params:
         for name in _NOT_NEGATIVE:
             if own[name] < 0:
                 raise ParameterError(f"parameter {name} must not be negative, got {own[name]!r}")
-        for q in effects.parameters():
+        for q in model.parameters:
             q.check(own[q.name])
-        for effect in effects.all_effects():
+        for effect in model.effects:
             q = effect.switch_parameter
             if own[q.name] == q.off:
                 continue
             for name in effect.requires:
-                needed = effects.get(name).switch_parameter
+                needed = model.get(name).switch_parameter
                 if own[needed.name] == needed.off:
                     raise ParameterError(f"parameter {q.name} ({effect.name}) needs the effect "
                                          f"{name} ({needed.name} switched on)")
@@ -241,15 +280,6 @@ class Params:
             raise ParameterError(f"parameter n must be positive, got {own['n']!r}")
         check_domain(own)
 
-    def __getattr__(self, name: str):
-        # only names not set in __init__ land here: an effect registered after this set was made
-        # is off
-        if not name.startswith("_"):
-            for q in effects.parameters():
-                if q.name == name:
-                    return q.start
-        raise AttributeError(f"'Params' object has no attribute {name!r}")
-
     def __setattr__(self, name, value):
         raise AttributeError(f"Params are immutable: use replace({name}=...) for a copy with "
                              "another value")
@@ -258,12 +288,13 @@ class Params:
         raise AttributeError("Params are immutable")
 
     def _key(self) -> tuple:
-        """Every value in PARAMETER_NAMES' order (remembered until the registry changes)."""
+        """The model, then every value in its names' order (remembered: a set never changes)."""
         cached = self.__dict__.get("_cached_key")
-        if cached is None or cached[0] != effects.generation():
-            cached = (effects.generation(), tuple(getattr(self, name) for name in PARAMETER_NAMES))
+        if cached is None:
+            model = self.definition
+            cached = (model, *(getattr(self, name) for name in model.parameter_names))
             self.__dict__["_cached_key"] = cached
-        return cached[1]
+        return cached
 
     def __eq__(self, other) -> bool:
         if not isinstance(other, Params):
@@ -274,14 +305,12 @@ class Params:
         return hash(self._key())
 
     def __repr__(self) -> str:
-        return ("Params(" + ", ".join(f"{name}={getattr(self, name)!r}" for name in PARAMETER_NAMES)
-                + ")")
+        return ("Params(" + ", ".join(f"{name}={getattr(self, name)!r}"
+                                      for name in self.definition.parameter_names) + ")")
 
-    def __getstate__(self) -> dict:
-        return self.as_dict()  # values only: caches are rebuilt
-
-    def __setstate__(self, state: dict) -> None:
-        self.__dict__.update(state)
+    def __reduce__(self):
+        # the model travels with the values (a Dask worker needs no effect file); caches do not
+        return (_params_from, (self.definition, self.as_dict()))
 
     @property
     def V_r(self) -> float:
@@ -291,19 +320,20 @@ class Params:
     @property
     def effects(self) -> tuple[str, ...]:
         """The effects of spec section 4 that are switched on, in the registry's order."""
-        return tuple(e.name for e in effects.all_effects() if e.is_on(self))
+        return tuple(e.name for e in self.definition.effects if e.is_on(self))
 
     def replace(self, **overrides) -> "Params":
         """A copy with some values changed; unknown names raise :class:`ParameterError`.
 
         ``n`` is derived again from b, L0, D0 when one of them changes value, unless it is given
-        explicitly.
+        explicitly. The copy is of the same model, or of the current one when a name belongs to an
+        effect registered since (the current model then holds every effect of this set's: the set
+        means the same with the new effect off).
 
         Parameters
         ----------
         **overrides : float or int
-            The names to change (any of :data:`PARAMETER_NAMES`) with their new values, in SI
-            units.
+            The names to change (any of the model's names) with their new values, in SI units.
 
         Returns
         -------
@@ -315,10 +345,13 @@ class Params:
         ParameterError
             For an unknown name, or a new value that is invalid (see :class:`Params`).
         """
-        unknown = sorted(set(overrides) - set(PARAMETER_NAMES))
+        model = self.definition
+        if not set(overrides) <= set(model.parameter_names):
+            model = _wider_model(model)  # a name of an effect registered since this set was made
+        names = model.parameter_names
+        unknown = sorted(set(overrides) - set(names))
         if unknown:
-            raise ParameterError(f"unknown parameter {unknown[0]!r} "
-                                 f"(known: {', '.join(PARAMETER_NAMES)})")
+            raise ParameterError(f"unknown parameter {unknown[0]!r} (known: {', '.join(names)})")
         values = self.as_dict()
         # a geometry that does not change (a file repeating a muscle file's L0) keeps that muscle's
         # fitted n
@@ -326,7 +359,7 @@ class Params:
                                         for k in {"b", "L0", "D0"} & set(overrides)):
             values["n"] = None
         values.update(overrides)
-        return Params(**values)
+        return Params.of(model, **values)
 
     def as_dict(self) -> dict[str, float]:
         """All values by name (n included), e.g. for a JSON report or an FMU's start values.
@@ -337,7 +370,7 @@ class Params:
             ``{name: value}`` in :data:`PARAMETER_NAMES`' order, SI units (floats; the switches
             ints).
         """
-        return {name: getattr(self, name) for name in PARAMETER_NAMES}
+        return {name: getattr(self, name) for name in self.definition.parameter_names}
 
 
 # --- The model's domain: the values a real muscle and knee can take ------------------------------
@@ -414,6 +447,20 @@ def check_domain(values) -> None:
         raise ParameterError(f"parameter r = {values['r']:.6g} m must be shorter than "
                              f"L1 = {values['L1']:.6g} m: the kneecap lever cannot reach past the "
                              "extensor's thigh anchor (no knee geometry)")
+
+
+def _wider_model(model: Model) -> Model:
+    """The current model when it holds every effect of ``model`` (an effect registered since a set
+    of ``model`` was made: the set means the same with that effect off), else ``model``."""
+    current = effects.current()
+    return current if current.extends(model) else model
+
+
+def _params_from(model: Model, values: dict) -> Params:
+    """A parameter set again from a pickle: its model and its values, checked as they were."""
+    params = Params.__new__(Params)
+    params.__dict__.update(values, definition=model)
+    return params
 
 
 _BASE_DEFAULTS = {name: q.value for name, q in {**TABLE_I, **TABLE_II}.items()}

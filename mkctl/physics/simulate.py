@@ -514,12 +514,18 @@ def state_outputs(state, pe_cmd: float, pf_cmd: float,
     return values
 
 
-def rest_independent() -> tuple[str, ...]:
+def rest_independent(model=None) -> tuple[str, ...]:
     """Parameters a state at rest does not feel: the rest posture of a record does not need them.
 
     Those of effects whose tension term vanishes at Ldot = 0 (damping c V, friction
     Fc tanh(V / vs)) or that only have pressure dynamics (the lagged pressure equals its command at
-    rest), and no final limit. Remembered until the registry of effects changes.
+    rest), and no final limit.
+
+    Parameters
+    ----------
+    model : Model, optional
+        The model whose effects are read (default: the current one,
+        :func:`mkctl.physics.effects.current`).
 
     Returns
     -------
@@ -530,14 +536,17 @@ def rest_independent() -> tuple[str, ...]:
     ----------
     .. [1] model-spec sections 4, 4b and 4c (the effects).
     """
-    key = effects.generation()
-    if _rest_independent[0] != key:
-        names = []
-        for effect in effects.all_effects():
-            if effect.final is None and _tension_vanishes_at_rest(effect):
-                names += effect.parameter_names
-        _rest_independent[:] = [key, tuple(names)]
-    return _rest_independent[1]
+    return _rest_independent(effects.current() if model is None else model)
+
+
+@functools.lru_cache(maxsize=16)
+def _rest_independent(model) -> tuple[str, ...]:
+    """:func:`rest_independent` of a model, remembered (a model is a value)."""
+    names = []
+    for effect in model.effects:
+        if effect.final is None and _tension_vanishes_at_rest(effect, model):
+            names += effect.parameter_names
+    return tuple(names)
 
 
 #: Where :func:`_tension_vanishes_at_rest` reads a built-in effect's term: lengths (shares of L0)
@@ -546,7 +555,7 @@ REST_PROBE_LENGTHS = (0.7, 0.8, 0.9, 0.97, 1.0, 1.05)
 REST_PROBE_PRESSURES = (-5e4, 0.0, 1e5, 4e5, 1e6, 2e6)
 
 
-def _tension_vanishes_at_rest(effect) -> bool:
+def _tension_vanishes_at_rest(effect, model=None) -> bool:
     """Whether effect's tension term is 0 at Ldot = 0 for every length and pressure (True without
     one).
 
@@ -560,7 +569,7 @@ def _tension_vanishes_at_rest(effect) -> bool:
     if effect.tension is None:
         return True
     on_grid = _rest_term_vanishes_on_grid(effect) if effect.builtin else None
-    return _rest_term_vanishes_symbolically(effect) if on_grid is None else on_grid
+    return _rest_term_vanishes_symbolically(effect, model) if on_grid is None else on_grid
 
 
 def _rest_term_vanishes_on_grid(effect) -> bool | None:
@@ -575,11 +584,12 @@ def _rest_term_vanishes_on_grid(effect) -> bool | None:
         return None
 
 
-def _rest_term_vanishes_symbolically(effect) -> bool:
-    """Whether effect's tension term, traced on sympy symbols at Ldot = 0, simplifies to 0."""
+def _rest_term_vanishes_symbolically(effect, model=None) -> bool:
+    """Whether effect's tension term, traced on sympy symbols at Ldot = 0 (the symbols of model's
+    names: default the current model's), simplifies to 0."""
     import sympy
     L, P = sympy.symbols("L P", real=True)
-    sp = actuator.SymbolicParams()
+    sp = actuator.SymbolicParams(model=model)
     with actuator.tracing_domain_checks():
         term = effect.tension(L, 0.0, P, sp, actuator.math_for(L))
     return sympy.sympify(term) == 0
@@ -595,7 +605,6 @@ def _probe_value(q) -> float:
     return float(min(max(q.off + q.scale, q.lower), q.upper))
 
 
-_rest_independent = [None, ()]
 
 
 @functools.lru_cache(maxsize=256)
@@ -636,8 +645,9 @@ def rest_hip_height(pe0: float, pf0: float, params: Params = DEFAULT) -> float:
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator",
        Eq. 17 and 20.
     """
-    skip = rest_independent()
-    key = (float(pe0), float(pf0), *(v for k, v in params.as_dict().items() if k not in skip))
+    skip = rest_independent(params.definition)
+    key = (params.definition, float(pe0), float(pf0),
+           *(v for k, v in params.as_dict().items() if k not in skip))
     X0 = _rest_heights.get(key)
     if X0 is None:
         if len(_rest_heights) > 4096:
