@@ -70,20 +70,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..errors import DomainError, MkctlError, ParameterError
 from ..physics import actuator, effects
 from ..physics.isometric import isometric_tension
 from ..physics.params import UNITS, LiveMapping, LiveSequence, Params
 from ..results import Result, plain
-from .statistics import covariance, robust_sigma, standard_errors
 from .diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, forward_selection, judge
+from .calibration_problem import (  # noqa: F401 (OPTIONAL, STATIC: re-exported)
+    ASSUMED, B_OVER_L0, EQUALLY_GOOD, FORCE_SENSOR_RECORDS, MAX_BRAID_ANGLE, MAX_EVALUATIONS, OPTIONAL,
+    STATIC, Fit, ForceModel, ambiguous_values, bounds_of, check_converged, check_one_muscle,
+    fit_least_squares, fit_standard_errors, fit_uncertainty, force_nrms, is_offset, merged_metadata,
+    offset_names, scale_of, starting_points)
+from .force_records import (  # noqa: F401 (re-exported: calibrate's records)
+    READING_BRAID, CalibrationError, ForceRecord, check_records, driven_record, force_record,
+    isometric_record, motion_direction, read_records, reading_base)
+from .calibration_pictures import (  # noqa: F401 (re-exported)
+    plot_error_fall, plot_fits, summary)
 
-#: Parameters always fitted (model-spec section 5b: the ones a user cannot measure).
-STATIC = ("b", "n", "C1", "C2")
-#: Parameters fitted only on request (``fit=``); by default they come from the files' metadata.
-OPTIONAL = ("L0", "D0", "t0", "offset")
+
+
 def _acts_in_motion_only(effect) -> bool:
     """Whether an effect adds to the tension only where the muscle moves (damping, a user's drag):
     not a candidate of the quasi-static tests, one of a driven-length record (model-spec 5d)."""
@@ -103,368 +109,10 @@ CANDIDATES = LiveMapping(lambda: {
 #: one.
 MOTION_CANDIDATES = LiveSequence(lambda: [e.name for e in effects.all_effects()
                                           if _acts_in_motion_only(e)])
-#: The records whose force a load cell reads (a zero offset can be fitted on them).
-FORCE_SENSOR_RECORDS = ("isometric", "actuator")
 #: Every point whose index in its record is ``HOLDOUT_EVERY - 1`` modulo this is held out.
 HOLDOUT_EVERY = 4
-#: Estimates correlated beyond this cannot be told apart.
-IDENTIFIABLE_CORRELATION = 0.99
-#: Typical magnitudes: the fit works on value / scale.
-SCALES = LiveMapping(lambda: {"b": 0.1, "n": 1.0, "C1": 1e5, "C2": 1e4, "L0": 0.1, "D0": 0.01, "t0": 1e-3,
-                               **{q.name: q.scale for q in effects.parameters()}, "offset": 1.0})
-#: The steepest braid angle at rest a real braid has [deg]: ``b = L0 / cos(angle)`` stays below L0 / cos of it.
-MAX_BRAID_ANGLE = 80.0
-B_OVER_L0 = 1.0 / math.cos(math.radians(MAX_BRAID_ANGLE))
-#: Default cap on the model evaluations of one least-squares run (per fitted parameter, plus one).
-MAX_EVALUATIONS = 200
 
 
-class CalibrationError(MkctlError):
-    """Measurements calibrate cannot use, or a fit that does not converge."""
-
-
-# --- The data, as forces ----------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class ForceRecord:
-    """One record as force points (SI): what :func:`calibrate` fits.
-
-    ``sign`` is the friction sign: the model's tension is ``f - sign Fc`` (isometric: the branch, +1
-    up, -1 down; isotonic: +1 shortening, -1 lengthening, 0 not moving; driven length: minus the
-    sign of the imposed rate). ``velocity``: a driven-length record's imposed rate [m/s] (None for
-    the others).
-    """
-
-    experiment: str
-    source: str
-    length: np.ndarray  #: clamped (isometric) or measured (isotonic) length [m]
-    pressure: np.ndarray  #: [Pa]
-    force: np.ndarray  #: measured tension (isometric) or hanging load (isotonic) [N]
-    sign: np.ndarray
-    overrides: dict = field(default_factory=dict)  #: the record's metadata parameters (SI)
-    time: np.ndarray | None = None
-    velocity: np.ndarray | None = None  #: imposed lengthening rate [m/s] (driven-length records)
-
-    @property
-    def size(self) -> int:
-        return int(self.force.size)
-
-
-def isometric_record(length, pressure, force, branch, overrides: dict | None = None,
-                     source: str = "<arrays>") -> ForceRecord:
-    """An isometric record from arrays: lengths [m], pressures [Pa], forces [N], branch (+1 up / -1 down)."""
-    arrays = [np.asarray(a, dtype=float).ravel() for a in (length, pressure, force, branch)]
-    if len({a.size for a in arrays}) != 1:
-        raise CalibrationError(f"{source}: length, pressure, force and branch must have the same size")
-    if not np.isin(arrays[3], (1.0, -1.0)).all():
-        raise CalibrationError(f"{source}: branch must be +1 (up) or -1 (down)")
-    return ForceRecord("isometric", source, *arrays, overrides=dict(overrides or {}))
-
-
-def force_record(measurement) -> ForceRecord:
-    """A :class:`ForceRecord` from a measurement of :mod:`mkctl.io.measurements` (isometric or isotonic)."""
-    if isinstance(measurement, ForceRecord):
-        return measurement
-    m = measurement
-    if m.experiment == "isometric":
-        return ForceRecord("isometric", str(m.source), np.asarray(m.inputs["length"], float),
-                           np.asarray(m.inputs["pressure"], float), np.asarray(m.output, float),
-                           np.asarray(m.branch, float), dict(m.overrides), np.asarray(m.time, float))
-    if m.experiment == "isotonic":
-        length = np.asarray(m.output, float)
-        return ForceRecord("isotonic", str(m.source), length, np.asarray(m.inputs["pressure"], float),
-                           np.asarray(m.inputs["force"], float), -motion_direction(m.time, length),
-                           dict(m.overrides), np.asarray(m.time, float))
-    if m.experiment == "actuator":
-        return driven_record(m)
-    if m.experiment == "pressure":  # no force in it: the air is diagnosed, not calibrated (model-spec 5c)
-        raise CalibrationError(f"{m.source}: a pressure record shows the air, not the muscle's force: calibrate "
-                               f"fits the statics from isometric, isotonic or actuator records; read its valve "
-                               f"and volume with 'mkctl diagnose {m.source}'")
-    raise CalibrationError(f"{m.source}: calibrate needs isometric, isotonic or actuator records, "
-                           f"not {m.experiment!r}")
-
-
-def driven_record(m) -> ForceRecord:
-    """A driven-length record (``experiment = actuator``, model-spec 5d) as force points: the
-    imposed length, its rate (``numpy.gradient``, as :func:`mkctl.analysis.compare.actuator_output`
-    takes it), the measured pressure, or the command through the pressure path the file's own values
-    give (no lag is fitted here), and the measured tension."""
-    from .compare import commanded_pressure
-
-    time = np.asarray(m.time, float)
-    length = np.asarray(m.inputs["length"], float)
-    velocity = np.gradient(length, time) if length.size > 1 else np.zeros(length.size)
-    if "pressure" in m.inputs:
-        pressure = np.asarray(m.inputs["pressure"], float)
-    else:
-        pressure = np.asarray(commanded_pressure(time, m.inputs["p_cmd"], m.params), float)
-    return ForceRecord("actuator", str(m.source), length, pressure, np.asarray(m.output, float),
-                       -np.sign(velocity), dict(m.overrides), time, velocity)
-
-
-def motion_direction(time, length, window: int = 11):
-    """+1 where the measured length grows, -1 where it shrinks, 0 where it does not move beyond its noise.
-
-    The slope is a Savitzky-Golay (order 1) slope over ``window`` samples; "moving" means more than three
-    times the slope's noise, estimated from the scatter of the length about its smoothed self, over the
-    whole window around the point (near a start or a stop of the motion the window straddles both, and
-    the point counts as not moving: its load may lie anywhere in the friction band).
-    """
-    from .filters import savgol_filter
-
-    time, length = np.asarray(time, float), np.asarray(length, float)
-    n = length.size
-    window = max(3, min(window, n - (1 - n % 2)))
-    window += 1 - window % 2
-    if n < 3 or window > n:
-        return np.zeros(n)
-    dt = float(np.median(np.diff(time)))
-    slope = savgol_filter(length, window, 1, deriv=1, delta=dt)
-    scatter = length - savgol_filter(length, window, 1)
-    sigma = robust_sigma(scatter)
-    slope_noise = sigma * math.sqrt(12.0 / (window ** 3 - window)) / dt
-    threshold = max(3.0 * slope_noise, 1e-12)
-    sign = np.where(slope > threshold, 1.0, np.where(slope < -threshold, -1.0, 0.0))
-    # the smoothing window straddles each start and stop of the motion: near one, the sign is not to be
-    # trusted, so a point counts as moving only if its whole window moves the same way
-    half = window // 2
-    padded = np.pad(sign, half, constant_values=0.0)
-    steady = np.ones(n, dtype=bool)
-    for shift in range(2 * half + 1):
-        steady &= padded[shift:shift + n] == sign
-    return np.where(steady, sign, 0.0)
-
-
-#: The braid length of the base a file is read against (:func:`read_records`): long enough for any muscle, so
-#: that a file giving only its L0 (longer than Table I's b) is not judged against Table I's braid.
-READING_BRAID = 100.0
-
-
-def reading_base(params: Params | None = None) -> Params:
-    """The parameter set calibrate reads files against: ``params`` (default Table I) with a braid of
-    :data:`READING_BRAID`, because b is what calibrate fits, not something the file must agree with."""
-    return (params or Params()).replace(b=READING_BRAID, n=None)
-
-
-def read_records(paths, params: Params | None = None) -> list:
-    """Read measurement files for :func:`calibrate` (see :func:`reading_base`)."""
-    from ..io.measurements import read_measurement
-
-    base = reading_base(params)
-    return [read_measurement(path, base=base) for path in paths]
-
-
-def check_records(records: list[ForceRecord]) -> None:
-    """Raise :class:`CalibrationError` for records no muscle can be calibrated on (one line each)."""
-    if not records:
-        raise CalibrationError("no measurement to calibrate on")
-    for r in records:
-        if r.size < 3:
-            raise CalibrationError(f"{r.source}: only {r.size} points; calibrate needs more")
-        finite = np.isfinite(r.length) & np.isfinite(r.pressure) & np.isfinite(r.force)
-        if not finite.all():
-            raise CalibrationError(f"{r.source}: point {int(np.flatnonzero(~finite)[0]) + 1} is not a finite number")
-        if (r.length <= 0).any():
-            raise CalibrationError(f"{r.source}: length {r.length[r.length <= 0][0]:g} m is not positive: no braid "
-                                   "has such a length")
-        if r.experiment == "isometric" and np.unique(r.pressure).size < 2:
-            raise CalibrationError(f"{r.source}: every point has the same pressure ({r.pressure[0] / 1e3:g} kPa): "
-                                   "a blocked-force test must step the pressure to show how the force grows with it")
-
-
-# --- Parameters and bounds ---------------------------------------------------------------------------
-
-def merged_metadata(records: list[ForceRecord]) -> dict:
-    """The records' metadata parameters, merged; two records that disagree raise :class:`CalibrationError`."""
-    merged, where = {}, {}
-    for r in records:
-        for name, value in r.overrides.items():
-            if name in merged and not math.isclose(merged[name], value, rel_tol=1e-9):
-                raise CalibrationError(f"{r.source} gives {name} = {value:g} but {where[name]} gives {merged[name]:g}: "
-                                       "files of different muscles; calibrate fits one muscle, its files must "
-                                       "agree (calibrate each on its own with --each)")
-            merged[name], where[name] = value, r.source
-    return merged
-
-
-#: How a note of a default assumed for what the files did not give begins (:attr:`CalibrationResult.assumed`).
-ASSUMED = "assumed: "
-
-#: The shortest a braid can pull a muscle, as a fraction of b: cos of the braid angle 54.7 deg (arctan sqrt 2),
-#: where a McKibben muscle's force vanishes at any pressure (model-spec section 2: L = b cos theta).
-SHORTEST_FRACTION = 1.0 / math.sqrt(3.0)
-
-
-def check_one_muscle(records: list[ForceRecord]) -> None:
-    """Refuse (one line) lengths no single muscle spans: one braid holds force only between b cos 54.7 deg and b,
-    so the longest measured length over the shortest is below sqrt(3) = 1.73 for one muscle. Files of different
-    muscles (a 300 mm and a 510 mm one) given together fail this; the line names the two files."""
-    shortest = min(records, key=lambda r: float(r.length.min()))
-    longest = max(records, key=lambda r: float(r.length.max()))
-    low, high = float(shortest.length.min()), float(longest.length.max())
-    if low > 0 and high * SHORTEST_FRACTION > low:
-        where = (f"{shortest.source} and {longest.source}" if shortest is not longest else shortest.source)
-        raise CalibrationError(
-            f"lengths from {low:g} m to {high:g} m ({where}) cannot belong to one muscle: a braid holds force "
-            f"only down to cos 54.7 deg = {SHORTEST_FRACTION:.3f} of its length b (ratio {high / low:.3g} > "
-            f"{1 / SHORTEST_FRACTION:.3f}); calibrate each muscle on its own (--each) or check the length units")
-
-
-def is_offset(name: str) -> bool:
-    """Whether a fitted name is a load cell's zero offset: ``offset``, or ``offset_<k>`` with several files."""
-    return name == "offset" or name.startswith("offset_")
-
-
-def offset_names(records: list[ForceRecord]) -> list:
-    """The name of each record's force offset when offsets are fitted: ``offset`` when one record is
-    isometric (or driven-length: a load cell reads both), ``offset_1``, ``offset_2``, ... for those
-    records in order when several are (each file its own load cell zero: a rig re-tared between
-    tests); None for an isotonic record (its force is a hanging load)."""
-    isometric = [i for i, r in enumerate(records) if r.experiment in FORCE_SENSOR_RECORDS]
-    names = [None] * len(records)
-    for k, i in enumerate(isometric, 1):
-        names[i] = "offset" if len(isometric) == 1 else f"offset_{k}"
-    return names
-
-
-def _scale(name: str) -> float:
-    return SCALES["offset" if is_offset(name) else name]
-
-
-def _bounds(name: str, records: list[ForceRecord], start: Params, fitting=()) -> tuple[float, float]:
-    """(lower, upper) of a fitted name [SI]: the physical range (see the module docstring)."""
-    longest = max(float(r.length.max()) for r in records)
-    if name == "b":
-        shortest_braid = longest if "L0" in fitting else max(longest, start.L0)
-        return shortest_braid * (1 + 1e-4), B_OVER_L0 * max(longest, start.L0)
-    if name == "L0":
-        shortest = min(float(r.length.min()) for r in records)
-        return 0.5 * shortest, 2.0 * longest
-    effect_ranges = {q.name: q.fit_range or (q.lower, q.upper) for q in effects.parameters()}
-    return {"n": (0.05, 200.0), "C1": (0.0, 1e8), "C2": (0.0, 1e8), "D0": (1e-4, 1.0), "t0": (1e-6, 0.1),
-            **effect_ranges, "offset": (-1e5, 1e5)}["offset" if is_offset(name) else name]
-
-
-class _Model:
-    """The force model over the stacked records, with a fixed set of fitted names."""
-
-    def __init__(self, records, base: Params, names: tuple, link_n: bool):
-        self.records, self.base, self.names, self.link_n = records, base, tuple(names), link_n
-        self.scales = np.array([_scale(n) for n in self.names])
-        self.offset_names = offset_names(records)
-        self.force = np.concatenate([r.force for r in records])
-        self.size = self.force.size
-
-    def params_at(self, values: dict) -> Params:
-        physical = {k: v for k, v in values.items() if not is_offset(k)}
-        if self.link_n:
-            physical.pop("n", None)
-            merged = {**self.base.as_dict(), **physical}
-            physical["n"] = math.sqrt(max(merged["b"] ** 2 - merged["L0"] ** 2, 1e-30)) / (math.pi * merged["D0"])
-        return self.base.replace(**physical)
-
-    def values_at(self, x) -> dict:
-        values = {n: float(v) for n, v in zip(self.names, np.asarray(x) * self.scales)}
-        return values
-
-    def offsets(self, values: dict) -> tuple:
-        """Each record's force offset [N] in values (0 where none is fitted)."""
-        return tuple(values.get(name, 0.0) if name else 0.0 for name in self.offset_names)
-
-    def predict(self, params: Params, offsets=None):
-        """The model's force at every point [N], stacked over the records, with each record's offset
-        (:meth:`offsets`; None: none) (raises DomainError outside)."""
-        parts = []
-        for r, offset in zip(self.records, offsets or (0.0,) * len(self.records)):
-            if r.experiment == "isometric":
-                parts.append(isometric_tension(r.length, r.pressure, r.sign, params) + offset)
-            elif r.velocity is not None:  # a driven length: the tension at the imposed motion
-                tension = actuator.compose_tension(r.length, r.pressure, r.velocity, params)
-                parts.append(tension + offset)
-            else:
-                f = actuator.compose_tension(r.length, r.pressure, 0.0, params, quasi_static=True)
-                width = actuator.play_half_width(r.pressure, params)  # the effects' play band (Fc) [N]
-                moving = actuator.apply_limits(f - r.sign * width, params)
-                # at rest the load may lie anywhere in [f - Fc, f + Fc]: the model "predicts" the nearest edge
-                still = np.clip(r.force, f - width, f + width)
-                parts.append(np.where(r.sign != 0, moving, still))
-        return np.concatenate(parts)
-
-    def residual_values(self, values: dict):
-        params = self.params_at(values)
-        return self.force - self.predict(params, self.offsets(values))
-
-    def residual(self, x):
-        try:
-            return self.residual_values(self.values_at(x))
-        except (DomainError, ParameterError):
-            return np.full(self.size, 1e6)  # an unphysical trial muscle: far worse than any fit
-
-
-@dataclass
-class _Fit:
-    values: dict
-    params: Params
-    residual: np.ndarray
-    rss: float
-    result: object
-    names: tuple
-    converged: bool
-    evaluations: int
-    ends: list = field(default_factory=list)  #: (rss, values) where each start's run ended
-
-
-def _least_squares(model: _Model, starts: list[dict], lows, highs, mask=None, max_evaluations=MAX_EVALUATIONS):
-    """The best of bounded least-squares runs from each start (on the points in mask, default all)."""
-    best, total, ends = None, 0, []
-    keep = slice(None) if mask is None else mask
-    for start in starts:
-        x0 = np.array([start[n] for n in model.names]) / model.scales
-        lo, hi = lows / model.scales, highs / model.scales
-        span = hi - lo
-        x0 = np.clip(x0, lo + 1e-6 * np.where(np.isfinite(span), span, 1), hi - 1e-6 * np.where(np.isfinite(span), span, 1))
-        result = least_squares(lambda x: model.residual(x)[keep], x0, bounds=(lo, hi), x_scale="jac",
-                               method="trf", xtol=1e-8, ftol=1e-9, gtol=1e-8,
-                               max_nfev=max_evaluations * (len(model.names) + 1))
-        total += result.nfev + (result.njev or 0) * len(model.names)  # finite-difference Jacobians included
-        rss = float(result.fun @ result.fun)
-        ends.append((rss, model.values_at(result.x)))
-        if best is None or rss < best[0] - 1e-12 * max(rss, 1.0) or (not best[1].status > 0 and result.status > 0
-                                                                      and rss <= best[0] * (1 + 1e-9)):
-            best = (rss, result)
-    rss, result = best
-    values = model.values_at(result.x)
-    residual = model.residual_values(values)
-    return _Fit(values, model.params_at(values), residual, rss, result, model.names, bool(result.status > 0), total,
-                ends)
-
-
-def starting_points(records: list[ForceRecord], start: Params, names: tuple) -> list[dict]:
-    """Several starting points: the braid length at 1.05, 1.25 and 1.6 times the longest length, each with
-    the turns n that match model 1's force at the highest pressures, and C1 at its start value, a tenth
-    and ten times it (C2 at its start value; other names at theirs)."""
-    longest = max(float(r.length.max()) for r in records)
-    L = np.concatenate([r.length for r in records])
-    P = np.concatenate([r.pressure for r in records])
-    F = np.concatenate([r.force for r in records])
-    base = {n: float(getattr(start, n)) for n in names if not is_offset(n) and n != "Fc"}
-    base.update({n: 0.0 for n in names if is_offset(n)})
-    base.update({"Fc": start.Fc} if "Fc" in names else {})
-    points = []
-    b_starts = [max(longest, start.L0) * k for k in (1.05, 1.25, 1.6)] if "b" in names else [start.b]
-    for b in b_starts:
-        gain = P * (3 * L * L - b * b) / (4 * math.pi)  # model 1 is gain / n^2
-        use = (gain > 0) & (P >= np.median(P))
-        k = float(F[use] @ gain[use] / (gain[use] @ gain[use])) if use.sum() >= 2 else 0.0
-        n0 = 1.0 / math.sqrt(k) if k > 0 else start.n
-        for factor in (1.0, 0.1, 10.0) if "C1" in names else (1.0,):
-            point = dict(base)
-            point.update({"b": b} if "b" in names else {})
-            point.update({"n": min(max(n0, 0.1), 100.0)} if "n" in names else {})
-            point.update({"C1": max(start.C1, 1e3) * factor} if "C1" in names else {})
-            points.append(point)
-    return points
 
 
 # --- The result --------------------------------------------------------------------------------------
@@ -608,10 +256,6 @@ def hysteresis_growth(records: list[ForceRecord], muscle: Params | None = None) 
 
 # --- The calibration ---------------------------------------------------------------------------------
 
-def _nrms(residual, force_range: float) -> float:
-    return float(np.sqrt(np.mean(residual * residual)) / force_range)
-
-
 def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool = False,
               effects=tuple(CANDIDATES), max_evaluations: int = MAX_EVALUATIONS, progress=None,
               rule: Rule = RULE) -> CalibrationResult:
@@ -662,8 +306,8 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
     static_starts = starting_points(records, start, names)
     say(f"static fit of {', '.join(names)} from {len(static_starts)} starting points")
     current, current_model, _ = fitter.fit([], start, static_starts)
-    _check_converged(current, "the static fit", max_evaluations, force_range)
-    nrms_before = _nrms(current.residual, force_range)
+    check_converged(current, "the static fit", max_evaluations, force_range)
+    nrms_before = force_nrms(current.residual, force_range)
     curves["static fit"] = (current.params, current_model.offsets(current.values))
     steps.append({"label": "static fit", "effects": [], "nrms": nrms_before, "rms": nrms_before * force_range,
                   "params": dict(current.values)})
@@ -677,7 +321,7 @@ def calibrate(measurements, fit=(), params: Params | None = None, link_n: bool =
                                                            ambiguous, notes)
     at_bound = _settle_bounds(records, current, notes)
     _note_hysteresis(records, current, notes, added, stderr, effects)
-    nrms_after = _nrms(current.residual, force_range)
+    nrms_after = force_nrms(current.residual, force_range)
     fitted = {n: current.values[n] for n in (*names, *[CANDIDATES[e] for e in added if CANDIDATES[e]])
               if n in current.values}
     params_final = current.params
@@ -770,17 +414,17 @@ class _Fitter:
         self.evaluations = 0
 
     def fit(self, effect_list, base: Params, starts, mask=None):
-        """Fit from each start (on the points in mask); returns (_Fit, its _Model, k counting slack as one)."""
+        """Fit from each start (on the points in mask); returns (Fit, its ForceModel, k counting slack as one)."""
         switches = [e for e in CANDIDATES if CANDIDATES[e] is None]  # on or off, nothing to fit (slack)
         base = base.replace(**{q.name: q.on_value if e in effect_list else q.off
                                for e, q in ((e, effects.get(e).switch_parameter) for e in switches)})
         fit_names = self.names + tuple(CANDIDATES[e] for e in effect_list if CANDIDATES[e])
-        model = _Model(self.records, base, fit_names, self.link_n)
-        pairs = [_bounds(n, self.records, base, fit_names) for n in fit_names]
+        model = ForceModel(self.records, base, fit_names, self.link_n)
+        pairs = [bounds_of(n, self.records, base, fit_names) for n in fit_names]
         lows, highs = np.array([p[0] for p in pairs]), np.array([p[1] for p in pairs])
         full_starts = [{n: s.get(n, 0.0 if is_offset(n) else getattr(base, n, 0.0)) for n in fit_names}
                        for s in starts]
-        result = _least_squares(model, full_starts, lows, highs, mask, self.max_evaluations)
+        result = fit_least_squares(model, full_starts, lows, highs, mask, self.max_evaluations)
         self.evaluations += result.evaluations
         return result, model, len(fit_names) + sum(1 for e in effect_list if e in switches)
 
@@ -788,7 +432,7 @@ class _Fitter:
 def _record_start(records, start: Params, force_range: float, steps: list, curves: dict, say) -> None:
     """Step 0 of the error fall: the files' parameters, nothing fitted (None outside the model's domain)."""
     try:
-        nrms_start = _nrms(_Model(records, start, (), False).residual_values({}), force_range)
+        nrms_start = force_nrms(ForceModel(records, start, (), False).residual_values({}), force_range)
     except (DomainError, ParameterError):
         nrms_start = None
     steps.append({"label": "start", "effects": [], "nrms": nrms_start,
@@ -813,12 +457,12 @@ class _EffectSelection:
         self.added: list[str] = []
         self.rows: dict = {}
 
-    def score(self, fit_train: _Fit, k: int) -> Score:
+    def score(self, fit_train: Fit, k: int) -> Score:
         """The rule's score of a fit on the training points: BIC there, RMS error [N] on the held-out points."""
         r = fit_train.residual
         return Score.from_residuals(r[self.train], r[self.holdout], k)
 
-    def run(self, current: _Fit, model: _Model, pending: list):
+    def run(self, current: Fit, model: ForceModel, pending: list):
         """Select among ``pending``; returns (final fit, its model, the effects added, the round that stopped)."""
         self.current, self.model, self.pending = current, model, pending
         train_fit, _, k_now = self.fitter.fit([], current.params, [current.values], self.train)
@@ -868,11 +512,11 @@ class _EffectSelection:
         best = self.rows[decision.effect]
         self.added.append(decision.effect)
         current, model, _ = self.fitter.fit(self.added, self.current.params, [best["_fit"].values, self.current.values])
-        _check_converged(current, f"the fit with {', '.join(self.added)}", self.fitter.max_evaluations,
+        check_converged(current, f"the fit with {', '.join(self.added)}", self.fitter.max_evaluations,
                          self.force_range)
         self.current, self.model = current, model
         self.now = best["_score"]
-        nrms = _nrms(current.residual, self.force_range)
+        nrms = force_nrms(current.residual, self.force_range)
         label = "+ " + decision.effect
         self.curves[label] = (current.params, model.offsets(current.values))
         self.steps.append({"label": label, "effects": list(self.added), "nrms": nrms, "rms": nrms * self.force_range,
@@ -882,7 +526,7 @@ class _EffectSelection:
         return self.now
 
 
-def _candidate_starts(effect: str, current: _Fit, records) -> list[dict]:
+def _candidate_starts(effect: str, current: Fit, records) -> list[dict]:
     """Where a candidate's fit starts besides the static starts: the current fit with the candidate's parameter
     guessed. A play effect (Coulomb friction, pressure friction: a band of half-width ``value * u(P)``) gets the
     least-squares value of ``-sign * residual = value * u(P)``, the branches' offset from the current fit; any
@@ -910,16 +554,16 @@ def _candidate_starts(effect: str, current: _Fit, records) -> list[dict]:
     return starts
 
 
-def _refit_from_every_start(fitter: _Fitter, current: _Fit, model: _Model, added: list, static_starts: list,
+def _refit_from_every_start(fitter: _Fitter, current: Fit, model: ForceModel, added: list, static_starts: list,
                             points: int, notes: list):
     """The final model fitted once more from every starting point: kept if better; another end that fits as well
-    but elsewhere is reported as ambiguous (:func:`_ambiguous`)."""
+    but elsewhere is reported as ambiguous (:func:`ambiguous_values`)."""
     final_starts = [{**s_, **{k: v for k, v in current.values.items() if k not in s_}} for s_ in static_starts]
     again, again_model, _ = fitter.fit(added, current.params, [current.values, *final_starts])
     if again.converged and again.rss < current.rss:
         current, model = again, again_model
-    uncertainty = _uncertainty(current, model)
-    ambiguous = _ambiguous(current, again.ends, uncertainty[0], points)
+    uncertainty = fit_uncertainty(current, model)
+    ambiguous = ambiguous_values(current, again.ends, uncertainty[0], points)
     if ambiguous:
         notes.append("another muscle fits these data as well (within 2 standard errors of the fit's RSS): "
                      + "; ".join(f"{k} = {current.values[k]:.4g} or {', '.join(f'{v:.4g}' for v in vs)} "
@@ -928,9 +572,9 @@ def _refit_from_every_start(fitter: _Fitter, current: _Fit, model: _Model, added
     return current, model, uncertainty, ambiguous
 
 
-def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple, start: Params, ambiguous: dict,
+def _separate(fitter: _Fitter, current: Fit, model: ForceModel, uncertainty: tuple, start: Params, ambiguous: dict,
               notes: list):
-    """What the data cannot separate (``uncertainty``: :func:`_uncertainty` of the fit): the later of each group
+    """What the data cannot separate (``uncertainty``: :func:`fit_uncertainty` of the fit): the later of each group
     is held at its start and the rest refitted. Returns (fit, standard errors, correlation, groups, held values)."""
     stderr, correlation, groups = uncertainty
     stderr = {k: v for k, v in stderr.items() if k not in ambiguous}
@@ -945,27 +589,27 @@ def _separate(fitter: _Fitter, current: _Fit, model: _Model, uncertainty: tuple,
                  + ", ".join(f"{k} held at {v:g} {UNITS.get(k, 'N')} ({why})" for k, (v, why) in choice.items())
                  + " and the rest refitted")
     refit, model = _hold(fitter, current, model, held)
-    stderr, _, more = _uncertainty(refit, model)
+    stderr, _, more = fit_uncertainty(refit, model)
     groups += [g for g in more if g not in groups]  # what the refit still cannot separate
     stderr = {k: v for k, v in stderr.items() if not any(k in g for g in groups) and k not in ambiguous}
     return refit, stderr, correlation, groups, held
 
 
-def _hold(fitter: _Fitter, current: _Fit, model: _Model, held: dict):
+def _hold(fitter: _Fitter, current: Fit, model: ForceModel, held: dict):
     """The fit refitted with the names in held fixed at their values (the rest from where they are).
     Returns (fit, its model)."""
     records = fitter.records
     keep = tuple(n for n in model.names if n not in held)
     base = current.params.replace(**{k: v for k, v in held.items() if not is_offset(k)})
-    model = _Model(records, base, keep, fitter.link_n)
-    lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, base, keep) for n in keep]))
-    refit = _least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, fitter.max_evaluations)
+    model = ForceModel(records, base, keep, fitter.link_n)
+    lows, highs = (np.array(v) for v in zip(*[bounds_of(n, records, base, keep) for n in keep]))
+    refit = fit_least_squares(model, [{n: current.values[n] for n in keep}], lows, highs, None, fitter.max_evaluations)
     fitter.evaluations += refit.evaluations
     refit.values.update({k: v for k, v in held.items()})
     return refit, model
 
 
-def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start: Params) -> dict:
+def _choose_held(fitter: _Fitter, free: Fit, model: ForceModel, group: list, start: Params) -> dict:
     """Which names of a group the data cannot separate are held, and at what: {name: (value, why)}.
 
     Holding must not make the fit clearly worse than the free fit (``free``: every name fitted); "clearly" is
@@ -988,11 +632,11 @@ def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start:
     usual_fit, _ = _hold(fitter, free, model, usual)
     if usual_fit.rss <= free.rss + EQUALLY_GOOD * s2:
         return choice
-    errors = _standard_errors(free, model)
+    errors = fit_standard_errors(free, model)
     best = None
     for name in (n for n in group if not is_offset(n) and n in errors):
         value, error = free.values[name], errors[name]
-        for side, bound in zip(("lower", "upper"), _bounds(name, fitter.records, free.params, free.names)):
+        for side, bound in zip(("lower", "upper"), bounds_of(name, fitter.records, free.params, free.names)):
             if not (math.isfinite(bound) and abs(value - bound) <= 2 * error):
                 continue
             fit, _ = _hold(fitter, free, model, {name: float(bound)})
@@ -1010,13 +654,13 @@ def _choose_held(fitter: _Fitter, free: _Fit, model: _Model, group: list, start:
                           f"it; holding {others} instead would leave {rms(usual_fit.rss)} RMS, not {rms(rss)}")}
 
 
-def _settle_bounds(records, current: _Fit, notes: list) -> list:
+def _settle_bounds(records, current: Fit, notes: list) -> list:
     """The names that ended on a bound of their range, set exactly on it (0, not 4e-14), with a note each."""
     at_bound = []
-    lows, highs = (np.array(v) for v in zip(*[_bounds(n, records, current.params, current.names)
+    lows, highs = (np.array(v) for v in zip(*[bounds_of(n, records, current.params, current.names)
                                               for n in current.names]))
     for name, low, high in zip(current.names, lows, highs):
-        value, tolerance = current.values[name], 1e-6 * _scale(name)
+        value, tolerance = current.values[name], 1e-6 * scale_of(name)
         if value - low <= tolerance or high - value <= tolerance:
             at_bound.append(name)
             current.values[name] = float(low if value - low <= tolerance else high)  # 0, not 4e-14
@@ -1055,7 +699,7 @@ def play_growing_with_pressure() -> str | None:
     return growing[0] if growing else None
 
 
-def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None, candidates=()) -> None:
+def _note_hysteresis(records, current: Fit, notes: list, added=(), stderr=None, candidates=()) -> None:
     """What the gap between the branches says on its own (:func:`hysteresis_growth`), as a note.
 
     With ``pressure_friction`` added, the gap is an independent cross-check of the fitted friction: half of it is
@@ -1096,246 +740,3 @@ def _note_hysteresis(records, current: _Fit, notes: list, added=(), stderr=None,
                     else "") + f"; expect the largest errors at the extremes of pressure; {hint}")
 
 
-#: Two fits whose RSS differ by less than this many times the noise variance s^2 fit equally well.
-EQUALLY_GOOD = 4.0
-
-
-def _ambiguous(fit: _Fit, ends: list, stderr: dict, points: int) -> dict:
-    """Names whose value differs by more than 3 standard errors between the fit and another run's end that
-    fits as well (RSS within EQUALLY_GOOD s^2): {name: [other values]}."""
-    k = len(fit.names)
-    if points <= k:
-        return {}
-    s2 = fit.rss / (points - k)
-    out: dict = {}
-    for rss, values in ends:
-        if rss - fit.rss > EQUALLY_GOOD * s2:
-            continue
-        for name, error in stderr.items():
-            other = values.get(name)
-            if other is not None and abs(other - fit.values[name]) > 3 * error:
-                if all(abs(other - v) > 3 * error for v in out.get(name, [])):
-                    out.setdefault(name, []).append(float(other))
-    return out
-
-
-def _check_converged(fit: _Fit, what: str, max_evaluations: int, force_range: float) -> None:
-    """Raise :class:`CalibrationError` naming the best point reached when no least-squares run converged."""
-    if fit.converged:
-        return
-    best = ", ".join(f"{k} = {v:.4g}" for k, v in fit.values.items())
-    raise CalibrationError(f"{what} did not converge within {max_evaluations} evaluations per parameter and run; the "
-                           f"best it reached: NRMS {_nrms(fit.residual, force_range):.2%} with {best}")
-
-
-def _covariance(fit: _Fit, model: _Model):
-    """``cov = s^2 (J^T J)^-1`` of the scaled estimates (value / scale) and their standard deviations, with
-    ``s^2 = RSS / (N - k)`` and J the Jacobian of the force residuals on every point; None when there is none."""
-    J = np.asarray(fit.result.jac, dtype=float) if fit.result.jac is not None else None
-    n, k = model.size, len(model.names)
-    if J is None or n <= k:
-        return None
-    # the Jacobian of the residual on every point (least_squares's may be of the training part only)
-    if J.shape[0] != n:
-        J = _jacobian(model, fit.result.x)
-    # white residuals: independent force points, no widening (statistics.covariance)
-    cov_x = covariance(J, parameters=k, rss=fit.rss)
-    return cov_x, standard_errors(cov_x)
-
-
-def _standard_errors(fit: _Fit, model: _Model) -> dict:
-    """Every fitted name's standard error [its unit], those the data cannot separate included (there it is the
-    whole range the data allow along the group, large)."""
-    covariance = _covariance(fit, model)
-    if covariance is None:
-        return {}
-    return {name: float(s * scale) for name, s, scale in zip(model.names, covariance[1], model.scales)}
-
-
-def _uncertainty(fit: _Fit, model: _Model):
-    """Standard errors, the correlation matrix and the groups of names whose estimates cannot be separated."""
-    names = list(model.names)
-    k = len(names)
-    covariance = _covariance(fit, model)
-    if covariance is None:
-        return {}, {"names": names, "matrix": None}, []
-    cov_x, sd_x = covariance
-    stderr = {name: float(s * scale) for name, s, scale in zip(names, sd_x, model.scales)}
-    with np.errstate(invalid="ignore", divide="ignore"):
-        corr = cov_x / np.outer(sd_x, sd_x)
-    corr = np.where(np.isfinite(corr), corr, 0.0)
-    groups: list[list[str]] = []
-    for i in range(k):
-        for j in range(i + 1, k):
-            if abs(corr[i, j]) > IDENTIFIABLE_CORRELATION:
-                a, b = names[i], names[j]
-                home = next((g for g in groups if a in g or b in g), None)
-                if home is None:
-                    groups.append([a, b])
-                else:
-                    for name in (a, b):
-                        if name not in home:
-                            home.append(name)
-    groups = [sorted(g, key=names.index) for g in groups]
-    # a parameter the residual does not depend on at all cannot be determined either
-    return ({k_: v for k_, v in stderr.items() if not any(k_ in g for g in groups)},
-            {"names": names, "matrix": corr.tolist()}, groups)
-
-
-def _jacobian(model: _Model, x):
-    x = np.asarray(x, dtype=float)
-    base = model.residual(x)
-    J = np.empty((base.size, x.size))
-    for i in range(x.size):
-        h = 1e-6 * max(abs(x[i]), 1e-3)
-        step = x.copy()
-        step[i] += h
-        J[:, i] = (model.residual(step) - base) / h
-    return J
-
-
-# --- Pictures and the table --------------------------------------------------------------------------
-
-def plot_fits(result: CalibrationResult, folder, stem: str) -> list[Path]:
-    """Data and fits per length: one PNG per record (``<stem>_fit.png``, or ``<stem>_fit_<i>.png`` for
-    several). Isometric: tension against pressure at each clamped length, both branches, with the static
-    fit and the final model (:func:`mkctl.analysis.compare.plot_isometric`). Isotonic: the measured
-    length against pressure per load, with the final model's quasi-static simulation."""
-    from .compare import plot_isometric
-
-    folder = Path(folder)
-    paths = []
-    curves = {"static fit (no effects)": result.curves["static fit"]}
-    if result.effects:
-        curves["calibrated: + " + ", ".join(result.effects)] = result.curves["final"]
-    else:
-        curves = {"calibrated (no effects added)": result.curves["final"]}
-    for number, record in enumerate(result.records):
-        name = f"{stem}_fit.png" if len(result.records) == 1 else f"{stem}_fit_{number + 1}.png"
-        own = {label: (params, offsets[number]) for label, (params, offsets) in curves.items()}  # its offset
-        title = f"{Path(record.source).name}: blocked force, data and fits (NRMS {result.nrms_before:.2%} -> " \
-                f"{result.nrms_after:.2%})"
-        if record.experiment == "isometric":
-            paths.append(plot_isometric(record.length, record.pressure, record.force, record.sign, own,
-                                        folder / name, title, L0=result.params.L0))
-        elif record.velocity is not None:
-            paths.append(_plot_driven(record, own, folder / name))
-        else:
-            paths.append(_plot_isotonic(record, result, folder / name))
-    return paths
-
-
-def _plot_driven(record: ForceRecord, curves: dict, path) -> Path:
-    """A driven-length record: the measured tension against the imposed length (the loops a moving
-    muscle draws) and each model's (``curves``: label -> (Params, offset [N]))."""
-    from ..io.plotting import new_figure, save_png
-
-    fig, ax = new_figure(figsize=(6.5, 4.2))
-    ax.plot(record.length * 1e3, record.force, ".", ms=2, color="0.5", alpha=0.5, label="measured")
-    colours = ("tab:blue", "tab:red", "tab:green")
-    for colour, (label, (params, offset)) in zip(colours, curves.items()):
-        try:
-            model = actuator.compose_tension(record.length, record.pressure, record.velocity,
-                                             params) + offset
-        except MkctlError:  # this model cannot reach these lengths: no curve
-            continue
-        ax.plot(record.length * 1e3, model, "-", color=colour, lw=0.8, label=label)
-    ax.set_xlabel("imposed length [mm]")
-    ax.set_ylabel("tension [N]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7)
-    ax.set_title(f"{Path(record.source).name}: driven length, data and fits", fontsize=9)
-    return save_png(fig, path, dpi=150)
-
-
-def _plot_isotonic(record: ForceRecord, result: CalibrationResult, path) -> Path:
-    from ..io.plotting import new_figure, save_png
-    from ..physics.isotonic import simulate_isotonic
-
-    fig, ax = new_figure(figsize=(6.5, 4.2))
-    loads = np.unique(np.round(record.force, 9))
-    colors = ["tab:blue", "tab:red", "tab:green", "tab:purple", "tab:orange", "tab:brown"]
-    for color, load in zip(colors * 10, loads):
-        pick = np.isclose(record.force, load)
-        ax.plot(record.pressure[pick] / 1e3, record.length[pick] * 1e3, ".", ms=2, color=color, alpha=0.4,
-                label=f"measured, {load:g} N")
-        if record.time is not None:
-            try:
-                simulated = simulate_isotonic(record.time[pick], record.pressure[pick], record.force[pick],
-                                              result.params)
-                ax.plot(record.pressure[pick] / 1e3, simulated * 1e3, "-", color=color, lw=1.0,
-                        label=f"calibrated model, {load:g} N")
-            except MkctlError:
-                pass
-    ax.set_xlabel("pressure [kPa]")
-    ax.set_ylabel("length [mm]")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=7, ncol=2)
-    ax.set_title(f"{Path(record.source).name}: isotonic, data and calibrated model", fontsize=9)
-    return save_png(fig, path, dpi=150)
-
-
-def plot_error_fall(result: CalibrationResult, path) -> Path:
-    """The error fall: NRMS of each step (start, static fit, each added effect) as bars, log scale."""
-    from matplotlib.ticker import FuncFormatter
-
-    from ..io.plotting import new_figure, save_png
-
-    steps = [s for s in result.steps if s["nrms"] is not None]
-    labels = [s["label"] for s in steps]
-    values = [100 * s["nrms"] for s in steps]
-    fig, ax = new_figure(figsize=(max(4.5, 1.5 * len(labels) + 1.5), 3.8))
-    colors = ["0.75" if s["label"] == "start" else "0.45" if s["label"] == "static fit" else "tab:blue" for s in steps]
-    bars = ax.bar(range(len(values)), values, color=colors)
-    for bar, value in zip(bars, values):
-        ax.annotate(f"{value:.3g} %", (bar.get_x() + bar.get_width() / 2, value), ha="center", va="bottom",
-                    fontsize=8)
-    ax.set_xticks(range(len(values)), labels, fontsize=8)
-    ax.set_yscale("log")
-    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-    ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: ""))
-    ax.set_ylabel("NRMS force error [% of the force range]")
-    ax.set_title("calibration: the error falls step by step", fontsize=10)
-    return save_png(fig, path, dpi=150)
-
-
-def summary(result: CalibrationResult) -> list[str]:
-    """The result as lines of text: the steps' table, the parameters with standard errors, and the notes."""
-    lines = [f"{result.points} points from {len(result.sources)} file(s): {', '.join(result.sources)}",
-             f"{'step':<24} {'NRMS':>8} {'RMS [N]':>9} {'dBIC':>9} {'held-out RMS [N]':>17}"]
-    previous_bic = None
-    for step in result.steps:
-        nrms = "n/a" if step["nrms"] is None else f"{step['nrms']:.2%}"
-        rms = "" if step["rms"] is None else f"{step['rms']:.4g}"
-        bic = step.get("bic")
-        delta = "" if bic is None or previous_bic is None else f"{bic - previous_bic:+.1f}"
-        previous_bic = bic if bic is not None else previous_bic
-        hold = "" if step.get("rms_holdout") is None else f"{step['rms_holdout']:.4g}"
-        lines.append(f"{step['label']:<24} {nrms:>8} {rms:>9} {delta:>9} {hold:>17}")
-        stop = step.get("stop")
-        if stop:
-            for row in stop["candidates"]:
-                lines.append(f"  (not added) {row['effect']:<18} dBIC {row['delta_bic']:+.1f}, held-out RMS "
-                             f"{row['rms_holdout']:.4g} N")
-            lines.append(f"  stop: {stop['reason']}")
-    lines.append("effects added: " + (", ".join(result.effects) or "none"))
-    for name, value in result.fitted.items():
-        unit = {"1": ""}.get(UNITS.get(name, "N"), UNITS.get(name, "N"))
-        if name in result.stderr:
-            text = f"{value:.6g} +- {result.stderr[name]:.2g} {unit}"
-        elif name in result.ambiguous:
-            others = ", ".join(f"{v:.4g}" for v in result.ambiguous[name])
-            text = f"{value:.6g} {unit} (ambiguous: fits as good put it at {others})"
-        elif name in result.held:
-            text = f"{value:.6g} {unit} (held: not identifiable)"
-        else:
-            text = f"{value:.6g} {unit} (not identifiable on its own)"
-        flag = "  <- on its bound" if name in result.at_bound else ""
-        lines.append(f"  {name:<7} = {text}{flag}")
-    if result.not_identifiable:
-        lines.append("not identifiable from these data: " + "; ".join(" with ".join(g) for g in result.not_identifiable))
-    lines.append(f"braid diameter at rest sqrt(b^2 - L0^2) / (pi n) = {result.braid_diameter * 1e3:.3f} mm "
-                 f"(bladder D0 = {result.params.D0 * 1e3:.3f} mm)")
-    for note in result.notes:
-        lines.append("note: " + note)
-    return lines
