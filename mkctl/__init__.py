@@ -8,36 +8,13 @@ call it. Modules, from the bottom up:
 - :mod:`mkctl.physics.knee`: the knee's geometry, ground force (Eq. 14-16) and state equations (Eq. 17).
 - :mod:`mkctl.physics.stability`: a1, a2, h (Eq. 18-23), the equilibrium set and the Routh-Hurwitz verdict.
 - :mod:`mkctl.physics.integrate`, :mod:`mkctl.physics.simulate`, :mod:`mkctl.physics.isotonic`: time simulation.
+
+Importing mkctl changes nothing anywhere: the compiled cores are plug-ins the physics finds through the
+package's entry points (:mod:`mkctl.physics.backend`), not providers handed in here.
 """
 from .errors import DomainError, MeasurementFileError, MkctlError, ParameterError
 from .io.muscle import read_muscle, write_muscle
-from .physics import backend as _backend
 from .physics.params import DEFAULT, PARAMETER_NAMES, TABLE_I, TABLE_II, Params
-
-
-def _compiled_core(params):
-    """The compiled core (:mod:`mkctl.native`) for params' structure, or None: no compiler, switched off
-    (``MKCTL_NATIVE=0``), or mkctl.native absent (a pythonfmu FMU packs only the modules it imports)."""
-    try:
-        from .native import compiled
-    except ImportError:
-        return None
-    return compiled.core_for(params)
-
-
-def _mechanism_core(mechanism, params):
-    """The compiled core of a mechanism (:mod:`mkctl.native.mechanism_compiled`) for params, or
-    None (as :func:`_compiled_core`)."""
-    try:
-        from .native import mechanism_compiled
-    except ImportError:
-        return None
-    return mechanism_compiled.core_for(mechanism, params)
-
-
-# the physics layer is handed the compiled cores; it never imports the layer above it
-_backend.install(_compiled_core)
-_backend.install_mechanism(_mechanism_core)
 
 __version__ = "0.1.0"
 

@@ -208,6 +208,14 @@ def module_level_writes_into_other_modules(path: Path) -> list[str]:
                 base = base.value
             if base is not target and isinstance(base, ast.Name) and base.id in imported:
                 found.append(f"line {node.lineno}: {ast.unparse(target)}")
+        # a call into an imported module as a statement of its own (``backend.install(provider)``): a
+        # provider handed in, a registry filled
+        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Call):
+            base = node.value.func
+            while isinstance(base, ast.Attribute):
+                base = base.value
+            if base is not node.value.func and isinstance(base, ast.Name) and base.id in imported:
+                found.append(f"line {node.lineno}: {ast.unparse(node.value.func)}(...)")
     return found
 
 
@@ -221,9 +229,27 @@ def test_the_back_reference_check_sees_one(tmp_path):
     """The check itself can fail: the two back-references round 3 had (a registry's slot, a list filled in)."""
     fake = tmp_path / "probe.py"
     fake.write_text("import sys\nfrom . import effects\nNAMES = ('a',)\neffects.NAMES[:] = NAMES\n"
-                    "effects.PHYSICS['actuator'] = sys.modules[__name__]\nlocal = {}\nlocal['x'] = 1\n")
+                    "effects.PHYSICS['actuator'] = sys.modules[__name__]\nlocal = {}\nlocal['x'] = 1\n"
+                    "from .physics import backend as _backend\n_backend.install(print)\nprint('plain')\n")
     assert module_level_writes_into_other_modules(fake) == [
-        "line 4: effects.NAMES[:]", "line 5: effects.PHYSICS['actuator']"]
+        "line 4: effects.NAMES[:]", "line 5: effects.PHYSICS['actuator']", "line 9: _backend.install(...)"]
+
+
+_FIND_THE_CORES = """
+import json, sys
+import mkctl.physics.simulate
+from mkctl.physics import backend
+declared = backend._declared("knee"), backend._declared("mechanism")
+print(json.dumps([backend._chosen == {}, [f"{f.__module__}.{f.__name__}" for f in declared]]))
+"""
+
+
+def test_the_physics_finds_the_compiled_cores_that_nothing_handed_in(run_python):
+    """Importing mkctl hands nothing in (no provider chosen), and the physics finds the cores through the
+    package's entry points (pyproject.toml): the plug-in, not a back-reference."""
+    nothing_chosen, found = run_python(_FIND_THE_CORES)
+    assert nothing_chosen
+    assert found == ["mkctl.native.compiled.core_for", "mkctl.native.mechanism_compiled.core_for"]
 
 
 #: A new effect registered right after one physics module is imported alone, then used by that parameter set.

@@ -2,7 +2,8 @@
 
 :func:`core_for` returns the :class:`Core` for a parameter set's structure (built and cached on first use,
 see :mod:`mkctl.native.build`), or None when the compiled core is not available here; :func:`status` says
-why. Nothing here raises because a compiler is missing.
+why. Nothing here raises because a compiler is missing. The physics layer finds :func:`core_for` as the
+``knee`` entry point of the group :data:`mkctl.physics.backend.ENTRY_POINT_GROUP` (``pyproject.toml``).
 """
 from __future__ import annotations
 

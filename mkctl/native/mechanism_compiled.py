@@ -3,8 +3,8 @@
 :func:`core_for` returns the :class:`MechanismCore` of a mechanism (a built-in or a user's file)
 for a parameter set, or None when there is none here (no compiler, ``MKCTL_NATIVE=0``, the air on:
 :func:`mkctl.physics.actuator.air_is_on`); :func:`mkctl.physics.mechanism.simulate_mechanism` then
-runs its Python loop. mkctl hands it to the physics layer through
-:func:`mkctl.physics.backend.install_mechanism`.
+runs its Python loop. The physics layer finds it as the ``mechanism`` entry point of the group
+:data:`mkctl.physics.backend.ENTRY_POINT_GROUP` (``pyproject.toml``).
 
 The C is the native FMU's (:func:`mkctl.native.mechanism_fmu.generate_core`: the right-hand side
 traced from :func:`~mkctl.physics.mechanism.mechanism_derivatives` for every variant, the core's
