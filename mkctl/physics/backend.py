@@ -86,7 +86,7 @@ def mechanism_core(mechanism, params):
     -------
     core or None
         The core the installed provider gives; None when no provider is installed or the
-        provider has none (no compiler, ``MKCTL_NATIVE=0``, the air on).
+        provider has none (no compiler, ``MKCTL_NATIVE=0``, the air's temperature as a state).
     """
     provider = _mechanism_provider[0]
     return None if provider is None else provider(mechanism, params)
