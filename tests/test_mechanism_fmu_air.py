@@ -199,6 +199,18 @@ def test_the_interface_with_the_air(built_air):
             assert variables[f"q_{m}"].causality == "output" and variables[f"q_{m}"].unit == "kg/s"
 
 
+def test_the_air_switched_off_in_an_fmu_built_with_it(built_air, tmp_path):
+    """valve_flow = 0 at run time: the section 4 pressure path (the pressures the commands, no flow),
+    the library's run without the air."""
+    mechanism = _mechanism("pulley_joint")
+    reference = mech.simulate_mechanism(TIME, _commands(2), mechanism, Params())
+    host = Host(built_air["pulley_joint"]["2"], tmp_path / "fmu", "2", "cs")
+    got, commands = _run(host, mechanism, float(reference.q[0]), valve_flow=0)
+    assert np.abs(got[:, 0] - reference.q).max() <= 1e-9 * np.ptp(reference.q)
+    np.testing.assert_array_equal(got[:, 2:4], commands)
+    assert not np.any(got[:, 4:])
+
+
 def test_the_airs_temperature_is_refused_in_one_line(tmp_path):
     muscle = tmp_path / "hot.json"
     muscle.write_text('{"params": {"valve_flow": 1, "tau_heat": 0.5}}')
