@@ -341,6 +341,9 @@ def test_model_names_and_the_variables_a_host_sees(built, name, model):
         outputs = {v.name for v in md.modelVariables if v.causality == "output"}
         assert {"q", "qdot", "a1", "a2", "stable"} <= outputs
         assert {f"{kind}_{m}" for kind in ("L", "f", "P") for m in mechanism.muscles} <= outputs
+        # built without the air (tests/test_mechanism_fmu_air.py builds it with): none of it offered
+        air = {"valve_flow", "C_fill", "C_leak", *(f"q_{m}" for m in mechanism.muscles)}
+        assert not air & set(variables)
 
 
 @pytest.mark.slow

@@ -1,9 +1,14 @@
 """The compiled core of any mechanism's simulation (model-spec 3b, 7d): whole records in one C call.
 
 :func:`core_for` returns the :class:`MechanismCore` of a mechanism (a built-in or a user's file)
-for a parameter set, or None when there is none here (no compiler, ``MKCTL_NATIVE=0``, the air on:
-:func:`mkctl.physics.actuator.air_is_on`); :func:`mkctl.physics.mechanism.simulate_mechanism` then
-runs its Python loop. The physics layer finds it as the ``mechanism`` entry point of the group
+for a parameter set, or None when there is none here (no compiler, ``MKCTL_NATIVE=0``, the air's
+temperature as a state: :func:`mkctl.native.compiled.carries`);
+:func:`mkctl.physics.mechanism.simulate_mechanism` then runs its Python loop. The air
+(``valve_flow``, ``leak``; model-spec 4d) runs compiled: a parameter set that switches it on gets
+a second library of the mechanism, generated with the air's variants too (the pressures states of
+the muscles' mass balance, :func:`mkctl.physics.actuator.air_pressure_derivative`, as the native
+FMU built with the air); the others keep the library without them (a third fewer variants).
+The physics layer finds it as the ``mechanism`` entry point of the group
 :data:`mkctl.physics.backend.ENTRY_POINT_GROUP` (``pyproject.toml``).
 
 The C is the native FMU's (:func:`mkctl.native.mechanism_fmu.generate_core`: the right-hand side
@@ -33,7 +38,7 @@ from ..physics import effects
 from ..physics import mechanism as mech
 from ..physics.actuator import air_is_on
 from . import build
-from .compiled import Fault, _pointer, parameter_vector
+from .compiled import AIR_NOT_CARRIED, Fault, _pointer, carries, parameter_vector
 
 #: The record loop appended to the generated ``mechanism_core.c`` (same translation unit: it calls
 #: the static integrator and right-hand side there).
@@ -132,10 +137,12 @@ def mechanism_fingerprint(mechanism: mech.Mechanism) -> str:
     return "\n".join(parts)
 
 
-def source_key(mechanism: mech.Mechanism) -> str:
-    """Hash of everything the generated mechanism source depends on."""
+def source_key(mechanism: mech.Mechanism, air: bool = False) -> str:
+    """Hash of everything the generated mechanism source depends on (air: with the air's
+    variants)."""
     from .variants import all_variants
-    digest = hashlib.sha256(build.input_key(all_variants()).encode())
+    digest = hashlib.sha256(build.input_key(all_variants(air)).encode())
+    digest.update(b"air" if air else b"")
     here = Path(__file__).resolve().parent
     for name in ("mechanism_fmu.py", "mechanism_compiled.py", "fmu.py"):
         digest.update((here / name).read_bytes())
@@ -143,62 +150,65 @@ def source_key(mechanism: mech.Mechanism) -> str:
     return digest.hexdigest()[:20]
 
 
-def _interface_names(mechanism: mech.Mechanism):
+def _interface_names(mechanism: mech.Mechanism, air: bool = False):
     """(vr, inputs, outputs) for generate_core: a mechanism FMU's variables in its order (the
     value references only reach the FMU constants, which this library does not use)."""
     muscles = mechanism.muscles
     inputs = [f"p_cmd_{m}" for m in muscles]
     outputs = ["q", "qdot", *(f"{kind}_{m}" for kind in ("L", "f", "P") for m in muscles),
-               "a1", "a2", "stable"]
+               "a1", "a2", "stable", *(f"q_{m}" for m in muscles if air)]
     vr = {name: i for i, name in enumerate([*inputs, "q0", *outputs])}
     return vr, inputs, outputs
 
 
-def generate_source(mechanism: mech.Mechanism) -> str:
+def generate_source(mechanism: mech.Mechanism, air: bool = False) -> str:
     """The C of the mechanism's simulation core: the native FMU's generated unit and
-    :data:`RECORD_C`. Raises :class:`mkctl.native.fmu.NativeBuildError` when it cannot be traced."""
+    :data:`RECORD_C` (air: with the air's variants). Raises
+    :class:`mkctl.native.fmu.NativeBuildError` when it cannot be traced."""
     from .mechanism_fmu import generate_core
-    vr, inputs, outputs = _interface_names(mechanism)
+    vr, inputs, outputs = _interface_names(mechanism, air)
     from .variants import all_variants
-    source, _ = generate_core(mechanism, vr, False, inputs, outputs)
-    # the variants in generate_core's order (the knee core's mk_variant, which an FMU links)
+    source, _ = generate_core(mechanism, vr, False, inputs, outputs, air)
+    # the variants in generate_core's order (the knee core's mk_variant, which an FMU links); the
+    # air's tested first, as there: the others' tests name no air parameter
     variant = ["/* index of the compiled variant for parameter vector p, or -1 */",
                "int mk_variant(const double *p)", "{"]
-    variant += [f"    if ({v.c_condition()}) return {i};" for i, v in enumerate(all_variants())]
+    variant += [f"    if ({v.c_condition()}) return {i};"
+                for i, v in sorted(enumerate(all_variants(air)), key=lambda pair: not pair[1].air)]
     return "\n".join([source, RECORD_C, *variant, "    return -1;", "}", ""])
 
 
-def generated_source(mechanism: mech.Mechanism) -> Path:
+def generated_source(mechanism: mech.Mechanism, air: bool = False) -> Path:
     """The generated source, from the cache (verified against its record) or generated now."""
-    key = source_key(mechanism)
+    key = source_key(mechanism, air)
     path = build.cache_dir() / f"mech-gen-{key}.c"
     if path.exists() and build._verified(path, {"inputs": key}):
         return path
     with build.cache_lock(path):
         if not (path.exists() and build._verified(path, {"inputs": key})):
-            data = generate_source(mechanism).encode()
+            data = generate_source(mechanism, air).encode()
             build._write_atomic(path, data)
             build._write_record(path, {"inputs": key, "sha256": build._digest(data)})
     return path
 
 
-def build_library(mechanism: mech.Mechanism) -> Path:
-    """The mechanism's compiled library (built now if not cached). Raises
-    :class:`mkctl.native.build.BuildUnavailable`."""
+def build_library(mechanism: mech.Mechanism, air: bool = False) -> Path:
+    """The mechanism's compiled library (built now if not cached; air: with the air's variants).
+    Raises :class:`mkctl.native.build.BuildUnavailable`."""
     if not build.enabled():
         raise build.BuildUnavailable(f"switched off by {build.ENV_SWITCH}")
     compiler = build.find_compiler()
     if compiler is None:
         from . import toolchain
         raise build.BuildUnavailable(toolchain.missing_host_compiler())
-    return build.cached_library(compiler, [generated_source(mechanism)], "mech")
+    return build.cached_library(compiler, [generated_source(mechanism, air)], "mech")
 
 
 class MechanismCore:
     """One loaded mechanism library: whole records of :func:`mkctl.physics.mechanism._run`."""
 
-    def __init__(self, mechanism: mech.Mechanism, path):
-        self.mechanism, self.path = mechanism, path
+    def __init__(self, mechanism: mech.Mechanism, path, air: bool = False):
+        self.mechanism, self.path, self.air = mechanism, path, air
         self.lib = ctypes.CDLL(str(path))
         pointer = ctypes.c_void_p
         self.lib.mk_mech_record.restype = ctypes.c_int
@@ -233,20 +243,23 @@ class MechanismCore:
 
 
 def core_for(mechanism: mech.Mechanism, params) -> MechanismCore | None:
-    """The compiled core of the mechanism, built on first use; None when it is not available here
-    (switched off, no compiler, the air on, a mechanism that cannot be generated into C)."""
-    if not build.enabled() or air_is_on(mech.muscle_params(params)):
+    """The compiled core of the mechanism, built on first use (with the air's variants when params
+    switch the air on); None when it is not available here (switched off, no compiler, the air's
+    temperature as a state, a mechanism that cannot be generated into C)."""
+    muscle = mech.muscle_params(params)
+    if not build.enabled() or not carries(muscle):
         return None
-    model = mech.muscle_params(params).definition
+    model = muscle.definition
     if model != effects.current():
         return None  # the core is generated for the current model: a set of another runs the Python path
-    key = (model, mechanism)
+    air = air_is_on(muscle)
+    key = (model, mechanism, air)
     if key in _cores:
         return _cores[key]
     with _lock:
         if key not in _cores:
             try:
-                _cores[key] = MechanismCore(mechanism, build_library(mechanism))
+                _cores[key] = MechanismCore(mechanism, build_library(mechanism, air), air)
             except build.BuildUnavailable as reason:
                 _cores[key], _reasons[key] = None, str(reason)
             except Exception as error:  # a bug or an untraceable file must not stop a simulation
@@ -262,10 +275,13 @@ def status(mechanism: mech.Mechanism, params=None) -> str:
     params = mech.DEFAULT if params is None else params
     if not build.enabled():
         return f"python (switched off by {build.ENV_SWITCH})"
-    if air_is_on(mech.muscle_params(params)):
-        from .compiled import AIR_NOT_CARRIED
+    muscle = mech.muscle_params(params)
+    if not carries(muscle):
         return f"python ({AIR_NOT_CARRIED})"
     core = core_for(mechanism, params)
     if core is None:
-        return f"python ({_reasons.get((effects.current(), mechanism), 'unavailable')})"
+        if muscle.definition != effects.current():
+            return "python (a parameter set of a model other than the current one)"
+        key = (muscle.definition, mechanism, air_is_on(muscle))
+        return f"python ({_reasons.get(key, 'unavailable')})"
     return f"compiled ({core.path})"

@@ -18,6 +18,9 @@ C function                     traced Python function
                                and :func:`~mkctl.physics.mechanism.coefficients_at` (a1, a2)
 ``mech_switches_<variant>``    the switching functions of ``mech_rhs`` (Model Exchange's event
                                indicators, :func:`mkctl.native.fmu.switching_functions`)
+``mech_air_flows_<variant>``   built with the air: each muscle's net air mass flow,
+                               :func:`mkctl.physics.actuator.air_mass_flow` at the regulator's
+                               opening (:func:`~mkctl.physics.actuator.valve_opening`)
 ``mech_stop_positions``        the mechanism's ``stops(p)``
 ``mech_step_checks``           :func:`mkctl.physics.actuator.check_pressure` of the commands
 integrator                     the core's Dormand-Prince 5(4) (``core_template.c``, the text of
@@ -36,7 +39,16 @@ mechanism's functions read (``m``, ``g``), its own parameters, ``q0`` (the start
 start value is the stable equilibrium at the start commands) and ``P_rated``; outputs ``q``,
 ``qdot``, each muscle's ``L_<muscle>``, ``f_<muscle>``, ``P_<muscle>``, ``a1``, ``a2`` and
 ``stable`` (a1 < 0 and a2 < 0 at the present state). Model Exchange states: ``q``, ``qdot`` and
-one pressure-lag state per muscle (inert without a lag).
+one pressure state per muscle, ``P_lag_<muscle>`` (inert without a lag or the air).
+
+Built with the air (model-spec 4d, 7d; ``air``, by default when the build's parameters switch it
+on): the air's variants are compiled in as the knee's (:mod:`mkctl.native.variants`: the right-hand
+side traced with each pressure from :func:`mkctl.physics.actuator.air_pressure_derivative`, coupled
+to the motion through dV/dt), section 4d's parameters and the switch ``valve_flow`` are offered
+(the inputs ``p_cmd_<muscle>`` are then the set-points of pressure regulators), and the outputs add
+``q_<muscle>``, each muscle's net air mass flow in [kg/s] (the knee's ``qe``, ``qf``; the
+mechanism's outputs name the muscle after the kind, as ``L_<muscle>``). The air's temperature as a
+state (``air_heat``) is refused at the build in one line, as the knee refuses it.
 """
 from __future__ import annotations
 
@@ -48,8 +60,7 @@ from pathlib import Path
 from ..errors import DomainError, ParameterError
 from ..physics import actuator
 from ..physics import mechanism as mech
-from ..physics.params import (INTEGER_PARAMETERS, PARAMETER_NAMES, RATED_PRESSURE,
-                              TABLE_II, UNITS, Params)
+from ..physics.params import PARAMETER_NAMES, RATED_PRESSURE, TABLE_II, UNITS, Params
 from . import TEMPLATE
 from . import fmu as fmi2
 from .fmu import Interface, MEState, NativeBuildError, Variable
@@ -67,6 +78,9 @@ RHS_ARGUMENTS = ("const double *y, double c1, double c2, double *out, mk_fault *
                  "y, c1, c2, out, fault")
 OUTPUT_ARGUMENTS = ("double q, double qdot, double P1, double P2, double *out, mk_fault *fault",
                     "q, qdot, P1, P2, out, fault")
+#: Arguments of the generated air mass flows (after p, stops, k): the pressures and the commands.
+FLOW_ARGUMENTS = ("double P1, double P2, double c1, double c2, double *out, mk_fault *fault",
+                  "P1, P2, c1, c2, out, fault")
 
 
 def model_name(mechanism: mech.Mechanism) -> str:
@@ -82,7 +96,8 @@ def _muscle_names(mechanism) -> dict:
     """Each muscle's variable names, checked as C identifiers."""
     names = {}
     for muscle in mechanism.muscles:
-        names[muscle] = {kind: f"{kind}_{muscle}" for kind in ("p_cmd", "L", "f", "P", "P_lag")}
+        kinds = ("p_cmd", "L", "f", "P", "P_lag", "q")
+        names[muscle] = {kind: f"{kind}_{muscle}" for kind in kinds}
         for text in names[muscle].values():
             fmi2.c_identifier(text)
     return names
@@ -95,7 +110,7 @@ def _mechanism_params_used(mechanism) -> list[str]:
 
 
 def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
-                        alone: bool = False) -> Interface:
+                        alone: bool = False, air: bool | None = None) -> Interface:
     """What a mechanism FMU shows a host (see the module docstring), start values from params (the
     muscle's; default: the current model's defaults) and the mechanism's own defaults.
 
@@ -106,12 +121,26 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
     qdot. The knee is built this way only (its pressure-driven FMU is McKibbenKnee); its start
     values are the knee FMU's (X0 at alpha = 60 deg, the tensions of the commands that hold it).
 
+    air: built with the air (model-spec 4d, 7d; None: when params switch it on,
+    :func:`mkctl.native.fmu.wants_air`): section 4d's parameters and the switch ``valve_flow``
+    offered, the air's variants compiled in (the pressures states of the muscles' mass balance),
+    and the outputs ``q_<muscle>``, each muscle's net air mass flow in [kg/s]. Without it an effect
+    that moves the air is not offered. The mechanism alone has no air.
+
     Raises :class:`NativeBuildError` for a name that is no C identifier or clashes with another
-    variable, and when the start commands have no stable equilibrium.
+    variable, when the start commands have no stable equilibrium, and for params that switch on
+    an effect the FMU does not carry (the air without ``air``; the air's temperature as a state).
     """
-    from ..fmi.interface import _MUSCLE, ACTUATOR, ACTUATOR_PARAMETERS, P_RATED_DESCRIPTION
+    from ..fmi.interface import (_MUSCLE, ACTUATOR, P_RATED_DESCRIPTION, _effect_reals,
+                                 check_carried, fmu_integer_parameters)
     from ..fmi.units import fmi_unit
     params = Params() if params is None else params
+    air = False if alone else (fmi2.wants_air(params) if air is None else bool(air))
+    if not alone:
+        try:
+            check_carried(params, air)
+        except ParameterError as error:
+            raise NativeBuildError(f"mechanism {mechanism.name}: {error}") from None
     if mechanism.name == "knee" and not alone:
         raise NativeBuildError("the knee has its own FMU (McKibbenKnee): build it without "
                                "--mechanism")
@@ -130,7 +159,7 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
     except (DomainError, ParameterError) as error:
         raise NativeBuildError(f"mechanism {mechanism.name}: no start coordinate q0 at the start "
                                f"commands ({START_COMMAND:g} Pa): {error}") from None
-    real = [*(_MUSCLE if alone else ACTUATOR_PARAMETERS)]
+    real = [*_MUSCLE, *(() if alone else _effect_reals(air))]
     real += [n for n in _mechanism_params_used(mechanism) if n not in real]
     own = {q.name: q for q in mechanism.parameters}
     rows = []  # (name, type, causality, variability, description, unit, start)
@@ -149,7 +178,7 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
     for n in real:
         text = TABLE_II[n].description if n in TABLE_II else ACTUATOR.description_of(n)
         real_row(n, "parameter", text, UNITS[n], float(getattr(params, n)))
-    for n in () if alone else INTEGER_PARAMETERS:
+    for n in () if alone else fmu_integer_parameters(air):
         rows.append((n, "Integer", "parameter", "fixed", ACTUATOR.description_of(n), None,
                      int(getattr(params, n))))
     for q in mechanism.parameters:
@@ -174,6 +203,9 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
                  "stops excluded)", "1/s^2")
         rows.append(("stable", "Boolean", "output", "discrete", "Routh-Hurwitz verdict at the "
                      "present state: a1 < 0 and a2 < 0; no unit", None, None))
+    for muscle in mechanism.muscles if air else ():
+        real_row(muscles[muscle]["q"], "output", f"{muscle}'s net air mass flow in (valve and "
+                 "leak; negative: out), 0 without the air", "kg/s")
     seen = set()
     for row in rows:
         if row[0] in seen or row[0] in ("time",) or row[0].startswith("der("):
@@ -187,16 +219,18 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
     states = (MEState("q", fmi_unit(unit), fmi_unit(rate), 1.0),
               MEState("qdot", fmi_unit(rate), fmi_unit(f"{unit}/s^2"), 1.0),
               *(() if alone else
-                (MEState(muscles[m]["P_lag"], "Pa", "Pa/s", 1e6,
-                         f"pressure-lag state of {m} (Model Exchange): equal to P_{m} with a lag; "
-                         "inert (derivative 0) without one") for m in mechanism.muscles)))
+                (MEState(muscles[m]["P_lag"], "Pa", "Pa/s", 1e6, _state_text(m, air))
+                 for m in mechanism.muscles)))
     outputs = [v.name for v in variables if v.causality == "output"]
     inputs = [v.name for v in variables if v.causality == "input"]
-    source, nz = generate_core(mechanism, {v.name: v.vr for v in variables}, alone, inputs, outputs)
+    source, nz = generate_core(mechanism, {v.name: v.vr for v in variables}, alone, inputs, outputs,
+                               air)
     driven = ("alone, its muscles' tensions as inputs (for a system of FMUs)" if alone
               else "driven by McKibben muscles")
     description = (f"{mechanism.description or mechanism.name}: a mechanism of one coordinate "
-                   f"({mechanism.coordinate} [{unit}]) {driven} (model-spec sections 3b, 7d)")
+                   f"({mechanism.coordinate} [{unit}]) {driven} (model-spec sections 3b, 7d)"
+                   + ("; the air in the muscles (model-spec 4d) when valve_flow = 1"
+                      if air else ""))
     experiment = {"startTime": "0.0", "stopTime": "2.0", "stepSize": "0.001"}
     pressures = {} if alone else {muscles[m]["P"]: m for m in mechanism.muscles}
     header = (fmi2.C_DIR / HEADER).read_text()
@@ -204,7 +238,17 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
                      "outputs that depend on the pressures are undefined", pressures,
                      me_states=states, event_indicators=nz, model_sources=MODEL_SOURCES,
                      generated_sources=((CORE_FILE, source), (HEADER, header)),
-                     core_parameters=tuple(own))
+                     core_parameters=tuple(own), air=air)
+
+
+def _state_text(muscle: str, air: bool) -> str:
+    """The description of a muscle's pressure state (Model Exchange)."""
+    if air:
+        return (f"pressure state of {muscle} (Model Exchange): equal to P_{muscle}, from the air's "
+                "mass balance with valve_flow or leak on, a lag's state with a lag; inert "
+                "(derivative 0) without either")
+    return (f"pressure-lag state of {muscle} (Model Exchange): equal to P_{muscle} with a lag; "
+            "inert (derivative 0) without one")
 
 
 # --- the generated unit -------------------------------------------------------------------------
@@ -293,18 +337,21 @@ def _stops_format(mechanism) -> str:
     return pieces[0] + "%g" + pieces[1].replace(format(high, "g"), "%g")
 
 
-def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list, output_names: list
-                  ) -> tuple[str, int]:
+def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list,
+                  output_names: list, air: bool = False) -> tuple[str, int]:
     """The C of ``mechanism_core.c`` (see the module docstring) and its number of event indicators.
     vr: the FMU's value references by variable name; alone: the mechanism alone (tensions in, see
-    :func:`mechanism_interface`); inputs, output_names: the FMU's, in order."""
+    :func:`mechanism_interface`); inputs, output_names: the FMU's, in order; air: the air's
+    variants too (:func:`mkctl.native.variants.all_variants`) and each muscle's air mass flow
+    after the other outputs."""
     import sympy
 
     from . import codegen
     from .variants import all_variants
 
     k = len(mechanism.muscles)
-    variants = all_variants()
+    air = air and not alone
+    variants = all_variants(air)
     table = codegen.CheckTable()
     own = {q.name: _real(f"mp_{i}") for i, q in enumerate(mechanism.parameters)}
     parameters = {n: f"p[MK_P_{n}]" for n in PARAMETER_NAMES}
@@ -327,7 +374,11 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
         a1, a2 = mech.coefficients_at(mechanism, q, qdot, tuple(P), p)
         return [*force.L, *force.f, a1, a2]
 
-    parts, rhs_cases, switch_cases, counts = [], [], [], []
+    def air_flows(P, c, p):  # each muscle's net mass flow in at the regulator's opening
+        return [actuator.air_mass_flow(P_i, actuator.valve_opening(P_i, c_i, p), p)
+                for P_i, c_i in zip(P, c)]
+
+    parts, rhs_cases, switch_cases, counts, flow_cases = [], [], [], [], []
     try:
         # the mechanism alone has no muscle: one variant's functions serve every variant
         emitted = variants[:1] if alone else variants
@@ -358,6 +409,14 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
             bindings = {**parameters, "q": "q", "qdot": "qdot", "P1": "P1", "P2": "P2"}
             parts.append(codegen.emit_function(f"mech_outputs_{variant.name}", *OUTPUT_ARGUMENTS,
                                                bindings, constant, traced, "out", table, stable))
+            if variant.air:
+                name = f"mech_air_flows_{variant.name}"
+                traced = codegen.trace(air_flows, pressures, commands,
+                                       codegen.SymbolicParams(variant))
+                parts.append(codegen.emit_function(
+                    name, *FLOW_ARGUMENTS, {**parameters, "P1": "P1", "P2": "P2", "c1": "c1",
+                                            "c2": "c2"}, constant, traced, "out", table))
+                flow_cases.append((index, name))
         p = mech.MechanismParams(codegen.SymbolicParams(variants[0]), own)
         traced = codegen.trace(lambda pp: [sympy.sympify(s) for s in mechanism.stops(pp)], p)
         parts.append(codegen.emit_function("mech_stop_positions", "double *out, mk_fault *fault",
@@ -414,6 +473,12 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
                   "                                double P2, double *out, mk_fault *fault)",
                   "return {name}_once(p, NULL, q, qdot, P1, P2, out, fault);", outputs_cases,
                   variant_fault)]
+    if air:  # the variants without the air: no flow
+        dispatchers += dispatch(
+            f"static int mech_air_flows_variant({head_p}, double P1, double P2, double c1,\n"
+            "                                  double c2, double *out, mk_fault *fault)",
+            "return {name}_once(p, NULL, P1, P2, c1, c2, out, fault);", flow_cases,
+            "out[0] = 0.0;" + (" out[1] = 0.0;" if k == 2 else "") + "\n    return 0;")
     integrator = _substituted(
         _template_part("/* Dense output of a record run",
                        "/* Integrate the knee state y (MK_P_tau > 0"),
@@ -433,6 +498,13 @@ def generate_core(mechanism: mech.Mechanism, vr: dict, alone: bool, inputs: list
         arrange = (f"for (i = 0; i < {2 * k}; i++) out[i] = t[i]; out[{2 * k}] = P1; "
                    + (f"out[{2 * k + 1}] = P2; " if k == 2 else "")
                    + f"for (i = 0; i < 3; i++) out[{3 * k} + i] = t[{2 * k} + i];")
+        if air:  # then each muscle's air mass flow (0 without the air)
+            arrange += (f"\n    rc = mech_air_flows_variant(variant, p, P1, P2, c1, c2, "
+                        f"out + {3 * k + 3}, fault);\n    if (rc)\n        return rc;")
+    expected = 3 * k + 3 + (k if air else 0) if not alone else 2 * k
+    if len(output_names) - 2 != expected:
+        raise NativeBuildError(f"a mechanism FMU's outputs after q, qdot number {expected}, "
+                               f"not {len(output_names) - 2}")
     templates = [fmi2._c_string(fmi2._fault_template(check)) for check in table.checks]
     atol = ", ".join(fmi2._c_double(a) for a in (*mech.RUN_ATOL, mech.RUN_ATOL[2]))
     api = f"""
@@ -533,7 +605,8 @@ int mk_mech_check_parameters(const double *p, char *msg, size_t size)
     source = "\n".join([
         f"/* {model_name(mechanism)}: the mechanism's equations, GENERATED by",
         " * mkctl/native/mechanism_fmu.py from the library's own functions (mechanism_derivatives,",
-        " * mechanism_force, coefficients_at, the mechanism's stops) and the core's integrator",
+        " * mechanism_force, coefficients_at, the mechanism's stops"
+        + (", actuator.air_mass_flow" if air else "") + ") and the core's integrator",
         " * (core_template.c). Do not edit. */",
         head.replace("@VARIANT_NAMES@", ", ".join(v.name for v in variants)),
         "/* ---- generated equations ---- */", *parts, *dispatchers, codegen._tableau(), integrator,
@@ -542,14 +615,16 @@ int mk_mech_check_parameters(const double *p, char *msg, size_t size)
 
 
 def build_mechanism(mechanism: mech.Mechanism, out: Path, params: Params | None = None,
-                    platforms: bool = True, alone: bool = False) -> dict[str, Path]:
+                    platforms: bool = True, alone: bool = False, air: bool | None = None
+                    ) -> dict[str, Path]:
     """Write ``out/native/McKibben<Name>.fmu`` (FMI 2.0) and ``out/fmi3/McKibben<Name>.fmu``
     (FMI 3.0), both interfaces, linux64 and (platforms) the other platforms' binaries whose
     toolchains are installed
     (:mod:`mkctl.native.cross`, as the knee's). Returns the paths by "native/<name>", "fmi3/<name>".
-    alone: the mechanism alone (:func:`mechanism_interface`). Raises :class:`NativeBuildError`."""
+    alone: the mechanism alone, air: with the air (None: when params switch it on; see
+    :func:`mechanism_interface`). Raises :class:`NativeBuildError`."""
     from . import fmi3
-    interface = mechanism_interface(mechanism, params, alone)
+    interface = mechanism_interface(mechanism, params, alone, air)
     name = interface.model_name
     native = fmi2.build_one(name, Path(out) / "native" / f"{name}.fmu", windows=platforms,
                             interface=interface)

@@ -118,7 +118,7 @@ def mechanism_core(mechanism, params):
     -------
     core or None
         The core the provider gives; None when there is no provider or the provider has none (no
-        compiler, ``MKCTL_NATIVE=0``, the air on).
+        compiler, ``MKCTL_NATIVE=0``, the air's temperature as a state).
     """
     provider = _provider("mechanism")
     return None if provider is None else provider(mechanism, params)
