@@ -33,9 +33,6 @@ from ..errors import MkctlError
 from ..io.command_line import OneLineParser, UsageError, folder_problem, run_reporting_errors  # as mkctl's
 from ..physics.params import Params
 
-# the scenarios show the FMUs' messages themselves (one line, see FMULog): the FMUs need not echo them on stderr
-os.environ.setdefault("MKCTL_FMU_STDERR", "0")
-
 FMU_FILES = {"knee": "McKibbenKnee.fmu", "actuator": "McKibbenActuator.fmu"}
 STEP = 1e-3  #: communication step of the fmpy runs [s]
 
@@ -340,6 +337,9 @@ def finish(args, columns: dict[str, np.ndarray], fig, summary: list[str]) -> Non
 def main_guard(run, argv=None) -> int:
     """Run a scenario; a failure (ScenarioError, an mkctl error, a file that cannot be written) ends it with one
     line on stderr and exit status 2, an interrupt with exit status 130."""
+    # the scenarios show the FMUs' messages themselves (one line, see FMULog): the FMUs need not echo them on
+    # stderr (set when a scenario runs, not when this module is imported)
+    os.environ.setdefault("MKCTL_FMU_STDERR", "0")
     return run_reporting_errors(_prog, run, argv)
 
 
