@@ -217,17 +217,29 @@ def _final_fit(problem: Problem, record: Record, state: "Search", offset_before:
         for name in final_values:
             rms = math.sqrt(sum((v[name] - final_values[name]) ** 2 for v in shifts) / len(shifts))
             uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), rms)
-    if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
-        # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
-        # (first order: refit at tau -+ its standard error, add the spread in quadrature)
-        spread = []
-        for sign in (-1.0, 1.0):
-            shifted = start.replace(tau=max(lag["tau"] + sign * lag["uncertainty"], 1e-6))
-            values, _, _, _ = joint_fit(problem, shifted, added, final_values, train_only=False, rough=True)
-            spread.append(values)
-        for name in final_values:
-            moved = 0.5 * abs(spread[1][name] - spread[0][name])
-            uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), moved)
+    path = lag["path"] if lag is not None else {"values": {}, "uncertainty": {}}
+    if added and path["uncertainty"]:
+        # the path's values were fixed from the pressures: their own uncertainty moves the motion's
+        # parameters too (first order: refit at each value -+ its standard error, add the spread in
+        # quadrature)
+        for name, error in path["uncertainty"].items():
+            value = path["values"].get(name)
+            if not error or value is None:
+                continue
+            spread = []
+            for sign in (-1.0, 1.0):
+                try:
+                    shifted = start.replace(**{name: max(value + sign * error, 1e-3 * value)})
+                except MkctlError:  # beyond its bounds: the spread is not measured
+                    break
+                values, _, _, _ = joint_fit(problem, shifted, added, final_values, train_only=False,
+                                            rough=True)
+                spread.append(values)
+            if len(spread) < 2:
+                continue
+            for key in final_values:
+                moved = 0.5 * abs(spread[1][key] - spread[0][key])
+                uncertainty[key] = math.hypot(uncertainty.get(key, 0.0), moved)
     if lag is not None and lag["path"]["effects"]:
         path = lag["path"]
         added = [*path["effects"], *added]
