@@ -19,6 +19,7 @@ delay only to within a sample, and the motion, which follows it continuously, fi
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,7 +44,7 @@ SETTLE_FACTOR = 10.0
 SETTLE_MIN = 10.0
 
 __all__ = ["MUSCLES", "PressurePath", "lag_from_pressures", "muscle_lengths", "path_effect",
-           "path_from_pressures", "pressure_path", "pressure_record"]
+           "path_from_pressures", "pressure_path", "pressure_record", "step_share"]
 
 
 @dataclass(frozen=True)
@@ -112,9 +113,12 @@ def muscle_lengths(measurement: Measurement, params: Params):
 def pressure_record(measurement: Measurement, params: Params) -> Measurement:
     """Both muscles' measured pressures as one pressure record (model-spec 5c; module docstring).
 
-    The extensor's samples, one sample halfway through the pause that switches the command to the
-    flexor's first one (its measured value: the extensor's last, where the model has settled
-    after half the pause), then the flexor's samples. Lengths from the measured motion
+    The extensor's samples, one sample halfway through the pause at which the command steps to the
+    flexor's first one, then the flexor's samples. At that sample a path with a state still holds
+    the extensor's last pressure, one faster than a sample already the new command: its measured
+    value moves from the extensor's last by the share of the step that the record's own pressures
+    move at the samples where their commands step (:func:`step_share`), so that it is explained by
+    whatever explains the record's own steps. Lengths from the measured motion
     (:func:`muscle_lengths`), else held at L0.
 
     Parameters
@@ -136,7 +140,9 @@ def pressure_record(measurement: Measurement, params: Params) -> Measurement:
     (first_cmd, first), (second_cmd, second) = MUSCLES
     time = np.concatenate([t, [t[-1] + 0.5 * pause], t + t[-1] + pause])
     command = np.concatenate([m.inputs[first_cmd], [m.inputs[second_cmd][0]], m.inputs[second_cmd]])
-    measured = np.concatenate([m.inputs[first], [m.inputs[first][-1]], m.inputs[second]])
+    share = step_share([m.inputs[c] for c, _ in MUSCLES], [m.inputs[p] for _, p in MUSCLES])
+    pause_value = m.inputs[first][-1] + share * (m.inputs[second_cmd][0] - m.inputs[first_cmd][-1])
+    measured = np.concatenate([m.inputs[first], [pause_value], m.inputs[second]])
     inputs = {"p_cmd": command}
     if lengths is not None:
         inputs["length"] = np.concatenate([lengths[0], [lengths[1][0]], lengths[1]])
@@ -144,6 +150,32 @@ def pressure_record(measurement: Measurement, params: Params) -> Measurement:
         experiment="pressure", baseline=m.baseline, params=params, overrides=dict(m.overrides),
         time=time, inputs=inputs, output=measured, output_column="p_kPa", output_factor=1e3,
         source=f"{m.source} (measured pressures)", output_quantity="p")
+
+
+def step_share(commands, pressures) -> float:
+    """The share of a command's step that the measured pressure moves at the sample where the
+    command steps (least squares over every step of every muscle, within 0..1): 1 for pressures that
+    follow their commands within a sample, 0 for a path with a state (a lag, a valve) or a delay.
+
+    Parameters
+    ----------
+    commands, pressures : sequence of numpy.ndarray
+        Each muscle's commands and measured pressures [Pa].
+
+    Returns
+    -------
+    float
+        0 when no command steps.
+    """
+    moved, stepped = [], []
+    for command, pressure in zip(commands, pressures):
+        steps = np.flatnonzero(np.diff(command) != 0) + 1
+        moved.append(pressure[steps] - pressure[steps - 1])
+        stepped.append(command[steps] - command[steps - 1])
+    moved, stepped = np.concatenate(moved), np.concatenate(stepped)
+    if not stepped.size:
+        return 0.0
+    return float(np.clip(moved @ stepped / (stepped @ stepped), 0.0, 1.0))
 
 
 def path_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE,
@@ -187,6 +219,11 @@ def path_from_pressures(measurement: Measurement, params: Params, rule: Rule = R
     path_params = result.params_after if result.params_after is not None else params
     if motion:
         path_params = params
+    from .preparation import gap_note  # (preparation imports this module)
+
+    # the pause between the muscles is no gap of the user's record
+    notes = [text for text in result.notes if text != gap_note(record)]
+    result = dataclasses.replace(result, notes=notes)
     return PressurePath(result, path_params, motion, _report(result, motion))
 
 
