@@ -176,3 +176,38 @@ def test_clean_pressures_name_nothing():
     found = path("clean")
     assert found.result.missing == [] and not found.report["accepted"], found.result
     assert found.report["path"]["effects"] == [] and found.params == knee("clean").params
+
+
+# --- the discovery on pressure records (model-spec 6b): the pneumatic terms ----------------------------------
+
+@functools.lru_cache(maxsize=None)
+def pressure_record_of(hidden: str, seed: int = 1):
+    """A pressure record of a muscle held at L0 (model-spec 5c), its set-point stepped by more than the valve's
+    band, its pressure from the valve of :data:`VALVE` ("valve") or the set-points themselves ("clean"), with
+    0.5 kPa of sensor noise."""
+    p = Params()
+    time = np.arange(SAMPLES) / RATE
+    command = np.select([time >= 2.0, time >= 1.0, time >= 0.2], [250e3, 100e3, 400e3], 150e3)
+    pressure = command if hidden == "clean" else valve_pressure(time, command, np.full(SAMPLES, p.L0), p,
+                                                                 VALVE)
+    measured = pressure + np.random.default_rng(seed).normal(0.0, SENSOR_NOISE, SAMPLES)
+    return measurement_from_arrays("pressure", time, {"p_cmd": command}, measured, source=f"<pressure, {hidden}>")
+
+
+def test_the_discovery_names_a_rate_limited_by_the_supply():
+    from mkctl.analysis.discovery import discover
+
+    found = discover(pressure_record_of("valve"))
+    assert found["terms"], found["reason"]
+    first = found["terms"][0]
+    assert first["matches"] == "valve_flow" and found["explained"] > 0.9, found
+    # its coefficient is the valve's conductance (the library's column is the valve's rate per unit C_fill at
+    # the record's own volume, supply and band): within 3 standard errors and 5 % (the smoothing's bias)
+    assert abs(first["coefficient"] - VALVE["C_fill"]) <= 3 * first["stderr"] + 0.05 * VALVE["C_fill"], first
+
+
+def test_the_discovery_adds_nothing_to_a_clean_pressure_record():
+    from mkctl.analysis.discovery import discover
+
+    found = discover(pressure_record_of("clean"))
+    assert found["terms"] == [] and found["reason"], found

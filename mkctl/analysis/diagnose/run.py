@@ -308,9 +308,9 @@ def _result(record: Record, state: "Search", final: _Final, offset_before: float
         say(text)
     # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
     # it lacks show as their own terms, "matches" naming them)
-    # (a pressure record holds no force: the library of forces has nothing to regress)
+    # (a pressure record's: its missing pressure rate on the pneumatic terms)
     found = discover(record.prepared, record.start, progress=say, effects=discovery_effects()) \
-        if verdict == "incomplete" and m.experiment != "pressure" else None
+        if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
