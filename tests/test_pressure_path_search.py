@@ -211,3 +211,21 @@ def test_the_discovery_adds_nothing_to_a_clean_pressure_record():
 
     found = discover(pressure_record_of("clean"))
     assert found["terms"] == [] and found["reason"], found
+
+
+def test_a_knee_diagnosis_reports_and_pictures_the_path_it_found(tmp_path):
+    from mkctl.analysis.diagnose import diagnose, save_pictures
+
+    record = rig.knee_record({"c": 45.0, "tau": 0.05}, params=Params(c=45.0), samples=1500, rate=500.0,
+                             pressures=True)
+    result = diagnose(record)
+    assert result.missing == ["pressure_lag"] and result.pressure_lag["accepted"], result
+    report = result.pressure_lag
+    assert report["path"]["effects"] == ["pressure_lag"] and report["verdict"] == "diagnosed"
+    assert abs(report["rmse_kPa"] - 0.5) < 0.05  # the rig's 0.5 kPa of sensor noise is what is left
+    curves = result.pressure_path_simulated
+    assert curves.shape == (2, record.samples)
+    assert np.sqrt(np.mean((curves[0] - record.inputs["pe"]) ** 2)) < 0.6e3
+    pictures = save_pictures(record, result, tmp_path, "knee")
+    assert Path(pictures["pressure_path"]).stat().st_size > 10_000
+    assert "pressure_lag" in result.to_dict() and result.to_dict()["missing"] == ["pressure_lag"]

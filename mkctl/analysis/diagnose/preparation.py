@@ -461,7 +461,8 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> Record:
                   baseline_effects=list(m.params.effects), output=m.output_column, output_unit=m.output_unit,
                   samples=m.samples, input_noise=noise_info, output_noise=noise.sigma * to_file,
                   output_noise_correlation=noise.correlation, saturation=saturation,
-                  rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
+                  rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag,
+                  pressure_path_simulated=path.simulated if path is not None else None)
     problems = sanity_problems(m, full_before, m.params, fit_offset)
     # the effects on the pressure path were judged on the measured pressures (what only delays the
     # command is left to the motion)

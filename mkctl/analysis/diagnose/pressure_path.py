@@ -32,7 +32,7 @@ from ..diagnosis_rule import RULE, Rule
 from ..equation_error import KNEE_SMOOTHING_S
 from ..filters import savgol_filter
 from ..signals import pressure_path
-from .candidates import on_pressure_path
+from .candidates import holds_pressure, on_pressure_path
 
 #: Each muscle's command column and measured pressure column of a knee record (model-spec 5).
 MUSCLES = (("pe_cmd", "pe"), ("pf_cmd", "pf"))
@@ -65,6 +65,16 @@ class PressurePath:
     motion: tuple  #: effects found that only delay the command, left to the motion
     report: dict
 
+    @property
+    def simulated(self):
+        """The measured pressures as the path found models them: (extensor, flexor) [Pa] over the
+        knee record's samples (:func:`pressure_record`'s two parts), or None."""
+        curve = self.result.simulated_after
+        if curve is None:
+            return None
+        n = (np.size(curve) - 1) // 2
+        return np.vstack([curve[:n], curve[n + 1:]])
+
 
 def path_effect(effect) -> bool:
     """An effect between a command and the muscle's pressure (a lag, a dead time, the air)."""
@@ -73,8 +83,7 @@ def path_effect(effect) -> bool:
 
 def _state_free(effect) -> bool:
     """An effect that only delays the command: no pressure state of its own (a dead time)."""
-    return (effect.command_delay is not None and effect.pressure_rate is None
-            and effect.pressure_step is None and not effect.moves_air)
+    return effect.command_delay is not None and not holds_pressure(effect)
 
 
 def muscle_lengths(measurement: Measurement, params: Params):

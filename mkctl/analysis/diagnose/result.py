@@ -74,6 +74,8 @@ class DiagnosisResult(Result):
     signature_order: list = field(default_factory=list, repr=False)
     #: each alternative's simulation over every sample [SI]
     alternative_simulated: list = field(default_factory=list, repr=False)
+    #: a knee's measured pressures as the path found on them model them: (extensor, flexor) [Pa]
+    pressure_path_simulated: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def units(self) -> dict:
