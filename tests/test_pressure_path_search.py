@@ -1,17 +1,18 @@
-"""The knee's measured pressures judged through the shared search (issues 27, 28; model-spec 4d, 5c).
+"""The knee's measured pressures judged through the shared search (issues 27, 28; spec 4d, 5c).
 
 Each muscle's measured pressure against its command is a pressure record of that muscle, its length
 from the measured motion, and both go through the same search and rule as a pressure record: the
-candidates are the effects' own (a lag, an asymmetric lag, a dead time, the valve's flow, a leak, the
-air's heat), with no branch on a name.
+candidates are the effects' own (a lag, an asymmetric lag, a dead time, the valve's flow, a leak,
+the air's heat), with no branch on a name.
 
-The records: a knee clamped at its rest height (tests/independent_rig.py's own geometry and statics),
-its commands stepped by more than a valve's band (so that a valve chokes; the free leg of the rig
-leaves its range under such steps), and measured pressures that are the commands, or the commands
-through a lag (exact, written here), or from an independent pneumatic simulator written here (its own ISO 6358-1
-orifice, the braid's volume of Eq. 6 plus a dead volume at the rig's muscle lengths, the polytropic
-mass balance with dV/dt, a regulating valve, integrated by solve_ivp), with 0.5 kPa of white sensor
-noise. A value found is checked against the truth within 3 of its reported standard errors.
+The records: a knee clamped at its rest height (tests/independent_rig.py's own geometry and
+statics), its commands stepped by more than a valve's band (so that a valve chokes; the free leg of
+the rig leaves its range under such steps), and measured pressures that are the commands, or the
+commands through a lag (exact, written here), or from an independent pneumatic simulator written
+here (its own ISO 6358-1 orifice, the braid's volume of Eq. 6 plus a dead volume at the rig's
+muscle lengths, the polytropic mass balance with dV/dt, a regulating valve, integrated by
+solve_ivp), with 0.5 kPa of white sensor noise. A value found is checked against the truth within 3
+of its reported standard errors.
 """
 import functools
 import math
@@ -44,15 +45,17 @@ def flow_ratio(r, b_cr, m_sub):
 
 
 def orifice(p_up, p_down, C, b_cr, m_sub):
-    """Mass flow [kg/s] from absolute p_up to p_down through sonic conductance C (reversed if p_down > p_up)."""
+    """Mass flow [kg/s] from absolute p_up to p_down through sonic conductance C (reversed if
+    p_down > p_up)."""
     if p_down > p_up:
         return -orifice(p_down, p_up, C, b_cr, m_sub)
     return C * RHO0 * p_up * flow_ratio(p_down / p_up, b_cr, m_sub)  # T = T0: sqrt(T0 / T) = 1
 
 
 def valve_pressure(time, command, length, p: Params, valve: dict):
-    """A muscle's gauge pressure behind a regulating valve: u = clip((P_cmd - P) / band, -1, 1) fills from the
-    supply through u C_fill, or exhausts to the atmosphere through -u C_fill; dp/dt = k (R T q - p dV/dt) / V."""
+    """A muscle's gauge pressure behind a regulating valve: u = clip((P_cmd - P) / band, -1, 1)
+    fills from the supply through u C_fill, or exhausts to the atmosphere through -u C_fill;
+    dp/dt = k (R T q - p dV/dt) / V."""
     n = rig.turns(p)
     rate = np.gradient(length, time)
 
@@ -65,7 +68,8 @@ def valve_pressure(time, command, length, p: Params, valve: dict):
         u = min(max((target - P) / valve["band"], -1.0), 1.0)
         p_abs = P + P_ATM
         if u >= 0:
-            q = orifice(valve["P_supply"] + P_ATM, p_abs, u * valve["C_fill"], valve["b_cr"], valve["m_sub"])
+            q = orifice(valve["P_supply"] + P_ATM, p_abs, u * valve["C_fill"], valve["b_cr"],
+                        valve["m_sub"])
         else:
             q = -orifice(p_abs, P_ATM, -u * valve["C_fill"], valve["b_cr"], valve["m_sub"])
         dV = (p.b ** 2 - 3.0 * L ** 2) / (4.0 * math.pi * n ** 2) * Ldot
@@ -84,10 +88,12 @@ def valve_pressure(time, command, length, p: Params, valve: dict):
 
 
 def commands(time, p: Params):
-    """(pe_cmd, pf_cmd) [Pa]: the extensor's holding pressure at 60 degrees and the flexor's 100 kPa, each
+    """(pe_cmd, pf_cmd) [Pa]: the extensor's holding pressure at 60 degrees and the flexor's
+    100 kPa, each
     stepped up and down by more than the valve's band, held from each sample to the next."""
     pe0 = rig.holding_pressure(rig.alpha_height(math.radians(60.0), p), 100e3, p)
-    pe = np.select([time >= 2.1, time >= 1.2, time >= 0.3], [pe0 + 50e3, pe0 - 100e3, pe0 + 150e3], pe0)
+    pe = np.select([time >= 2.1, time >= 1.2, time >= 0.3],
+                   [pe0 + 50e3, pe0 - 100e3, pe0 + 150e3], pe0)
     pf = np.select([time >= 1.8, time >= 0.6], [150e3, 250e3], 100e3)
     return pe, pf
 
@@ -104,7 +110,8 @@ def lagged(time, command, tau):
 
 @functools.lru_cache(maxsize=None)
 def knee(hidden: str, seed: int = 0):
-    """A knee record with the leg clamped at its rest height (the rig's own geometry and statics), its
+    """A knee record with the leg clamped at its rest height (the rig's own geometry and
+    statics), its
     commands stepped (:func:`commands`), and the measured pressures through ``hidden`` ("clean": the
     commands themselves, "lag": tau = 40 ms, "valve": :data:`VALVE`), 0.5 kPa of sensor noise."""
     p = Params()
@@ -116,12 +123,14 @@ def knee(hidden: str, seed: int = 0):
         Pe, Pf = lagged(time, pe_cmd, 0.04), lagged(time, pf_cmd, 0.04)
     elif hidden == "valve":
         Le, Lf = rig._lengths(X, p)
-        Pe, Pf = valve_pressure(time, pe_cmd, Le, p, VALVE), valve_pressure(time, pf_cmd, Lf, p, VALVE)
+        Pe = valve_pressure(time, pe_cmd, Le, p, VALVE)
+        Pf = valve_pressure(time, pf_cmd, Lf, p, VALVE)
     rng = np.random.default_rng(seed)
     inputs = {"pe_cmd": pe_cmd, "pf_cmd": pf_cmd, "pe": Pe + rng.normal(0.0, SENSOR_NOISE, SAMPLES),
               "pf": Pf + rng.normal(0.0, SENSOR_NOISE, SAMPLES)}
     measured = X + rig.ar1_noise(1e-5, SAMPLES, 0.01, 1.0 / RATE, rng)
-    return measurement_from_arrays("knee", time, inputs, measured, source=f"<clamped knee, {hidden}>")
+    return measurement_from_arrays("knee", time, inputs, measured,
+                                   source=f"<clamped knee, {hidden}>")
 
 
 @functools.lru_cache(maxsize=None)
@@ -132,7 +141,8 @@ def path(hidden: str):
 
 def within(value, error, truth, standard_errors=3.0):
     assert error is not None and 0 < error < 0.2 * truth, (value, error, truth)
-    assert abs(value - truth) <= standard_errors * error, (value, truth, error, (value - truth) / error)
+    assert abs(value - truth) <= standard_errors * error, (value, truth, error,
+                                                          (value - truth) / error)
 
 
 def test_the_pressure_record_holds_both_muscles_with_their_lengths():
@@ -178,20 +188,22 @@ def test_clean_pressures_name_nothing():
     assert found.report["path"]["effects"] == [] and found.params == knee("clean").params
 
 
-# --- the discovery on pressure records (model-spec 6b): the pneumatic terms ----------------------------------
+# --- the discovery on pressure records (model-spec 6b): the pneumatic terms ---------------------
 
 @functools.lru_cache(maxsize=None)
 def pressure_record_of(hidden: str, seed: int = 1):
-    """A pressure record of a muscle held at L0 (model-spec 5c), its set-point stepped by more than the valve's
-    band, its pressure from the valve of :data:`VALVE` ("valve") or the set-points themselves ("clean"), with
+    """A pressure record of a muscle held at L0 (model-spec 5c), its set-point stepped by more
+    than the valve's band, its pressure from the valve of :data:`VALVE` ("valve") or the
+    set-points themselves ("clean"), with
     0.5 kPa of sensor noise."""
     p = Params()
     time = np.arange(SAMPLES) / RATE
     command = np.select([time >= 2.0, time >= 1.0, time >= 0.2], [250e3, 100e3, 400e3], 150e3)
-    pressure = command if hidden == "clean" else valve_pressure(time, command, np.full(SAMPLES, p.L0), p,
-                                                                 VALVE)
+    held = np.full(SAMPLES, p.L0)
+    pressure = command if hidden == "clean" else valve_pressure(time, command, held, p, VALVE)
     measured = pressure + np.random.default_rng(seed).normal(0.0, SENSOR_NOISE, SAMPLES)
-    return measurement_from_arrays("pressure", time, {"p_cmd": command}, measured, source=f"<pressure, {hidden}>")
+    return measurement_from_arrays("pressure", time, {"p_cmd": command}, measured,
+                                   source=f"<pressure, {hidden}>")
 
 
 def test_the_discovery_names_a_rate_limited_by_the_supply():
@@ -201,9 +213,11 @@ def test_the_discovery_names_a_rate_limited_by_the_supply():
     assert found["terms"], found["reason"]
     first = found["terms"][0]
     assert first["matches"] == "valve_flow" and found["explained"] > 0.9, found
-    # its coefficient is the valve's conductance (the library's column is the valve's rate per unit C_fill at
-    # the record's own volume, supply and band): within 3 standard errors and 5 % (the smoothing's bias)
-    assert abs(first["coefficient"] - VALVE["C_fill"]) <= 3 * first["stderr"] + 0.05 * VALVE["C_fill"], first
+    # its coefficient is the valve's conductance (the library's column is the valve's rate per
+    # unit C_fill at the record's own volume, supply and band): within 3 standard errors and 5 %
+    # (the smoothing's bias)
+    band = 3 * first["stderr"] + 0.05 * VALVE["C_fill"]
+    assert abs(first["coefficient"] - VALVE["C_fill"]) <= band, first
 
 
 def test_the_discovery_adds_nothing_to_a_clean_pressure_record():
@@ -216,8 +230,8 @@ def test_the_discovery_adds_nothing_to_a_clean_pressure_record():
 def test_a_knee_diagnosis_reports_and_pictures_the_path_it_found(tmp_path):
     from mkctl.analysis.diagnose import diagnose, save_pictures
 
-    record = rig.knee_record({"c": 45.0, "tau": 0.05}, params=Params(c=45.0), samples=1500, rate=500.0,
-                             pressures=True)
+    record = rig.knee_record({"c": 45.0, "tau": 0.05}, params=Params(c=45.0), samples=1500,
+                             rate=500.0, pressures=True)
     result = diagnose(record)
     assert result.missing == ["pressure_lag"] and result.pressure_lag["accepted"], result
     report = result.pressure_lag

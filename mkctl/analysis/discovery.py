@@ -135,7 +135,8 @@ class Term:
     commands_only: bool = False
     effect: str | None = None  #: the registered or user effect whose own form this term is
     #: what a coefficient of 1 adds: "tension" [N] per actuator, or a pressure record's
-    #: "pressure rate" [Pa/s] (``tension(a)`` then reads the air's states, :func:`pressure_library`)
+    #: "pressure rate" [Pa/s] (``tension(a)`` then reads the air's states,
+    #: :func:`pressure_library`)
     quantity: str = "tension"
 
     @property
@@ -176,12 +177,13 @@ def library(params: Params, effects=()) -> list[Term]:
     ]
 
 
-# --- Pressure records: the missing pressure rate ---------------------------------------------------------
+# --- Pressure records: the missing pressure rate ------------------------------------------------
 
 #: A pressure record's rates are smoothed over this long [s] (at least 5 samples) ...
 PRESSURE_SMOOTHING_S = 0.02
 #: ... and samples where the measured pressure moves by more than this share of its range from one
-#: sample to the next (a step faster than a sample: no rate there) are left out, with a window around.
+#: sample to the next (a step faster than a sample: no rate there) are left out, with a window
+#: around them.
 PRESSURE_JUMP_FRACTION = 0.05
 
 
@@ -195,7 +197,8 @@ def _switched_on(params: Params, effect) -> Params | None:
         q = needed.switch_parameter
         if q.switch:
             values[q.name] = q.on_value
-        fitted = needed.parameter(needed.fitted) if needed.fitted in needed.parameter_names else None
+        fitted = (needed.parameter(needed.fitted) if needed.fitted in needed.parameter_names
+                  else None)
         if fitted is not None and fitted.typical is not None and fitted.typical != fitted.off:
             values[fitted.name] = fitted.typical
         elif not q.switch:
@@ -220,10 +223,15 @@ def _rate_term(effect, params: Params) -> Term | None:
     scale = getattr(on, q.name) - (q.off if q is effect.switch_parameter else 0.0)
     if effect.air_flow is not None and scale > 0:
         def rate(a, effect=effect, on=on, scale=scale):
-            u = a["opening"] if a["opening"] is not None else actuator.valve_opening(a["P"], a["P_cmd"], on)
+            u = a["opening"]
+            if u is None:  # a set-point record: the regulator's opening
+                u = actuator.valve_opening(a["P"], a["P_cmd"], on)
             flow = effect.air_flow(a["P"], on.T_air, u, on, np)
-            return air_physics.polytropic_pressure_rate(a["P"], a["V"], 0.0, flow, on.k_poly, on.T_air) / scale
-        return Term(f"{effect.name} flow rate", q.unit, rate, effect=effect.name, quantity="pressure rate")
+            dP_dt = air_physics.polytropic_pressure_rate(a["P"], a["V"], 0.0, flow, on.k_poly,
+                                                         on.T_air)
+            return dP_dt / scale
+        return Term(f"{effect.name} flow rate", q.unit, rate, effect=effect.name,
+                    quantity="pressure rate")
     if effect.pressure_rate is not None:
         def rate(a, effect=effect, on=on):
             return effect.pressure_rate(a["P"], a["P_cmd"], on, np)
@@ -232,11 +240,12 @@ def _rate_term(effect, params: Params) -> Term | None:
 
 
 def pressure_library(params: Params) -> list[Term]:
-    """The terms a pressure record's missing rate is regressed on (module docstring): each registered
-    effect's own rate (:func:`_rate_term`: the valve's, a rate limited by the supply; the leak's, a
-    decay to the atmosphere; the lags'), then a constant rate [Pa/s]."""
+    """The terms a pressure record's missing rate is regressed on (module docstring): each
+    registered effect's own rate (:func:`_rate_term`: the valve's, a rate limited by the supply;
+    the leak's, a decay to the atmosphere; the lags'), then a constant rate [Pa/s]."""
     terms = [t for t in (_rate_term(e, params) for e in registry.all_effects()) if t is not None]
-    return [*terms, Term("constant rate", "Pa/s", lambda a: np.ones_like(a["P"]), quantity="pressure rate")]
+    drift = Term("constant rate", "Pa/s", lambda a: np.ones_like(a["P"]), quantity="pressure rate")
+    return [*terms, drift]
 
 
 def _air_states(m: Measurement, params: Params) -> dict:
@@ -264,14 +273,16 @@ def _air_states(m: Measurement, params: Params) -> dict:
 
 
 def model_pressure_rate(m: Measurement, params: Params, a: dict) -> np.ndarray:
-    """The baseline's pressure rate [Pa/s] at the measured states ``a``: the air's mass balance with
+    """The baseline's pressure rate [Pa/s] at the measured states ``a``: the air's mass balance,
     an effect that moves the air on (the polytropic law; an air_heat state is not reconstructed),
     the pressure-rate terms of the lags, or 0 where the baseline follows its command at once."""
     if actuator.air_is_on(params):
-        return np.asarray(actuator.air_pressure_derivative(
-            a["P"], a["command"], a["L"], a["Ldot"], params, opening=a["opening"] is not None), float)
+        rate = actuator.air_pressure_derivative(a["P"], a["command"], a["L"], a["Ldot"], params,
+                                                opening=a["opening"] is not None)
+        return np.asarray(rate, float)
     if actuator.has_pressure_states(params):
-        return np.asarray(actuator.pressure_derivative(a["P"], a["P_cmd"], params), float) * np.ones_like(a["P"])
+        rate = actuator.pressure_derivative(a["P"], a["P_cmd"], params)
+        return np.asarray(rate, float) * np.ones_like(a["P"])
     return np.zeros_like(a["P"])
 
 
@@ -284,14 +295,16 @@ def pressure_equation_error(m: Measurement, params: Params, terms: list[Term]):
     dt = float(np.median(np.diff(m.time)))
     window = max(5, int(round(PRESSURE_SMOOTHING_S / dt)) | 1)
     if window + 2 > n:
-        raise MkctlError(f"the record is too short ({n} samples) for the rate's {window}-sample window")
+        raise MkctlError(f"the record is too short ({n} samples) for the rate's "
+                         f"{window}-sample window")
     a = _air_states(m, params)
     measured = savgol_filter(a["P"], window, 3, deriv=1, delta=dt)
     missing = measured - savgol_filter(model_pressure_rate(m, params, a), window, 3)
     columns = {t.label: savgol_filter(np.asarray(t.tension(a), float) * np.ones(n), window, 3)
                for t in terms if t.quantity == "pressure rate"}
     used = np.ones(n, bool)
-    jumps = np.flatnonzero(np.abs(np.diff(a["P"])) > PRESSURE_JUMP_FRACTION * max(np.ptp(a["P"]), 1e-9))
+    largest = PRESSURE_JUMP_FRACTION * max(np.ptp(a["P"]), 1e-9)
+    jumps = np.flatnonzero(np.abs(np.diff(a["P"])) > largest)
     for k in jumps:
         used[max(k - window, 0):k + window + 1] = False
     edge = window // 2 + 1
@@ -600,7 +613,8 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
     empty = {"explained": 0.0, "explained_holdout": 0.0, "terms": [], "effect_file": None, "missing_force_rms": None,
              "samples": 0, "effective_samples": None, "steps": []}
     try:
-        terms = pressure_library(params) if m.experiment == "pressure" else library(params, effects=effects)
+        terms = (pressure_library(params) if m.experiment == "pressure"
+                 else library(params, effects=effects))
         y, columns, used = regressors(m, params, terms)
     except MkctlError as error:
         return {**empty, "reason": f"the missing force cannot be computed at the measured states: {error}"}

@@ -170,7 +170,8 @@ def plot_pressure_path(measurement, simulated, path, title: str = "") -> Path:
         top, low = axes[2 * k, 0], axes[2 * k + 1, 0]
         top.step(t, measurement.inputs[command] / 1e3, where="post", color="0.55", lw=1,
                  label="command (held)")
-        top.plot(t, np.asarray(simulated[k]) / 1e3, color="tab:blue", lw=1.4, label="the path found")
+        top.plot(t, np.asarray(simulated[k]) / 1e3, color="tab:blue", lw=1.4,
+                 label="the path found")
         top.plot(t[::every], measurement.inputs[measured][::every] / 1e3, "o", ms=3, mfc="none",
                  mew=0.7, color="k", alpha=0.6, label="measured")
         top.set_ylabel(f"{muscle} {measured} [kPa]", fontsize=8)
@@ -369,7 +370,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
     }, folder / f"{stem}_residuals.png")
 
     path_curves = getattr(result, "pressure_path_simulated", None)
-    if path_curves is not None and result.pressure_lag:  # a knee's measured pressures: the path found
+    if path_curves is not None and result.pressure_lag:  # a knee's measured pressures
         found = ", ".join(result.pressure_lag["path"]["effects"]) or "nothing found"
         paths["pressure_path"] = plot_pressure_path(
             measurement, path_curves, folder / f"{stem}_pressure_path.png",

@@ -52,13 +52,13 @@ is over every sample. All RMSE are in the units of the file's output column; par
 
 The package's modules are the stages: :mod:`.candidates` (what a record can show),
 :mod:`.preparation` (measured inputs, smoothing, commands, gaps, sanity), :mod:`.noise` (the
-output's AR(1) noise, the inputs' noise), :mod:`.pressure_path` (the pressure path
-judged on measured pressures, through the same search), :mod:`.problem` (the fit problem, evaluation, one and joint fits), :mod:`.search`
-(forward selection and the wider search), :mod:`.signatures`, :mod:`.alternatives` (a tie as whole
-models), :mod:`.result` (the result and the verdict) and :mod:`.run` (:func:`diagnose`). The
-acceptance rule is :mod:`mkctl.analysis.diagnosis_rule`; the statistics are
-:mod:`mkctl.analysis.statistics`, the sampled-signal operations :mod:`mkctl.analysis.signals`. This
-module re-exports the public API only.
+output's AR(1) noise, the inputs' noise), :mod:`.pressure_path` (the pressure path judged on
+measured pressures, through the same search), :mod:`.problem` (the fit problem, evaluation, one and
+joint fits), :mod:`.search` (forward selection and the wider search), :mod:`.signatures`,
+:mod:`.alternatives` (a tie as whole models), :mod:`.result` (the result and the verdict) and
+:mod:`.run` (:func:`diagnose`). The acceptance rule is :mod:`mkctl.analysis.diagnosis_rule`; the
+statistics are :mod:`mkctl.analysis.statistics`, the sampled-signal operations
+:mod:`mkctl.analysis.signals`. This module re-exports the public API only.
 """
 from __future__ import annotations
 
@@ -90,8 +90,10 @@ __all__ = [
     "SIGNAL_LEAK_CORRELATION", "VERDICTS", "WHITE_NOISE_CORRELATION", "WIDER_SEARCH_FACTOR",
     "Candidate", "DiagnosisResult", "NoiseModel", "block_commands", "candidates_for",
     "command_changes", "diagnose", "experiment_to_separate", "gap_note", "input_noise",
-    "input_noise_through_model", "lag_from_pressures", "path_from_pressures", "measured_inputs", "noise_model",
-    "output_noise", "output_quantity", "output_range", "prepare_inputs", "pressure_path", "pressure_record",
+    "input_noise_through_model", "lag_from_pressures", "path_from_pressures", "measured_inputs",
+    "noise_model",
+    "output_noise", "output_quantity", "output_range", "prepare_inputs", "pressure_path",
+    "pressure_record",
     "public", "quantization_step", "renoised_inputs", "sanity_problems", "saturation_note",
     "save_pictures", "signatures", "smooth_input", "summary", "time_gaps", "verdict_of",
 ]

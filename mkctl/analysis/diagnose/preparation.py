@@ -357,7 +357,8 @@ def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, sa
         return None, m, baseline, False
     report = path.report
     noise = max(report["noise_kPa"] or 0.0, 1e-6)
-    found = (", ".join(diagnosis_report.parameter_text(k, v) for k, v in report["path"]["values"].items())
+    values = report["path"]["values"]
+    found = (", ".join(diagnosis_report.parameter_text(k, v) for k, v in values.items())
              if report["path"]["effects"] else "nothing found: " + str(report["reason"]))
     if report["path"]["effects"]:
         found = " + ".join(report["path"]["effects"]) + " found, " + found
@@ -374,16 +375,16 @@ def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, sa
         except MkctlError:
             follows = False
     if not follows:
-        notes.append(f"the file holds measured bladder pressures: the pressure path is judged on them "
-                     f"directly ({found}); they depart from the commands through it by "
+        notes.append(f"the file holds measured bladder pressures: the pressure path is judged on "
+                     f"them directly ({found}); they depart from the commands through it by "
                      f"{report['rmse_kPa']:.3g} kPa RMS (noise {noise:.2g} kPa), so they drive the "
                      "motion themselves")
         say(notes[-1])
         return path, m, baseline, True
-    notes.append(f"the file holds measured bladder pressures: the pressure path is judged on them directly "
-                 f"({found}); they follow the commands through it to within their noise "
-                 f"({report['rmse_kPa']:.3g} kPa RMS), so the motion is driven by the commands through "
-                 "that path, free of the pressure sensors' noise")
+    notes.append(f"the file holds measured bladder pressures: the pressure path is judged on them "
+                 f"directly ({found}); they follow the commands through it to within their noise "
+                 f"({report['rmse_kPa']:.3g} kPa RMS), so the motion is driven by the commands "
+                 "through that path, free of the pressure sensors' noise")
     say(notes[-1])
     return path, commanded, path.params, True
 

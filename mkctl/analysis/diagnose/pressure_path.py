@@ -104,7 +104,8 @@ def muscle_lengths(measurement: Measurement, params: Params):
         The extensor's and the flexor's lengths [m].
     """
     m = measurement
-    X = knee.hip_height(m.output, params) if m.output_quantity == "beta" else np.asarray(m.output, float)
+    X = (knee.hip_height(m.output, params) if m.output_quantity == "beta"
+         else np.asarray(m.output, float))
     if m.samples > 7:
         dt = float(np.median(np.diff(m.time)))
         window = min(max(5, int(round(KNEE_SMOOTHING_S / dt)) | 1), (m.samples - 2) | 1)
@@ -248,7 +249,8 @@ def _report(result, motion: tuple) -> dict:
     candidate = None
     if best is not None:
         candidate = {"effect": best["effect"], "params": dict(best.get("params", {})),
-                     "rmse_train_kPa": best.get("rmse_train"), "rmse_holdout_kPa": best.get("rmse_holdout"),
+                     "rmse_train_kPa": best.get("rmse_train"),
+                     "rmse_holdout_kPa": best.get("rmse_holdout"),
                      "delta_bic": best.get("delta_bic"), "passes_bic": best.get("passes_bic"),
                      "passes_holdout": best.get("passes_holdout"),
                      "switched_off": best.get("switched_off"), "at_bound": best.get("at_bound")}
