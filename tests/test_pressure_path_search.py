@@ -25,7 +25,7 @@ from scipy.integrate import solve_ivp
 sys.path.insert(0, str(Path(__file__).parent))
 import independent_rig as rig  # noqa: E402
 
-from mkctl.analysis.diagnose import path_from_pressures, pressure_record  # noqa: E402
+from mkctl.analysis.diagnose import diagnose, path_from_pressures, pressure_record  # noqa: E402
 from mkctl.io.measurements import measurement_from_arrays  # noqa: E402
 from mkctl.physics.params import Params  # noqa: E402
 
@@ -136,7 +136,7 @@ def knee(hidden: str, seed: int = 0):
 @functools.lru_cache(maxsize=None)
 def path(hidden: str):
     record = knee(hidden)
-    return path_from_pressures(record, record.params)
+    return path_from_pressures(record, record.params, diagnose)
 
 
 def within(value, error, truth, standard_errors=3.0):
@@ -228,7 +228,7 @@ def test_the_discovery_adds_nothing_to_a_clean_pressure_record():
 
 
 def test_a_knee_diagnosis_reports_and_pictures_the_path_it_found(tmp_path):
-    from mkctl.analysis.diagnose import diagnose, save_pictures
+    from mkctl.analysis.diagnose import save_pictures
 
     record = rig.knee_record({"c": 45.0, "tau": 0.05}, params=Params(c=45.0), samples=1500,
                              rate=500.0, pressures=True)

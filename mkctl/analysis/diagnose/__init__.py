@@ -73,8 +73,8 @@ from .preparation import (GAP_FACTOR, INPUT_NOISE_FLOOR, INPUT_SMOOTHING_SAMPLES
                           PLATEAU_NOISE_FACTOR, block_commands, input_noise_through_model, command_changes, gap_note, measured_inputs,
                           output_quantity, output_range, prepare_inputs, renoised_inputs, sanity_problems,
                           saturation_note, smooth_input, time_gaps)
-from .pressure_path import (PressurePath, lag_from_pressures, path_from_pressures, pressure_path,
-                            pressure_record)
+from ..signals import pressure_path
+from .pressure_path import PressurePath, path_from_pressures, pressure_record
 from .problem import FIT_POINTS, FIT_XATOL, MAX_FIT_SPACING
 from .result import VERDICTS, DiagnosisResult, public, save_pictures, summary, verdict_of
 from .run import diagnose
@@ -90,7 +90,7 @@ __all__ = [
     "SIGNAL_LEAK_CORRELATION", "VERDICTS", "WHITE_NOISE_CORRELATION", "WIDER_SEARCH_FACTOR",
     "Candidate", "DiagnosisResult", "NoiseModel", "block_commands", "candidates_for",
     "command_changes", "diagnose", "experiment_to_separate", "gap_note", "input_noise",
-    "input_noise_through_model", "lag_from_pressures", "path_from_pressures", "measured_inputs",
+    "input_noise_through_model", "path_from_pressures", "measured_inputs",
     "noise_model",
     "output_noise", "output_quantity", "output_range", "prepare_inputs", "pressure_path",
     "pressure_record",

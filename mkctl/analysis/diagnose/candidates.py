@@ -64,6 +64,12 @@ def on_pressure_path(effect) -> bool:
             or effect.first_order_rate is not None)
 
 
+def path_effect(effect) -> bool:
+    """Whether an effect acts between a command and the muscle's pressure: on the section 4 path
+    (:func:`on_pressure_path`) or in the air (model-spec 4d)."""
+    return on_pressure_path(effect) or effect.moves_air
+
+
 def holds_pressure(effect) -> bool:
     """Whether an effect gives a muscle's pressure a state of its own (a lag, the air's mass
     balance): with the pressures measured, what it does is in them, not in the motion."""

@@ -18,9 +18,9 @@ from ...physics.params import Params
 from ..compare import rmse, simulate_output
 from ..diagnosis_rule import Rule
 from ..statistics import lag_one_correlation
+from .candidates import path_effect
 from .noise import (NoiseModel, QUASI_STATIC, QUASI_STATIC_NULL_REALISATIONS, _output_noise_model,
                     input_noise)
-from .pressure_path import path_from_pressures, path_effect
 from .problem import Problem
 
 #: The knee's fits hold the commands over blocks so that they change at most about this often.
@@ -344,15 +344,14 @@ def _blocked_problem(problem: Problem, baseline: Params, full_before, out_sigma:
     return problem
 
 
-def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, say):
-    """The pressure path judged on measured pressures (:func:`path_from_pressures`, or None), and
-    the record and baseline the motion is fitted with.
+def _motion_record(m: Measurement, path, baseline: Params, notes: list, say):
+    """The record and baseline the motion is fitted with, after the pressure path judged on the
+    measured pressures (``path``: :func:`~.pressure_path.path_from_pressures`, or None).
 
     With measured pressures that the path found follows to within a few times their noise, the
     motion is driven by the commands through that path, noise-free; pressures that depart from it
     (a supply that sags), or a path the knee cannot simulate, drive the motion themselves, smoothed.
     """
-    path = path_from_pressures(m, baseline, rule, say)
     if path is None:
         return None, m, baseline, False
     report = path.report
@@ -431,11 +430,12 @@ class Record:
         return self.measurement.output * self.to_file
 
 
-def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> Record:
-    """Step 0 of the module docstring: the lag on measured pressures, the noisy inputs smoothed, the output
-    noise, the baseline simulated, the saturation and the sanity checks."""
+def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say, path=None) -> Record:
+    """Step 0 of the module docstring: the pressure path judged on measured pressures (``path``,
+    :func:`~.pressure_path.path_from_pressures`), the noisy inputs smoothed, the output noise, the
+    baseline simulated, the saturation and the sanity checks."""
     notes: list = []
-    path, motion, start, lag_judged = _motion_record(m, m.params, rule, notes, say)
+    path, motion, start, lag_judged = _motion_record(m, path, m.params, notes, say)
     lag = path.report if path is not None else None
     prepared, noise_info, input_notes = prepare_inputs(motion)
     if lag_judged:

@@ -31,8 +31,8 @@ from ...physics.params import Params
 from ..diagnosis_rule import RULE, Rule
 from ..equation_error import KNEE_SMOOTHING_S
 from ..filters import savgol_filter
-from ..signals import pressure_path
-from .candidates import holds_pressure, on_pressure_path
+from .candidates import holds_pressure, path_effect
+from .preparation import gap_note
 
 #: Each muscle's command column and measured pressure column of a knee record (model-spec 5).
 MUSCLES = (("pe_cmd", "pe"), ("pf_cmd", "pf"))
@@ -43,8 +43,8 @@ SETTLE_FACTOR = 10.0
 #: ... and at least this long [s].
 SETTLE_MIN = 10.0
 
-__all__ = ["MUSCLES", "PressurePath", "lag_from_pressures", "muscle_lengths", "path_effect",
-           "path_from_pressures", "pressure_path", "pressure_record", "step_share"]
+__all__ = ["MUSCLES", "PressurePath", "muscle_lengths", "path_from_pressures", "pressure_record",
+           "step_share"]
 
 
 @dataclass(frozen=True)
@@ -74,11 +74,6 @@ class PressurePath:
             return None
         n = (np.size(curve) - 1) // 2
         return np.vstack([curve[:n], curve[n + 1:]])
-
-
-def path_effect(effect) -> bool:
-    """An effect between a command and the muscle's pressure (a lag, a dead time, the air)."""
-    return on_pressure_path(effect) or effect.moves_air
 
 
 def _state_free(effect) -> bool:
@@ -188,7 +183,7 @@ def step_share(commands, pressures) -> float:
     return float(np.clip(moved @ stepped / (stepped @ stepped), 0.0, 1.0))
 
 
-def path_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE,
+def path_from_pressures(measurement: Measurement, params: Params, diagnose, rule: Rule = RULE,
                         progress=None) -> PressurePath | None:
     """The pressure path judged on a knee record's measured pressures (module docstring), or None
     without them, or when the record's baseline already has an effect on the path (its file
@@ -200,6 +195,9 @@ def path_from_pressures(measurement: Measurement, params: Params, rule: Rule = R
         A knee record.
     params : Params
         Its baseline.
+    diagnose : callable
+        The diagnosis of a pressure record, ``diagnose(record, progress=..., rule=...)``
+        (:func:`mkctl.analysis.diagnose.diagnose`, which calls this: handed in, not imported).
     rule : Rule
         The acceptance rule (:data:`mkctl.analysis.diagnosis_rule.RULE`).
     progress : callable, optional
@@ -209,8 +207,6 @@ def path_from_pressures(measurement: Measurement, params: Params, rule: Rule = R
     -------
     PressurePath or None
     """
-    from .run import diagnose  # the same stages as any pressure record (run imports this module)
-
     m = measurement
     columns = [name for pair in MUSCLES for name in pair]
     if m.experiment != "knee" or not all(name in m.inputs for name in columns):
@@ -229,8 +225,6 @@ def path_from_pressures(measurement: Measurement, params: Params, rule: Rule = R
     path_params = result.params_after if result.params_after is not None else params
     if motion:
         path_params = params
-    from .preparation import gap_note  # (preparation imports this module)
-
     # the pause between the muscles is no gap of the user's record
     notes = [text for text in result.notes if text != gap_note(record)]
     result = dataclasses.replace(result, notes=notes)
@@ -278,24 +272,3 @@ def _lag_parameter(found) -> str | None:
         if effect.pressure_step is not None and effect.fitted and not effect.requires:
             return effect.fitted
     return None
-
-
-def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE) -> dict | None:
-    """The report of :func:`path_from_pressures` (its ``report``), or None.
-
-    Parameters
-    ----------
-    measurement : Measurement
-        A knee record.
-    params : Params
-        Its baseline.
-    rule : Rule
-        The acceptance rule.
-
-    Returns
-    -------
-    dict or None
-        See :class:`PressurePath`.
-    """
-    path = path_from_pressures(measurement, params, rule)
-    return None if path is None else path.report

@@ -21,6 +21,7 @@ from ...physics import effects
 from .air import air_parameters, fit_air
 from .alternatives import _alternative_models, _best_alternative, _shared_values
 from .candidates import candidates_for
+from .pressure_path import path_from_pressures
 from .noise import QUASI_STATIC
 from .preparation import Record, _blocked_problem, _prepare, _with_input_noise, input_noise_through_model
 from .problem import Problem, evaluate, joint_fit, fit_problem, with_air_of
@@ -57,7 +58,9 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     calibration = fit_air(m, m.params, say, known=m.overrides)
     if calibration is not None:
         m = dataclasses.replace(m, params=calibration.params)
-    record = _prepare(m, rule, fit_offset, say)
+    # a knee's measured pressures: its pressure path, as a pressure record through this diagnosis
+    path = path_from_pressures(m, m.params, diagnose, rule, say)
+    record = _prepare(m, rule, fit_offset, say, path)
     if record.problems:
         return _not_diagnosed(record, say)
     problem = fit_problem(record.prepared, fit_offset, rule, record.noise)
