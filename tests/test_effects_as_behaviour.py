@@ -26,9 +26,6 @@ DEFINITIONS = tuple(PACKAGE / "physics" / name for name in ("builtin_effects.py"
 
 #: The sites left, by file (issue 27 counted 44 branches in round 3; this scan counts every string constant).
 STILL_BRANCHING = {
-    "mkctl/analysis/diagnose/candidates.py": 1,
-    "mkctl/analysis/diagnose/preparation.py": 1,
-    "mkctl/analysis/diagnose/pressure_path.py": 34,
     "mkctl/analysis/diagnose/result.py": 1,
 }
 

@@ -27,6 +27,14 @@ term                        unit         what it stands for
 ``-min(f, 0)``              1            the tension a slack muscle would not carry (``slack``)
 ==========================  ===========  ============================================================
 
+On a pressure record (model-spec 5c) the quantity missing is a pressure rate, not a force:
+the measured rate (Savitzky-Golay) less the baseline's rate at the measured pressure (the air's
+mass balance, the lags' rates, or nothing where the baseline follows its command at once),
+smoothed alike, regressed on the pneumatic library of :func:`pressure_library`: each registered
+effect that changes the pressure's rate, its own rate per unit of its fitted parameter (the
+valve's flow: a rate limited by the supply, choked at ``C rho0 p_supply``; the leak: a decay to
+the atmosphere, ``-rho0 C_leak P``; a lag: ``(P_cmd - P) / tau``), and a constant rate (a drift).
+
 For the knee a tension term enters the hip force as ``G_e t(Le, -G_e V, Pe) - G_f t(Lf, G_f V, Pf)``
 (virtual work, Eq. 14-16), so every coefficient is the per-actuator parameter an effect file would carry.
 
@@ -57,6 +65,7 @@ import numpy as np
 from ..errors import MkctlError
 from ..io.measurements import Measurement
 from ..physics import actuator, knee
+from ..physics import air as air_physics
 from ..physics import effects as registry
 from ..physics.builtin_effects import DISCOVERY_DELAYS, DISCOVERY_THRESHOLDS
 from ..physics.params import Params
@@ -125,6 +134,10 @@ class Term:
     tension: Callable[[dict], np.ndarray]
     commands_only: bool = False
     effect: str | None = None  #: the registered or user effect whose own form this term is
+    #: what a coefficient of 1 adds: "tension" [N] per actuator, or a pressure record's
+    #: "pressure rate" [Pa/s] (``tension(a)`` then reads the air's states,
+    #: :func:`pressure_library`)
+    quantity: str = "tension"
 
     @property
     def matches(self) -> str | None:
@@ -162,6 +175,142 @@ def library(params: Params, effects=()) -> list[Term]:
         Term("(L - L0)^2", "N/m^2", lambda a: (a["L"] - params.L0) ** 2),
         Term("P", "N/Pa", lambda a: a["P"]),
     ]
+
+
+# --- Pressure records: the missing pressure rate ------------------------------------------------
+
+#: A pressure record's rates are smoothed over this long [s] (at least 5 samples) ...
+PRESSURE_SMOOTHING_S = 0.02
+#: ... and samples where the measured pressure moves by more than this share of its range from one
+#: sample to the next (a step faster than a sample: no rate there) are left out, with a window
+#: around them.
+PRESSURE_JUMP_FRACTION = 0.05
+
+
+def _switched_on(params: Params, effect) -> Params | None:
+    """``params`` with ``effect`` (and what it requires) on at its typical fitted value, or None
+    when it has no typical value to show its form at."""
+    values = {}
+    for needed in (*(registry.get(r) for r in effect.requires), effect):
+        if needed.is_on(params) and needed is not effect:
+            continue
+        q = needed.switch_parameter
+        if q.switch:
+            values[q.name] = q.on_value
+        fitted = (needed.parameter(needed.fitted) if needed.fitted in needed.parameter_names
+                  else None)
+        if fitted is not None and fitted.typical is not None and fitted.typical != fitted.off:
+            values[fitted.name] = fitted.typical
+        elif not q.switch:
+            return None
+    try:
+        return params.replace(**values)
+    except MkctlError:
+        return None
+
+
+def _rate_term(effect, params: Params) -> Term | None:
+    """An effect's own pressure rate as a library column, from its definition: its mass flow
+    (``air_flow``) through the polytropic law at the record's volume, or its ``pressure_rate``;
+    per unit of its fitted parameter where the flow is linear in it (a conductance), else per
+    share of its rate at the typical value."""
+    on = _switched_on(params, effect)
+    if on is None or effect.fitted not in effect.parameter_names:
+        return None
+    q = effect.parameter(effect.fitted)
+    # a conductance's flow is proportional to it (from 0, whatever its off value where another
+    # parameter is the switch)
+    scale = getattr(on, q.name) - (q.off if q is effect.switch_parameter else 0.0)
+    if effect.air_flow is not None and scale > 0:
+        def rate(a, effect=effect, on=on, scale=scale):
+            u = a["opening"]
+            if u is None:  # a set-point record: the regulator's opening
+                u = actuator.valve_opening(a["P"], a["P_cmd"], on)
+            flow = effect.air_flow(a["P"], on.T_air, u, on, np)
+            dP_dt = air_physics.polytropic_pressure_rate(a["P"], a["V"], 0.0, flow, on.k_poly,
+                                                         on.T_air)
+            return dP_dt / scale
+        return Term(f"{effect.name} flow rate", q.unit, rate, effect=effect.name,
+                    quantity="pressure rate")
+    if effect.pressure_rate is not None:
+        def rate(a, effect=effect, on=on):
+            return effect.pressure_rate(a["P"], a["P_cmd"], on, np)
+        return Term(f"{effect.name} rate", "1", rate, effect=effect.name, quantity="pressure rate")
+    return None
+
+
+def pressure_library(params: Params) -> list[Term]:
+    """The terms a pressure record's missing rate is regressed on (module docstring): each
+    registered effect's own rate (:func:`_rate_term`: the valve's, a rate limited by the supply;
+    the leak's, a decay to the atmosphere; the lags'), then a constant rate [Pa/s]."""
+    terms = [t for t in (_rate_term(e, params) for e in registry.all_effects()) if t is not None]
+    drift = Term("constant rate", "Pa/s", lambda a: np.ones_like(a["P"]), quantity="pressure rate")
+    return [*terms, drift]
+
+
+def _air_states(m: Measurement, params: Params) -> dict:
+    """A pressure record's states at the samples as the rate terms read them: P [Pa], the command
+    as the muscle sees it (through the baseline's dead time, held between samples), the valve's
+    opening (None for a set-point record), the volume V [m^3] and its rate [m^3/s]."""
+    from ..physics.simulate import delayed_commands
+
+    P = np.asarray(m.output, dtype=float)
+    given = m.inputs["p_cmd"] if "p_cmd" in m.inputs else m.inputs["valve"]
+    delay = float(actuator.command_delay(params))
+    if delay > 0:
+        grid, seen, _, at = delayed_commands(m.time, given, given, delay)
+        given = seen[at]
+    if "length" in m.inputs:
+        L = np.asarray(m.inputs["length"], dtype=float)
+    else:
+        L = np.full(P.size, m.settings.get("length", params.L0))
+    Ldot = np.gradient(L, m.time)
+    V = air_physics.air_volume(L, params.b, params.n, params.V_dead)
+    command = given if "p_cmd" in m.inputs else None
+    return {"P": P, "P_cmd": command if command is not None else P, "command": given,
+            "opening": None if command is not None else given, "L": L, "Ldot": Ldot, "V": V,
+            "dV_dt": air_physics.air_volume_slope(L, params.b, params.n) * Ldot}
+
+
+def model_pressure_rate(m: Measurement, params: Params, a: dict) -> np.ndarray:
+    """The baseline's pressure rate [Pa/s] at the measured states ``a``: the air's mass balance,
+    an effect that moves the air on (the polytropic law; an air_heat state is not reconstructed),
+    the pressure-rate terms of the lags, or 0 where the baseline follows its command at once."""
+    if actuator.air_is_on(params):
+        rate = actuator.air_pressure_derivative(a["P"], a["command"], a["L"], a["Ldot"], params,
+                                                opening=a["opening"] is not None)
+        return np.asarray(rate, float)
+    if actuator.has_pressure_states(params):
+        rate = actuator.pressure_derivative(a["P"], a["P_cmd"], params)
+        return np.asarray(rate, float) * np.ones_like(a["P"])
+    return np.zeros_like(a["P"])
+
+
+def pressure_equation_error(m: Measurement, params: Params, terms: list[Term]):
+    """A pressure record's missing rate and each rate term's column, smoothed alike (module
+    docstring). Returns (missing rate [Pa/s], {label: column}, samples used (boolean))."""
+    from .filters import savgol_filter
+
+    n = m.samples
+    dt = float(np.median(np.diff(m.time)))
+    window = max(5, int(round(PRESSURE_SMOOTHING_S / dt)) | 1)
+    if window + 2 > n:
+        raise MkctlError(f"the record is too short ({n} samples) for the rate's "
+                         f"{window}-sample window")
+    a = _air_states(m, params)
+    measured = savgol_filter(a["P"], window, 3, deriv=1, delta=dt)
+    missing = measured - savgol_filter(model_pressure_rate(m, params, a), window, 3)
+    columns = {t.label: savgol_filter(np.asarray(t.tension(a), float) * np.ones(n), window, 3)
+               for t in terms if t.quantity == "pressure rate"}
+    used = np.ones(n, bool)
+    largest = PRESSURE_JUMP_FRACTION * max(np.ptp(a["P"]), 1e-9)
+    jumps = np.flatnonzero(np.abs(np.diff(a["P"])) > largest)
+    for k in jumps:
+        used[max(k - window, 0):k + window + 1] = False
+    edge = window // 2 + 1
+    used[:edge] = False
+    used[n - edge:] = False
+    return missing, columns, used
 
 
 # --- The states each term is evaluated at ------------------------------------------------------------------
@@ -294,14 +443,17 @@ def regressors(measurement: Measurement, params: Params, terms: list[Term] | Non
     from .equation_error import ISOTONIC_SMOOTHING_SAMPLES, missing_force
 
     m = measurement
-    terms = library(params) if terms is None else terms
+    if terms is None:
+        terms = pressure_library(params) if m.experiment == "pressure" else library(params)
+    if m.experiment == "pressure":
+        return pressure_equation_error(m, params, terms)
     if m.experiment == "knee":
         missing, columns, edge = knee_equation_error(m, params, terms)
     elif m.experiment == "mechanism":
         missing, columns, edge = mechanism_equation_error(m, params, terms)
     else:
         missing, states = missing_force(m, params)
-        usable = [t for t in terms if not t.commands_only]
+        usable = [t for t in terms if not t.commands_only and t.quantity == "tension"]
         n = missing.size
         if m.experiment == "isometric":  # nothing moves: the direction is the branch's (friction resists the change)
             a = _actuator_states(states["L"], np.zeros(n), states["P"], params)
@@ -461,7 +613,8 @@ def discover(measurement: Measurement, params: Params | None = None, progress=No
     empty = {"explained": 0.0, "explained_holdout": 0.0, "terms": [], "effect_file": None, "missing_force_rms": None,
              "samples": 0, "effective_samples": None, "steps": []}
     try:
-        terms = library(params, effects=effects)
+        terms = (pressure_library(params) if m.experiment == "pressure"
+                 else library(params, effects=effects))
         y, columns, used = regressors(m, params, terms)
     except MkctlError as error:
         return {**empty, "reason": f"the missing force cannot be computed at the measured states: {error}"}

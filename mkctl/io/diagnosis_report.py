@@ -157,6 +157,36 @@ def plot_overlay(measurement, curves: dict, path, title: str = "") -> Path:
     return save_png(fig, path)
 
 
+def plot_pressure_path(measurement, simulated, path, title: str = "") -> Path:
+    """A knee record's measured bladder pressures against their commands and the pressure path the
+    diagnosis found on them (``simulated``: the extensor's and the flexor's model pressures [Pa]),
+    one panel per muscle, with the residual below each."""
+    muscles = (("extensor", "pe_cmd", "pe"), ("flexor", "pf_cmd", "pf"))
+    fig, axes = new_figure(4, 1, figsize=(9, 8.2), sharex=True, height_ratios=(3, 1, 3, 1),
+                           squeeze=False, layout="none")
+    t = measurement.time
+    every = max(1, -(-measurement.samples // OVERLAY_MARKERS))
+    for k, (muscle, command, measured) in enumerate(muscles):
+        top, low = axes[2 * k, 0], axes[2 * k + 1, 0]
+        top.step(t, measurement.inputs[command] / 1e3, where="post", color="0.55", lw=1,
+                 label="command (held)")
+        top.plot(t, np.asarray(simulated[k]) / 1e3, color="tab:blue", lw=1.4,
+                 label="the path found")
+        top.plot(t[::every], measurement.inputs[measured][::every] / 1e3, "o", ms=3, mfc="none",
+                 mew=0.7, color="k", alpha=0.6, label="measured")
+        top.set_ylabel(f"{muscle} {measured} [kPa]", fontsize=8)
+        top.legend(loc="best", fontsize=7)
+        residual = (measurement.inputs[measured] - np.asarray(simulated[k])) / 1e3
+        low.plot(t, residual, lw=0.7, color="tab:blue")
+        low.axhline(0, color="k", lw=0.5)
+        low.set_ylabel("residual [kPa]", fontsize=7)
+        low.set_title(f"RMSE {rmse(residual, 0.0):.3g} kPa", fontsize=8)
+    axes[0, 0].set_title(title or "the pressure path on the measured pressures")
+    axes[-1, 0].set_xlabel("time [s]")
+    fixed_layout(fig, left=0.85, bottom=0.55, hgap=0.35)
+    return save_png(fig, path)
+
+
 def plot_residuals(measurement, residuals: dict, path, title: str = "") -> Path:
     """Residuals (label -> array in file units) over time, one panel each, with their RMSE."""
     fig, axes = new_figure(len(residuals), 1, figsize=(9, 2.2 * len(residuals) + 0.6), sharex=True,
@@ -338,6 +368,13 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
         **{f"after ({label})": measurement.to_file_units(measurement.output - simulated)
            for label, simulated in after.items()},
     }, folder / f"{stem}_residuals.png")
+
+    path_curves = getattr(result, "pressure_path_simulated", None)
+    if path_curves is not None and result.pressure_lag:  # a knee's measured pressures
+        found = ", ".join(result.pressure_lag["path"]["effects"]) or "nothing found"
+        paths["pressure_path"] = plot_pressure_path(
+            measurement, path_curves, folder / f"{stem}_pressure_path.png",
+            f"the pressure path judged on the measured pressures: {found}")
 
     if measurement.experiment == "isometric":  # the blocked-force picture: tension against pressure per length
         after = result.params_after  # the final model's parameters, from the result

@@ -52,13 +52,13 @@ is over every sample. All RMSE are in the units of the file's output column; par
 
 The package's modules are the stages: :mod:`.candidates` (what a record can show),
 :mod:`.preparation` (measured inputs, smoothing, commands, gaps, sanity), :mod:`.noise` (the
-output's AR(1) noise, the inputs' noise), :mod:`.pressure_path` (the lag judged on measured
-pressures), :mod:`.problem` (the fit problem, evaluation, one and joint fits), :mod:`.search`
-(forward selection and the wider search), :mod:`.signatures`, :mod:`.alternatives` (a tie as whole
-models), :mod:`.result` (the result and the verdict) and :mod:`.run` (:func:`diagnose`). The
-acceptance rule is :mod:`mkctl.analysis.diagnosis_rule`; the statistics are
-:mod:`mkctl.analysis.statistics`, the sampled-signal operations :mod:`mkctl.analysis.signals`. This
-module re-exports the public API only.
+output's AR(1) noise, the inputs' noise), :mod:`.pressure_path` (the pressure path judged on
+measured pressures, through the same search), :mod:`.problem` (the fit problem, evaluation, one and
+joint fits), :mod:`.search` (forward selection and the wider search), :mod:`.signatures`,
+:mod:`.alternatives` (a tie as whole models), :mod:`.result` (the result and the verdict) and
+:mod:`.run` (:func:`diagnose`). The acceptance rule is :mod:`mkctl.analysis.diagnosis_rule`; the
+statistics are :mod:`mkctl.analysis.statistics`, the sampled-signal operations
+:mod:`mkctl.analysis.signals`. This module re-exports the public API only.
 """
 from __future__ import annotations
 
@@ -73,24 +73,28 @@ from .preparation import (GAP_FACTOR, INPUT_NOISE_FLOOR, INPUT_SMOOTHING_SAMPLES
                           PLATEAU_NOISE_FACTOR, block_commands, input_noise_through_model, command_changes, gap_note, measured_inputs,
                           output_quantity, output_range, prepare_inputs, renoised_inputs, sanity_problems,
                           saturation_note, smooth_input, time_gaps)
-from .pressure_path import PRESSURE_PATH, lag_from_pressures, pressure_path
+from .pressure_path import PressurePath, path_from_pressures, pressure_record
 from .problem import FIT_POINTS, FIT_XATOL, MAX_FIT_SPACING
 from .result import VERDICTS, DiagnosisResult, public, save_pictures, summary, verdict_of
 from .run import diagnose
 from .search import WIDER_SEARCH_FACTOR
 from .signatures import signatures
+# (after the stage .pressure_path: the name is the signal's function, as before)
+from ..signals import pressure_path  # noqa: E402
 
 __all__ = [
     "CANDIDATES", "DISCRIMINATING_EXPERIMENTS", "FIT_POINTS", "FIT_XATOL", "GAP_FACTOR",
     "INPUT_NOISE_FLOOR", "INPUT_SMOOTHING_SAMPLES", "ISOTONIC_SMOOTHING_SAMPLES",
     "KNEE_SMOOTHING_S", "MAX_COMMAND_CHANGES", "MAX_FIT_SPACING", "MAX_NOISE_CORRELATION",
     "MAX_NOISE_WINDOW", "NOISE_WINDOW", "NOISE_WINDOWS_NEEDED", "NOISE_WINDOW_PER_TIME",
-    "PLATEAU_NOISE_FACTOR", "PRESSURE_PATH", "QUASI_STATIC", "QUASI_STATIC_NULL_REALISATIONS",
+    "PLATEAU_NOISE_FACTOR", "PressurePath", "QUASI_STATIC", "QUASI_STATIC_NULL_REALISATIONS",
     "SIGNAL_LEAK_CORRELATION", "VERDICTS", "WHITE_NOISE_CORRELATION", "WIDER_SEARCH_FACTOR",
     "Candidate", "DiagnosisResult", "NoiseModel", "block_commands", "candidates_for",
     "command_changes", "diagnose", "experiment_to_separate", "gap_note", "input_noise",
-    "input_noise_through_model", "lag_from_pressures", "measured_inputs", "noise_model",
+    "input_noise_through_model", "path_from_pressures", "measured_inputs",
+    "noise_model",
     "output_noise", "output_quantity", "output_range", "prepare_inputs", "pressure_path",
+    "pressure_record",
     "public", "quantization_step", "renoised_inputs", "sanity_problems", "saturation_note",
     "save_pictures", "signatures", "smooth_input", "summary", "time_gaps", "verdict_of",
 ]

@@ -64,6 +64,18 @@ def on_pressure_path(effect) -> bool:
             or effect.first_order_rate is not None)
 
 
+def path_effect(effect) -> bool:
+    """Whether an effect acts between a command and the muscle's pressure: on the section 4 path
+    (:func:`on_pressure_path`) or in the air (model-spec 4d)."""
+    return on_pressure_path(effect) or effect.moves_air
+
+
+def holds_pressure(effect) -> bool:
+    """Whether an effect gives a muscle's pressure a state of its own (a lag, the air's mass
+    balance): with the pressures measured, what it does is in them, not in the motion."""
+    return effect.pressure_rate is not None or effect.pressure_step is not None or effect.moves_air
+
+
 def record_bounds(effect) -> dict:
     """An effect's search bounds by experiment: its definition's ``experiments``, with those of the
     mechanism and driven-length records (model-spec 5d) following from them unless it names them.
@@ -101,8 +113,10 @@ def experiment_to_separate(effects) -> str:
 def candidates_for(measurement: Measurement, params: Params) -> list[str]:
     """The candidate effects the experiment can show that params do not have yet.
 
-    A knee file with measured bladder pressures drives the model with them: its lag is judged on the
-    pressures directly (:func:`lag_from_pressures`), not as a candidate of the motion.
+    A knee file with measured bladder pressures drives the model with them: its pressure path is
+    judged on the pressures directly (:func:`path_from_pressures`), and an effect that holds the
+    pressure in a state (:func:`holds_pressure`) is no candidate of the motion (a dead time, which
+    the pressures place only to within a sample, may be).
     """
     measured_pressures = "pe" in measurement.inputs and "pf" in measurement.inputs
     # a mechanism or driven-length record with its muscles' pressures measured: what happens before
@@ -110,7 +124,7 @@ def candidates_for(measurement: Measurement, params: Params) -> list[str]:
     pressures_given = muscle_pressures_measured(measurement)
     return [name for name, c in CANDIDATES.items()
             if measurement.experiment in c.bounds and name not in params.effects
-            and not (name == "pressure_lag" and measured_pressures)
+            and not (measured_pressures and holds_pressure(effects.get(name)))
             and not (pressures_given and on_pressure_path(effects.get(name)))]
 
 

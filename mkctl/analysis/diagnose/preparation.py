@@ -11,15 +11,16 @@ import numpy as np
 
 from ...physics.air import P_ATM
 from ...errors import MkctlError
+from ...io import diagnosis_report
 from ...io.measurements import Measurement
-from ...physics import actuator, isotonic, knee
+from ...physics import actuator, effects, isotonic, knee
 from ...physics.params import Params
 from ..compare import rmse, simulate_output
 from ..diagnosis_rule import Rule
 from ..statistics import lag_one_correlation
+from .candidates import path_effect
 from .noise import (NoiseModel, QUASI_STATIC, QUASI_STATIC_NULL_REALISATIONS, _output_noise_model,
                     input_noise)
-from .pressure_path import PRESSURE_PATH, lag_from_pressures
 from .problem import Problem
 
 #: The knee's fits hold the commands over blocks so that they change at most about this often.
@@ -343,40 +344,48 @@ def _blocked_problem(problem: Problem, baseline: Params, full_before, out_sigma:
     return problem
 
 
-def _motion_record(m: Measurement, baseline: Params, rule: Rule, notes: list, say):
-    """The lag judged on measured pressures (or None), and the record and baseline the motion is fitted with.
+def _motion_record(m: Measurement, path, baseline: Params, notes: list, say):
+    """The record and baseline the motion is fitted with, after the pressure path judged on the
+    measured pressures (``path``: :func:`~.pressure_path.path_from_pressures`, or None).
 
-    With measured pressures that follow the commands through the lag (or without a lag) to within a few
-    times their noise, the motion is driven by the commands through the lag found, noise-free; pressures
-    that depart from that (a supply that sags) drive the motion themselves, smoothed.
+    With measured pressures that the path found follows to within a few times their noise, the
+    motion is driven by the commands through that path, noise-free; pressures that depart from it
+    (a supply that sags), or a path the knee cannot simulate, drive the motion themselves, smoothed.
     """
-    lag = lag_from_pressures(m, baseline, rule)
-    if lag is None:
+    if path is None:
         return None, m, baseline, False
-    tau = lag["tau"] if lag["accepted"] else 0.0
-    path = lag["path"]
-    noise = max(input_noise(m.inputs["pe"]), input_noise(m.inputs["pf"])) / 1e3  # kPa
-    model_rmse = lag["candidate"]["rmse_train_kPa"]
-    found = (f"found, tau = {tau:.4g} s" if lag["accepted"] else "not found: " + lag["reason"])
-    others = [e for e in path["effects"] if e != "pressure_lag"]
-    if others:
-        found += "; " + ", ".join(f"{e.replace('_', ' ')} found, {PRESSURE_PATH[e]} = "
-                                  f"{path['values'][PRESSURE_PATH[e]]:.4g} s" for e in others)
-    if path.get("motion"):
-        found += "; they show a dead time, placed by them only to within a sample: it is fitted on the motion"
-    if model_rmse > 5.0 * max(noise, 1e-6):
-        notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly "
-                     f"({found}); they depart from the lagged commands by {model_rmse:.3g} kPa RMS (noise "
-                     f"{noise:.2g} kPa), so they drive the motion themselves")
-        say(notes[-1])
-        return lag, m, baseline, True
+    report = path.report
+    noise = max(report["noise_kPa"] or 0.0, 1e-6)
+    values = report["path"]["values"]
+    found = (", ".join(diagnosis_report.parameter_text(k, v) for k, v in values.items())
+             if report["path"]["effects"] else "nothing found: " + str(report["reason"]))
+    if report["path"]["effects"]:
+        found = " + ".join(report["path"]["effects"]) + " found, " + found
+    if path.motion:
+        found += (f"; they show {' + '.join(path.motion)}, placed by them only to within a sample: "
+                  "it is fitted on the motion")
     inputs = {k: v for k, v in m.inputs.items() if k not in ("pe", "pf")}
-    notes.append(f"the file holds measured bladder pressures: the pressure lag is judged on them directly ({found}); "
-                 f"they follow the commands through it to within their noise ({model_rmse:.3g} kPa RMS), so the "
-                 f"motion is driven by the commands through that lag, free of the pressure sensors' noise")
+    commanded = dataclasses.replace(m, inputs=inputs)
+    # (a delay left to the motion: the motion must be driven by the commands to show it)
+    follows = bool(path.motion) or report["rmse_kPa"] <= 5.0 * noise
+    if follows:
+        try:
+            simulate_output(commanded, path.params)
+        except MkctlError:
+            follows = False
+    if not follows:
+        notes.append(f"the file holds measured bladder pressures: the pressure path is judged on "
+                     f"them directly ({found}); they depart from the commands through it by "
+                     f"{report['rmse_kPa']:.3g} kPa RMS (noise {noise:.2g} kPa), so they drive the "
+                     "motion themselves")
+        say(notes[-1])
+        return path, m, baseline, True
+    notes.append(f"the file holds measured bladder pressures: the pressure path is judged on them "
+                 f"directly ({found}); they follow the commands through it to within their noise "
+                 f"({report['rmse_kPa']:.3g} kPa RMS), so the motion is driven by the commands "
+                 "through that path, free of the pressure sensors' noise")
     say(notes[-1])
-    return lag, dataclasses.replace(m, inputs=inputs), baseline.replace(**path["values"]) if path["values"] else \
-        baseline, True
+    return path, commanded, path.params, True
 
 
 @dataclass(frozen=True)
@@ -387,8 +396,9 @@ class Record:
     measurement: Measurement  #: as read
     prepared: Measurement  #: inputs smoothed (and the lag's pressures replaced by the commands through it)
     start: Params  #: the baseline, with a lag found on measured pressures
-    lag: dict | None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
-    exclude: set  #: candidates judged elsewhere (the lag, on measured pressures)
+    #: the pressure path judged on measured pressures (:attr:`PressurePath.report`)
+    lag: dict | None
+    exclude: set  #: candidates judged elsewhere (the pressure path, on measured pressures)
     noise: NoiseModel  #: the measured output's noise [SI]
     full_before: np.ndarray  #: the baseline over every sample [SI]
     notes: list
@@ -420,11 +430,13 @@ class Record:
         return self.measurement.output * self.to_file
 
 
-def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> Record:
-    """Step 0 of the module docstring: the lag on measured pressures, the noisy inputs smoothed, the output
-    noise, the baseline simulated, the saturation and the sanity checks."""
+def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say, path=None) -> Record:
+    """Step 0 of the module docstring: the pressure path judged on measured pressures (``path``,
+    :func:`~.pressure_path.path_from_pressures`), the noisy inputs smoothed, the output noise, the
+    baseline simulated, the saturation and the sanity checks."""
     notes: list = []
-    lag, motion, start, lag_judged = _motion_record(m, m.params, rule, notes, say)
+    path, motion, start, lag_judged = _motion_record(m, path, m.params, notes, say)
+    lag = path.report if path is not None else None
     prepared, noise_info, input_notes = prepare_inputs(motion)
     if lag_judged:
         for name in ("pe", "pf"):
@@ -450,15 +462,19 @@ def _prepare(m: Measurement, rule: Rule, fit_offset: bool, say) -> Record:
                   baseline_effects=list(m.params.effects), output=m.output_column, output_unit=m.output_unit,
                   samples=m.samples, input_noise=noise_info, output_noise=noise.sigma * to_file,
                   output_noise_correlation=noise.correlation, saturation=saturation,
-                  rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag)
+                  rule={**rule.as_dict(), "fit_offset": fit_offset}, pressure_lag=lag,
+                  pressure_path_simulated=path.simulated if path is not None else None)
     problems = sanity_problems(m, full_before, m.params, fit_offset)
-    judged = set(PRESSURE_PATH) - ({lag["path"]["motion"]} if lag_judged and lag["path"].get("motion") else set())
+    # the effects on the pressure path were judged on the measured pressures (what only delays the
+    # command is left to the motion)
+    judged = ({e.name for e in effects.all_effects() if path_effect(e)} - set(path.motion)
+              if lag_judged else set())
     # a quasi-static record passes its inputs' noise straight to the output, sample by sample: one
     # realisation of it is a poor measure of what it gives a candidate, so the null test takes the
     # worst of several
     seeds = range(2, QUASI_STATIC_NULL_REALISATIONS + 1) if m.experiment in QUASI_STATIC else ()
     more = [renoised_inputs(motion, prepared, noise_info, seed) for seed in seeds]
-    return Record(m, prepared, start, lag, judged if lag_judged else set(), noise, full_before, notes,
+    return Record(m, prepared, start, lag, judged, noise, full_before, notes,
                    common, problems, fit_offset, renoised_inputs(motion, prepared, noise_info),
                    [r for r in more if r is not None])
 

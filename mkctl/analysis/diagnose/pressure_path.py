@@ -1,175 +1,274 @@
-"""The pressure path judged on a knee file's measured bladder pressures: the lag, the dead time and the
-exhausting time constant against the commands (model-spec sections 4, 4b).
+"""The pressure path judged on a knee file's measured bladder pressures, through the shared search.
+
+Each muscle's measured pressure against its command is a pressure record of that muscle
+(model-spec 5c): its set-point the command, its output the measured pressure, its length from the
+measured motion (:func:`muscle_lengths`). The two muscles share one value of every effect
+(model-spec 4), so they are diagnosed as one pressure record (:func:`pressure_record`): the
+flexor's record follows the extensor's after a pause long enough for any pressure path the search
+can name to settle at the flexor's first command (:data:`SETTLE_FACTOR`), so that the flexor starts
+as a muscle that has rested under its first command. That record goes through the same stages as
+any pressure record (:func:`mkctl.analysis.diagnose.diagnose`: the candidates of a pressure record
+from the effects' own definitions, the rule's interleaved held-out samples, the null test, the air's
+identified values), so a lag, an asymmetric lag, a dead time, the valve's flow, a leak and the
+air's heat are told apart by the same rule as on a pressure record.
+
+An effect found there that only delays the command (no pressure state: a dead time alone) leaves
+the modelled pressure a delayed copy of the command, sample by sample: the pressures place the
+delay only to within a sample, and the motion, which follows it continuously, fits it instead
+(:attr:`PressurePath.motion`).
 """
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
+from ...errors import MkctlError
 from ...io.measurements import Measurement
+from ...physics import actuator, effects, knee
 from ...physics.params import Params
-from ..diagnosis_rule import RULE, Candidate as Outcome, Rule, Score, at_bound, best_value, decide
-from .candidates import CANDIDATES, experiment_to_separate
-from ..signals import pressure_path
-from ..statistics import covariance, effective_samples, lag_one_correlation
+from ..diagnosis_rule import RULE, Rule
+from ..equation_error import KNEE_SMOOTHING_S
+from ..filters import savgol_filter
+from .candidates import holds_pressure, path_effect
+from .preparation import gap_note
 
-#: The effects of the pressure path (command -> bladder pressure), judged on measured pressures when a knee file
-#: has them, in the order they are tried, with their parameter.
-PRESSURE_PATH = {"pressure_lag": "tau", "dead_time": "delay", "asymmetric_lag": "tau_exhaust"}
+#: Each muscle's command column and measured pressure column of a knee record (model-spec 5).
+MUSCLES = (("pe_cmd", "pe"), ("pf_cmd", "pf"))
+
+#: The pause between the two muscles' records, in units of the record's duration (at least
+#: :data:`SETTLE_MIN`): a path slower than that could not be told from a drift on the record itself.
+SETTLE_FACTOR = 10.0
+#: ... and at least this long [s].
+SETTLE_MIN = 10.0
+
+__all__ = ["MUSCLES", "PressurePath", "muscle_lengths", "path_from_pressures", "pressure_record",
+           "step_share"]
 
 
 @dataclass(frozen=True)
-class _PressureProblem:
-    """The measured pressures against the commands through the path: residual [kPa], score, joint fit."""
+class PressurePath:
+    """What the measured pressures show: the diagnosis of their pressure record, the knee's
+    parameters with what it found (for the motion), what is left to the motion, and the report.
 
-    measurement: Measurement
-    measured: np.ndarray  #: pe then pf [Pa]
-    train: np.ndarray  #: bool over both channels: in the training part
+    ``report`` is the JSON of the result's ``pressure_lag`` key (docs/diagnosis.md): ``accepted``
+    (an effect of the path was found), ``tau`` and ``uncertainty`` (the lag's time constant and its
+    standard error, when one was found), ``candidate`` (the best candidate's row of the first
+    round, RMSE in kPa), ``reason``, ``path`` (``effects``, ``values``, ``uncertainty``,
+    ``undecided``, ``motion``), ``verdict``, ``rmse_kPa``, ``noise_kPa``, ``identified``, ``notes``
+    and ``steps``.
+    """
 
-    def residual(self, values: dict) -> np.ndarray:
-        m = self.measurement
-        model = np.concatenate([pressure_path(m.time, m.inputs[c], **values) for c in ("pe_cmd", "pf_cmd")])
-        return (self.measured - model) / 1e3  # kPa
+    result: object  #: the :class:`~mkctl.analysis.diagnose.result.DiagnosisResult` of the record
+    params: Params  #: the knee's parameters with the effects the pressures show
+    motion: tuple  #: effects found that only delay the command, left to the motion
+    report: dict
 
-    def score(self, r, k: int) -> Score:
-        return Score.from_residuals(r[self.train], r[~self.train], k)
-
-    def rss_train(self, values: dict) -> float:
-        return float(np.sum(self.residual(values)[self.train] ** 2))
-
-    def fit(self, names, start):
-        """The parameters of ``names`` fitted jointly (log space) from ``start``; (values, Outcome)."""
-        lows = np.log10([_bounds(e)[0] for e in names])
-        highs = np.log10([_bounds(e)[1] for e in names])
-        x0 = np.clip(np.log10([max(start.get(PRESSURE_PATH[e], 0.0), 1e-300) for e in names]), lows + 1e-9,
-                     highs - 1e-9)
-        keys = [PRESSURE_PATH[e] for e in names]
-        result = least_squares(lambda x: self.residual(dict(zip(keys, 10.0 ** x)))[self.train], x0,
-                               bounds=(lows, highs), diff_step=1e-4, xtol=1e-6, max_nfev=40 * len(names))
-        values = dict(zip(keys, (float(v) for v in 10.0 ** result.x)))
-        pinned = any(at_bound(values[PRESSURE_PATH[e]], _bounds(e)) for e in names)
-        return values, Outcome(names[-1], self.score(self.residual(values), len(names)), at_bound=pinned)
-
-    def alone(self, name: str, off: Score) -> tuple[float, Outcome]:
-        """One effect of the path alone: a 1-D search, "off" an option; (value, Outcome)."""
-        key = PRESSURE_PATH[name]
-        value, _ = best_value(lambda v: self.rss_train({key: v}), _bounds(name), off.rss_train)
-        if value == 0.0:
-            return value, Outcome(name, dataclasses.replace(off, k=1), switched_off=True)
-        return value, Outcome(name, self.score(self.residual({key: value}), 1), at_bound=at_bound(value, _bounds(name)))
+    @property
+    def simulated(self):
+        """The measured pressures as the path found models them: (extensor, flexor) [Pa] over the
+        knee record's samples (:func:`pressure_record`'s two parts), or None."""
+        curve = self.result.simulated_after
+        if curve is None:
+            return None
+        n = (np.size(curve) - 1) // 2
+        return np.vstack([curve[:n], curve[n + 1:]])
 
 
-def _bounds(name: str) -> tuple[float, float]:
-    return CANDIDATES[name].bounds["knee"]
+def _state_free(effect) -> bool:
+    """An effect that only delays the command: no pressure state of its own (a dead time)."""
+    return effect.command_delay is not None and not holds_pressure(effect)
 
 
-def lag_from_pressures(measurement: Measurement, params: Params, rule: Rule = RULE) -> dict | None:
-    """The pressure path judged directly on a knee file's measured bladder pressures, or None without them.
+def muscle_lengths(measurement: Measurement, params: Params):
+    """Each muscle's length [m] over the record, from the measured motion (smoothed as the
+    equation error smooths it, :data:`~mkctl.analysis.equation_error.KNEE_SMOOTHING_S`), or None
+    where the measured motion is outside the knee's geometry.
 
-    The measured pe, pf are compared with the commands through a lag ``tau dP/dt = P_cmd - P``, a dead time, or
-    both, and a lag that exhausts at its own rate (:func:`mkctl.analysis.signals.pressure_path`, commands held
-    between samples): forward selection by the same rule as the motion's candidates
-    (:func:`mkctl.analysis.diagnosis_rule.decide`), on the first part of the record, against the commands
-    themselves. Round 1 tries the lag and the dead time alone, round 2 adds the other (or the exhausting time
-    constant) fitted jointly. Returns {"accepted" (the lag), "tau" [s], "uncertainty" [s], "candidate" (the lag's
-    report row, RMSE in kPa), "reason", "path": {"effects", "values", "uncertainty", "undecided"}}; a lag the file
-    already declares (tau in the metadata) is not judged.
+    Parameters
+    ----------
+    measurement : Measurement
+        A knee record (output ``x`` or ``beta``).
+    params : Params
+        The knee's lengths (Table II) and the muscle (Table I).
+
+    Returns
+    -------
+    tuple of numpy.ndarray or None
+        The extensor's and the flexor's lengths [m].
     """
     m = measurement
-    if m.experiment != "knee" or not ("pe" in m.inputs and "pf" in m.inputs) or params.tau > 0:
+    X = (knee.hip_height(m.output, params) if m.output_quantity == "beta"
+         else np.asarray(m.output, float))
+    if m.samples > 7:
+        dt = float(np.median(np.diff(m.time)))
+        window = min(max(5, int(round(KNEE_SMOOTHING_S / dt)) | 1), (m.samples - 2) | 1)
+        X = savgol_filter(X, window, 3)
+    try:
+        geometry = knee.geometry_at_X(X, params, derivatives=False)
+        lengths = (np.asarray(geometry.Le, float), np.asarray(geometry.Lf, float))
+        for L in lengths:
+            actuator.check_length(L, params.b)
+    except MkctlError:
         return None
-    train_one = m.time <= rule.split_time(m.time[0], m.time[-1])
-    problem = _PressureProblem(m, np.concatenate([m.inputs["pe"], m.inputs["pf"]]),
-                               np.concatenate([train_one, train_one]))
-    off = problem.score(problem.residual({}), 0)
-    tau, lag_outcome = problem.alone("pressure_lag", off)
-    delay, dead_outcome = problem.alone("dead_time", off)
-    decision = decide(off, [lag_outcome, dead_outcome], rule)
-    path = {"effects": [], "values": {}, "uncertainty": {}, "undecided": []}
-    if decision.verdict == "undecided":
-        effects_ = [decision.effect, *decision.rivals]
-        path["undecided"].append({"effects": effects_, "experiment": experiment_to_separate(effects_),
-                                  "text": f"the measured pressures cannot tell "
-                                          f"{' from '.join(e.replace('_', ' ') for e in effects_)}: "
-                                          f"{decision.reason}"})
-    elif decision.verdict == "add":
-        first = {"pressure_lag": (lag_outcome, {"tau": tau}), "dead_time": (dead_outcome, {"delay": delay})}
-        _later_rounds(problem, decision.effect, *first[decision.effect], path, rule)
-        path["uncertainty"] = _path_uncertainty(problem, path["values"], m.samples)
-    return _lag_report(problem, decision, off, lag_outcome, tau, path)
+    return lengths
 
 
-def _later_rounds(problem: _PressureProblem, effect: str, outcome: Outcome, values: dict, path: dict,
-                  rule: Rule) -> None:
-    """Rounds 2 and 3 after ``effect`` was added (its outcome and values): the other effect of the path, or the
-    exhausting time constant, fitted jointly with it; then, with both, the exhausting time constant. Fills
-    ``path``'s effects and values."""
-    path["effects"] = [effect]
-    path["values"] = dict(values)
-    current_score = outcome.score
-    trials = {}
-    if effect == "pressure_lag":
-        tau = values["tau"]
-        trials["dead_time"] = ["pressure_lag", "dead_time"], {"tau": tau, "delay": 1e-2}
-        trials["asymmetric_lag"] = ["pressure_lag", "asymmetric_lag"], {"tau": tau, "tau_exhaust": tau}
-    else:
-        trials["pressure_lag"] = ["dead_time", "pressure_lag"], {"delay": values["delay"], "tau": 1e-2}
-    fitted = {name: problem.fit(names, start) for name, (names, start) in trials.items()}
-    second = decide(current_score, [outcome for _, outcome in fitted.values()], rule)
-    if second.verdict == "add":
-        path["effects"].append(second.effect)
-        path["values"] = fitted[second.effect][0]
-        if "pressure_lag" not in path["effects"][:1] and second.effect == "pressure_lag":
-            path["effects"] = ["pressure_lag", "dead_time"]  # the lag first: an asymmetric lag needs it
-        current_score = fitted[second.effect][1].score
-        if (second.effect == "dead_time" or "dead_time" in path["effects"]) and "pressure_lag" in path["effects"]:
-            # round 3: with both, the exhausting time constant
-            values3, outcome3 = problem.fit(["pressure_lag", "dead_time", "asymmetric_lag"],
-                                            {**path["values"], "tau_exhaust": path["values"]["tau"]})
-            third = decide(current_score, [outcome3], rule)
-            if third.verdict == "add":
-                path["effects"].append("asymmetric_lag")
-                path["values"] = values3
-    path["values"] = {k: v for k, v in path["values"].items()
-                      if any(PRESSURE_PATH[e] == k for e in path["effects"])}
+def pressure_record(measurement: Measurement, params: Params) -> Measurement:
+    """Both muscles' measured pressures as one pressure record (model-spec 5c; module docstring).
+
+    The extensor's samples, one sample halfway through the pause at which the command steps to the
+    flexor's first one, then the flexor's samples. At that sample a path with a state still holds
+    the extensor's last pressure, one faster than a sample already the new command: its measured
+    value moves from the extensor's last by the share of the step that the record's own pressures
+    move at the samples where their commands step (:func:`step_share`), so that it is explained by
+    whatever explains the record's own steps. Lengths from the measured motion
+    (:func:`muscle_lengths`), else held at L0.
+
+    Parameters
+    ----------
+    measurement : Measurement
+        A knee record with measured pressures ``pe``, ``pf``.
+    params : Params
+        The knee's parameters: the pressure record's baseline.
+
+    Returns
+    -------
+    Measurement
+        An ``experiment = pressure`` record in kPa, its ``length`` column the muscles' lengths.
+    """
+    m = measurement
+    t = m.time - m.time[0]
+    pause = max(SETTLE_FACTOR * float(t[-1]), SETTLE_MIN)
+    lengths = muscle_lengths(m, params)
+    (first_cmd, first), (second_cmd, second) = MUSCLES
+    time = np.concatenate([t, [t[-1] + 0.5 * pause], t + t[-1] + pause])
+    command = np.concatenate([m.inputs[first_cmd], [m.inputs[second_cmd][0]], m.inputs[second_cmd]])
+    share = step_share([m.inputs[c] for c, _ in MUSCLES], [m.inputs[p] for _, p in MUSCLES])
+    pause_value = m.inputs[first][-1] + share * (m.inputs[second_cmd][0] - m.inputs[first_cmd][-1])
+    measured = np.concatenate([m.inputs[first], [pause_value], m.inputs[second]])
+    inputs = {"p_cmd": command}
+    if lengths is not None:
+        inputs["length"] = np.concatenate([lengths[0], [lengths[1][0]], lengths[1]])
+    return Measurement(
+        experiment="pressure", baseline=m.baseline, params=params, overrides=dict(m.overrides),
+        time=time, inputs=inputs, output=measured, output_column="p_kPa", output_factor=1e3,
+        source=f"{m.source} (measured pressures)", output_quantity="p")
 
 
-def _path_uncertainty(problem: _PressureProblem, values: dict, n: int) -> dict:
-    """Standard errors: each parameter by a central difference of the whole record's residual, the others held
-    (:func:`mkctl.analysis.statistics.covariance` of that one column, widened by the residual's correlation)."""
-    r = problem.residual(values)
-    n_eff = effective_samples(r.size, lag_one_correlation(r[:n]))
-    errors = {}
-    for key, value in values.items():
-        step = value * 1e-3
-        jac = (problem.residual({**values, key: value + step}) - problem.residual({**values, key: value - step})) \
-            / (2 * step)
-        errors[key] = float(math.sqrt(covariance(jac, r, len(values), n_eff)[0, 0]))
-    return errors
+def step_share(commands, pressures) -> float:
+    """The share of a command's step that the measured pressure moves at the sample where the
+    command steps (least squares over every step of every muscle, within 0..1): 1 for pressures that
+    follow their commands within a sample, 0 for a path with a state (a lag, a valve) or a delay.
+
+    Parameters
+    ----------
+    commands, pressures : sequence of numpy.ndarray
+        Each muscle's commands and measured pressures [Pa].
+
+    Returns
+    -------
+    float
+        0 when no command steps.
+    """
+    moved, stepped = [], []
+    for command, pressure in zip(commands, pressures):
+        steps = np.flatnonzero(np.diff(command) != 0) + 1
+        moved.append(pressure[steps] - pressure[steps - 1])
+        stepped.append(command[steps] - command[steps - 1])
+    moved, stepped = np.concatenate(moved), np.concatenate(stepped)
+    if not stepped.size:
+        return 0.0
+    return float(np.clip(moved @ stepped / (stepped @ stepped), 0.0, 1.0))
 
 
-def _lag_report(problem: _PressureProblem, decision, off: Score, lag_outcome: Outcome, tau: float,
-                path: dict) -> dict:
-    """The report of :func:`lag_from_pressures`: the lag's row and whether it was accepted, and the path."""
-    accepted = "pressure_lag" in path["effects"]
-    tau_found = path["values"].get("tau", tau)
-    j = decision.judgements["pressure_lag"]
-    lag_row_score = (problem.score(problem.residual(path["values"]), len(path["values"])) if path["effects"]
-                     else lag_outcome.score)
-    row = {"effect": "pressure_lag", "params": {"tau": tau_found}, "rmse_train_kPa": lag_row_score.rmse_train,
-           "rmse_holdout_kPa": lag_row_score.rmse_holdout, "rmse_holdout_before_kPa": off.rmse_holdout,
-           "delta_bic": j.delta_bic, "passes_bic": j.passes_bic, "passes_holdout": j.passes_holdout,
-           "switched_off": lag_outcome.switched_off, "at_bound": lag_outcome.at_bound}
-    reason = decision.reason if not accepted or decision.effect == "pressure_lag" else "found with a dead time"
-    if path["effects"] == ["dead_time"]:
-        # without a lag the modelled pressure is the delayed command, sample by sample: the pressures place
-        # the delay only within a sample, and the motion, which follows it continuously, fits it instead
-        path["motion"] = "dead_time"
-        path["effects"], path["values"], path["uncertainty"] = [], {}, {}
-    return {"accepted": accepted, "tau": tau_found,
-            "uncertainty": path["uncertainty"].get("tau") if accepted else None, "candidate": row,
-            "reason": reason, "path": path}
+def path_from_pressures(measurement: Measurement, params: Params, diagnose, rule: Rule = RULE,
+                        progress=None) -> PressurePath | None:
+    """The pressure path judged on a knee record's measured pressures (module docstring), or None
+    without them, or when the record's baseline already has an effect on the path (its file
+    declares it: the measured pressures then drive the motion).
+
+    Parameters
+    ----------
+    measurement : Measurement
+        A knee record.
+    params : Params
+        Its baseline.
+    diagnose : callable
+        The diagnosis of a pressure record, ``diagnose(record, progress=..., rule=...)``
+        (:func:`mkctl.analysis.diagnose.diagnose`, which calls this: handed in, not imported).
+    rule : Rule
+        The acceptance rule (:data:`mkctl.analysis.diagnosis_rule.RULE`).
+    progress : callable, optional
+        Receives the pressure record's progress lines.
+
+    Returns
+    -------
+    PressurePath or None
+    """
+    m = measurement
+    columns = [name for pair in MUSCLES for name in pair]
+    if m.experiment != "knee" or not all(name in m.inputs for name in columns):
+        return None
+    if any(path_effect(e) for e in actuator.active_effects(params)):
+        return None
+    record = pressure_record(m, params)
+    say = progress or (lambda text: None)
+    try:
+        result = diagnose(record, progress=lambda text: say("  pressures: " + text), rule=rule)
+    except MkctlError as error:  # the measured pressures then drive the motion as they are
+        say(f"  pressures: not judged ({error})")
+        return None
+    found = list(result.missing)
+    motion = tuple(e for e in found if all(_state_free(effects.get(f)) for f in found))
+    path_params = result.params_after if result.params_after is not None else params
+    if motion:
+        path_params = params
+    # the pause between the muscles is no gap of the user's record
+    notes = [text for text in result.notes if text != gap_note(record)]
+    result = dataclasses.replace(result, notes=notes)
+    return PressurePath(result, path_params, motion, _report(result, motion))
+
+
+def _report(result, motion: tuple) -> dict:
+    """The JSON of :class:`PressurePath` (its docstring)."""
+    effects_ = [] if motion else list(result.missing)
+    values = {} if motion else dict(result.params)
+    uncertainty = {} if motion else dict(result.uncertainty)
+    rounds = result.steps or ([result.stopped] if result.stopped else [])
+    rows = rounds[0].get("candidates", []) if rounds else []
+    best = next((r for r in rows if r.get("effect") == (result.missing or [None])[0]), None) or \
+        (rows[0] if rows else None)
+    candidate = None
+    if best is not None:
+        candidate = {"effect": best["effect"], "params": dict(best.get("params", {})),
+                     "rmse_train_kPa": best.get("rmse_train"),
+                     "rmse_holdout_kPa": best.get("rmse_holdout"),
+                     "delta_bic": best.get("delta_bic"), "passes_bic": best.get("passes_bic"),
+                     "passes_holdout": best.get("passes_holdout"),
+                     "switched_off": best.get("switched_off"), "at_bound": best.get("at_bound")}
+    reason = (result.stopped or {}).get("reason") if not result.missing else \
+        f"{' + '.join(result.missing)} found on the measured pressures (verdict {result.verdict})"
+    lag_parameter = _lag_parameter(result.missing)
+    return {
+        "accepted": bool(result.missing),
+        "tau": values.get(lag_parameter) if lag_parameter else None,
+        "uncertainty": uncertainty.get(lag_parameter) if lag_parameter else None,
+        "candidate": candidate, "reason": reason,
+        "path": {"effects": effects_, "values": values, "uncertainty": uncertainty,
+                 "undecided": [dict(u) for u in result.undecided], "motion": list(motion)},
+        "verdict": result.verdict, "rmse_kPa": result.rmse_after,
+        "rmse_before_kPa": result.rmse_before, "noise_kPa": result.output_noise,
+        "identified": dict(result.identified), "notes": list(result.notes), "steps": result.steps,
+    }
+
+
+def _lag_parameter(found) -> str | None:
+    """The time constant of a first-order lag among the effects found (an effect with an exact
+    pressure step and a fitted time constant), for the report's ``tau``."""
+    for name in found:
+        effect = effects.get(name)
+        if effect.pressure_step is not None and effect.fitted and not effect.requires:
+            return effect.fitted
+    return None

@@ -54,7 +54,8 @@ class DiagnosisResult(Result):
     adequacy: dict | None = None  #: the final model's residual against the noise (:func:`verdict_of`)
     saturation: dict | None = None  #: where the baseline could not follow (see :func:`saturation_note`)
     offset: float | None = None  #: fitted constant sensor offset, file units (``fit_offset`` only)
-    pressure_lag: dict | None = None  #: the lag judged on measured pressures (:func:`lag_from_pressures`)
+    #: the pressure path judged on measured pressures (:class:`~.pressure_path.PressurePath`'s report)
+    pressure_lag: dict | None = None
     discovery: dict | None = None  #: spec 6b, when incomplete (:func:`mkctl.analysis.discovery.discover`)
     #: on a tie, each explanation as a whole model: effects, params, uncertainty, rmse, adequate
     #: (see docs/diagnosis.md); the top level then holds only what they share
@@ -74,6 +75,8 @@ class DiagnosisResult(Result):
     signature_order: list = field(default_factory=list, repr=False)
     #: each alternative's simulation over every sample [SI]
     alternative_simulated: list = field(default_factory=list, repr=False)
+    #: a knee's measured pressures as the path found on them model them: (extensor, flexor) [Pa]
+    pressure_path_simulated: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def units(self) -> dict:

@@ -21,6 +21,7 @@ from ...physics import effects
 from .air import air_parameters, fit_air
 from .alternatives import _alternative_models, _best_alternative, _shared_values
 from .candidates import candidates_for
+from .pressure_path import path_from_pressures
 from .noise import QUASI_STATIC
 from .preparation import Record, _blocked_problem, _prepare, _with_input_noise, input_noise_through_model
 from .problem import Problem, evaluate, joint_fit, fit_problem, with_air_of
@@ -57,7 +58,9 @@ def diagnose(measurement: Measurement, progress: Callable[[str], None] | None = 
     calibration = fit_air(m, m.params, say, known=m.overrides)
     if calibration is not None:
         m = dataclasses.replace(m, params=calibration.params)
-    record = _prepare(m, rule, fit_offset, say)
+    # a knee's measured pressures: its pressure path, as a pressure record through this diagnosis
+    path = path_from_pressures(m, m.params, diagnose, rule, say)
+    record = _prepare(m, rule, fit_offset, say, path)
     if record.problems:
         return _not_diagnosed(record, say)
     problem = fit_problem(record.prepared, fit_offset, rule, record.noise)
@@ -217,17 +220,29 @@ def _final_fit(problem: Problem, record: Record, state: "Search", offset_before:
         for name in final_values:
             rms = math.sqrt(sum((v[name] - final_values[name]) ** 2 for v in shifts) / len(shifts))
             uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), rms)
-    if lag is not None and lag["accepted"] and added and lag["uncertainty"]:
-        # tau was fixed from the pressures: its own uncertainty moves the motion's parameters too
-        # (first order: refit at tau -+ its standard error, add the spread in quadrature)
-        spread = []
-        for sign in (-1.0, 1.0):
-            shifted = start.replace(tau=max(lag["tau"] + sign * lag["uncertainty"], 1e-6))
-            values, _, _, _ = joint_fit(problem, shifted, added, final_values, train_only=False, rough=True)
-            spread.append(values)
-        for name in final_values:
-            moved = 0.5 * abs(spread[1][name] - spread[0][name])
-            uncertainty[name] = math.hypot(uncertainty.get(name, 0.0), moved)
+    path = lag["path"] if lag is not None else {"values": {}, "uncertainty": {}}
+    if added and path["uncertainty"]:
+        # the path's values were fixed from the pressures: their own uncertainty moves the motion's
+        # parameters too (first order: refit at each value -+ its standard error, add the spread in
+        # quadrature)
+        for name, error in path["uncertainty"].items():
+            value = path["values"].get(name)
+            if not error or value is None:
+                continue
+            spread = []
+            for sign in (-1.0, 1.0):
+                try:
+                    shifted = start.replace(**{name: max(value + sign * error, 1e-3 * value)})
+                except MkctlError:  # beyond its bounds: the spread is not measured
+                    break
+                values, _, _, _ = joint_fit(problem, shifted, added, final_values, train_only=False,
+                                            rough=True)
+                spread.append(values)
+            if len(spread) < 2:
+                continue
+            for key in final_values:
+                moved = 0.5 * abs(spread[1][key] - spread[0][key])
+                uncertainty[key] = math.hypot(uncertainty.get(key, 0.0), moved)
     if lag is not None and lag["path"]["effects"]:
         path = lag["path"]
         added = [*path["effects"], *added]
@@ -296,9 +311,9 @@ def _result(record: Record, state: "Search", final: _Final, offset_before: float
         say(text)
     # spec 6b: what the baseline cannot explain is regressed on a library of physical terms (registered effects
     # it lacks show as their own terms, "matches" naming them)
-    # (a pressure record holds no force: the library of forces has nothing to regress)
+    # (a pressure record's: its missing pressure rate on the pneumatic terms)
     found = discover(record.prepared, record.start, progress=say, effects=discovery_effects()) \
-        if verdict == "incomplete" and m.experiment != "pressure" else None
+        if verdict == "incomplete" else None
     worst = dict(fit.worst)
     if worst:
         worst.update({"from_s": float(m.time[worst.pop("start")]), "to_s": float(m.time[worst.pop("stop")])})
