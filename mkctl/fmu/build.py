@@ -408,6 +408,9 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platfo
         if find_compiler() is None:
             print("build_fmu: note: no C compiler found (CC, cc, gcc, clang): the native FMUs are not built",
                   file=sys.stderr)
+        elif air:  # until mkctl.native.mechanism_fmu carries the air: said, not built without it
+            print("build_fmu: note: the native mechanism FMUs do not carry the air in the muscle yet "
+                  "(model-spec 7d): not built with these parameters", file=sys.stderr)
         else:
             built.update(build_mechanism(found, out, params, platforms=platforms))
     return built
