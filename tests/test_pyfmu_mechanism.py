@@ -279,3 +279,93 @@ def test_pythonfmu_and_native_mechanism_fmus_show_one_interface_and_agree(built,
     np.testing.assert_allclose(python_rows[:, 0:3], native_rows[:, 0:3], rtol=0, atol=1e-9)  # q, L
     np.testing.assert_allclose(python_rows[:, 3:5], native_rows[:, 3:5], rtol=1e-7, atol=1e-6)  # f
     np.testing.assert_allclose(python_rows[:, 5:7], native_rows[:, 5:7], rtol=1e-9, atol=1e-2)  # P (lag)
+
+
+ERRORS = r"""
+import json, sys
+from fmpy import extract, read_model_description
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import FMU2Slave
+path = sys.argv[1]
+md = read_model_description(path)
+vr = {v.name: v.valueReference for v in md.modelVariables}
+folder = extract(path)
+
+
+def instance(**start):
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=folder, modelIdentifier=md.coSimulation.modelIdentifier,
+                    instanceName="test")
+    fmu.instantiate()
+    fmu.setupExperiment(startTime=0.0)
+    fmu.enterInitializationMode()
+    for name, value in start.items():
+        fmu.setReal([vr[name]], [value])
+    try:
+        fmu.exitInitializationMode()
+    except FMICallException as error:
+        return fmu, int(error.status)
+    return fmu, 0
+
+
+def status(call, *args):
+    try:
+        call(*args)
+    except FMICallException as error:
+        return int(error.status)
+    return 0
+
+
+out = {}
+_, out["bad J"] = instance(J=-1.0)
+fmu, out["start"] = instance()
+fmu.setReal([vr["p_cmd_muscle1"]], [-1.0])
+out["negative command"] = status(fmu.doStep, 0.0, 0.01)
+# the FMU state with a dead time (commands on their way) and a lag: replayed, the same steps give the same q
+fmu, _ = instance(delay=0.03, tau=0.02)
+commands = [300e3 + 2e3 * j for j in range(30)]
+for j in range(10):
+    fmu.setReal([vr["p_cmd_muscle1"]], [commands[j]])
+    fmu.doStep(0.01 * j, 0.01)
+state = fmu.serializeFMUstate(fmu.getFMUstate())
+runs = []
+for attempt in range(2):
+    if attempt:
+        fmu.setFMUstate(fmu.deSerializeFMUstate(state))
+    q = []
+    for j in range(10, 30):
+        fmu.setReal([vr["p_cmd_muscle1"]], [commands[j]])
+        fmu.doStep(0.01 * j, 0.01)
+        q.append(fmu.getReal([vr["q"]])[0])
+    runs.append(q)
+out["replayed"] = runs
+print(json.dumps(out))
+"""
+
+
+def test_errors_with_the_library_words_and_the_fmu_state(built, tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    from mkctl.errors import MkctlError
+    from mkctl.physics.params import Params as P
+    path = built["pulley_joint"]["McKibbenPulleyJoint"]
+    done = subprocess.run([sys.executable, "-c", ERRORS, str(path)], capture_output=True, text=True, cwd=tmp_path,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr[-3000:]
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    with pytest.raises(MkctlError) as library:
+        mech.PULLEY_JOINT.bind(J=-1.0)
+    assert out["bad J"] >= 3 and str(library.value) in done.stderr  # fmi2Error or fmi2Fatal, the library's words
+    assert out["start"] == 0 and out["negative command"] in (2, 3) and "below 0" in done.stderr
+    assert all("Traceback" not in line for line in done.stderr.splitlines())
+    first, again = out["replayed"]
+    assert first == again and np.ptp(first) > 1e-4
+    # and those steps are the library's: the commands through the dead time and the lag
+    commands = [300e3 + 2e3 * j for j in range(30)]
+    time = np.round(np.arange(31) * 0.01, 12)
+    given = np.array(commands + commands[-1:])
+    reference = mech.simulate_mechanism(time, [given, np.full(31, 300e3)], mech.PULLEY_JOINT,
+                                        P(delay=0.03, tau=0.02), q0=mech.equilibrium(
+                                            mech.PULLEY_JOINT, (300e3, 300e3), mech.PULLEY_JOINT.bind()))
+    np.testing.assert_allclose(first, reference.q[11:31], rtol=0, atol=1e-9)
