@@ -369,3 +369,47 @@ def test_errors_with_the_library_words_and_the_fmu_state(built, tmp_path):
                                         P(delay=0.03, tau=0.02), q0=mech.equilibrium(
                                             mech.PULLEY_JOINT, (300e3, 300e3), mech.PULLEY_JOINT.bind()))
     np.testing.assert_allclose(first, reference.q[11:31], rtol=0, atol=1e-9)
+
+
+DRAG = '''
+def quadratic_drag(L, Ldot, P, p, xp):
+    return p.c_quad * Ldot * xp.abs(Ldot)
+
+
+EFFECTS = [{"name": "quadratic_drag", "description": "Ldot |Ldot|",
+            "parameters": [{"name": "c_quad", "unit": "N s^2/m^2", "off": 0.0, "lower": 0.0, "upper": 1e6,
+                            "typical": 2000.0}],
+            "term": quadratic_drag}]
+'''
+
+
+def test_build_fmu_mechanism_carries_your_effect_files(tmp_path, run_python, monkeypatch):
+    """``build_fmu.py --mechanism NAME --effects FILE.py --no-native``: the pythonfmu FMU alone, the effect packed
+    and registered by the slave; with its parameter set at run time it runs as simulate_mechanism with it."""
+    import json
+    import subprocess
+    import sys
+
+    from mkctl.analysis.effect_files import register_effect_file, unregister_effect_file
+    effect = tmp_path / "drag.py"
+    effect.write_text(DRAG)
+    out = tmp_path / "dist"
+    done = subprocess.run([sys.executable, str(ROOT / "build_fmu.py"), "--mechanism", "pulley_joint", "--effects",
+                           str(effect), "--no-native", "--no-run", "--out", str(out)], capture_output=True,
+                          text=True, cwd=tmp_path, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in out.iterdir()) == ["McKibbenPulleyJoint.fmu"]  # no native/, fmi3/
+    mechanism = mech.PULLEY_JOINT
+    monkeypatch.setenv("MKCTL_NATIVE", "0")  # the reference in the library's Python loop: no compile for the effect
+    register_effect_file(effect)
+    try:
+        reference = mech.simulate_mechanism(TIME, _commands(2), mechanism, Params(c_quad=2000.0))
+    finally:
+        unregister_effect_file(effect)
+    plain = mech.simulate_mechanism(TIME, _commands(2), mechanism)
+    assert np.abs(reference.q - plain.q).max() > 1e-4  # the drag acts
+    path = tmp_path / "jobs.json"
+    path.write_text(json.dumps([_mechanism_job(out / "McKibbenPulleyJoint.fmu", mechanism,
+                                               float(reference.q[0]), {"c_quad": 2000.0})]))
+    got = np.array(run_python(HOST, path, timeout=300)[0])
+    np.testing.assert_allclose(got[:, 0], reference.q, rtol=0, atol=1e-9)

@@ -2,8 +2,12 @@
 
     python -m mkctl.fmu.build [--out DIR] [--no-run] [--params MUSCLE.json] [--effects FILE.py ...]
     python build_fmu.py ...                    (the same, from a checkout)
+    python build_fmu.py --mechanism NAME|FILE.py [--no-native] ...
 
-writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
+writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``; with parameters that
+switch on the air, the knee with it and no actuator, which does not carry it), or with ``--mechanism`` the
+mechanism's ``DIR/McKibben<Name>.fmu`` (:func:`build_mechanism_fmus`; its script ``mckibben_mechanism.py`` serves
+every mechanism, named in the FMU's resources as data, a mechanism file carried as itself):
 
 1. pythonfmu packs each slave script of :mod:`mkctl.fmu.scripts` with the ``mkctl`` modules the scripts import
    (and nothing else), among them the slave classes (``mkctl/fmu/models.py``) and
@@ -374,7 +378,7 @@ def _build_native(out: Path, params: Params) -> dict[str, Path]:
 
 
 def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platforms: bool = True,
-                         run: bool = True, native: bool = True) -> dict[str, Path]:
+                         run: bool = True, native: bool = True, *, effects=()) -> dict[str, Path]:
     """Both kinds of a mechanism's FMUs (a built-in name or a mechanism file, model-spec sections 3b, 7d).
 
     ``out/McKibben<Name>.fmu``, the pythonfmu FMU (:class:`mkctl.fmu.models.McKibbenMechanism`: the library's
@@ -384,9 +388,14 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platfo
     (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the Linux x86-64 binary only), or a
     note on stderr without a C compiler. Both kinds show one interface
     (:func:`mkctl.fmi.interface.mechanism_model`); params switching on the air (valve_flow) build both with
-    section 4d's parameters and each muscle's air mass flow. Returns the paths by "<model>", "native/<model>",
-    "fmi3/<model>". Raises an MkctlError (a one-line message) for a bad file or parameters."""
+    section 4d's parameters and each muscle's air mass flow. effects: the user's effect files (model-spec 4c),
+    registered here, packed into the pythonfmu FMU and compiled into the native ones, as :func:`build`'s.
+    Returns the paths by "<model>", "native/<model>", "fmi3/<model>". Raises an MkctlError (a one-line message)
+    for a bad file or parameters."""
+    from ..analysis.effect_files import register_effect_files
     from ..analysis.mechanism_files import mechanism
+    effect_files = [Path(f).resolve() for f in effects or ()]
+    register_effect_files(effect_files)
     params = DEFAULT if params is None else params
     found = mechanism(str(name_or_path), params)
     air = air_is_on(params)
@@ -396,8 +405,9 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platfo
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
         temp = Path(temp)
+        packed = _stage_effects(temp / "effects", effect_files)
         target = _pack(MECHANISM_SCRIPT, interface, params, out / f"{interface.name}.fmu", temp / "mechanism",
-                       [_stage_mkctl(temp / "stage")], air, mechanism=found,
+                       [_stage_mkctl(temp / "stage"), *([packed] if packed else [])], air, mechanism=found,
                        needs="numpy, scipy and sympy")
     if run:
         _run_check(target)
@@ -456,7 +466,7 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
             built = build_knee_system(args.out, params)
         elif args.mechanism is not None and args.mechanism != "knee":
             built = build_mechanism_fmus(args.mechanism, args.out, params, run=not args.no_run,
-                                         native=not args.no_native)
+                                         native=not args.no_native, effects=args.effects)
         else:
             built = build(args.out, run=not args.no_run, params=params, native=not args.no_native,
                           effects=args.effects)
