@@ -9,7 +9,7 @@ references are computed here with mkctl directly, and compared sample by sample 
   :func:`mkctl.physics.mechanism.simulate_mechanism`: q and the lengths to 1e-9 m (rad), the pressures exactly;
   a pressure lag, a dead time and damping set as FMU parameters at run time;
 - the pulley joint built with the air (valve_flow and a leak in the build's parameters) against
-  simulate_mechanism with the same, its air mass flows ``qm_<muscle>`` against
+  simulate_mechanism with the same, its air mass flows ``q_<muscle>`` against
   :func:`mkctl.physics.actuator.air_mass_flow` at the FMU's own pressures and commands;
 - the knee built with the air against :func:`mkctl.physics.simulate.simulate_knee`, qe and qf against
   air_mass_flow;
@@ -100,7 +100,7 @@ def _job(fmu, inputs, outputs, start=None):
 def _mechanism_outputs(mechanism, air=False):
     muscles = mechanism.muscles
     return ["q", *(f"{kind}_{m}" for kind in ("L", "f", "P") for m in muscles),
-            *((f"qm_{m}" for m in muscles) if air else ())]
+            *((f"q_{m}" for m in muscles) if air else ())]
 
 
 def _mechanism_job(fmu, mechanism, q0, start=None, air=False):

@@ -324,8 +324,8 @@ def mechanism_model_name(mechanism) -> str:
 
 def air_flow_output(muscle: str) -> str:
     """The name of a mechanism FMU's output of one muscle's net air mass flow [kg/s] (model-spec 7d):
-    ``qm_<muscle>``, the spec's q_m (section 4d) of that muscle, beside its ``L_``, ``f_`` and ``P_``."""
-    return f"qm_{muscle}"
+    ``q_<muscle>`` (the knee's ``qe``, ``qf``; the muscle after the kind, as ``L_<muscle>``)."""
+    return f"q_{muscle}"
 
 
 def mechanism_model(mechanism, air: bool = False) -> Model:
@@ -418,12 +418,12 @@ def mechanism_model(mechanism, air: bool = False) -> Model:
                                  f"({MECHANISM_START_COMMAND:g} Pa): {error}") from None
         return {**dict(zip(inputs, commands)), **{n: float(getattr(p, n)) for n in own}, "q0": float(q0)}
 
-    driven = "driven by McKibben muscles" + ("; the air in the muscles (model-spec 4d) when valve_flow = 1"
-                                             if air else "")
     return Model(
         name=mechanism_model_name(mechanism),
         description=(f"{mechanism.description or mechanism.name}: a mechanism of one coordinate "
-                     f"({mechanism.coordinate} [{unit}]) {driven} (model-spec sections 3b, 7d)"),
+                     f"({mechanism.coordinate} [{unit}]) driven by McKibben muscles "
+                     "(model-spec sections 3b, 7d)"
+                     + ("; the air in the muscles (model-spec 4d) when valve_flow = 1" if air else "")),
         default_experiment={"start_time": 0.0, "stop_time": 2.0, "step_size": 1e-3},
         inputs=inputs, parameters=parameters, extra_parameters=extra, outputs=outputs,
         boolean_outputs=frozenset({"stable"}), pressure_outputs={f"P_{m}": m for m in muscles},
