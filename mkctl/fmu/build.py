@@ -4,10 +4,11 @@
     python build_fmu.py ...                    (the same, from a checkout)
     python build_fmu.py --mechanism NAME|FILE.py [--no-native] ...
 
-writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``; with parameters that
-switch on the air, the knee with it and no actuator, which does not carry it), or with ``--mechanism`` the
-mechanism's ``DIR/McKibben<Name>.fmu`` (:func:`build_mechanism_fmus`; its script ``mckibben_mechanism.py`` serves
-every mechanism, named in the FMU's resources as data, a mechanism file carried as itself):
+writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``; with
+parameters that switch on the air, the knee with it and no actuator, which does not carry it), or
+with ``--mechanism`` the mechanism's ``DIR/McKibben<Name>.fmu`` (:func:`build_mechanism_fmus`; its
+script ``mckibben_mechanism.py`` serves every mechanism, named in the FMU's resources as data, a
+mechanism file carried as itself):
 
 1. pythonfmu packs each slave script of :mod:`mkctl.fmu.scripts` with the ``mkctl`` modules the scripts import
    (and nothing else), among them the slave classes (``mkctl/fmu/models.py``) and
@@ -57,8 +58,9 @@ SCRIPTS = Path(__file__).resolve().parent / "scripts"
 #: The slave script of each FMU, by model name (a one-line import of the slave class, see mkctl/fmu/scripts).
 FMU_SCRIPTS = {"McKibbenKnee": SCRIPTS / "mckibben_knee.py",
                "McKibbenActuator": SCRIPTS / "mckibben_actuator.py"}
-#: The slave script of every mechanism's FMU (model-spec 3b, 7d): the FMU's model name McKibben<Name> comes from
-#: the mechanism the build names in its resources, so one script serves them all and nothing is generated.
+#: The slave script of every mechanism's FMU (model-spec 3b, 7d): the FMU's model name
+#: McKibben<Name> comes from the mechanism the build names in its resources, so one script serves
+#: them all and nothing is generated.
 MECHANISM_SCRIPT = SCRIPTS / "mckibben_mechanism.py"
 
 
@@ -138,7 +140,8 @@ print(json.dumps({name: module.__file__ for name, module in sys.modules.items()
 
 
 def _script_modules() -> list[str]:
-    return [f"mkctl.fmu.scripts.{script.stem}" for script in (*FMU_SCRIPTS.values(), MECHANISM_SCRIPT)]
+    scripts = (*FMU_SCRIPTS.values(), MECHANISM_SCRIPT)
+    return [f"mkctl.fmu.scripts.{script.stem}" for script in scripts]
 
 
 def _stage_mkctl(dest: Path) -> Path:
@@ -166,12 +169,14 @@ def _stage_mkctl(dest: Path) -> Path:
 
 
 def _stage_starts(dest: Path, interface, params: Params) -> Path:
-    """Write the start values of params for one FMU's interface (the file the slave reads at instantiation)."""
+    """Write the start values of params for one FMU's interface (the file the slave reads at
+    instantiation)."""
     from .slave import START_FILE
     try:
         values = interface.start_values(params)
     except MkctlError as error:
-        raise BuildError(f"no start values for {interface.name} with these parameters: {error}") from None
+        raise BuildError(f"no start values for {interface.name} with these parameters: "
+                         f"{error}") from None
     dest.mkdir(parents=True)
     path = dest / START_FILE
     path.write_text(json.dumps(values, indent=1))
@@ -179,8 +184,9 @@ def _stage_starts(dest: Path, interface, params: Params) -> Path:
 
 
 def _stage_build(dest: Path, air: bool, mechanism=None) -> list[Path]:
-    """Write the build file (:data:`mkctl.fmu.slave.BUILD_FILE`: the air, the mechanism) into dest, and copy a
-    mechanism file into dest/mkctl_mechanism as it is; returns what to pack into the resources."""
+    """Write the build file (:data:`mkctl.fmu.slave.BUILD_FILE`: the air, the mechanism) into dest,
+    and copy a mechanism file into dest/mkctl_mechanism as it is; returns what to pack into the
+    resources."""
     from .slave import BUILD_FILE, MECHANISM_FOLDER
     dest.mkdir(parents=True)
     build: dict = {"air": bool(air)}
@@ -202,8 +208,9 @@ def _stage_build(dest: Path, air: bool, mechanism=None) -> list[Path]:
 
 def _complete_model_description(xml: bytes, units: dict[str, str], needs: str = "numpy and scipy",
                                 description: str | None = None) -> bytes:
-    """Add units (UnitDefinitions + unit attributes) and InitialUnknowns to pythonfmu's modelDescription; write
-    ``description`` (the interface's: that of the FMU as built, with the air, a mechanism's) when given."""
+    """Add units (UnitDefinitions + unit attributes) and InitialUnknowns to pythonfmu's
+    modelDescription; write ``description`` (the interface's: that of the FMU as built, with the
+    air, a mechanism's) when given."""
     root = ET.fromstring(xml)
     for node in root.iter():  # drop pythonfmu's indentation, re-indented below
         if node.text is not None and not node.text.strip():
@@ -243,13 +250,15 @@ def _complete_model_description(xml: bytes, units: dict[str, str], needs: str = 
     return xml_bytes(root)
 
 
-def _complete_fmu(fmu: Path, target: Path, interface, fix_exit: bool, needs: str = "numpy and scipy") -> None:
+def _complete_fmu(fmu: Path, target: Path, interface, fix_exit: bool,
+                  needs: str = "numpy and scipy") -> None:
     """Copy pythonfmu's FMU to target with the model description completed and the linux64 binary fixed."""
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as out:
         for item in source.infolist():
             data = source.read(item.filename)
             if item.filename == "modelDescription.xml":
-                data = _complete_model_description(data, interface.units, needs, interface.description)
+                data = _complete_model_description(data, interface.units, needs,
+                                                   interface.description)
             elif fix_exit and item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
                 data = fix_exit_handler(data, f"{target.name}'s {item.filename}")
             out.writestr(item, data)
@@ -333,8 +342,8 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
         for name, script in FMU_SCRIPTS.items():
             interface = model_for(name, air)
             if air and not interface.air:  # the air switched on, and this FMU cannot carry it
-                print(f"build_fmu: note: {name} does not carry the air in the muscle (model-spec 7d): not "
-                      "built with these parameters", file=sys.stderr)
+                print(f"build_fmu: note: {name} does not carry the air in the muscle (model-spec "
+                      "7d): not built with these parameters", file=sys.stderr)
                 continue
             built[name] = _pack(script, interface, params, out / f"{name}.fmu", temp / name,
                                 [package, *([packed] if packed else [])], air, fix_exit=_fix_exit)
@@ -347,10 +356,10 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
     return built
 
 
-def _pack(script: Path, interface, params: Params, target: Path, stage: Path, project_files: list, air: bool,
-          mechanism=None, fix_exit: bool = True, needs: str = "numpy and scipy") -> Path:
-    """pythonfmu's FMU of one slave script with the build's start values, build file (and mechanism file), then
-    completed and validated at target."""
+def _pack(script: Path, interface, params: Params, target: Path, stage: Path, project_files: list,
+          air: bool, mechanism=None, fix_exit: bool = True, needs: str = "numpy and scipy") -> Path:
+    """pythonfmu's FMU of one slave script with the build's start values, build file (and mechanism
+    file), then completed and validated at target."""
     from pythonfmu import FmuBuilder
     starts = _stage_starts(stage / "starts", interface, params)
     build_files = _stage_build(stage / "build", air, mechanism)
@@ -379,19 +388,21 @@ def _build_native(out: Path, params: Params) -> dict[str, Path]:
 
 def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platforms: bool = True,
                          run: bool = True, native: bool = True, *, effects=()) -> dict[str, Path]:
-    """Both kinds of a mechanism's FMUs (a built-in name or a mechanism file, model-spec sections 3b, 7d).
+    """Both kinds of a mechanism's FMUs (a built-in name or a mechanism file, model-spec 3b, 7d).
 
-    ``out/McKibben<Name>.fmu``, the pythonfmu FMU (:class:`mkctl.fmu.models.McKibbenMechanism`: the library's
-    mechanism stepped in the host's Python; a file's mechanism carried as the file itself, loaded by
-    :func:`mkctl.analysis.mechanism_files.load_mechanism_file`), its default experiment run in a fresh process
-    (``run``); and (``native``) the native FMUs in ``out/native`` and ``out/fmi3``
-    (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the Linux x86-64 binary only), or a
-    note on stderr without a C compiler. Both kinds show one interface
-    (:func:`mkctl.fmi.interface.mechanism_model`); params switching on the air (valve_flow) build both with
-    section 4d's parameters and each muscle's air mass flow. effects: the user's effect files (model-spec 4c),
-    registered here, packed into the pythonfmu FMU and compiled into the native ones, as :func:`build`'s.
-    Returns the paths by "<model>", "native/<model>", "fmi3/<model>". Raises an MkctlError (a one-line message)
-    for a bad file or parameters."""
+    ``out/McKibben<Name>.fmu``, the pythonfmu FMU (:class:`mkctl.fmu.models.McKibbenMechanism`: the
+    library's mechanism stepped in the host's Python; a file's mechanism carried as the file
+    itself, loaded by :func:`mkctl.analysis.mechanism_files.load_mechanism_file`), its default
+    experiment run in a fresh process (``run``); and (``native``) the native FMUs in ``out/native``
+    and ``out/fmi3`` (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the
+    Linux x86-64 binary only), or a note on stderr without a C compiler. Both kinds show one
+    interface (:func:`mkctl.fmi.interface.mechanism_model`). Params switching on the air
+    (valve_flow) build the pythonfmu FMU with section 4d's parameters and each muscle's air mass
+    flow; the native ones, which do not carry the air yet, are then not built (a note says so).
+    effects: the user's effect files (model-spec 4c), registered here, packed into the pythonfmu
+    FMU and compiled into the native ones, as :func:`build`'s. Returns the paths by "<model>",
+    "native/<model>", "fmi3/<model>". Raises an MkctlError (a one-line message) for a bad file or
+    parameters."""
     from ..analysis.effect_files import register_effect_files
     from ..analysis.mechanism_files import mechanism
     effect_files = [Path(f).resolve() for f in effects or ()]
@@ -406,8 +417,9 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platfo
     with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
         temp = Path(temp)
         packed = _stage_effects(temp / "effects", effect_files)
-        target = _pack(MECHANISM_SCRIPT, interface, params, out / f"{interface.name}.fmu", temp / "mechanism",
-                       [_stage_mkctl(temp / "stage"), *([packed] if packed else [])], air, mechanism=found,
+        project = [_stage_mkctl(temp / "stage"), *([packed] if packed else [])]
+        target = _pack(MECHANISM_SCRIPT, interface, params, out / f"{interface.name}.fmu",
+                       temp / "mechanism", project, air, mechanism=found,
                        needs="numpy, scipy and sympy")
     if run:
         _run_check(target)
@@ -416,11 +428,11 @@ def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platfo
         from ..native.build import find_compiler
         from ..native.mechanism_fmu import build_mechanism
         if find_compiler() is None:
-            print("build_fmu: note: no C compiler found (CC, cc, gcc, clang): the native FMUs are not built",
-                  file=sys.stderr)
+            print("build_fmu: note: no C compiler found (CC, cc, gcc, clang): the native FMUs are "
+                  "not built", file=sys.stderr)
         elif air:  # until mkctl.native.mechanism_fmu carries the air: said, not built without it
-            print("build_fmu: note: the native mechanism FMUs do not carry the air in the muscle yet "
-                  "(model-spec 7d): not built with these parameters", file=sys.stderr)
+            print("build_fmu: note: the native mechanism FMUs do not carry the air in the muscle "
+                  "yet (model-spec 7d): not built with these parameters", file=sys.stderr)
         else:
             built.update(build_mechanism(found, out, params, platforms=platforms))
     return built
@@ -447,9 +459,11 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
                         help="a file of your own effects (model-spec section 4c, docs/effects.md): the FMUs carry "
                              "them, their parameters become FMU parameters (repeatable)")
     parser.add_argument("--mechanism", default=None, metavar="NAME|FILE.py",
-                        help="build the FMUs of this mechanism instead (model-spec sections 3b, 7d): a built-in "
-                             "name or a mechanism file; writes OUT/McKibben<Name>.fmu (pythonfmu) and OUT/native/, "
-                             "OUT/fmi3/McKibben<Name>.fmu (native; not with --no-native) (knee: the usual build)")
+                        help="build the FMUs of this mechanism instead (model-spec sections 3b, "
+                             "7d): a built-in name or a mechanism file; writes "
+                             "OUT/McKibben<Name>.fmu (pythonfmu) and OUT/native/, "
+                             "OUT/fmi3/McKibben<Name>.fmu (native; not with --no-native) (knee: "
+                             "the usual build)")
     parser.add_argument("--ssp", action="store_true",
                         help="build the knee as a system of FMUs instead: OUT/McKibbenKneeSystem.ssp (the knee's "
                              "mechanism alone and two native actuator FMUs, SSP 1.0; docs/fmu.md)")

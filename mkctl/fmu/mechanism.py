@@ -1,13 +1,14 @@
 """A mechanism stepped as its pythonfmu FMU runs it: :class:`MechanismSimulator`.
 
-What :class:`mkctl.physics.simulate.KneeSimulator` is to the knee FMU, for any mechanism (model-spec 3b,
-7d): the state (q, qdot and, with pressure dynamics, each muscle's pressure) advanced over one
-communication step with the commands held, by the library's record loop's own pieces: the right-hand side
-:func:`mkctl.physics.mechanism.mechanism_derivatives`, the integrator
-:func:`mkctl.physics.integrate.integrate` with :data:`~mkctl.physics.mechanism.RUN_ATOL` and
-:data:`~mkctl.physics.mechanism.RUN_FIRST_STEP`, a dead time's commands through
-:class:`mkctl.physics.simulate.CommandSchedule`; the outputs from
-:func:`~mkctl.physics.mechanism.mechanism_force`, :func:`~mkctl.physics.mechanism.coefficients_at` and
+What :class:`mkctl.physics.simulate.KneeSimulator` is to the knee FMU, for any mechanism
+(model-spec 3b, 7d): the state (q, qdot and, with pressure dynamics, each muscle's pressure)
+advanced over one communication step with the commands held, by the pieces of the library's
+record loop: the right-hand side :func:`mkctl.physics.mechanism.mechanism_derivatives`, the
+integrator :func:`mkctl.physics.integrate.integrate` with
+:data:`~mkctl.physics.mechanism.RUN_ATOL` and :data:`~mkctl.physics.mechanism.RUN_FIRST_STEP`, a
+dead time's commands through :class:`mkctl.physics.simulate.CommandSchedule`; the outputs from
+:func:`~mkctl.physics.mechanism.mechanism_force`,
+:func:`~mkctl.physics.mechanism.coefficients_at` and
 :func:`mkctl.physics.actuator.air_mass_flow`. No equation lives here.
 """
 from __future__ import annotations
@@ -33,15 +34,16 @@ class MechanismSimulator:
     q0 : float
         Initial coordinate [m or rad], at rest.
     commands0 : sequence of float
-        Each muscle's first command [Pa]: the pressures start there (and, through a dead time, it holds
-        until a later one arrives).
+        Each muscle's first command [Pa]: the pressures start there (and, through a dead time,
+        it holds until a later one arrives).
     stops : bool
         Whether the end stops act.
     rtol : float
         Relative tolerance of the adaptive integrator (that of
         :func:`~mkctl.physics.mechanism.simulate_mechanism`).
     air_flows : bool
-        Whether :meth:`outputs` gives each muscle's net air mass flow too (an FMU built with the air).
+        Whether :meth:`outputs` gives each muscle's net air mass flow too (an FMU built with the
+        air).
 
     Raises
     ------
@@ -66,14 +68,16 @@ class MechanismSimulator:
         self.schedule = CommandSchedule(delay, commands0) if delay > 0 else None
         self.stops = mechanism.stop_positions(p) if stops else None
         self.lag = actuator.has_pressure_states(self.muscle)
-        mech.kinematics(mechanism, float(q0), p)  # q0 outside the geometry: the mechanism's own error
+        # q0 outside the geometry: the mechanism's own error
+        mech.kinematics(mechanism, float(q0), p)
         self.time = 0.0
         self.state = np.array([float(q0), 0.0, *(commands0 if self.lag else ())], dtype=float)
         self.atol = np.array([*mech.RUN_ATOL[:2], *([mech.RUN_ATOL[2]] * k if self.lag else [])])
         self.step_hint = mech.RUN_FIRST_STEP
 
     def get_state(self) -> tuple:
-        """(time [s], the state, the integrator's next step [s], the commands on their way or None)."""
+        """(time [s], the state, the integrator's next step [s], the commands on their way or
+        None)."""
         return (self.time, self.state.copy(), self.step_hint,
                 None if self.schedule is None else self.schedule.snapshot())
 
@@ -85,7 +89,8 @@ class MechanismSimulator:
             self.schedule.restore(tuple((a, tuple(c)) for a, c in snapshot[3]))
 
     def seen_commands(self, *commands) -> tuple:
-        """The commands the muscles see now [Pa]: those given, or with a dead time those given earlier."""
+        """The commands the muscles see now [Pa]: those given, or with a dead time those given
+        earlier."""
         return tuple(commands) if self.schedule is None else self.schedule.at(self.time)
 
     def pressures(self, *commands) -> tuple:
@@ -94,8 +99,9 @@ class MechanismSimulator:
         return tuple(self.state[2:2 + k]) if self.lag else self.seen_commands(*commands)
 
     def step(self, dt: float, *commands) -> np.ndarray:
-        """Advance by dt [s] with each muscle's command [Pa] held; raises (DomainError) before changing
-        anything for a command that is not finite, and for a state that leaves the model's domain."""
+        """Advance by dt [s] with each muscle's command [Pa] held; raises (DomainError) before
+        changing anything for a command that is not finite, and for a state that leaves the model's
+        domain."""
         for command in commands:
             actuator.check_pressure(command)
         commands = tuple(float(c) for c in commands)
@@ -126,15 +132,17 @@ class MechanismSimulator:
         self.time += dt
 
     def outputs(self, *commands) -> dict:
-        """The FMU's outputs now (:func:`mkctl.fmi.interface.mechanism_model`): q, qdot, each muscle's
-        L_, f_, P_, a1, a2 (end stops excluded), stable and, with ``air_flows``, each muscle's net air
-        mass flow (:func:`mkctl.physics.actuator.air_mass_flow` at the regulator's opening for the
-        command it sees; 0 without the air). Raises DomainError outside the model's domain."""
+        """The FMU's outputs now (:func:`mkctl.fmi.interface.mechanism_model`): q, qdot, each
+        muscle's L_, f_, P_, a1, a2 (end stops excluded), stable and, with ``air_flows``, each
+        muscle's net air mass flow (:func:`mkctl.physics.actuator.air_mass_flow` at the regulator's
+        opening for the command it sees; 0 without the air). Raises DomainError outside the model's
+        domain."""
         muscles = self.mechanism.muscles
         q, qdot = float(self.state[0]), float(self.state[1])
         pressures = tuple(float(P) for P in self.pressures(*commands))
         force = mech.mechanism_force(self.mechanism, q, qdot, pressures, self.p)
-        a1, a2 = (float(a) for a in mech.coefficients_at(self.mechanism, q, qdot, pressures, self.p))
+        a1, a2 = mech.coefficients_at(self.mechanism, q, qdot, pressures, self.p)
+        a1, a2 = float(a1), float(a2)
         values = {"q": q, "qdot": qdot}
         for kind, numbers in (("L", force.L), ("f", force.f), ("P", pressures)):
             values.update({f"{kind}_{m}": float(v) for m, v in zip(muscles, numbers)})

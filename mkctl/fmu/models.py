@@ -1,29 +1,33 @@
-"""The FMU slaves: :class:`McKibbenKnee`, :class:`McKibbenActuator` and :class:`McKibbenMechanism`, thin wrappers over
-the simulators of :mod:`mkctl.physics.simulate` and :class:`mkctl.fmu.mechanism.MechanismSimulator` (no equation lives
-here), on the shared machinery of
-:class:`mkctl.fmu.slave.McKibbenSlave` (registration, start values, errors, the rated pressure warning, cached
-outputs and FMU state). Each declares the interface of :mod:`mkctl.fmi.interface` (:data:`~mkctl.fmi.interface.KNEE`,
-:data:`~mkctl.fmi.interface.ACTUATOR`: model-spec section 7), which the native FMUs declare too. All live in one
-module so that all FMUs load in one process: the FMU loaded first provides the mkctl modules of all, and fmpy may
-delete its folder after the run.
+"""The FMU slaves: :class:`McKibbenKnee`, :class:`McKibbenActuator` and :class:`McKibbenMechanism`,
+thin wrappers over the simulators of :mod:`mkctl.physics.simulate` and
+:class:`mkctl.fmu.mechanism.MechanismSimulator` (no equation lives here), on the shared machinery of
+:class:`mkctl.fmu.slave.McKibbenSlave` (registration, start values, errors, the rated pressure
+warning, cached outputs and FMU state). Each declares the interface of :mod:`mkctl.fmi.interface`
+(:data:`~mkctl.fmi.interface.KNEE`, :data:`~mkctl.fmi.interface.ACTUATOR`,
+:func:`~mkctl.fmi.interface.mechanism_model`: model-spec section 7), which the native FMUs declare
+too. All live in one module so that all FMUs load in one process: the FMU loaded first provides the
+mkctl modules of all, and fmpy may delete its folder after the run.
 
-McKibbenKnee, over :class:`~mkctl.physics.simulate.KneeSimulator`: ``n`` left at its start value while b, L0 or D0
-change is derived from them (as :class:`mkctl.physics.params.Params` does), and ``X0`` left at its start value is
-the hip height at alpha = 60 deg of the actual geometry. Give either a different value and it is used as given. The
-start values of pe_cmd and X0 hold the leg of the build's parameters at rest at alpha = 60 deg. Built with the air
-(model-spec 7d: ``build(..., params)`` whose params switch on valve_flow, as the native knee), its interface is
-:data:`~mkctl.fmi.interface.KNEE_WITH_AIR`: section 4d's parameters and switch, and the outputs qe, qf, each muscle's
-net air mass flow (:func:`mkctl.physics.actuator.air_mass_flow` at the regulator's opening; 0 with valve_flow = 0).
+McKibbenKnee, over :class:`~mkctl.physics.simulate.KneeSimulator`: ``n`` left at its start value
+while b, L0 or D0 change is derived from them (as :class:`mkctl.physics.params.Params` does), and
+``X0`` left at its start value is the hip height at alpha = 60 deg of the actual geometry. Give
+either a different value and it is used as given. The start values of pe_cmd and X0 hold the leg of
+the build's parameters at rest at alpha = 60 deg. Built with the air (model-spec 7d:
+``build(..., params)`` whose params switch on valve_flow, as the native knee), its interface is
+:data:`~mkctl.fmi.interface.KNEE_WITH_AIR`: section 4d's parameters and switch, and the outputs qe,
+qf, each muscle's net air mass flow (:func:`mkctl.physics.actuator.air_mass_flow` at the
+regulator's opening; 0 with valve_flow = 0).
 
-McKibbenActuator, over :class:`~mkctl.physics.simulate.ActuatorSimulator`: the pressure lag is the only state
-(solved exactly over each step, so the step size does not matter); the tension follows from the inputs L, Ldot
-and the present pressure.
+McKibbenActuator, over :class:`~mkctl.physics.simulate.ActuatorSimulator`: the pressure lag is the
+only state (solved exactly over each step, so the step size does not matter); the tension follows
+from the inputs L, Ldot and the present pressure.
 
-McKibbenMechanism, over :class:`~mkctl.fmu.mechanism.MechanismSimulator`: any mechanism (model-spec 3b, 7d), a
-built-in named in the build file (:data:`mkctl.fmu.slave.BUILD_FILE`) or a user's mechanism file carried in the
-resources (:data:`mkctl.fmu.slave.MECHANISM_FOLDER`) and loaded by
-:func:`mkctl.analysis.mechanism_files.load_mechanism_file`, never pasted into code. Its interface is
-:func:`mkctl.fmi.interface.mechanism_model`'s, the native mechanism FMU's; its model name ``McKibben<Name>``.
+McKibbenMechanism, over :class:`~mkctl.fmu.mechanism.MechanismSimulator`: any mechanism
+(model-spec 3b, 7d), a built-in named in the build file (:data:`mkctl.fmu.slave.BUILD_FILE`) or a
+user's mechanism file carried in the resources (:data:`mkctl.fmu.slave.MECHANISM_FOLDER`) and
+loaded by :func:`mkctl.analysis.mechanism_files.load_mechanism_file`, never pasted into code. Its
+interface is :func:`mkctl.fmi.interface.mechanism_model`'s, the native mechanism FMU's; its model
+name ``McKibben<Name>``.
 """
 from __future__ import annotations
 
@@ -96,7 +100,7 @@ class McKibbenActuator(McKibbenSlave):
 
 
 class McKibbenMechanism(McKibbenSlave):
-    """Any mechanism's FMU: the mechanism and the air as the build file says (see the module docstring)."""
+    """Any mechanism's FMU: the mechanism and the air as the build file says (module docstring)."""
 
     def _interface(self, build: dict, resources) -> Model:
         where = build.get("mechanism") or {}
@@ -105,16 +109,19 @@ class McKibbenMechanism(McKibbenSlave):
             path = Path(resources) / START_FILE
             starts = json.loads(path.read_text()) if path.is_file() else {}
             muscle = Params(**{k: v for k, v in starts.items() if k in PARAMETER_NAMES})
-            self.mechanism = load_mechanism_file(Path(resources) / MECHANISM_FOLDER / where["file"], muscle)
+            path = Path(resources) / MECHANISM_FOLDER / where["file"]
+            self.mechanism = load_mechanism_file(path, muscle)
         else:
             self.mechanism = builtin_mechanism(where.get("builtin", ""))
         return mechanism_model(self.mechanism, air=bool(build.get("air")))
 
     def _new_simulator(self, params) -> MechanismSimulator:
         commands = self._input_values()
-        p = self.mechanism.bind(params, **{name: getattr(self, name) for name in self.mechanism.parameter_names})
+        own = {name: getattr(self, name) for name in self.mechanism.parameter_names}
+        p = self.mechanism.bind(params, **own)
         self._stage = f"invalid start q0 = {self.q0!r} {self.mechanism.unit}"
-        sim = MechanismSimulator(self.mechanism, p, self.q0, commands, air_flows=self.interface.air)
+        sim = MechanismSimulator(self.mechanism, p, self.q0, commands,
+                                 air_flows=self.interface.air)
         self._stage = "the start state is outside the model's domain"
         sim.outputs(*commands)  # every length in 0 < L < b, finite pressures
         return sim

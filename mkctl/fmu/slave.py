@@ -50,7 +50,8 @@ import sys
 from abc import abstractmethod
 from pathlib import Path
 
-from pythonfmu import Boolean, DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu import (Boolean, DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability,
+                       Integer, Real)
 from pythonfmu.enums import Fmi2Status
 
 from ..analysis.effect_files import register_effect_files
@@ -60,12 +61,14 @@ from ..physics.params import DEFAULT, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
-#: Name of the file, in the FMU's resources folder, that says how the FMU was built (:func:`read_build`):
-#: ``{"air": true}`` for an FMU built with the air (model-spec 7d), and for a mechanism's FMU
-#: ``"mechanism": {"builtin": NAME}`` or ``{"file": FILE}`` (a file of :data:`MECHANISM_FOLDER`).
+#: Name of the file, in the FMU's resources folder, that says how the FMU was built
+#: (:func:`read_build`): ``{"air": true}`` for an FMU built with the air (model-spec 7d), and for a
+#: mechanism's FMU ``"mechanism": {"builtin": NAME}`` or ``{"file": FILE}`` (a file of
+#: :data:`MECHANISM_FOLDER`).
 BUILD_FILE = "mkctl_build.json"
-#: Folder, in a mechanism FMU's resources, of the user's mechanism file it was built from (model-spec 3b),
-#: copied as it is and loaded by :func:`mkctl.analysis.mechanism_files.load_mechanism_file`.
+#: Folder, in a mechanism FMU's resources, of the user's mechanism file it was built from
+#: (model-spec 3b), copied as it is and loaded by
+#: :func:`mkctl.analysis.mechanism_files.load_mechanism_file`.
 MECHANISM_FOLDER = "mkctl_mechanism"
 #: Folder, in the FMU's resources, of the user's effect files the FMU was built with (model-spec section 4c),
 #: named ``NN_<file>.py`` so that they register in the build's order (the parameters' value references follow it).
@@ -91,7 +94,8 @@ def _drop_repeated_path(resources) -> None:
 
 
 def read_build(resources) -> dict:
-    """How the FMU was built (:data:`BUILD_FILE`), or ``{}`` without that file (no air, no mechanism)."""
+    """How the FMU was built (:data:`BUILD_FILE`), or ``{}`` without that file (no air, no
+    mechanism)."""
     path = Path(resources) / BUILD_FILE if resources else None
     if path is not None and path.is_file():
         return json.loads(path.read_text())
@@ -110,12 +114,13 @@ def register_packed_effects(resources) -> list:
 class McKibbenSlave(Fmi2Slave):
     """A co-simulation slave around a simulator of :mod:`mkctl.physics.simulate`.
 
-    A subclass names its interface (``interface``, or :meth:`_interface` for one that depends on the build: a
-    :class:`mkctl.fmi.interface.Model`, its variables registered in that order, the inputs handed to the
-    simulator's ``outputs`` in theirs; its name, the model name), shows pythonfmu its model data (class
-    attributes ``description``, ``author``, ``default_experiment``, or else the interface's, set here; the build
-    writes the interface's description into the modelDescription.xml either way), and implements
-    :meth:`_new_simulator` and :meth:`_advance`.
+    A subclass names its interface (``interface``, or :meth:`_interface` for one that depends on
+    the build: a :class:`mkctl.fmi.interface.Model`, its variables registered in that order, the
+    inputs handed to the simulator's ``outputs`` in theirs; its name, the model name), shows
+    pythonfmu its model data (class attributes ``description``, ``author``,
+    ``default_experiment``, or else the interface's, set here; the build writes the interface's
+    description into the modelDescription.xml either way), and implements :meth:`_new_simulator`
+    and :meth:`_advance`.
     """
 
     interface: Model
@@ -163,7 +168,8 @@ class McKibbenSlave(Fmi2Slave):
 
     # --- what a subclass provides ---
     def _interface(self, build: dict, resources) -> Model:
-        """The interface of this FMU as built (``build``: :func:`read_build`); by default the class's."""
+        """The interface of this FMU as built (``build``: :func:`read_build`); by default the
+        class's."""
         return type(self).interface
 
     def _model_outputs(self) -> dict:
