@@ -297,3 +297,147 @@ MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
 def model_for(name: str, air: bool = False) -> Model:
     """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator does not)."""
     return KNEE_WITH_AIR if air and name == KNEE.name else MODELS[name]
+
+
+# --- any mechanism (model-spec 3b, 7d) ----------------------------------------------------------
+#: The start command of each muscle of a mechanism FMU [Pa]; q0 starts at their stable equilibrium.
+MECHANISM_START_COMMAND = 300e3
+#: The descriptions of a mechanism FMU's outputs a1, a2 and stable.
+_MECHANISM_OUTPUT_DESCRIPTIONS = {
+    "a1": "Eq. 18 coefficient a1 = (dF/dqdot)/M at the present state (end stops excluded)",
+    "a2": "Eq. 18 coefficient a2 = (dF/dq)/M at the present state (end stops excluded)",
+    "stable": "Routh-Hurwitz verdict at the present state: a1 < 0 and a2 < 0; no unit",
+}
+#: A muscle's air mass flow, as the knee's qe, qf say it.
+_FLOW_DESCRIPTION = "net air mass flow in (valve and leak; negative: out), 0 without the air"
+
+
+def mechanism_model_name(mechanism) -> str:
+    """``McKibben<Name>``: the CamelCase of a mechanism's name (pulley_joint: McKibbenPulleyJoint).
+
+    Raises
+    ------
+    ParameterError
+        When the name gives no model name (letters, digits and underscores only).
+    """
+    name = "McKibben" + "".join(part[:1].upper() + part[1:] for part in mechanism.name.split("_"))
+    if not (name.isascii() and name.isidentifier() and "_" not in name):
+        raise ParameterError(f"mechanism name {mechanism.name!r} gives no FMU model name "
+                             "(letters, digits and underscores only)")
+    return name
+
+
+def air_flow_output(muscle: str) -> str:
+    """The name of a mechanism FMU's output of one muscle's net air mass flow [kg/s] (model-spec
+    7d): ``q_<muscle>`` (the knee's ``qe``, ``qf``; the muscle after the kind, as ``L_<muscle>``).
+    """
+    return f"q_{muscle}"
+
+
+def mechanism_model(mechanism, air: bool = False) -> Model:
+    """What a mechanism's FMU shows a host (model-spec 3b, 7d), for both FMU kinds.
+
+    The pythonfmu slave (:class:`mkctl.fmu.models.McKibbenMechanism`) registers these variables;
+    the native FMU (:func:`mkctl.native.mechanism_fmu.mechanism_interface`) writes them into its
+    XML and C.
+
+    Inputs ``p_cmd_<muscle>`` [Pa]; Real parameters: the actuator FMU's (model-spec sections 2 and
+    4: Table I, the effects; with ``air`` section 4d's too), then the Params fields the
+    mechanism's own functions read (``m``, ``g``); the Integer parameters (the switches of the
+    effects carried: with ``air``, ``valve_flow``); the mechanism's own parameters, ``q0`` (the
+    start coordinate, at rest; its start value is the stable equilibrium at the start commands,
+    :data:`MECHANISM_START_COMMAND`) and ``P_rated``; outputs ``q``, ``qdot``, each muscle's
+    ``L_``, ``f_``, ``P_``, then ``a1``, ``a2``, ``stable`` and, with ``air``, each muscle's net
+    air mass flow (:func:`air_flow_output`).
+
+    Parameters
+    ----------
+    mechanism : mkctl.physics.mechanism.Mechanism
+        A built-in or a mechanism file's (not the knee: its FMU is :data:`KNEE`).
+    air : bool
+        Built with the air (model-spec 7d).
+
+    Returns
+    -------
+    Model
+        Its start values (:meth:`Model.start_values`) raise :class:`ParameterError` when the start
+        commands have no stable equilibrium.
+
+    Raises
+    ------
+    ParameterError
+        For the knee, a name that gives no model name, or two variables named alike (an own
+        parameter or a muscle named like another variable).
+    """
+    from ..errors import DomainError
+    from ..physics import mechanism as mech
+    from ..physics.params import PARAMETER_NAMES
+    if mechanism.name == "knee":
+        raise ParameterError("the knee has its own FMU (McKibbenKnee): build it without "
+                             "--mechanism")
+    muscles, unit, coordinate = tuple(mechanism.muscles), mechanism.unit, mechanism.coordinate
+    used = set(mechanism.traced.names)  # Params fields its own functions read, in Params' order
+    own = {q.name: q for q in mechanism.parameters}
+
+    def reals():
+        real = [*_MUSCLE, *_effect_reals(air)]
+        return real + [n for n in PARAMETER_NAMES if n in used and n not in real]
+
+    parameters = LiveSequence(reals)
+    inputs = tuple(f"p_cmd_{m}" for m in muscles)
+    outputs = ("q", "qdot", *(f"{kind}_{m}" for kind in ("L", "f", "P") for m in muscles),
+               "a1", "a2", "stable", *((air_flow_output(m) for m in muscles) if air else ()))
+    extra = (*own, "q0", "P_rated")
+    named = [*inputs, *reals(), *fmu_integer_parameters(air), *extra, *outputs]
+    twice = sorted({n for n in named if named.count(n) > 1 or n == "time"})
+    if twice:
+        raise ParameterError(f"mechanism {mechanism.name}: the variable name {twice[0]!r} is "
+                             "taken twice (a parameter or muscle named like another variable)")
+    kinds = {"L": ("length", "m"), "f": ("tension (positive pulls)", "N"),
+             "P": ("gauge pressure", "Pa")}
+    fixed_descriptions = {
+        **{f"p_cmd_{m}": f"commanded gauge pressure of {m}" for m in muscles},
+        **{n: q.description or f"parameter of {mechanism.name}" for n, q in own.items()},
+        "q0": (f"initial {coordinate}, at rest; its start value is the stable equilibrium at the "
+               "start commands"),
+        "q": f"the coordinate {coordinate}", "qdot": f"the rate of {coordinate}",
+        **{f"{kind}_{m}": f"{m} {text}" for kind, (text, _) in kinds.items() for m in muscles},
+        **_MECHANISM_OUTPUT_DESCRIPTIONS,
+        **({air_flow_output(m): f"{m}'s {_FLOW_DESCRIPTION}" for m in muscles} if air else {}),
+    }
+
+    def descriptions():
+        switches = fmu_integer_parameters(air)
+        return {**{n: TABLE_II[n].description if n in TABLE_II else ACTUATOR.description_of(n)
+                   for n in (*parameters, *switches)}, **fixed_descriptions}
+
+    fixed_units = {**{n: "Pa" for n in inputs}, **{n: q.unit for n, q in own.items()},
+                   "q0": unit, "P_rated": "Pa", "q": unit, "qdot": f"{unit}/s", "a1": "1/s",
+                   "a2": "1/s^2",
+                   **{f"{kind}_{m}": u for kind, (_, u) in kinds.items() for m in muscles},
+                   **({air_flow_output(m): "kg/s" for m in muscles} if air else {})}
+
+    def starts(params: Params) -> dict:
+        commands = tuple(MECHANISM_START_COMMAND for _ in muscles)
+        try:
+            p = mechanism.bind(params)
+            q0 = mech.equilibrium(mechanism, commands, p)
+        except (DomainError, ParameterError) as error:
+            raise ParameterError(f"mechanism {mechanism.name}: no start coordinate q0 at the start "
+                                 f"commands ({MECHANISM_START_COMMAND:g} Pa): {error}") from None
+        return {**dict(zip(inputs, commands)), **{n: float(getattr(p, n)) for n in own},
+                "q0": float(q0)}
+
+    description = (f"{mechanism.description or mechanism.name}: a mechanism of one coordinate "
+                   f"({coordinate} [{unit}]) driven by McKibben muscles (model-spec sections 3b, "
+                   "7d)" + ("; the air in the muscles (model-spec 4d) when valve_flow = 1"
+                            if air else ""))
+    return Model(
+        name=mechanism_model_name(mechanism), description=description,
+        default_experiment={"start_time": 0.0, "stop_time": 2.0, "step_size": 1e-3},
+        inputs=inputs, parameters=parameters, extra_parameters=extra, outputs=outputs,
+        boolean_outputs=frozenset({"stable"}), pressure_outputs={f"P_{m}": m for m in muscles},
+        descriptions=LiveMapping(descriptions),
+        units=LiveMapping(lambda: {**{n: UNITS[n] for n in parameters}, **fixed_units}),
+        undefined_outputs="outputs that depend on the pressures are undefined",
+        derived_starts=starts, air=air)

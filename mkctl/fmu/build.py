@@ -2,8 +2,13 @@
 
     python -m mkctl.fmu.build [--out DIR] [--no-run] [--params MUSCLE.json] [--effects FILE.py ...]
     python build_fmu.py ...                    (the same, from a checkout)
+    python build_fmu.py --mechanism NAME|FILE.py [--no-native] ...
 
-writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``):
+writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``; with
+parameters that switch on the air, the knee with it and no actuator, which does not carry it), or
+with ``--mechanism`` the mechanism's ``DIR/McKibben<Name>.fmu`` (:func:`build_mechanism_fmus`; its
+script ``mckibben_mechanism.py`` serves every mechanism, named in the FMU's resources as data, a
+mechanism file carried as itself):
 
 1. pythonfmu packs each slave script of :mod:`mkctl.fmu.scripts` with the ``mkctl`` modules the scripts import
    (and nothing else), among them the slave classes (``mkctl/fmu/models.py``) and
@@ -44,7 +49,8 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError
-from ..fmi.interface import check_carried
+from ..fmi.interface import check_carried, mechanism_model, model_for
+from ..physics.actuator import air_is_on
 from ..physics.params import Params
 from ..fmi.units import fmi_unit, unit_definitions
 
@@ -52,6 +58,10 @@ SCRIPTS = Path(__file__).resolve().parent / "scripts"
 #: The slave script of each FMU, by model name (a one-line import of the slave class, see mkctl/fmu/scripts).
 FMU_SCRIPTS = {"McKibbenKnee": SCRIPTS / "mckibben_knee.py",
                "McKibbenActuator": SCRIPTS / "mckibben_actuator.py"}
+#: The slave script of every mechanism's FMU (model-spec 3b, 7d): the FMU's model name
+#: McKibben<Name> comes from the mechanism the build names in its resources, so one script serves
+#: them all and nothing is generated.
+MECHANISM_SCRIPT = SCRIPTS / "mckibben_mechanism.py"
 
 
 #: SHA-256 of the pythonfmu linux64 binaries the exit fix was verified on (disassembled, run under valgrind, and
@@ -129,8 +139,9 @@ print(json.dumps({name: module.__file__ for name, module in sys.modules.items()
 """
 
 
-def _script_module(name: str) -> str:
-    return f"mkctl.fmu.scripts.{FMU_SCRIPTS[name].stem}"
+def _script_modules() -> list[str]:
+    scripts = (*FMU_SCRIPTS.values(), MECHANISM_SCRIPT)
+    return [f"mkctl.fmu.scripts.{script.stem}" for script in scripts]
 
 
 def _stage_mkctl(dest: Path) -> Path:
@@ -139,7 +150,7 @@ def _stage_mkctl(dest: Path) -> Path:
     package_dir = Path(__file__).resolve().parents[1]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [str(package_dir.parent),
                                                                       os.environ.get("PYTHONPATH")]))}
-    done = subprocess.run([sys.executable, "-c", _LIST_MODULES, *map(_script_module, FMU_SCRIPTS)],
+    done = subprocess.run([sys.executable, "-c", _LIST_MODULES, *_script_modules()],
                           capture_output=True, text=True, env=env, cwd=tempfile.gettempdir())
     if done.returncode != 0:
         raise BuildError(f"the slave scripts do not import: {done.stderr.strip()[-2000:]}")
@@ -157,23 +168,49 @@ def _stage_mkctl(dest: Path) -> Path:
     return target
 
 
-def _stage_starts(dest: Path, slave_class, params: Params) -> Path:
-    """Write the start values of params for one slave class (the file the slave reads at instantiation)."""
+def _stage_starts(dest: Path, interface, params: Params) -> Path:
+    """Write the start values of params for one FMU's interface (the file the slave reads at
+    instantiation)."""
     from .slave import START_FILE
     try:
-        values = slave_class.interface.start_values(params)
+        values = interface.start_values(params)
     except MkctlError as error:
-        raise BuildError(f"no start values for {slave_class.__name__} with these parameters: {error}") from None
+        raise BuildError(f"no start values for {interface.name} with these parameters: "
+                         f"{error}") from None
     dest.mkdir(parents=True)
     path = dest / START_FILE
     path.write_text(json.dumps(values, indent=1))
     return path
 
 
+def _stage_build(dest: Path, air: bool, mechanism=None) -> list[Path]:
+    """Write the build file (:data:`mkctl.fmu.slave.BUILD_FILE`: the air, the mechanism) into dest,
+    and copy a mechanism file into dest/mkctl_mechanism as it is; returns what to pack into the
+    resources."""
+    from .slave import BUILD_FILE, MECHANISM_FOLDER
+    dest.mkdir(parents=True)
+    build: dict = {"air": bool(air)}
+    packed = [dest / BUILD_FILE]
+    if mechanism is not None and mechanism.reload:  # read from a file: the FMU carries the file
+        source = Path(mechanism.reload[1])
+        folder = dest / MECHANISM_FOLDER
+        folder.mkdir()
+        shutil.copy2(source, folder / source.name)
+        build["mechanism"] = {"file": source.name}
+        packed.append(folder)
+    elif mechanism is not None:
+        build["mechanism"] = {"builtin": mechanism.name}
+    packed[0].write_text(json.dumps(build, indent=1))
+    return packed
+
+
 # --- completing pythonfmu's FMU ------------------------------------------------------------------------------
 
-def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
-    """Add units (UnitDefinitions + unit attributes) and InitialUnknowns to pythonfmu's modelDescription."""
+def _complete_model_description(xml: bytes, units: dict[str, str], needs: str = "numpy and scipy",
+                                description: str | None = None) -> bytes:
+    """Add units (UnitDefinitions + unit attributes) and InitialUnknowns to pythonfmu's
+    modelDescription; write ``description`` (the interface's: that of the FMU as built, with the
+    air, a mechanism's) when given."""
     root = ET.fromstring(xml)
     for node in root.iter():  # drop pythonfmu's indentation, re-indented below
         if node.text is not None and not node.text.strip():
@@ -202,8 +239,9 @@ def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
         if variable.get("causality") == "output" and variable.get("initial") in (None, "calculated"):
             outputs.append(index)
     # the FMU runs its Python source in the host's interpreter: the build's minor version
-    root.set("description", f"{root.get('description', '')} (pythonfmu FMU: the host needs Python "
-             f"{sys.version_info.major}.{sys.version_info.minor} with numpy and scipy)")
+    description = root.get("description", "") if description is None else description
+    root.set("description", f"{description} (pythonfmu FMU: the host needs Python "
+             f"{sys.version_info.major}.{sys.version_info.minor} with {needs})")
     structure = root.find("ModelStructure")
     if outputs and structure.find("InitialUnknowns") is None:
         initial = ET.SubElement(structure, "InitialUnknowns")
@@ -212,13 +250,15 @@ def _complete_model_description(xml: bytes, units: dict[str, str]) -> bytes:
     return xml_bytes(root)
 
 
-def _complete_fmu(fmu: Path, target: Path, units: dict[str, str], fix_exit: bool) -> None:
+def _complete_fmu(fmu: Path, target: Path, interface, fix_exit: bool,
+                  needs: str = "numpy and scipy") -> None:
     """Copy pythonfmu's FMU to target with the model description completed and the linux64 binary fixed."""
     with zipfile.ZipFile(fmu) as source, zipfile.ZipFile(target, "w", zipfile.ZIP_DEFLATED) as out:
         for item in source.infolist():
             data = source.read(item.filename)
             if item.filename == "modelDescription.xml":
-                data = _complete_model_description(data, units)
+                data = _complete_model_description(data, interface.units, needs,
+                                                   interface.description)
             elif fix_exit and item.filename.startswith("binaries/linux64/") and item.filename.endswith(".so"):
                 data = fix_exit_handler(data, f"{target.name}'s {item.filename}")
             out.writestr(item, data)
@@ -286,15 +326,12 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
     they are skipped with a note on stderr and the pythonfmu FMUs are still built.
     Returns the FMUs' paths by model name (the native ones as ``native/<model>``). Raises :class:`BuildError`.
     """
-    from pythonfmu import FmuBuilder
-
-    from . import models
-
     from ..analysis.effect_files import register_effect_files
     effect_files = [Path(f).resolve() for f in effects or ()]
     register_effect_files(effect_files)
     params = Params() if params is None else params
-    check_carried(params)  # the FMUs do not carry the air yet: refused, not silently dropped
+    air = air_is_on(params)
+    check_carried(params, air)  # what the FMUs do not carry is refused, not silently dropped
     out = Path(out).resolve()  # the checks run in another folder
     out.mkdir(parents=True, exist_ok=True)
     built = {}
@@ -303,14 +340,13 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
         package = _stage_mkctl(temp / "stage")
         packed = _stage_effects(temp / "effects", effect_files)
         for name, script in FMU_SCRIPTS.items():
-            slave_class = getattr(models, name)
-            starts = _stage_starts(temp / "starts" / name, slave_class, params)
-            raw = FmuBuilder.build_FMU(script, dest=temp / f"{name}.fmu", project_files=[package, starts, *([packed] if packed else [])],
-                                       canGetAndSetFMUstate=True, canSerializeFMUstate=True)
-            target = out / f"{name}.fmu"
-            _complete_fmu(Path(raw), target, slave_class.interface.units, fix_exit=_fix_exit)
-            _validate(target)
-            built[name] = target
+            interface = model_for(name, air)
+            if air and not interface.air:  # the air switched on, and this FMU cannot carry it
+                print(f"build_fmu: note: {name} does not carry the air in the muscle (model-spec "
+                      "7d): not built with these parameters", file=sys.stderr)
+                continue
+            built[name] = _pack(script, interface, params, out / f"{name}.fmu", temp / name,
+                                [package, *([packed] if packed else [])], air, fix_exit=_fix_exit)
     if run:
         for target in built.values():
             _run_check(target)
@@ -318,6 +354,21 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
     if native:
         built.update(_build_native(out, params))
     return built
+
+
+def _pack(script: Path, interface, params: Params, target: Path, stage: Path, project_files: list,
+          air: bool, mechanism=None, fix_exit: bool = True, needs: str = "numpy and scipy") -> Path:
+    """pythonfmu's FMU of one slave script with the build's start values, build file (and mechanism
+    file), then completed and validated at target."""
+    from pythonfmu import FmuBuilder
+    starts = _stage_starts(stage / "starts", interface, params)
+    build_files = _stage_build(stage / "build", air, mechanism)
+    raw = FmuBuilder.build_FMU(script, dest=stage / f"{interface.name}.fmu",
+                               project_files=[*project_files, starts, *build_files],
+                               canGetAndSetFMUstate=True, canSerializeFMUstate=True)
+    _complete_fmu(Path(raw), target, interface, fix_exit=fix_exit, needs=needs)
+    _validate(target)
+    return target
 
 
 def _build_native(out: Path, params: Params) -> dict[str, Path]:
@@ -335,20 +386,53 @@ def _build_native(out: Path, params: Params) -> dict[str, Path]:
     return built
 
 
-def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platforms: bool = True
-                         ) -> dict[str, Path]:
-    """The native FMUs of a mechanism (a built-in name or a mechanism file, model-spec sections 3b, 7d) into
-    ``out/native`` and ``out/fmi3`` (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the
-    Linux x86-64 binary only). Returns the paths by "native/<model>", "fmi3/<model>". Raises an MkctlError (a
-    one-line message) for a bad file or no C compiler."""
+def build_mechanism_fmus(name_or_path, out, params: Params | None = None, platforms: bool = True,
+                         run: bool = True, native: bool = True, *, effects=()) -> dict[str, Path]:
+    """Both kinds of a mechanism's FMUs (a built-in name or a mechanism file, model-spec 3b, 7d).
+
+    ``out/McKibben<Name>.fmu``, the pythonfmu FMU (:class:`mkctl.fmu.models.McKibbenMechanism`: the
+    library's mechanism stepped in the host's Python; a file's mechanism carried as the file
+    itself, loaded by :func:`mkctl.analysis.mechanism_files.load_mechanism_file`), its default
+    experiment run in a fresh process (``run``); and (``native``) the native FMUs in ``out/native``
+    and ``out/fmi3`` (:func:`mkctl.native.mechanism_fmu.build_mechanism`; platforms=False: the
+    Linux x86-64 binary only), or a note on stderr without a C compiler. Both kinds show one
+    interface (:func:`mkctl.fmi.interface.mechanism_model`). Params switching on the air
+    (valve_flow) build the pythonfmu FMU with section 4d's parameters and each muscle's air mass
+    flow; the native ones, which do not carry the air yet, are then not built (a note says so).
+    effects: the user's effect files (model-spec 4c), registered here, packed into the pythonfmu
+    FMU and compiled into the native ones, as :func:`build`'s. Returns the paths by "<model>",
+    "native/<model>", "fmi3/<model>". Raises an MkctlError (a one-line message) for a bad file or
+    parameters."""
+    from ..analysis.effect_files import register_effect_files
     from ..analysis.mechanism_files import mechanism
-    from ..native.build import find_compiler
-    from ..native.mechanism_fmu import build_mechanism
+    effect_files = [Path(f).resolve() for f in effects or ()]
+    register_effect_files(effect_files)
     params = Params() if params is None else params
     found = mechanism(str(name_or_path), params)
-    if find_compiler() is None:
-        raise BuildError("no C compiler found (CC, cc, gcc, clang): a mechanism's native FMUs need one")
-    return build_mechanism(found, Path(out).resolve(), params, platforms=platforms)
+    air = air_is_on(params)
+    check_carried(params, air)
+    interface = mechanism_model(found, air)
+    out = Path(out).resolve()
+    out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="mkctl_fmu_") as temp:
+        temp = Path(temp)
+        packed = _stage_effects(temp / "effects", effect_files)
+        project = [_stage_mkctl(temp / "stage"), *([packed] if packed else [])]
+        target = _pack(MECHANISM_SCRIPT, interface, params, out / f"{interface.name}.fmu",
+                       temp / "mechanism", project, air, mechanism=found,
+                       needs="numpy, scipy and sympy")
+    if run:
+        _run_check(target)
+    built = {interface.name: target}
+    if native:
+        from ..native.build import find_compiler
+        from ..native.mechanism_fmu import build_mechanism
+        if find_compiler() is None:
+            print("build_fmu: note: no C compiler found (CC, cc, gcc, clang): the native FMUs are "
+                  "not built", file=sys.stderr)
+        else:
+            built.update(build_mechanism(found, out, params, platforms=platforms))
+    return built
 
 
 def build_knee_system(out, params: Params | None = None, platforms: bool = True) -> dict[str, Path]:
@@ -372,9 +456,11 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
                         help="a file of your own effects (model-spec section 4c, docs/effects.md): the FMUs carry "
                              "them, their parameters become FMU parameters (repeatable)")
     parser.add_argument("--mechanism", default=None, metavar="NAME|FILE.py",
-                        help="build the native FMUs of this mechanism instead (model-spec sections 3b, 7d): "
-                             "a built-in name or a mechanism file; writes OUT/native/ and OUT/fmi3/McKibben<Name>.fmu "
-                             "(knee: the usual build)")
+                        help="build the FMUs of this mechanism instead (model-spec sections 3b, "
+                             "7d): a built-in name or a mechanism file; writes "
+                             "OUT/McKibben<Name>.fmu (pythonfmu) and OUT/native/, "
+                             "OUT/fmi3/McKibben<Name>.fmu (native; not with --no-native) (knee: "
+                             "the usual build)")
     parser.add_argument("--ssp", action="store_true",
                         help="build the knee as a system of FMUs instead: OUT/McKibbenKneeSystem.ssp (the knee's "
                              "mechanism alone and two native actuator FMUs, SSP 1.0; docs/fmu.md)")
@@ -390,14 +476,15 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
         if args.ssp:
             built = build_knee_system(args.out, params)
         elif args.mechanism is not None and args.mechanism != "knee":
-            built = build_mechanism_fmus(args.mechanism, args.out, params)
+            built = build_mechanism_fmus(args.mechanism, args.out, params, run=not args.no_run,
+                                         native=not args.no_native, effects=args.effects)
         else:
             built = build(args.out, run=not args.no_run, params=params, native=not args.no_native,
                           effects=args.effects)
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1
-    ran = not args.no_run and not args.ssp and (args.mechanism is None or args.mechanism == "knee")
+    ran = not args.no_run and not args.ssp
     for name, path in built.items():
         print(f"built {path} (validated{', default experiment run' if ran else ''})")
     return 0

@@ -50,17 +50,26 @@ import sys
 from abc import abstractmethod
 from pathlib import Path
 
-from pythonfmu import Boolean, Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
+from pythonfmu import (Boolean, DefaultExperiment, Fmi2Causality, Fmi2Slave, Fmi2Variability,
+                       Integer, Real)
 from pythonfmu.enums import Fmi2Status
 
 from ..analysis.effect_files import register_effect_files
 from ..errors import MkctlError
 from ..fmi.interface import Model, negative_pressure_message, non_finite_output_message
-from ..fmi.interface import FMU_INTEGER_PARAMETERS
 from ..physics.params import DEFAULT, Params
 
 #: Name of the file, in the FMU's resources folder, that holds the start values of the build's Params.
 START_FILE = "mkctl_start.json"
+#: Name of the file, in the FMU's resources folder, that says how the FMU was built
+#: (:func:`read_build`): ``{"air": true}`` for an FMU built with the air (model-spec 7d), and for a
+#: mechanism's FMU ``"mechanism": {"builtin": NAME}`` or ``{"file": FILE}`` (a file of
+#: :data:`MECHANISM_FOLDER`).
+BUILD_FILE = "mkctl_build.json"
+#: Folder, in a mechanism FMU's resources, of the user's mechanism file it was built from
+#: (model-spec 3b), copied as it is and loaded by
+#: :func:`mkctl.analysis.mechanism_files.load_mechanism_file`.
+MECHANISM_FOLDER = "mkctl_mechanism"
 #: Folder, in the FMU's resources, of the user's effect files the FMU was built with (model-spec section 4c),
 #: named ``NN_<file>.py`` so that they register in the build's order (the parameters' value references follow it).
 EFFECTS_FOLDER = "mkctl_effects"
@@ -84,6 +93,15 @@ def _drop_repeated_path(resources) -> None:
         sys.path[first + 1:] = [entry for entry in sys.path[first + 1:] if entry != resources]
 
 
+def read_build(resources) -> dict:
+    """How the FMU was built (:data:`BUILD_FILE`), or ``{}`` without that file (no air, no
+    mechanism)."""
+    path = Path(resources) / BUILD_FILE if resources else None
+    if path is not None and path.is_file():
+        return json.loads(path.read_text())
+    return {}
+
+
 def register_packed_effects(resources) -> list:
     """Register the effect files packed into the FMU's resources (:data:`EFFECTS_FOLDER`), in the build's order.
     In a host that registered them already (the same definitions) this changes nothing."""
@@ -96,20 +114,29 @@ def register_packed_effects(resources) -> list:
 class McKibbenSlave(Fmi2Slave):
     """A co-simulation slave around a simulator of :mod:`mkctl.physics.simulate`.
 
-    A subclass names its interface (``interface``, a :class:`mkctl.fmi.interface.Model` whose ``name`` is the
-    class's: its variables are registered in that order, the inputs handed to the simulator's ``outputs`` in
-    theirs), shows pythonfmu its model data as class attributes (``description``, ``author``,
-    ``default_experiment``), and implements :meth:`_new_simulator` and :meth:`_advance`.
+    A subclass names its interface (``interface``, or :meth:`_interface` for one that depends on
+    the build: a :class:`mkctl.fmi.interface.Model`, its variables registered in that order, the
+    inputs handed to the simulator's ``outputs`` in theirs; its name, the model name), shows
+    pythonfmu its model data (class attributes ``description``, ``author``,
+    ``default_experiment``, or else the interface's, set here; the build writes the interface's
+    description into the modelDescription.xml either way), and implements :meth:`_new_simulator`
+    and :meth:`_advance`.
     """
 
     interface: Model
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        _drop_repeated_path(kwargs.get("resources"))
-        register_packed_effects(kwargs.get("resources"))  # before the parameters: theirs are among them
+        resources = kwargs.get("resources")
+        _drop_repeated_path(resources)
+        register_packed_effects(resources)  # before the parameters: theirs are among them
+        #: the FMU's interface, as built (with the air, a mechanism's)
+        self.interface = self._interface(read_build(resources), resources)
+        self.modelName, self.author = self.interface.name, self.interface.author
+        self.description = self.interface.description
+        self.default_experiment = DefaultExperiment(**self.interface.default_experiment)
         #: the start value of every settable variable (the build's Params, or DEFAULT)
-        self._starts = self._read_starts(kwargs.get("resources"))
+        self._starts = self._read_starts(resources)
         kinds = {"Real": Real, "Integer": Integer, "Boolean": Boolean}
         for variable in self.interface.variables():  # in the order of the value references
             output = variable.causality == "output"
@@ -132,15 +159,23 @@ class McKibbenSlave(Fmi2Slave):
         self._over_rating: set[str] = set()  # muscles whose pressure is above P_rated now (warned once)
 
     # --- start values ---
-    @classmethod
-    def _read_starts(cls, resources) -> dict:
+    def _read_starts(self, resources) -> dict:
         """The start values the build wrote (:data:`START_FILE`), or those of :data:`DEFAULT`."""
         path = Path(resources) / START_FILE if resources else None
         if path is not None and path.is_file():
             return json.loads(path.read_text())
-        return cls.interface.start_values(DEFAULT)
+        return self.interface.start_values(DEFAULT)
 
     # --- what a subclass provides ---
+    def _interface(self, build: dict, resources) -> Model:
+        """The interface of this FMU as built (``build``: :func:`read_build`); by default the
+        class's."""
+        return type(self).interface
+
+    def _model_outputs(self) -> dict:
+        """The simulator's outputs at the present state and inputs (by default its ``outputs``)."""
+        return self._sim.outputs(*self._input_values())
+
     @abstractmethod
     def _new_simulator(self, params: Params):
         """The simulator for params and the present inputs; may set ``self._stage`` to name a later failure."""
@@ -204,7 +239,8 @@ class McKibbenSlave(Fmi2Slave):
 
     # --- helpers ---
     def _params(self) -> Params:
-        values = {name: getattr(self, name) for name in (*self.interface.parameters, *FMU_INTEGER_PARAMETERS)}
+        values = {name: getattr(self, name)
+                  for name in (*self.interface.parameters, *self.interface.integer_parameters)}
         geometry = ("b", "L0", "D0")
         if values["n"] == self._starts["n"] and any(values[k] != self._starts[k] for k in geometry):
             values["n"] = None  # derived from the changed b, L0, D0 (model-spec section 2)
@@ -278,7 +314,7 @@ class McKibbenSlave(Fmi2Slave):
     def _computed_outputs(self) -> dict:
         """The simulator's outputs at the present state and inputs; raises :class:`MkctlError` if one of them is
         not a finite number (the simulator raises its own for a state or input outside the model's domain)."""
-        outputs = self._sim.outputs(*self._input_values())
+        outputs = self._model_outputs()
         for name, value in outputs.items():
             if name not in self.interface.boolean_outputs and not math.isfinite(value):
                 raise MkctlError(non_finite_output_message(name, repr(float(value)), self.interface.units[name]))

@@ -216,6 +216,17 @@ def mechanism_interface(mechanism: mech.Mechanism, params: Params | None = None,
         fmi2.c_identifier(row[0])
     variables = tuple(Variable(n, vr, t, c, v, d, None if u is None else fmi_unit(u), s)
                       for vr, (n, t, c, v, d, u, s) in enumerate(rows))
+    if not alone:  # the pythonfmu FMU's variables too: one definition (mkctl.fmi.interface)
+        from ..fmi.interface import mechanism_model
+        try:
+            listed = mechanism_model(mechanism, air).variables(params)
+        except ParameterError as error:
+            raise NativeBuildError(str(error)) from None
+        variables = tuple(Variable(v.name, v.vr, v.type, v.causality, v.variability, v.description,
+                                   None if v.unit is None else fmi_unit(v.unit), v.start)
+                          for v in listed)
+        for variable in variables:
+            fmi2.c_identifier(variable.name)
     states = (MEState("q", fmi_unit(unit), fmi_unit(rate), 1.0),
               MEState("qdot", fmi_unit(rate), fmi_unit(f"{unit}/s^2"), 1.0),
               *(() if alone else
