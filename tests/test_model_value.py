@@ -84,17 +84,6 @@ def test_no_generation_counter_and_no_live_answers():
     assert "__getattr__" not in vars(Params)
 
 
-DRAG_FILE = '''
-def quadratic_drag(L, Ldot, P, p, xp):
-    """Air drag through the braid [N]: c_q Ldot |Ldot|."""
-    return p.c_q * Ldot * xp.abs(Ldot)
-
-
-EFFECTS = [{"name": "quadratic_drag", "description": "c_q Ldot |Ldot|",
-            "parameters": [{"name": "c_q", "unit": "N s^2/m^2", "off": 0.0, "lower": 0.0, "upper": 1e5,
-                            "typical": 2000.0}],
-            "term": quadratic_drag}]
-'''
 
 
 def test_a_pickled_set_carries_a_files_effect_to_a_fresh_interpreter(tmp_path):
@@ -103,7 +92,8 @@ def test_a_pickled_set_carries_a_files_effect_to_a_fresh_interpreter(tmp_path):
     cloudpickle = pytest.importorskip("cloudpickle")
     from mkctl.analysis.effect_files import register_effect_file, unregister_effect_file
     path = tmp_path / "drag.py"
-    path.write_text(DRAG_FILE)
+    from test_user_effects import DRAG  # the same effect file as the user effects' tests
+    path.write_text(DRAG)
     register_effect_file(path)
     try:
         p = Params(c_q=1500.0)

@@ -1,13 +1,14 @@
 """The compiled core as a backend the physics layer finds, never one it imports or is handed.
 
-The physics layer sits at the bottom of mkctl: it imports nothing above it, and nothing above fills
-its state when imported. The compiled cores are plug-ins, declared in the package's metadata as entry
-points of the group :data:`ENTRY_POINT_GROUP` (``pyproject.toml``: ``knee`` is
+The physics layer sits at the bottom of mkctl: it imports nothing above it, and nothing above
+fills its state when imported. The compiled cores are plug-ins, declared in the package's metadata
+as entry points of the group :data:`ENTRY_POINT_GROUP` (``pyproject.toml``: ``knee`` is
 :func:`mkctl.native.compiled.core_for`, ``mechanism`` is
 :func:`mkctl.native.mechanism_compiled.core_for`), the way Python packages offer plug-ins. The
-simulations ask :func:`compiled_core` (or :func:`mechanism_core`) for the core of a parameter set and
-fall back to their Python loops when there is none: no such entry point (mkctl used from a folder it
-was not installed from, or the modules a pythonfmu FMU packs), no compiler, ``MKCTL_NATIVE=0``.
+simulations ask :func:`compiled_core` (or :func:`mechanism_core`) for the core of a parameter set
+and fall back to their Python loops when there is none: no such entry point (mkctl used from a
+folder it was not installed from, or the modules a pythonfmu FMU packs), no compiler,
+``MKCTL_NATIVE=0``.
 
 :func:`install` and :func:`install_mechanism` set a provider in place of the entry point's for a
 while (a test that wants the Python path hands in None and puts the previous one back).

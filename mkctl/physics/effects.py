@@ -130,22 +130,17 @@ def unregister(name: str) -> None:
 
 
 def get(name: str) -> Effect:
-    """The registered effect of this name.
+    """The effect of this name in the current model (:meth:`Model.get`).
+
+    An unknown name raises :class:`ParameterError` naming the known ones.
 
     Parameters
     ----------
     name : str
-        The effect's name.
 
     Returns
     -------
     Effect
-        Its definition.
-
-    Raises
-    ------
-    ParameterError
-        For an unknown effect (the known ones listed).
     """
     return current().get(name)
 
