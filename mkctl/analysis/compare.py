@@ -28,7 +28,7 @@ from ..physics.isometric import isometric_tension
 from ..physics.isotonic import simulate_isotonic
 from ..io.measurements import Measurement
 from ..physics.params import Params
-from ..io.diagnosis_report import (fit_text, input_axis, input_panels, plot_isometric,  # noqa: F401
+from ..io.diagnosis_report import (fit_text, input_panels, plot_isometric,  # noqa: F401
                                    plot_overlay, plot_residuals)  # (re-exported)
 from ..physics import actuator, knee, pneumatics, simulate
 from ..physics.mechanism import simulate_mechanism

@@ -60,11 +60,12 @@ def fit_text(fit: float) -> str:
     return f"fit {fit:.1f} %"
 
 
-def input_axis(measurement):
-    """The record's main input (pressure or extensor command, in kPa) and its label, for plots."""
-    if measurement.experiment in ("isotonic", "isometric"):
-        return measurement.inputs["pressure"] / 1e3, "pressure [kPa]"
-    return measurement.inputs["pe_cmd"] / 1e3, "extensor command pe_cmd [kPa]"
+def first_muscle(measurement) -> str:
+    """The name of the record's first muscle, whose pressure the signature pictures read: the knee's
+    extensor, a mechanism's own first muscle (``muscle1`` of a pulley joint), else ``muscle``."""
+    if measurement.experiment == "mechanism":
+        return measurement.mechanism.muscles[0]
+    return "extensor" if measurement.experiment == "knee" else "muscle"
 
 
 def output_label(measurement) -> str:
@@ -290,7 +291,7 @@ def _pressure_deficit(measurement, result, effect):
         behind[k] = effect.pressure_step(behind[k - 1], float(command[k - 1]), float(time[k] - time[k - 1]), p,
                                          math_for(1.0))
     which = "the fitted" if fitted else "a trial (none fitted):"
-    return ((command - behind) / 1e3, f"extensor pressure behind its command, lag at {which} "
+    return ((command - behind) / 1e3, f"{first_muscle(measurement)} pressure behind its command, lag at {which} "
                                       f"{effect.fitted} = {value:.3g} s [kPa]")
 
 
@@ -395,6 +396,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
             deficit = _pressure_deficit(measurement, result, view) if view.pressure_deficit_axis else None
             if deficit is not None and np.size(deficit[0]) == np.size(sig["missing"]):
                 x, label = deficit
+            label = label.replace("{muscle}", first_muscle(measurement))
             if measurement.experiment == "mechanism" and measurement.mechanism.unit == "rad":
                 # the speed is the joint's (SignatureAxes)
                 label = label.replace("[mm/s]", "[mrad/s]")
@@ -417,7 +419,7 @@ def save_pictures(measurement, result, folder, stem: str | None = None) -> dict:
         fig.suptitle("signatures: the force the baseline lacks (at the smoothed measured states) against what "
                      "each effect acts through" if len(names) > 2 else
                      "signatures: the force the baseline lacks\nagainst what each effect acts through", fontsize=9)
-        fixed_layout(fig, left=0.65, bottom=0.5, top=0.55 if len(names) > 2 else 0.7, wgap=0.55)
+        fixed_layout(fig, left=0.9, bottom=0.5, top=0.55 if len(names) > 2 else 0.7, wgap=0.55)
         paths["signatures"] = save_png(fig, folder / f"{stem}_signatures.png")
     result.pictures = {k: str(v) for k, v in paths.items()}
     return result.pictures

@@ -302,7 +302,7 @@ BUILTIN = (
         discovery=_lag_columns,
         experiments={"knee": (1e-3, 2.0), "pressure": (1e-4, 100.0)},
         regressor="the force a lag of 1 s takes away at the measured pressure-command rate",
-        signature_axis="extensor pressure rate (smoothed) [kPa/s]",
+        signature_axis="{muscle} pressure rate (smoothed) [kPa/s]",
         # the first-order term (tau times the smoothed command rate) is not linear in tau for step
         # commands (its slope disagreed with the fitted tau by tenfold): no hint; the picture shows
         # the pressure deficit
@@ -446,7 +446,7 @@ BUILTIN = (
             "the force an exhausting lag of 1 s takes away where the command falls below "
             "the pressure"
         ),
-        signature_axis="extensor pressure rate while exhausting (smoothed) [kPa/s]",
+        signature_axis="{muscle} pressure rate while exhausting (smoothed) [kPa/s]",
         first_order_rate=lambda rate: np.minimum(rate, 0.0),  # tau_exhaust acts only while it falls
         separation=_separations("asymmetric_lag"),
     ),
@@ -477,7 +477,7 @@ BUILTIN = (
             "the force the command's change over 1 s of delay takes away (first order: "
             "-delay dP_cmd/dt)"
         ),
-        signature_axis="extensor command rate (smoothed) [kPa/s]",
+        signature_axis="{muscle} command rate (smoothed) [kPa/s]",
         first_order_rate=lambda rate: rate,
         separation=_separations("dead_time"),
     ),

@@ -203,7 +203,9 @@ class Effect:
     #: the fitted value its unit signature is taken at (None: the model's own)
     reference: float | None = 1.0
     regressor: str = ""  #: the force term its signature is checked against
-    signature_axis: str = ""  #: what the signature picture's x axis shows
+    #: what the signature picture's x axis shows (``{muscle}``: the first muscle's name, the knee's
+    #: extensor)
+    signature_axis: str = ""
     #: its signature picture's x axis: (axes) -> array, from what the diagnosis offers (``speed``,
     #: ``direction``, ``pressure``, ``tension``, ``term``:
     #: mkctl.analysis.diagnose.signatures.SignatureAxes); None: the speed
