@@ -19,6 +19,7 @@ import independent_mechanisms as im
 import independent_pneumatics as ip
 import independent_rig as rig
 from mkctl.errors import MkctlError
+from mkctl.analysis import air_poles
 from mkctl.physics import actuator, knee, mechanism, pneumatics, simulate, stability
 from mkctl.physics.params import Params
 
@@ -266,7 +267,7 @@ def test_pole_sweep_runs_from_sealed_to_held():
     from mkctl.analysis import control as mc
 
     held = mc.operating_point(math.radians(60.0), Pf=100e3)
-    sweep = mc.air_pole_sweep(held, "C_fill", np.geomspace(1e-11, 1e-6, 40))
+    sweep = air_poles.air_pole_sweep(held, "C_fill", np.geomspace(1e-11, 1e-6, 40))
     motion = sweep.poles[:, 2:]  # sorted by real part: the air's two first
     assert np.all(np.abs(motion.imag) > 0)
     # the largest valve: the pressures held; the smallest: near the sealed knee
@@ -275,7 +276,7 @@ def test_pole_sweep_runs_from_sealed_to_held():
     assert sweep.a2_sealed < sweep.a2_held < 0
     assert np.all(motion.real < 0)  # c = 0: the valve alone damps (the held knee is marginal)
     with pytest.raises(MkctlError, match="C_fill, V_dead, band"):
-        mc.air_pole_sweep(held, "tau", [0.1])
+        air_poles.air_pole_sweep(held, "tau", [0.1])
 
 
 def test_mkctl_rootlocus_vary_C_fill_draws_the_poles(tmp_path, capsys):

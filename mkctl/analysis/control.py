@@ -43,13 +43,16 @@ import control as ct
 import numpy as np
 
 from . import fmu_probe as probe
-from ..physics import actuator, effects, knee, simulate, stability
+from ..physics import knee, stability
 from ..errors import DomainError, MkctlError, check_memory
 from .fmu_probe import FMUAnalysisError, fmu_step_response
-from ..physics.params import DEFAULT, Params
+from ..physics.params import Params
 from ..results import Result
 from .control_defaults import DEFAULT_TAU, DEFAULT_ZETA, STEP_TIME
-from ..physics.simulate import DEFAULT_PF, knee_states
+from ..physics.simulate import knee_states
+from .operating_point import (  # noqa: F401 (re-exported: the analyses start here)
+    INPUT_NAMES, LINEARIZE_SCALE, ControlAnalysisError, KneeOperatingPoint, knee_nlsys, operating_point)
+
 
 __all__ = [
     "ControlAnalysisError", "FMUAnalysisError", "KneeOperatingPoint", "INPUT_NAMES", "knee_nlsys",
@@ -57,202 +60,10 @@ __all__ = [
     "damping_ratio", "natural_frequency", "damping_for_zeta", "damping_loop", "damping_root_locus",
     "height_plant", "height_loop", "closed_loop_poles", "critical_gain", "height_root_locus", "lag_sweep",
     "step_responses", "StepResponses", "velocity_gain", "plot_poles", "plot_damping_locus", "plot_lag_sweep", "plot_gain_locus",
-    "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE", "AIR_SWEEPS", "AirPoleSweep",
-    "with_air", "air_switched_on", "air_pole_sweep", "plot_air_poles",
+    "plot_step", "DEFAULT_ZETA", "DEFAULT_TAU", "LINEARIZE_SCALE",
 ]
 
-#: Input names of every system built here.
-INPUT_NAMES = ("pe_cmd", "pf_cmd")
-#: Units in which :func:`numerical_linearization` perturbs the signals: python-control's ``linearize``
-#: takes one absolute forward step (1e-6) for all of them. So X and V are perturbed by 3e-9 m, m/s (F is
-#: curved in X; this step balances truncation and rounding, measured) and the pressures by 1 Pa (F is
-#: affine in them; a 1e-6 Pa step would drown in rounding).
-LINEARIZE_SCALE = {"X": 3e-3, "V": 3e-3, "Pe": 1e6, "Pf": 1e6, "pe_cmd": 1e6, "pf_cmd": 1e6}
 
-
-class ControlAnalysisError(MkctlError, ValueError):
-    """A control analysis that cannot be done as asked (no operating point, a2 >= 0 for a damping ratio, ...)."""
-
-
-# --- The nonlinear system and its operating points -------------------------------------------------
-
-def knee_nlsys(params: Params = DEFAULT, *, stops: bool = True, scale: dict | None = None,
-               name: str = "knee") -> ct.NonlinearIOSystem:
-    """Eq. 17 (:func:`mkctl.physics.knee.knee_derivatives`) as a python-control nonlinear I/O system.
-
-    States X, V (+ Pe, Pf with a lag), inputs pe_cmd, pf_cmd, outputs the states, all SI. ``stops``: include
-    the mechanical end stops (as :func:`mkctl.physics.simulate.simulate_knee` does). ``scale``: optional unit sizes
-    by signal name (a signal's value in the system is its SI value divided by its scale), used to give
-    python-control's fixed absolute finite-difference step a sensible size (:data:`LINEARIZE_SCALE`).
-    """
-    names = knee.state_names(params)
-    scale = scale or {}
-    sx = np.array([scale.get(s, 1.0) for s in names])
-    su = np.array([scale.get(s, 1.0) for s in INPUT_NAMES])
-    stop_positions = knee.stop_positions(params) if stops else None
-
-    def update(t, x, u, _params):
-        xs, us = np.asarray(x) * sx, np.asarray(u) * su
-        return knee.knee_derivatives(xs, us[0], us[1], params, stop_positions) / sx
-
-    def output(t, x, u, _params):
-        return np.asarray(x, dtype=float)
-
-    return ct.nlsys(update, output, states=list(names), inputs=list(INPUT_NAMES), outputs=list(names), name=name)
-
-
-@dataclass(frozen=True)
-class KneeOperatingPoint:
-    """A posture held at rest: the states and inputs where Eq. 17's right-hand side vanishes."""
-
-    params: Params
-    alpha: float  #: kneecap angle [rad]
-    X: float  #: hip height [m]
-    Pe: float  #: extensor pressure [Pa] (the FMU's output ``Pe``; at rest also the command ``pe_cmd``)
-    Pf: float  #: flexor pressure [Pa] (the FMU's output ``Pf``; at rest also the command ``pf_cmd``)
-    states: np.ndarray = field(repr=False)  #: SI, in the order of :attr:`state_names`
-    inputs: np.ndarray = field(repr=False)  #: (pe_cmd, pf_cmd) [Pa]
-
-    @property
-    def pe(self) -> float:
-        """The former name of :attr:`Pe` (kept for old callers)."""
-        return self.Pe
-
-    @property
-    def pf(self) -> float:
-        """The former name of :attr:`Pf` (kept for old callers)."""
-        return self.Pf
-
-    @property
-    def state_names(self) -> tuple[str, ...]:
-        return knee.state_names(self.params)
-
-    def with_params(self, **overrides) -> "KneeOperatingPoint":
-        """The same posture and pressures with other parameters that do not move the equilibrium.
-
-        Damping, friction, a lag and a dead time act only when something moves or changes, so the rest
-        state is unchanged (:func:`mkctl.physics.simulate.rest_independent` reads which parameters those are
-        from the effects' definitions).
-        """
-        bad = set(overrides) - set(simulate.rest_independent())
-        if bad:
-            raise ControlAnalysisError(f"{sorted(bad)[0]} moves the equilibrium: find a new operating point")
-        params = self.params.replace(**overrides)
-        lag = actuator.has_pressure_states(params)
-        states = np.array([self.X, 0.0, self.Pe, self.Pf] if lag else [self.X, 0.0])
-        return KneeOperatingPoint(params, self.alpha, self.X, self.Pe, self.Pf, states, self.inputs.copy())
-
-
-def _posture(alpha, X, params) -> tuple[float, float]:
-    """(alpha [rad], X [m]) from exactly one of them (:func:`mkctl.physics.knee.posture`); between the end stops."""
-    alpha, X = knee.posture(alpha, X, params)
-    low, high = knee.ALPHA_STOP_LOW, knee.ALPHA_STOP_HIGH
-    if not low < alpha < high:
-        raise DomainError(f"posture alpha = {math.degrees(alpha):.4g} deg is outside the end stops "
-                          f"({math.degrees(low):g}, {math.degrees(high):g}) deg: it cannot be held at rest")
-    return alpha, X
-
-
-def operating_point(alpha: float | None = None, *, X: float | None = None, Pf: float = DEFAULT_PF,
-                    params: Params = DEFAULT, pf: float | None = None) -> KneeOperatingPoint:
-    """The rest state of Eq. 17 (V = 0, F = m g) at a posture, found by python-control.
-
-    python-control's ``find_operating_point`` on :func:`knee_nlsys` (X and pf_cmd fixed, pe_cmd and the other
-    states free), in the units of :data:`LINEARIZE_SCALE`; a test checks it against the closed form
-    :func:`mkctl.physics.stability.equilibrium_pressure`.
-
-    Parameters
-    ----------
-    alpha : float, optional
-        Kneecap angle [rad], strictly between the end stops; or give ``X``, the hip height [m].
-    Pf : float
-        Flexor gauge pressure (and command) [Pa], >= 0 (``pf``: its former name, still accepted).
-    params : Params
-        The model.
-
-    Returns
-    -------
-    KneeOperatingPoint
-        alpha [rad], X [m], Pe and Pf [Pa] (pressures equal the commands at rest), the states and inputs.
-
-    Raises
-    ------
-    DomainError, ControlAnalysisError
-        For a posture outside the stops, a bad pf, no solution, or one that needs pe < 0.
-    """
-    if actuator.air_is_on(params):
-        return _air_operating_point(alpha, X, Pf if pf is None else pf, params)
-    alpha, X = _posture(alpha, X, params)
-    pf = Pf if pf is None else pf
-    if not math.isfinite(pf):
-        raise DomainError(f"flexor pressure pf = {pf!r} Pa is not a finite number")
-    if pf < 0:
-        raise DomainError(f"flexor pressure pf = {pf / 1e3:g} kPa is below 0: pressures are gauge pressures, and "
-                          "a McKibben muscle below atmospheric pressure does not pull (the model has no vacuum)")
-    names = knee.state_names(params)
-    sys = knee_nlsys(params, stops=False, scale=LINEARIZE_SCALE)
-    sx = np.array([LINEARIZE_SCALE[s] for s in names])
-    su = np.array([LINEARIZE_SCALE[s] for s in INPUT_NAMES])
-    pe_guess = 1.0e6  # a neutral first guess; the solver finds the pressure
-    x_guess = np.array([X, 0.0, pe_guess, pf][: len(names)]) / sx
-    u_guess = np.array([pe_guess, pf]) / su
-    try:
-        found = ct.find_operating_point(sys, x_guess, u_guess, y0=x_guess, iy=[0], iu=[1],
-                                        return_result=True)
-    except MkctlError as error:
-        raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
-                                   f"pf = {pf / 1e3:g} kPa: {error}") from error
-    residual = np.abs(sys.dynamics(0.0, found.states, found.inputs)).max() if found.states is not None else np.inf
-    if found.result.success and 1e-9 < residual < 1e-6:  # converged but loosely (a stiff friction term): polish
-        try:
-            found = ct.find_operating_point(sys, found.states, found.inputs, y0=x_guess, iy=[0], iu=[1],
-                                            return_result=True)
-        except MkctlError as error:
-            raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, "
-                                       f"pf = {pf / 1e3:g} kPa: {error}") from error
-        residual = np.abs(sys.dynamics(0.0, found.states, found.inputs)).max()
-    if not found.result.success or residual > 1e-9:
-        raise ControlAnalysisError(f"no operating point at alpha = {math.degrees(alpha):.4g} deg, pf = {pf / 1e3:g} kPa "
-                                   f"({found.result.message.strip()})")
-    states, inputs = np.asarray(found.states) * sx, np.asarray(found.inputs) * su
-    states[0] = X  # exact, as asked (the solver held it fixed)
-    if inputs[0] < 0:
-        raise ControlAnalysisError(f"holding alpha = {math.degrees(alpha):.4g} deg with pf = {pf / 1e3:g} kPa needs "
-                                   f"an extensor pressure pe = {inputs[0] / 1e3:.4g} kPa below 0 (gauge): "
-                                   "a muscle cannot push; raise pf or choose another posture")
-    return KneeOperatingPoint(params, alpha, X, float(inputs[0]), float(inputs[1]), states, inputs)
-
-
-def _air_operating_point(alpha, X, pf, params: Params) -> KneeOperatingPoint:
-    """The rest state with the air on (model-spec 4d): the regulators hold their set-points at rest
-    (u = 0, P = P_cmd), so it is the rest with the pressures held, found with the air off (the
-    regulator's clipped opening has no slope outside its band: python-control's solver stalls there
-    from a far guess); with a leak the regulator holds a small error that feeds it, polished from
-    there by ``find_operating_point``."""
-    air_off = {e.switch_parameter.name: e.switch_parameter.off
-               for e in actuator.active_effects(params) if e.moves_air}
-    held = operating_point(alpha, X=None if alpha is not None else X, Pf=pf,
-                           params=params.replace(**air_off))
-    op = KneeOperatingPoint(params, held.alpha, held.X, held.Pe, held.Pf,
-                            np.array([held.X, 0.0, held.Pe, held.Pf]), held.inputs.copy())
-    rates = knee.knee_derivatives(op.states, *op.inputs, params)
-    if np.all(np.abs(rates[2:]) <= 1e-9 * np.maximum(np.abs(op.inputs), 1.0)):
-        return op
-    sys = knee_nlsys(params, stops=False, scale=LINEARIZE_SCALE)
-    sx = np.array([LINEARIZE_SCALE[s] for s in knee.state_names(params)])
-    su = np.array([LINEARIZE_SCALE[s] for s in INPUT_NAMES])
-    found = ct.find_operating_point(sys, op.states / sx, op.inputs / su, y0=op.states / sx, iy=[0],
-                                    iu=[1], return_result=True)
-    residual = (np.abs(sys.dynamics(0.0, found.states, found.inputs)).max()
-                if found.states is not None else np.inf)
-    if not found.result.success or residual > 1e-9:
-        raise ControlAnalysisError(f"no operating point with the air at alpha = "
-                                   f"{math.degrees(held.alpha):.4g} deg, pf = {pf / 1e3:g} kPa "
-                                   f"({found.result.message.strip()})")
-    states, inputs = np.asarray(found.states) * sx, np.asarray(found.inputs) * su
-    states[0] = held.X
-    return KneeOperatingPoint(params, held.alpha, held.X, float(states[2]), float(states[3]),
-                              states, inputs)
 
 
 # --- Linearizations ------------------------------------------------------------------------------
@@ -677,7 +488,7 @@ def _end_stop(time, X, params: Params):
 
 # --- Plots --------------------------------------------------------------------------------------
 
-def _pole_axes(ax, title):
+def pole_axes(ax, title):
     ax.axvline(0.0, color="0.5", lw=0.8)
     ax.axhline(0.0, color="0.5", lw=0.8)
     ax.set_xlabel("real part [1/s]")
@@ -703,7 +514,7 @@ def plot_damping_locus(op: KneeOperatingPoint, c_values, c_marked: float | None 
         zeta = damping_ratio(-c_marked * velocity_gain(op), analytic_linearization(op).A[1, 0])
         ax.plot(marked.real, marked.imag, "ko", mfc="none", ms=9, label=f"c = {c_marked:.4g} N s/m (zeta = {zeta:.3g})")
     ax.legend(fontsize=8, loc="best")
-    _pole_axes(ax, f"Root locus against damping c (velocity feedback), alpha = {math.degrees(op.alpha):.4g} deg, "
+    pole_axes(ax, f"Root locus against damping c (velocity feedback), alpha = {math.degrees(op.alpha):.4g} deg, "
                    f"pf = {op.Pf / 1e3:g} kPa")
     return save_png(fig, path) if path else fig
 
@@ -734,7 +545,7 @@ def plot_lag_sweep(op: KneeOperatingPoint, taus, gain: float, ti: float | None =
             mech, label = closed_loop_poles(height_loop(no_lag, ti), gain), "same K without lag"
         ax.plot(mech.real, mech.imag, "kx", ms=8, label=label)
         ax.legend(fontsize=8, loc="lower left")
-        _pole_axes(ax, title)
+        pole_axes(ax, title)
         ax.set_xscale("symlog", linthresh=2 * mechanical, linscale=1.5)
         ax.set_xlim(-left, right)
         ax.set_ylim(-top, top)
@@ -782,7 +593,7 @@ def plot_gain_locus(op: KneeOperatingPoint, gains, ti: float | None = None, tau:
     ax.set_xlim(-lim, max(0.4 * lim, 1.15 * float(every.real.max())))
     ax.set_ylim(-lim, lim)
     ax.legend(fontsize=8, markerscale=1.5)
-    _pole_axes(ax, f"Height P{'I' if ti else ''} control through pe_cmd, K = {gains[0]:.3g} .. {gains[-1]:.3g} Pa/m; "
+    pole_axes(ax, f"Height P{'I' if ti else ''} control through pe_cmd, K = {gains[0]:.3g} .. {gains[-1]:.3g} Pa/m; "
                    f"c = {op.params.c:.4g} N s/m")
     return (save_png(fig, path) if path else fig), summary
 
@@ -820,187 +631,5 @@ def plot_poles(cases: dict, title: str, path=None):
         eig = np.asarray(eig)
         ax.plot(eig.real, eig.imag, next(markers, "."), mfc="none", ms=9, mew=1.5, label=label)
     ax.legend(fontsize=8)
-    _pole_axes(ax, title)
-    return save_png(fig, path) if path else fig
-
-
-# --- The air: the pressures as states of the muscles' mass balance (model-spec 4d) ---------------
-
-#: The air's parameters ``mkctl rootlocus --vary`` sweeps, with their unit and the range swept
-#: (within the spec's bounds: the valve's conductance, the tubing's dead volume, the regulator's
-#: band).
-AIR_SWEEPS = {"C_fill": ("m^3/(s Pa)", (2e-11, 1e-6)), "V_dead": ("m^3", (0.0, 1e-4)),
-              "band": ("Pa", (1e3, 1e6))}
-
-
-def air_switched_on() -> dict:
-    """The value that switches the air's pressure path on: the switch of the effect whose definition
-    gives the valve's opening (``valve_flow``, model-spec 4d), at its on value.
-
-    Returns
-    -------
-    dict
-        ``{switch name: on value}``, its other parameters at their typical values.
-    """
-    valve = next(e for e in effects.all_effects() if e.valve_opening is not None)
-    switch = valve.switch_parameter
-    return {switch.name: switch.on_value}
-
-
-def with_air(op: KneeOperatingPoint, **values) -> KneeOperatingPoint:
-    """The same posture and pressures with the air's pressure path switched on (model-spec 4d).
-
-    At rest the regulators hold their set-points (u = 0: P = P_cmd) whatever the valve, so the air's
-    values do not move the equilibrium (without a leak, which needs a small error to be fed).
-
-    Parameters
-    ----------
-    op : KneeOperatingPoint
-        The posture held at rest.
-    **values : float
-        Section 4d's values (C_fill [m^3/(s Pa)], V_dead [m^3], band [Pa], ...).
-
-    Returns
-    -------
-    KneeOperatingPoint
-        With the air on (its typical values unless given) and the states X, V, Pe, Pf.
-    """
-    params = op.params.replace(**{**air_switched_on(), **values})
-    states = np.array([op.X, 0.0, op.Pe, op.Pf])
-    return KneeOperatingPoint(params, op.alpha, op.X, op.Pe, op.Pf, states, op.inputs.copy())
-
-
-@dataclass(frozen=True, repr=False, eq=False)
-class AirPoleSweep(Result):
-    """The knee's poles as one of the air's parameters varies (model-spec 4d), and the two limits
-    the paper's question asks about: the pressures held (Eq. 18, the paper's assumption) and the
-    valves closed (sealed muscles, air springs)."""
-
-    name: str  #: the parameter varied
-    unit: str  #: its unit
-    values: np.ndarray  #: its values
-    poles: np.ndarray  #: len(values) x 4 eigenvalues [1/s], sorted by real part, then imaginary
-    held: np.ndarray  #: the poles with the pressures held (Eq. 18) [1/s]
-    sealed: np.ndarray  #: the poles of the sealed knee, s^2 - a1 s - a2_sealed [1/s]
-    a2_held: float  #: Eq. 18's a2 with the pressures held [1/s^2]
-    a2_sealed: float  #: a2 with the valves closed [1/s^2]
-
-    def summary_lines(self) -> list[str]:
-        """The sweep's range, and a2 held and sealed.
-
-        Returns
-        -------
-        list of str
-            Two lines.
-        """
-        return [f"{self.name} from {self.values[0]:.4g} to {self.values[-1]:.4g} {self.unit} "
-                f"({self.values.size} values)",
-                f"a2 = {self.a2_held:.6g} 1/s^2 with the pressures held, "
-                f"{self.a2_sealed:.6g} sealed"]
-
-    def table(self) -> dict[str, np.ndarray]:
-        """The value and each pole's real and imaginary part.
-
-        Returns
-        -------
-        dict of str to numpy.ndarray
-            ``<name>`` and ``pole<i>_re``, ``pole<i>_im`` [1/s].
-        """
-        columns = {self.name: self.values}
-        for i in range(self.poles.shape[1]):
-            columns[f"pole{i}_re"] = self.poles[:, i].real
-            columns[f"pole{i}_im"] = self.poles[:, i].imag
-        return columns
-
-
-def air_pole_sweep(op: KneeOperatingPoint, name: str, values) -> AirPoleSweep:
-    """The knee's poles at op with the air on, one of its parameters swept (model-spec 4d).
-
-    Each linearization is :func:`mkctl.physics.knee.linearization` with the pressure states (the
-    regulators on their filling side at rest); the held and sealed limits are Eq. 18's poles and
-    those of :func:`mkctl.physics.stability.sealed_coefficients`.
-
-    Parameters
-    ----------
-    op : KneeOperatingPoint
-        The posture held at rest (its params: the model; the air switched on here if it is off).
-    name : str
-        One of :data:`AIR_SWEEPS`: ``C_fill``, ``V_dead`` or ``band``.
-    values : array_like
-        The values [its unit], within its bounds.
-
-    Returns
-    -------
-    AirPoleSweep
-        The poles at each value, the held and the sealed poles and a2.
-
-    Raises
-    ------
-    ControlAnalysisError
-        For another name.
-    ParameterError
-        For a value outside the parameter's bounds.
-    """
-    if name not in AIR_SWEEPS:
-        raise ControlAnalysisError(f"--vary {name}: the air's parameters to vary are "
-                                   f"{', '.join(AIR_SWEEPS)}")
-    values = np.asarray(values, dtype=float)
-    air = with_air(op)
-    poles = np.empty((values.size, 4), dtype=complex)
-    for i, value in enumerate(values):
-        varied = air.params.replace(**{name: value})
-        A, _ = knee.linearization(op.X, op.Pe, op.Pf, *op.inputs, varied)
-        poles[i] = np.sort_complex(np.linalg.eigvals(A))
-    a1, a2 = stability.routh_hurwitz_coefficients(op.X, op.Pe, op.Pf, 0.0, air.params)
-    s1, s2 = stability.sealed_coefficients(op.X, op.Pe, op.Pf, air.params)
-    held = stability.poles(float(a1), float(a2))
-    return AirPoleSweep(name, AIR_SWEEPS[name][0], values, poles, held, stability.poles(s1, s2),
-                        float(a2), s2)
-
-
-def plot_air_poles(sweep: AirPoleSweep, title: str = "", path=None):
-    """Two pole maps of an :class:`AirPoleSweep`: every pole (the air's on a logarithmic real axis)
-    and the motion's poles near the origin, with the pressures-held and the sealed poles marked.
-
-    Parameters
-    ----------
-    sweep : AirPoleSweep
-        The sweep.
-    title : str
-        A line above both maps (the posture).
-    path : str or Path, optional
-        Where to save the PNG.
-
-    Returns
-    -------
-    matplotlib.figure.Figure or Path
-        The figure, or the path of the PNG when path is given.
-    """
-    from matplotlib.colors import LogNorm
-    from ..io.plotting import new_figure, save_png
-
-    fig, (every, motion) = new_figure(1, 2, figsize=(11.5, 4.8))
-    positive = sweep.values[sweep.values > 0]
-    norm = LogNorm(positive.min(), positive.max()) if positive.size > 1 else None
-    flat = np.repeat(sweep.values[:, None], sweep.poles.shape[1], axis=1)
-    real_axis = sweep.poles.real.ravel()
-    colour = np.where(flat.ravel() > 0, flat.ravel(), positive.min() if positive.size else 1.0)
-    for ax in (every, motion):
-        sc = ax.scatter(real_axis, sweep.poles.imag.ravel(), c=colour, s=7, cmap="viridis",
-                        norm=norm)
-        ax.plot(sweep.held.real, sweep.held.imag, "rx", ms=10, mew=2,
-                label="pressures held (Eq. 18)")
-        ax.plot(sweep.sealed.real, sweep.sealed.imag, "ks", mfc="none", ms=10, mew=1.5,
-                label="valves closed (sealed: air springs)")
-    fig.colorbar(sc, ax=motion, label=f"{sweep.name} [{sweep.unit}]")
-    every.set_xscale("symlog", linthresh=1.0)
-    _pole_axes(every, "every pole (the air's: real, fast; symlog axis)")
-    mechanical = sweep.poles[np.abs(sweep.poles.imag) > 0]
-    span = max(np.abs(np.concatenate([sweep.held, sweep.sealed, mechanical])).max() * 1.15, 1.0)
-    motion.set_xlim(-span / 2, span / 10)
-    motion.set_ylim(-span, span)
-    _pole_axes(motion, "the motion's poles")
-    motion.legend(fontsize=8, loc="lower left")
-    if title:
-        fig.suptitle(title, fontsize=10)
+    pole_axes(ax, title)
     return save_png(fig, path) if path else fig

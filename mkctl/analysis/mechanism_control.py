@@ -139,8 +139,8 @@ def air_pole_sweep(op: OperatingPoint, name: str, values):
     """The mechanism's poles with the air's pressure states, one of its values swept (model-spec
     4d), with the pressures-held and the sealed poles.
 
-    As the knee's :func:`mkctl.analysis.control.air_pole_sweep`: the air switched on
-    (:func:`mkctl.analysis.control.air_switched_on`, its typical values unless op's params give
+    As the knee's :func:`mkctl.analysis.air_poles.air_pole_sweep`: the air switched on
+    (:func:`mkctl.analysis.air_poles.air_switched_on`, its typical values unless op's params give
     others), each linearization :func:`mkctl.physics.mechanism.linearization` (the regulators on
     their filling side at rest), the sealed limit
     :func:`mkctl.physics.mechanism.sealed_coefficients`.
@@ -150,13 +150,13 @@ def air_pole_sweep(op: OperatingPoint, name: str, values):
     op : OperatingPoint
         The rest (at rest the regulators hold their set-points: the air does not move it).
     name : str
-        One of :data:`mkctl.analysis.control.AIR_SWEEPS` (C_fill, V_dead, band).
+        One of :data:`mkctl.analysis.air_poles.AIR_SWEEPS` (C_fill, V_dead, band).
     values : array_like
         Its values [its unit].
 
     Returns
     -------
-    mkctl.analysis.control.AirPoleSweep
+    mkctl.analysis.air_poles.AirPoleSweep
         The poles at each value (2 + muscles per row, sorted), held and sealed poles, a2 both ways.
 
     Raises
@@ -164,19 +164,19 @@ def air_pole_sweep(op: OperatingPoint, name: str, values):
     MechanismControlError
         For another name.
     """
-    from . import control as mc
+    from . import air_poles
     from ..physics.stability import poles as pair_poles
 
-    if name not in mc.AIR_SWEEPS:
+    if name not in air_poles.AIR_SWEEPS:
         raise MechanismControlError(f"--vary {name}: the air's parameters to vary are "
-                                    f"{', '.join(mc.AIR_SWEEPS)}")
+                                    f"{', '.join(air_poles.AIR_SWEEPS)}")
     values = np.asarray(values, dtype=float)
-    air = op.with_params(**mc.air_switched_on())
+    air = op.with_params(**air_poles.air_switched_on())
     poles = np.array([np.sort_complex(air.with_params(**{name: float(v)}).linear_system().poles())
                       for v in values])
     held = air.stability()
     s1, s2 = sealed_coefficients(op.mechanism, op.q, op.pressures, air.params)
-    return mc.AirPoleSweep(name, mc.AIR_SWEEPS[name][0], values, poles,
+    return air_poles.AirPoleSweep(name, air_poles.AIR_SWEEPS[name][0], values, poles,
                            np.asarray(held.poles, dtype=complex), pair_poles(s1, s2),
                            float(held.a2), s2)
 
@@ -298,7 +298,7 @@ def plot_locus(op: OperatingPoint, values, poles, what: str, unit: str, path=Non
     first value and ``marked`` (nearest row) marked. Saves a PNG at ``path`` and returns it (the
     figure without a path)."""
     from ..io.plotting import new_figure, save_png
-    from .control import _pole_axes
+    from .control import pole_axes
 
     values = np.asarray(values, dtype=float)
     poles = np.asarray(poles)
@@ -313,7 +313,7 @@ def plot_locus(op: OperatingPoint, values, poles, what: str, unit: str, path=Non
         ax.plot(row.real, row.imag, "ro", mfc="none", ms=9, label=f"{what} = {marked:.4g} {unit}")
     ax.legend(fontsize=8)
     unit_q, factor = display_unit(op.mechanism)
-    _pole_axes(ax, f"{op.mechanism.name}: poles against {what} at {op.mechanism.coordinate} = "
+    pole_axes(ax, f"{op.mechanism.name}: poles against {what} at {op.mechanism.coordinate} = "
                    f"{shown(op.q * factor, 4)} {unit_q}")
     return save_png(fig, path) if path else fig
 

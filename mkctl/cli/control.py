@@ -24,17 +24,21 @@ from ..physics.simulate import DEFAULT_ALPHA, DEFAULT_PF
 from .options import UsageError, add_params_option, base_params, output_folder, parse_assignments
 
 
-class _LazyControl:
-    """:mod:`mkctl.analysis.control`, imported on first use: python-control takes seconds to import, and
+class _Lazy:
+    """A module of :mod:`mkctl.analysis`, imported on first use: python-control takes seconds to import, and
     ``mkctl --help`` or another subcommand should not wait for it."""
 
+    def __init__(self, name: str):
+        self._name = name
+
     def __getattr__(self, name):
-        from ..analysis import control
+        from ..analysis import air_poles, control
 
-        return getattr(control, name)
+        return getattr({"control": control, "air_poles": air_poles}[self._name], name)
 
 
-mc = _LazyControl()
+mc = _Lazy("control")
+air_poles = _Lazy("air_poles")
 
 #: The knee FMU the commands use unless --fmu names one: where ``python build_fmu.py`` writes it, in the folder
 #: the command runs in (a command-line default; the library takes the path explicitly).
@@ -271,7 +275,7 @@ def run_rootlocus(args) -> int:
     op = _setup(args, needs_damping=True)
     print(f"operating point: {_describe(op)}")
     out = args.out
-    if args.vary in mc.AIR_SWEEPS:
+    if args.vary in air_poles.AIR_SWEEPS:
         path = _air_rootlocus(args, op)
     elif args.vary == "c":
         c_zeta1 = mc.damping_for_zeta(1.0, op)
@@ -319,7 +323,7 @@ def _air_on(params) -> bool:
 def _air_values(name):
     """The values ``--vary C_fill|V_dead|band`` sweeps: its range (from 0 and three decades below
     its upper bound where the range starts at 0)."""
-    _, (low, high) = mc.AIR_SWEEPS[name]
+    _, (low, high) = air_poles.AIR_SWEEPS[name]
     if low > 0:
         return np.geomspace(low, high, 240)
     return np.concatenate([[0.0], np.geomspace(high * 1e-3, high, 240)])
@@ -329,7 +333,7 @@ def _air_rootlocus(args, op):
     """``--vary C_fill|V_dead|band``: the knee's poles with the air's pressure states as one of
     its values sweeps the spec's range, the pressures-held and sealed limits marked (model-spec
     4d)."""
-    sweep = mc.air_pole_sweep(op, args.vary, _air_values(args.vary))
+    sweep = air_poles.air_pole_sweep(op, args.vary, _air_values(args.vary))
     title = (f"Poles with the air against {args.vary}, alpha = {math.degrees(op.alpha):.4g} deg, "
              f"pf = {op.Pf / 1e3:g} kPa, c = {op.params.c:.4g} N s/m")
     return _print_air_sweep(sweep, op.params, title, args.out)
@@ -348,7 +352,7 @@ def _print_air_sweep(sweep, params, title, out):
           f"({sweep.a2_sealed / sweep.a2_held:.3g} times), poles {_fmt_poles(sweep.sealed)}")
     for i in np.unique(np.linspace(0, values.size - 1, 5).round().astype(int)):
         print(f"  {name} = {values[i]:.4g} {unit}: poles {_fmt_poles(sweep.poles[i])}")
-    return mc.plot_air_poles(sweep, title, out / f"rootlocus_{name}.png")
+    return air_poles.plot_air_poles(sweep, title, out / f"rootlocus_{name}.png")
 
 
 def run_step(args) -> int:
@@ -495,7 +499,7 @@ def _mechanism_rootlocus(args) -> int:
     op = _mechanism_setup(args, needs_damping=True)
     unit, factor = mm.display_unit(op.mechanism)
     print(f"operating point: {op.describe()}")
-    if args.vary in mc.AIR_SWEEPS:
+    if args.vary in air_poles.AIR_SWEEPS:
         sweep = mm.air_pole_sweep(op, args.vary, _air_values(args.vary))
         path = _print_air_sweep(sweep, op.params, f"Poles with the air against {args.vary}: "
                                 f"{op.describe()}", args.out)
