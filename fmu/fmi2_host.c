@@ -24,14 +24,14 @@
 
 int main(int argc, char *argv[])
 {
-    char resources[PATH_MAX + 64], real_dir[PATH_MAX];
+    char real_dir[PATH_MAX];
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
     double stop, step, time = 0.0, value;
     long k, steps;
     fmi2ValueReference out_vr;
     void *library;
     fmi2Component fmu;
-    int i;
+    int usage_error;
 
     if (argc < 6) {
         fprintf(stderr, "usage: %s FMU_DIR GUID STOP STEP OUT_VR [VR=VALUE ...]\n", argv[0]);
@@ -42,33 +42,13 @@ int main(int argc, char *argv[])
     out_vr = (fmi2ValueReference)strtoul(argv[5], NULL, 10);
     library = load_fmu_binary(argv[1], real_dir);
     if (library == NULL) return 2;
-    fmi2InstantiateTYPE *instantiate = (fmi2InstantiateTYPE *)symbol(library, "fmi2Instantiate");
-    fmi2SetupExperimentTYPE *setup = (fmi2SetupExperimentTYPE *)symbol(library, "fmi2SetupExperiment");
-    fmi2EnterInitializationModeTYPE *enter = (fmi2EnterInitializationModeTYPE *)symbol(library, "fmi2EnterInitializationMode");
-    fmi2ExitInitializationModeTYPE *leave = (fmi2ExitInitializationModeTYPE *)symbol(library, "fmi2ExitInitializationMode");
-    fmi2SetRealTYPE *set_real = (fmi2SetRealTYPE *)symbol(library, "fmi2SetReal");
     fmi2GetRealTYPE *get_real = (fmi2GetRealTYPE *)symbol(library, "fmi2GetReal");
     fmi2DoStepTYPE *do_step = (fmi2DoStepTYPE *)symbol(library, "fmi2DoStep");
     fmi2TerminateTYPE *terminate = (fmi2TerminateTYPE *)symbol(library, "fmi2Terminate");
     fmi2FreeInstanceTYPE *free_instance = (fmi2FreeInstanceTYPE *)symbol(library, "fmi2FreeInstance");
 
-    snprintf(resources, sizeof resources, "file://%s/resources", real_dir);
-    fmu = instantiate("host", fmi2CoSimulation, argv[2], resources, &callbacks, fmi2False, fmi2True);
-    if (fmu == NULL) {
-        fprintf(stderr, "fmi2Instantiate failed\n");
-        return 1;
-    }
-    CHECK(setup(fmu, fmi2False, 0.0, 0.0, fmi2True, stop));
-    CHECK(enter(fmu));
-    for (i = 6; i < argc; i++) {
-        fmi2ValueReference vr;
-        if (sscanf(argv[i], "%u=%lf", &vr, &value) != 2) {
-            fprintf(stderr, "bad start value %s (want VR=VALUE)\n", argv[i]);
-            return 2;
-        }
-        CHECK(set_real(fmu, &vr, 1, &value));
-    }
-    CHECK(leave(fmu));
+    fmu = start_fmu(library, real_dir, argv[2], fmi2CoSimulation, &callbacks, stop, 6, argc, argv, &usage_error);
+    if (fmu == NULL) return usage_error ? 2 : 1;
     CHECK(get_real(fmu, &out_vr, 1, &value));
     printf("%.17g %.17g\n", time, value);
     steps = (long)(stop / step + 0.5);

@@ -77,7 +77,7 @@ static int handle_event(const Api *api, fmi2Component fmu)
 
 int main(int argc, char *argv[])
 {
-    char resources[PATH_MAX + 64], real_dir[PATH_MAX];
+    char real_dir[PATH_MAX];
     fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
     double stop, step, time = 0.0, value, x[MAX_STATES];
     long k, steps, substeps, j;
@@ -88,7 +88,7 @@ int main(int argc, char *argv[])
     void *library;
     fmi2Component fmu;
     Api api;
-    int i;
+    int usage_error;
 
     if (argc < 8) {
         fprintf(stderr, "usage: %s FMU_DIR GUID STOP STEP SUBSTEPS NX OUT_VR [VR=VALUE ...]\n", argv[0]);
@@ -105,11 +105,6 @@ int main(int argc, char *argv[])
     }
     library = load_fmu_binary(argv[1], real_dir);
     if (library == NULL) return 2;
-    fmi2InstantiateTYPE *instantiate = (fmi2InstantiateTYPE *)symbol(library, "fmi2Instantiate");
-    fmi2SetupExperimentTYPE *setup = (fmi2SetupExperimentTYPE *)symbol(library, "fmi2SetupExperiment");
-    fmi2EnterInitializationModeTYPE *enter = (fmi2EnterInitializationModeTYPE *)symbol(library, "fmi2EnterInitializationMode");
-    fmi2ExitInitializationModeTYPE *leave = (fmi2ExitInitializationModeTYPE *)symbol(library, "fmi2ExitInitializationMode");
-    fmi2SetRealTYPE *set_real = (fmi2SetRealTYPE *)symbol(library, "fmi2SetReal");
     fmi2GetRealTYPE *get_real = (fmi2GetRealTYPE *)symbol(library, "fmi2GetReal");
     fmi2GetContinuousStatesTYPE *get_states = (fmi2GetContinuousStatesTYPE *)symbol(library, "fmi2GetContinuousStates");
     fmi2CompletedIntegratorStepTYPE *completed =
@@ -124,23 +119,8 @@ int main(int argc, char *argv[])
     api.enter_continuous_time_mode =
         (fmi2EnterContinuousTimeModeTYPE *)symbol(library, "fmi2EnterContinuousTimeMode");
 
-    snprintf(resources, sizeof resources, "file://%s/resources", real_dir);
-    fmu = instantiate("host", fmi2ModelExchange, argv[2], resources, &callbacks, fmi2False, fmi2True);
-    if (fmu == NULL) {
-        fprintf(stderr, "fmi2Instantiate failed\n");
-        return 1;
-    }
-    CHECK(setup(fmu, fmi2False, 0.0, 0.0, fmi2True, stop));
-    CHECK(enter(fmu));
-    for (i = 8; i < argc; i++) {
-        fmi2ValueReference vr;
-        if (sscanf(argv[i], "%u=%lf", &vr, &value) != 2) {
-            fprintf(stderr, "bad start value %s (want VR=VALUE)\n", argv[i]);
-            return 2;
-        }
-        CHECK(set_real(fmu, &vr, 1, &value));
-    }
-    CHECK(leave(fmu));
+    fmu = start_fmu(library, real_dir, argv[2], fmi2ModelExchange, &callbacks, stop, 8, argc, argv, &usage_error);
+    if (fmu == NULL) return usage_error ? 2 : 1;
     /* the initial event iteration, then continuous time */
     do {
         CHECK(api.new_discrete_states(fmu, &info));

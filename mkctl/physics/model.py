@@ -302,8 +302,8 @@ def _check_parameter(effect: Effect, q: Parameter, taken: set, seen: set) -> Non
     if any(not isinstance(v, (int, float)) or isinstance(v, bool) or math.isnan(v)
            for v in values):
         raise EffectError(f"{where} has a bound or value that is not a number")
-    if not q.lower <= q.upper:
-        raise EffectError(f"{where} has lower bound {q.lower:g} above its upper bound {q.upper:g}")
+    if not q.lower < q.upper:
+        raise EffectError(f"{where}: lower bound {q.lower:g} is not below the upper {q.upper:g}")
     try:
         q.check(q.off)
         q.check(q.start)
@@ -360,6 +360,37 @@ def _check_term(effect: Effect, model: Model) -> None:
         except Exception as error:  # any failure of user code: which effect and why, in one line
             raise EffectError(f"effect {effect.name!r}: its terms cannot be evaluated {label} "
                               f"({type(error).__name__}: {error})") from None
+    if effect.tension is not None:
+        _check_tension_off_and_finite(effect, model)
+
+
+def _check_tension_off_and_finite(effect: Effect, model: Model) -> None:
+    """A tension term is finite on a grid of lengths, rates and pressures at its typical values and
+    at its off values, and 0 at the off values: an effect switched off changes nothing (model-spec
+    4c). One rule for an effect from Python and from a file."""
+    import numpy as np
+
+    on = _ProbeParams(_probe_values(effect, model))
+    off = _ProbeParams({**_probe_values(effect, model), **{q.name: q.off for q in effect.parameters}})
+    L = np.linspace(0.6, 0.99, 7) * on.b
+    Ldot, P = np.linspace(-0.2, 0.2, 7), np.linspace(0.0, 6e5, 7)
+    try:
+        # an overflow or a division by zero is a term not finite: refused below in one line, not a
+        # RuntimeWarning printed before it
+        with np.errstate(all="ignore"):
+            at_off = np.asarray(effect.tension(L, Ldot, P, off, math_for(L)), dtype=float)
+            typical = np.asarray(effect.tension(L, Ldot, P, on, math_for(L)), dtype=float)
+    except Exception as error:
+        raise EffectError(f"effect {effect.name!r}: term fails with numpy arrays "
+                          f"({type(error).__name__}: {error})") from None
+    if not np.all(np.isfinite(at_off)):
+        raise EffectError(f"effect {effect.name!r}: term is not finite with every parameter at its "
+                          "off value")
+    if not np.all(np.isfinite(typical)):
+        raise EffectError(f"effect {effect.name!r}: term is not finite at the typical values")
+    if np.any(np.abs(at_off) > 1e-12 * (1.0 + np.max(np.abs(typical)))):
+        raise EffectError(f"effect {effect.name!r}: term is not 0 with every parameter at its off "
+                          "value (an effect switched off must change nothing)")
 
 
 def _evaluate_terms(effect: Effect, L, Ldot, P, f, p, xp) -> None:
