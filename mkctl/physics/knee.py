@@ -685,8 +685,10 @@ def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | 
 # --- State equations (Eq. 17) ---------------------------------------------------------------------
 
 def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
-    """Names of the knee's states: X, V, and Pe, Pf when an effect has pressure dynamics (a lag),
-    and Te, Tf when each muscle's air temperature is a state (air_heat, model-spec 4d).
+    """Names of the knee's states: X, V, then Pe, Pf (pressure dynamics) and Te, Tf (air_heat).
+
+    Pe, Pf when an effect has pressure dynamics (a lag, the air); Te, Tf when each muscle's air
+    temperature is a state (air_heat, model-spec 4d).
 
     Parameters
     ----------
@@ -710,7 +712,7 @@ def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
 
 
 def rest_state(X, Pe, Pf, params: Params = DEFAULT) -> np.ndarray:
-    """The knee's state at rest at hip height X with pressures Pe, Pf, in :func:`state_names`' order.
+    """The knee's state at rest at hip height X with pressures Pe, Pf (:func:`state_names`).
 
     V = 0; the pressures when they are states; each muscle's air at ``T_air`` when its temperature
     is a state (air_heat: at rest the air has the wall's temperature).

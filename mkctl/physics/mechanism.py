@@ -638,8 +638,10 @@ def force_partials(mechanism: Mechanism, q, qdot, pressures, p) -> ForcePartials
 
 
 def state_names(mechanism: Mechanism, params=DEFAULT) -> tuple:
-    """The state names: the coordinate, its rate, with pressure dynamics each pressure, and with
-    the air's temperatures as states (air_heat, model-spec 4d) each muscle's air temperature.
+    """The state names: the coordinate, its rate, then each pressure and each air temperature.
+
+    The pressures with pressure dynamics (a lag, the air); the air's temperatures when they are
+    states (air_heat, model-spec 4d).
 
     Parameters
     ----------
