@@ -35,7 +35,7 @@ def heat_params(tau_heat=0.2, **values) -> Params:
     return Params(valve_flow=1, c=45.0, tau_heat=tau_heat, **{**AIR, **values})
 
 
-# --- the test's own air: orifice, valve, volume, energy balance --------------------------------------
+# --- the test's own air: orifice, valve, volume, energy balance -----------------------------------
 
 def _phi(r, b_cr, m):
     """ISO 6358-1's flow function, with the quadratic laminar branch x (A + B x), x = 1 - r, above
@@ -182,7 +182,7 @@ def _rest(p, Pf=1e5, alpha=math.radians(60.0)):
     return float(knee.X_from_alpha(alpha, p)), Pe, Pf
 
 
-# --- the knee --------------------------------------------------------------------------------------
+# --- the knee -------------------------------------------------------------------------------------
 
 def test_knee_with_air_heat_matches_an_independent_simulator():
     p = heat_params()
@@ -234,7 +234,7 @@ def test_the_pulley_joint_with_air_heat_matches_an_independent_simulator():
     assert np.max(np.abs(run.P - P)) < 1e-6 * np.max(np.abs(P))
 
 
-# --- the limits of the heat model -------------------------------------------------------------------
+# --- the limits of the heat model -----------------------------------------------------------------
 
 def test_tau_heat_to_zero_is_isothermal_and_to_infinity_adiabatic():
     p = heat_params()
@@ -263,7 +263,7 @@ def test_tau_heat_to_zero_is_isothermal_and_to_infinity_adiabatic():
     assert gap(run(tau_heat=1e4), adiabatic) < 1e-3 * apart
 
 
-# --- the held knee against one muscle's pressure record ---------------------------------------------
+# --- the held knee against one muscle's pressure record -------------------------------------------
 
 def _held_knee(X, p):
     """The knee's two muscles clamped at their lengths at hip height X: a mechanism whose lengths
@@ -297,7 +297,7 @@ def test_a_fast_fill_on_a_held_knee_matches_one_muscles_pressure_record():
     assert np.max(np.abs(poly.P[:, 0] - run.P[:, 0])) > 1e3
 
 
-# --- the linearization with the temperature states --------------------------------------------------
+# --- the linearization with the temperature states ------------------------------------------------
 
 def _jacobian(y0, pe_cmd, pf_cmd, p, steps=(1e-7, 1e-6, 1.0, 1.0, 1e-4, 1e-4)):
     J = np.zeros((6, 6))
