@@ -331,20 +331,22 @@ def test_python_control_linearizes_the_knee_with_its_temperatures():
     from mkctl.analysis import control as mc
 
     held = mc.operating_point(math.radians(60.0), Pf=100e3)
-    op = mc.with_air(held, tau_heat=2.0)
+    # the rest with the air on (the regulators hold their set-points at rest)
+    op = mc.operating_point(math.radians(60.0), Pf=100e3,
+                            params=held.params.replace(valve_flow=1, tau_heat=2.0))
     exact = mc.analytic_linearization(op)
     numeric = mc.numerical_linearization(op)
     assert list(exact.state_labels) == ["X", "V", "Pe", "Pf", "Te", "Tf"]
     assert np.allclose(op.states[4:], op.params.T_air)
+    assert np.allclose(op.states[:4], [held.X, 0.0, held.Pe, held.Pf], rtol=1e-9)
     # the columns of X, V, Te, Tf do not cross the regulator's kink at rest (u = 0: no flow on
     # either side), so python-control's one-sided difference finds them too
     row_scale = np.abs(exact.A).max(axis=1)
     for j in (0, 1, 4, 5):
         assert np.all(np.abs(numeric.A[:, j] - exact.A[:, j])
                       <= 1e-5 * np.abs(exact.A[:, j]) + 1e-6 * row_scale)
-    # the same rest through python-control's operating-point search
-    found = mc.operating_point(math.radians(60.0), Pf=100e3, params=op.params)
-    assert np.allclose(found.states, op.states, rtol=1e-9)
+    # a damping changes nothing at rest: the same states, the temperatures among them
+    assert np.array_equal(op.with_params(c=10.0).states, op.states)
 
 
 def test_the_sealed_air_spring_runs_from_isothermal_to_adiabatic_with_tau_heat():
