@@ -58,7 +58,7 @@ def with_air(op: KneeOperatingPoint, **values) -> KneeOperatingPoint:
         With the air on (its typical values unless given) and the states X, V, Pe, Pf.
     """
     params = op.params.replace(**{**air_switched_on(), **values})
-    states = np.array([op.X, 0.0, op.Pe, op.Pf])
+    states = knee.rest_state(op.X, op.Pe, op.Pf, params)  # with air_heat: Te, Tf = T_air
     return KneeOperatingPoint(params, op.alpha, op.X, op.Pe, op.Pf, states, op.inputs.copy())
 
 

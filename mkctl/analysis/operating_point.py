@@ -25,7 +25,8 @@ INPUT_NAMES = ("pe_cmd", "pf_cmd")
 #: takes one absolute forward step (1e-6) for all of them. So X and V are perturbed by 3e-9 m, m/s (F is
 #: curved in X; this step balances truncation and rounding, measured) and the pressures by 1 Pa (F is
 #: affine in them; a 1e-6 Pa step would drown in rounding).
-LINEARIZE_SCALE = {"X": 3e-3, "V": 3e-3, "Pe": 1e6, "Pf": 1e6, "pe_cmd": 1e6, "pf_cmd": 1e6}
+LINEARIZE_SCALE = {"X": 3e-3, "V": 3e-3, "Pe": 1e6, "Pf": 1e6, "pe_cmd": 1e6, "pf_cmd": 1e6,
+                   "Te": 1e2, "Tf": 1e2}  # the air's temperatures (air_heat) [K]: 0.1 mK steps
 
 
 class ControlAnalysisError(MkctlError, ValueError):
@@ -96,8 +97,7 @@ class KneeOperatingPoint:
         if bad:
             raise ControlAnalysisError(f"{sorted(bad)[0]} moves the equilibrium: find a new operating point")
         params = self.params.replace(**overrides)
-        lag = actuator.has_pressure_states(params)
-        states = np.array([self.X, 0.0, self.Pe, self.Pf] if lag else [self.X, 0.0])
+        states = knee.rest_state(self.X, self.Pe, self.Pf, params)
         return KneeOperatingPoint(params, self.alpha, self.X, self.Pe, self.Pf, states, self.inputs.copy())
 
 
@@ -192,9 +192,9 @@ def _air_operating_point(alpha, X, pf, params: Params) -> KneeOperatingPoint:
     held = operating_point(alpha, X=None if alpha is not None else X, Pf=pf,
                            params=params.replace(**air_off))
     op = KneeOperatingPoint(params, held.alpha, held.X, held.Pe, held.Pf,
-                            np.array([held.X, 0.0, held.Pe, held.Pf]), held.inputs.copy())
+                            knee.rest_state(held.X, held.Pe, held.Pf, params), held.inputs.copy())
     rates = knee.knee_derivatives(op.states, *op.inputs, params)
-    if np.all(np.abs(rates[2:]) <= 1e-9 * np.maximum(np.abs(op.inputs), 1.0)):
+    if np.all(np.abs(rates[2:]) <= 1e-9 * np.maximum(np.abs(op.states[2:]), 1.0)):
         return op
     sys = knee_nlsys(params, stops=False, scale=LINEARIZE_SCALE)
     sx = np.array([LINEARIZE_SCALE[s] for s in knee.state_names(params)])

@@ -159,31 +159,119 @@ def air_is_on(params) -> bool:
     return any(e.moves_air for e in active_effects(params))
 
 
-def check_air_supported(params) -> None:
-    """Refuse, in one line, the air's temperature as a state in a knee or a mechanism.
+def air_temperature_term(params):
+    """The term that makes each muscle's air temperature a state, as the effects define it.
 
-    Their air path carries the polytropic law only.
+    The ``air_temperature(P, T, V, dV_dt, q_m, p, xp) -> (dP/dt, dT/dt)`` of the first switched-on
+    effect whose definition gives one (air_heat: the open chamber's energy balance,
+    :func:`mkctl.physics.air.air_heat_rates`), with the air on (:func:`air_is_on`).
 
     Parameters
     ----------
-    params : Params or MechanismParams
+    params : Params, MechanismParams or SymbolicParams
         The parameter set.
+
+    Returns
+    -------
+    callable or None
+        The term; None: the polytropic law (:func:`air_pressure_derivative`), the pressure alone.
+
+    References
+    ----------
+    .. [1] model-spec section 4d (air_heat).
+    """
+    return next((e.air_temperature for e in active_effects(params)
+                 if e.air_temperature is not None), None)
+
+
+def has_temperature_states(params) -> bool:
+    """Whether each muscle's air temperature is a state beside its pressure (model-spec 4d).
+
+    Parameters
+    ----------
+    params : Params, MechanismParams or SymbolicParams
+        The parameter set.
+
+    Returns
+    -------
+    bool
+        True when an effect switched on defines the air's temperature as a state
+        (:func:`air_temperature_term`: air_heat).
+    """
+    return air_temperature_term(params) is not None
+
+
+def air_rates(P, T, command, L, Ldot, params, opening: bool = False):
+    r"""dP/dt and dT/dt of one muscle whose air temperature is a state (model-spec 4d, air_heat).
+
+    The mass flow ``q_m`` of the effects at the air's temperature T (:func:`air_mass_flow`: the
+    valve's outflow carries the muscle's own T) and the opening of :func:`air_pressure_derivative`;
+    the rates from the effect's own ``air_temperature`` term (:func:`air_temperature_term`: the open
+    chamber's energy balance of :func:`mkctl.physics.air.air_heat_rates`) at
+    ``V = V_b(L) + V_dead``, ``dV/dt = (dV_b/dL) Ldot``. Written on ``xp``: floats, arrays and sympy
+    symbols (differentiated exactly for the linearization).
+
+    Parameters
+    ----------
+    P : float, array_like or sympy expression
+        Gauge pressure in the muscle [Pa].
+    T : float, array_like or sympy expression
+        The muscle's air temperature [K].
+    command : float, array_like or sympy expression
+        The regulator's set-point P_cmd [Pa], or with ``opening`` the valve's opening u [-].
+    L : float, array_like or sympy expression
+        Muscle length [m] (0 < L < b).
+    Ldot : float, array_like or sympy expression
+        Its lengthening rate [m/s].
+    params : Params, MechanismParams or SymbolicParams
+        b, n and section 4d's values (tau_heat among them).
+    opening : bool
+        Whether command is the valve's opening u in [-1, 1] rather than a pressure set-point.
+
+    Returns
+    -------
+    dP_dt : float, array or sympy expression
+        [Pa/s].
+    dT_dt : float, array or sympy expression
+        [K/s].
 
     Raises
     ------
     ParameterError
-        Naming the effect switched on whose definition makes the air's temperature a state
-        (``air_temperature``: air_heat) and its switch: a knee's or a mechanism's muscles carry the
-        polytropic law only (one muscle's pressure record carries the heat:
-        :func:`mkctl.physics.pneumatics.simulate_muscle_pressure`).
+        When no effect switched on makes the temperature a state.
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 6.
+    .. [2] model-spec section 4d (the heat: the air's temperature a state).
     """
-    for effect in active_effects(params):
-        if effect.air_temperature is not None:
-            q = effect.switch_parameter
-            raise ParameterError(
-                f"the effect {effect.name} (the air's temperature as a state) is not carried by a "
-                f"knee or a mechanism yet: set {q.name} = {q.off:g} (the polytropic law) or "
-                "simulate one muscle's pressure record")
+    term = air_temperature_term(params)
+    if term is None:
+        raise ParameterError("no effect switched on makes the air's temperature a state")
+    _check_air_state(P, T)
+    p = params
+    u = command if opening else valve_opening(P, command, p)
+    q = air_mass_flow(P, u, p, T)
+    V = _air.air_volume(L, p.b, p.n, p.V_dead)
+    dV_dt = _air.air_volume_slope(L, p.b, p.n) * Ldot
+    return term(P, T, V, dV_dt, q, p, math_for_all(P, T, V, dV_dt, q))
+
+
+def _check_air_state(P, T) -> None:
+    """Raise :class:`DomainError` for air at or below absolute zero (temperature or pressure): the
+    gas law and the orifice divide by them (an integrator's trial stage that overshoots is then
+    rejected and shrunk). Symbolic values are not tested (no generated code carries T)."""
+    if is_symbolic(P) or is_symbolic(T):
+        return
+    if isinstance(P, float) and isinstance(T, float):
+        good = T > 0.0 and P > -_air.P_ATM and math.isfinite(T) and math.isfinite(P)
+    else:
+        T_values, P_values = np.asarray(T, dtype=float), np.asarray(P, dtype=float)
+        good = bool(np.all((T_values > 0) & np.isfinite(T_values))
+                    and np.all((P_values > -_air.P_ATM) & np.isfinite(P_values)))
+    if not good:
+        raise DomainError(f"the muscle's air left the gas law's domain (T = {np.min(T):g} K, "
+                          f"P = {np.min(P):g} Pa gauge): both must stay above absolute zero")
 
 
 def valve_opening(P, P_cmd, params):
@@ -360,6 +448,87 @@ def air_pressure_partials(P, command, L, Ldot, params, opening: bool = False):
     function, names = _derivative_function(params, build, scalar=True)
     values = function(P, command, L, Ldot, *[getattr(params, n) for n in names])
     return tuple(float(v) for v in values[1:])
+
+
+def _flow_expressions(sp, opening=False):
+    import sympy
+    P, T, c = (sympy.Dummy(real=True) for _ in range(3))
+    u = c if opening else valve_opening(P, c, sp)
+    q = sympy.sympify(air_mass_flow(P, u, sp, T))
+    return (P, T, c), [q, *(_heaviside_as_step(sympy.diff(q, x)) for x in (P, T, c))]
+
+
+def _sealed_flow_expressions(sp):
+    return _flow_expressions(sp, opening=True)
+
+
+def _heat_term_expressions(sp):
+    import sympy
+    P, T, V, dV_dt, q = (sympy.Dummy(real=True) for _ in range(5))
+    term = air_temperature_term(sp)
+    rates = [sympy.sympify(r) for r in term(P, T, V, dV_dt, q, sp, symbolic_math())]
+    return (P, T, V, dV_dt, q), [*rates, *(_heaviside_as_step(sympy.diff(r, x))
+                                           for r in rates for x in (P, T, V, dV_dt, q))]
+
+
+def _volume_expressions(sp):
+    import sympy
+    L, Ldot = sympy.Dummy(real=True), sympy.Dummy(real=True)
+    V = _air.air_volume(L, sp.b, sp.n, sp.V_dead)
+    dV_dt = _air.air_volume_slope(L, sp.b, sp.n) * Ldot
+    return (L, Ldot), [V, dV_dt, sympy.diff(V, L), sympy.diff(dV_dt, L), sympy.diff(dV_dt, Ldot)]
+
+
+def air_rates_partials(P, T, command, L, Ldot, params, opening: bool = False) -> np.ndarray:
+    """Exact partials of :func:`air_rates` (dP/dt, dT/dt) by P, T, the command, L and Ldot.
+
+    ``sympy.diff`` of the traced rates; at a regulator's rest (P = P_cmd) or a closed valve the
+    filling side's, as :func:`air_pressure_partials` takes them (:data:`FILLING_SIDE`).
+
+    Parameters
+    ----------
+    P : float
+        Gauge pressure [Pa].
+    T : float
+        The air's temperature [K].
+    command : float
+        Set-point P_cmd [Pa], or with ``opening`` the valve's opening u [-].
+    L, Ldot : float
+        Muscle length [m] and its rate [m/s].
+    params : Params or MechanismParams
+        Section 4d's values (with an effect that makes T a state: air_heat).
+    opening : bool
+        Whether command is the valve's opening.
+
+    Returns
+    -------
+    numpy.ndarray
+        2 x 5: rows dP/dt [Pa/s] and dT/dt [K/s], columns their partials by P [Pa], T [K], the
+        command [Pa or -], L [m] and Ldot [m/s].
+
+    References
+    ----------
+    .. [1] model-spec section 4d (the linearization has the air's states).
+    """
+    P, T, command, L, Ldot = float(P), float(T), float(command), float(L), float(Ldot)
+    if not opening and command == P:
+        command = P + FILLING_SIDE * float(params.band)
+    elif opening and command == 0.0:
+        command = FILLING_SIDE
+
+    def evaluate(build, *inputs):
+        function, names = _derivative_function(params, build, scalar=True)
+        return [float(v) for v in function(*inputs, *[getattr(params, n) for n in names])]
+
+    # the chain rule through the flow, the volume and the heat term, each differentiated by sympy
+    # apart (one expression of them all is slow to differentiate: minutes, against a second)
+    q, q_P, q_T, q_c = evaluate(_sealed_flow_expressions if opening else _flow_expressions,
+                                P, T, command)
+    V, dV_dt, V_L, dV_dt_L, dV_dt_Ldot = evaluate(_volume_expressions, L, Ldot)
+    h = np.array(evaluate(_heat_term_expressions, P, T, V, dV_dt, q)[2:]).reshape(2, 5)
+    h_P, h_T, h_V, h_dV, h_q = h.T
+    return np.stack([h_P + h_q * q_P, h_T + h_q * q_T, h_q * q_c, h_V * V_L + h_dV * dV_dt_L,
+                     h_dV * dV_dt_Ldot], axis=1)
 
 
 #: While :func:`tracing_domain_checks` runs, the domain checks of symbolic values land here instead

@@ -685,7 +685,10 @@ def end_stop_force(X, V, params: Params = DEFAULT, stops: tuple[float, float] | 
 # --- State equations (Eq. 17) ---------------------------------------------------------------------
 
 def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
-    """Names of the knee's states: X, V, and Pe, Pf when an effect has pressure dynamics (a lag).
+    """Names of the knee's states: X, V, then Pe, Pf (pressure dynamics) and Te, Tf (air_heat).
+
+    Pe, Pf when an effect has pressure dynamics (a lag, the air); Te, Tf when each muscle's air
+    temperature is a state (air_heat, model-spec 4d).
 
     Parameters
     ----------
@@ -695,15 +698,46 @@ def state_names(params: Params = DEFAULT) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
-        ``("X", "V")`` or ``("X", "V", "Pe", "Pf")``: hip height [m], velocity [m/s], pressures
-        [Pa].
+        ``("X", "V")``, ``("X", "V", "Pe", "Pf")`` or ``("X", "V", "Pe", "Pf", "Te", "Tf")``: hip
+        height [m], velocity [m/s], pressures [Pa], the air's temperatures [K].
 
     References
     ----------
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
-    .. [2] model-spec section 4 (pressure_lag).
+    .. [2] model-spec sections 4 (pressure_lag) and 4d (air_heat).
     """
+    if actuator.has_temperature_states(params):
+        return ("X", "V", "Pe", "Pf", "Te", "Tf")
     return ("X", "V", "Pe", "Pf") if actuator.has_pressure_states(params) else ("X", "V")
+
+
+def rest_state(X, Pe, Pf, params: Params = DEFAULT) -> np.ndarray:
+    """The knee's state at rest at hip height X with pressures Pe, Pf (:func:`state_names`).
+
+    V = 0; the pressures when they are states; each muscle's air at ``T_air`` when its temperature
+    is a state (air_heat: at rest the air has the wall's temperature).
+
+    Parameters
+    ----------
+    X : float
+        Hip height [m].
+    Pe, Pf : float
+        Extensor and flexor gauge pressures [Pa].
+    params : Params
+        The model.
+
+    Returns
+    -------
+    numpy.ndarray
+        X [m], 0 [m/s], and Pe, Pf [Pa], Te, Tf [K] where they are states.
+
+    References
+    ----------
+    .. [1] model-spec sections 4 and 4d.
+    """
+    values = [X, 0.0, Pe, Pf, float(params.T_air) if actuator.air_is_on(params) else 0.0]
+    values.append(values[-1])
+    return np.array(values[: len(state_names(params))], dtype=float)
 
 
 def _scalar(x):
@@ -720,13 +754,15 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
     ``tau dP/dt = P_cmd - P``). Without them the pressures are the commands. With the air
     (``valve_flow``, model-spec 4d) each pressure follows its muscle's mass balance
     (:func:`mkctl.physics.actuator.air_pressure_derivative`) at its length and its lengthening
-    rate ``Le_dot = -G_e V``, ``Lf_dot = G_f V``: the motion squeezes or expands the air.
+    rate ``Le_dot = -G_e V``, ``Lf_dot = G_f V``: the motion squeezes or expands the air. With
+    the air's temperatures as states (air_heat) the states end with Te, Tf and the pressures and
+    temperatures follow the effect's own rates (:func:`mkctl.physics.actuator.air_rates`).
 
     Parameters
     ----------
     state : sequence of float
-        (X [m], V [m/s]) or, with pressure dynamics, (X, V, Pe [Pa], Pf [Pa]); sympy symbols are
-        traced.
+        (X [m], V [m/s]) or, with pressure dynamics, (X, V, Pe [Pa], Pf [Pa]) and with the air's
+        temperatures (..., Te [K], Tf [K]) (:func:`state_names`); sympy symbols are traced.
     pe_cmd, pf_cmd : float
         Commanded extensor and flexor gauge pressures [Pa] (as the actuators see them).
     params : Params
@@ -737,8 +773,8 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
     Returns
     -------
     numpy.ndarray
-        The state's time derivative: dX/dt [m/s], dV/dt [m/s^2], and dPe/dt, dPf/dt [Pa/s]; a list
-        of expressions for symbols.
+        The state's time derivative: dX/dt [m/s], dV/dt [m/s^2], and dPe/dt, dPf/dt [Pa/s] (and
+        dTe/dt, dTf/dt [K/s]); a list of expressions for symbols.
 
     Raises
     ------
@@ -759,7 +795,9 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
     rates = [V, dV]
-    if lag and actuator.air_is_on(p):
+    if lag and actuator.has_temperature_states(p):
+        rates += _heat_rates(state, X, V, pe_cmd, pf_cmd, p)
+    elif lag and actuator.air_is_on(p):
         # the air (model-spec 4d): each pressure from its mass balance, the volume from the motion
         geo = geometry_at_X(X, p, derivatives=False)
         rates += [actuator.air_pressure_derivative(Pe, pe_cmd, geo.Le, -geo.G_e * V, p),
@@ -768,6 +806,16 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
         rates += [actuator.pressure_derivative(Pe, pe_cmd, p),
                   actuator.pressure_derivative(Pf, pf_cmd, p)]
     return rates if actuator.is_symbolic(dV) else np.array(rates, dtype=float)
+
+
+def _heat_rates(state, X, V, pe_cmd, pf_cmd, p) -> list:
+    """dPe/dt, dPf/dt, dTe/dt, dTf/dt with the air's temperatures as states (air_heat, model-spec
+    4d): each muscle's :func:`mkctl.physics.actuator.air_rates` at its length and rate."""
+    geo = geometry_at_X(X, p, derivatives=False)
+    Pe, Pf, Te, Tf = (_scalar(state[i]) for i in range(2, 6))
+    dPe, dTe = actuator.air_rates(Pe, Te, pe_cmd, geo.Le, -geo.G_e * V, p)
+    dPf, dTf = actuator.air_rates(Pf, Tf, pf_cmd, geo.Lf, geo.G_f * V, p)
+    return [dPe, dPf, dTe, dTf]
 
 
 def linearization(X, Pe, Pf, pe_cmd, pf_cmd, params: Params = DEFAULT, sealed: bool = False):
@@ -879,12 +927,65 @@ def air_pressure_rows(lengths, arms, pressures, commands, params, sealed: bool =
     return rows, inputs
 
 
+def air_state_rows(lengths, arms, pressures, commands, params, sealed: bool = False):
+    """The air's rows of a linearization at rest (model-spec 4d), any mechanism, heat or not.
+
+    Without the air's temperatures as states, :func:`air_pressure_rows`. With them (air_heat) the
+    air's states are each muscle's pressure, then each muscle's temperature (at rest ``T_air``),
+    and their rows are the exact partials of :func:`mkctl.physics.actuator.air_rates`
+    (:func:`mkctl.physics.actuator.air_rates_partials`, the regulator on its filling side),
+    coupled to q and qdot through each muscle's volume as :func:`air_pressure_rows` describes.
+    ``d(dP/dt)/dLdot = -gamma p (dV_b/dL) / V`` there: at rest the air spring is the adiabatic one
+    (gamma = 1.4, not k_poly); the temperature rows relax it to the isothermal one over tau_heat.
+
+    Parameters
+    ----------
+    lengths, arms : sequence of float
+        Each muscle's length [m] and dL_i/dq [m/m or m/rad].
+    pressures, commands : sequence of float
+        Each muscle's gauge pressure and set-point [Pa] (sealed: the commands are ignored).
+    params : Params or MechanismParams
+        The muscle's parameters.
+    sealed : bool
+        Valves closed: the inputs are the openings, held at 0.
+
+    Returns
+    -------
+    rows : numpy.ndarray
+        a x (2 + a), a = k (pressures) or 2 k (pressures, then temperatures): by (q, qdot, the
+        air's states).
+    inputs : numpy.ndarray
+        a x k: by each muscle's input (set-point [Pa] or opening [-]).
+
+    References
+    ----------
+    .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 18.
+    .. [2] model-spec section 4d.
+    """
+    if not actuator.has_temperature_states(params):
+        return air_pressure_rows(lengths, arms, pressures, commands, params, sealed)
+    k = len(lengths)
+    rows, inputs = np.zeros((2 * k, 2 + 2 * k)), np.zeros((2 * k, k))
+    for i in range(k):
+        command = 0.0 if sealed else commands[i]
+        d = actuator.air_rates_partials(pressures[i], float(params.T_air), command, lengths[i],
+                                        0.0, params, opening=sealed)
+        for r, at in enumerate((i, k + i)):  # the pressure's row, then the temperature's
+            dP, dT, dc, dL, dLdot = d[r]
+            rows[at, 0], rows[at, 1] = dL * arms[i], dLdot * arms[i]
+            rows[at, 2 + i], rows[at, 2 + k + i] = dP, dT
+            inputs[at, i] = dc
+    return rows, inputs
+
+
 def air_linearization(geo: KneeGeometry, row, gains, pressures, commands, params: Params,
                       sealed: bool = False):
     """(A, B) of the knee at rest with the air's pressure states (model-spec 4d).
 
     ``A = [[0, 1, 0, 0], [a2, a1, dF/dPe/m, dF/dPf/m], [pressure rows]]`` with the pressure rows of
-    :func:`air_pressure_rows` (dLe/dX = -G_e, dLf/dX = G_f).
+    :func:`air_pressure_rows` (dLe/dX = -G_e, dLf/dX = G_f); with the air's temperatures as
+    states (air_heat) 6 x 6, the rows of :func:`air_state_rows` (the force does not depend on
+    Te, Tf: zeros there).
 
     Parameters
     ----------
@@ -904,23 +1005,24 @@ def air_linearization(geo: KneeGeometry, row, gains, pressures, commands, params
     Returns
     -------
     A : numpy.ndarray
-        4 x 4.
+        4 x 4 (6 x 6 with the temperatures).
     B : numpy.ndarray
-        4 x 2.
+        4 x 2 (6 x 2).
 
     References
     ----------
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17-18.
     .. [2] model-spec section 4d.
     """
-    rows, inputs = air_pressure_rows((float(geo.Le), float(geo.Lf)),
-                                     (-float(geo.G_e), float(geo.G_f)), pressures, commands,
-                                     params, sealed)
-    A = np.zeros((4, 4))
+    rows, inputs = air_state_rows((float(geo.Le), float(geo.Lf)),
+                                  (-float(geo.G_e), float(geo.G_f)), pressures, commands,
+                                  params, sealed)
+    n = 2 + rows.shape[0]
+    A = np.zeros((n, n))
     A[0, 1] = 1.0
-    A[1] = [*row, *gains]
+    A[1, :4] = [*row, *gains]
     A[2:] = rows
-    B = np.zeros((4, 2))
+    B = np.zeros((n, 2))
     B[2:] = inputs
     return A, B
 

@@ -638,7 +638,10 @@ def force_partials(mechanism: Mechanism, q, qdot, pressures, p) -> ForcePartials
 
 
 def state_names(mechanism: Mechanism, params=DEFAULT) -> tuple:
-    """The state names: the coordinate, its rate and, with pressure dynamics, each pressure.
+    """The state names: the coordinate, its rate, then each pressure and each air temperature.
+
+    The pressures with pressure dynamics (a lag, the air); the air's temperatures when they are
+    states (air_heat, model-spec 4d).
 
     Parameters
     ----------
@@ -651,15 +654,17 @@ def state_names(mechanism: Mechanism, params=DEFAULT) -> tuple:
     -------
     tuple of str
         ``<coordinate>``, ``<coordinate>_dot`` and, with pressure dynamics, ``P_<muscle>`` for
-        each muscle.
+        each muscle, then with the temperatures ``T_<muscle>`` for each muscle.
 
     References
     ----------
-    .. [1] model-spec sections 3b and 4 (the pressure lag).
+    .. [1] model-spec sections 3b, 4 (the pressure lag) and 4d (air_heat).
     """
     names = (mechanism.coordinate, mechanism.coordinate + "_dot")
     if actuator.has_pressure_states(muscle_params(params)):
         names += tuple(f"P_{m}" for m in mechanism.muscles)
+    if actuator.has_temperature_states(muscle_params(params)):
+        names += tuple(f"T_{m}" for m in mechanism.muscles)
     return names
 
 
@@ -675,7 +680,8 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     ----------
     state : sequence of float or sympy expression
         (q [m or rad], qdot [m/s or rad/s]) or, with pressure dynamics, (q, qdot, P_1[, P_2])
-        with the pressures [Pa].
+        with the pressures [Pa], and with the air's temperatures (..., T_1[, T_2]) [K]
+        (:func:`state_names`).
     commands : sequence of float or sympy expression
         Each muscle's pressure command [Pa] (as the muscles see it: after a dead time).
     mechanism : Mechanism
@@ -688,8 +694,8 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     Returns
     -------
     numpy.ndarray or list of sympy expression
-        The state's rates [SI per second]: (qdot, qdd[, dP_1/dt, dP_2/dt]); on sympy symbols
-        (generated code) a list of expressions.
+        The state's rates [SI per second]: (qdot, qdd[, dP_1/dt, dP_2/dt][, dT_1/dt, dT_2/dt]);
+        on sympy symbols (generated code) a list of expressions.
 
     Raises
     ------
@@ -710,7 +716,9 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     pressures = tuple(_scalar(state[2 + i]) for i in range(k)) if lag else commands
     force = mechanism_force(mechanism, q, qdot, pressures, p)
     rates = [qdot, _acceleration(q, qdot, force.F, force.M, stops)]
-    if lag and actuator.air_is_on(muscle):
+    if lag and actuator.has_temperature_states(muscle):
+        rates += _heat_rates(state, commands, force, muscle, k)
+    elif lag and actuator.air_is_on(muscle):
         # the air (model-spec 4d): each pressure from its mass balance at its length and rate
         rates += [actuator.air_pressure_derivative(pressures[i], commands[i], force.L[i],
                                                    force.Ldot[i], muscle) for i in range(k)]
@@ -718,6 +726,14 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
         rates += [actuator.pressure_derivative(pressures[i], commands[i], muscle)
                   for i in range(k)]
     return rates if actuator.is_symbolic(rates[1]) else np.array(rates, dtype=float)
+
+
+def _heat_rates(state, commands, force, muscle, k) -> list:
+    """Each muscle's dP/dt, then each one's dT/dt, with the air's temperatures as states
+    (air_heat, model-spec 4d): :func:`mkctl.physics.actuator.air_rates` at its length and rate."""
+    rates = [actuator.air_rates(_scalar(state[2 + i]), _scalar(state[2 + k + i]), commands[i],
+                                force.L[i], force.Ldot[i], muscle) for i in range(k)]
+    return [r[0] for r in rates] + [r[1] for r in rates]
 
 
 def motion_under_tensions(state, tensions, mechanism: Mechanism, p, stops=None) -> list:
@@ -1046,7 +1062,8 @@ def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFA
         The muscle's parameters (and the mechanism's own values).
     sealed : bool
         With the air on (``valve_flow``, model-spec 4d): the valves closed, the inputs the
-        openings held at 0 (:func:`mkctl.physics.knee.air_pressure_rows`).
+        openings held at 0 (:func:`mkctl.physics.knee.air_state_rows`; with air_heat the
+        temperature states too, at T_air).
 
     Returns
     -------
@@ -1078,12 +1095,12 @@ def linearization(mechanism: Mechanism, q, pressures, commands=None, params=DEFA
     gains = [float(g) / d.M for g in d.dF_dP]
     if actuator.air_is_on(muscle):
         L, arms, _, _ = kinematics(mechanism, float(q), p)
-        A = np.zeros((2 + k, 2 + k))
+        rows, B = knee.air_state_rows(tuple(float(x) for x in L), tuple(float(a) for a in arms),
+                                      pressures, commands, muscle, sealed)
+        A = np.zeros((2 + rows.shape[0], 2 + rows.shape[0]))
         A[0, 1] = 1.0
-        A[1, :2], A[1, 2:] = row, gains
-        A[2:], B = knee.air_pressure_rows(tuple(float(x) for x in L),
-                                          tuple(float(a) for a in arms), pressures, commands,
-                                          muscle, sealed)
+        A[1, :2], A[1, 2:2 + k] = row, gains
+        A[2:] = rows
         B = np.vstack([np.zeros((2, k)), B])
     elif not actuator.has_pressure_states(muscle):
         A = np.array([[0.0, 1.0], row])
@@ -1293,6 +1310,8 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
 #: The record loop's absolute tolerances (q, qdot, each pressure) and first step [s] (the native
 #: mechanism FMUs integrate with the same).
 RUN_ATOL = (1e-9, 1e-9, 1e-3)
+#: ... and of each air temperature [K] (air_heat): 1e-6 K, as 1e-3 Pa is of a 300 kPa pressure.
+RUN_TEMPERATURE_ATOL = 1e-6
 RUN_FIRST_STEP = 1e-3
 
 
@@ -1300,12 +1319,14 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     """The record loop: one integration per run of held commands, the samples read off the dense
     output."""
     muscle = muscle_params(p)
-    actuator.check_air_supported(muscle)
     lag = actuator.has_pressure_states(muscle)
     k = commands.shape[1]
     stop_positions = mechanism.stop_positions(p) if stops else None
-    state = np.array([q0, 0.0, *(commands[0] if lag else ())], dtype=float)
-    atol = np.array([*RUN_ATOL[:2], *([RUN_ATOL[2]] * k if lag else [])])
+    # with the air's temperatures as states (air_heat) each muscle's air starts at T_air
+    heat = [float(muscle.T_air)] * k if actuator.has_temperature_states(muscle) else []
+    state = np.array([q0, 0.0, *(commands[0] if lag else ()), *heat], dtype=float)
+    atol = np.array([*RUN_ATOL[:2], *([RUN_ATOL[2]] * k if lag else []),
+                     *([RUN_TEMPERATURE_ATOL] * len(heat))])
     kinematics(mechanism, q0, p)  # q0 outside the geometry: the mechanism's own error, at once
     states = np.empty((time.size, state.size))
     if time.size == 0:

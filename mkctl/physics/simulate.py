@@ -164,7 +164,6 @@ class KneeSimulator:
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0,
                  pf0: float = 0.0, stops: bool = True, rtol: float = 1e-10,
                  delay_commands: bool = True):
-        actuator.check_air_supported(params)
         self.params = params
         #: the commands as the actuators see them, a dead time late (None without one, or when the
         #: caller hands in commands already delayed: delay_commands False)
@@ -177,9 +176,10 @@ class KneeSimulator:
         knee.beta_from_X(X0, params)  # raises a clear DomainError for an impossible X0
         self.time = 0.0
         self.lag = actuator.has_pressure_states(params)
-        self.state = np.array([X0, 0.0, pe0, pf0] if self.lag else [X0, 0.0], dtype=float)
-        # absolute tolerances: 1 nm, 1 nm/s, 1 mPa: far below what any output is read to
-        self.atol = np.array([1e-9, 1e-9, 1e-3, 1e-3][: self.state.size])
+        # with air_heat each muscle's air temperature follows, starting at T_air (knee.rest_state)
+        self.state = knee.rest_state(X0, float(pe0), float(pf0), params)
+        # absolute tolerances: 1 nm, 1 nm/s, 1 mPa, 1 uK: far below what any output is read to
+        self.atol = np.array([1e-9, 1e-9, 1e-3, 1e-3, 1e-6, 1e-6][: self.state.size])
         self.step_hint = 1e-3
         # first-same-as-last: the derivative at the end of the last step, reused while nothing
         # changed
@@ -192,8 +192,9 @@ class KneeSimulator:
         Returns
         -------
         tuple
-            (time [s], the state (X [m], V [m/s], and Pe, Pf [Pa] with a lag), the integrator's next
-            step [s], the commands still on their way through a dead time or None).
+            (time [s], the state (X [m], V [m/s], and Pe, Pf [Pa] with a lag, Te, Tf [K] with
+            air_heat), the integrator's next step [s], the commands still on their way through a
+            dead time or None).
         """
         return (self.time, self.state.copy(), self.step_hint,
                 None if self.schedule is None else self.schedule.snapshot())
@@ -266,7 +267,7 @@ class KneeSimulator:
         Returns
         -------
         numpy.ndarray
-            The new state: X [m], V [m/s] (and Pe, Pf [Pa] with a lag).
+            The new state: X [m], V [m/s] (and Pe, Pf [Pa] with a lag, Te, Tf [K] with air_heat).
 
         Raises
         ------
@@ -321,7 +322,7 @@ class KneeSimulator:
         Returns
         -------
         numpy.ndarray
-            The states at ``times``, len(times) x nstate (X [m], V [m/s], and Pe, Pf [Pa]).
+            The states at ``times``, len(times) x nstate (:func:`mkctl.physics.knee.state_names`).
 
         Raises
         ------
@@ -812,7 +813,7 @@ def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT,
             columns = {name: out[:, i] for i, name in enumerate(KNEE_OUTPUTS)}
             columns["stable"] = columns["stable"] != 0
             return columns
-    lag = states.shape[1] == 4
+    lag = states.shape[1] >= 4  # (X, V, Pe, Pf[, Te, Tf])
     X, V = states[:, 0], states[:, 1]
     Pe, Pf = ((states[:, 2], states[:, 3]) if lag
               else (np.asarray(pe_seen, float), np.asarray(pf_seen, float)))
@@ -879,7 +880,7 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
     states, pe_seen, pf_seen = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None)
     core = backend.compiled_core(params) if time.size > 0 else None
-    lag = states.shape[1] == 4
+    lag = states.shape[1] >= 4  # (X, V, Pe, Pf[, Te, Tf])
     Pe, Pf = ((states[:, 2].copy(), states[:, 3].copy()) if lag
               else (np.array(pe_seen), np.array(pf_seen)))
     return SimulationResult.deferred(time, states[:, 0].copy(), states[:, 1].copy(), Pe, Pf,
