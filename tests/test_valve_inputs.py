@@ -1,0 +1,184 @@
+"""Valve openings as inputs (model-spec 4d, 7d; issue 28): the knee and a mechanism driven by their
+switching valves' openings (1 open to the supply, 0 closed, -1 open to the exhaust), and the FMUs
+built so.
+
+The references are independent of mkctl's air path: the ISO 6358 flow, the volume and the opening
+of tests/independent_pneumatics.py, the knee's geometry and tension of tests/independent_rig.py, a
+hanging mass of tests/independent_mechanisms.py, and the mass balance written here,
+``dp/dt = (k / V) (R T q - p dV/dt)``, integrated by scipy's solve_ivp (Radau) sample by sample;
+the FMUs against the library.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+import independent_mechanisms as im
+import independent_pneumatics as ip
+import independent_rig as rig
+from mkctl.errors import DomainError, ParameterError
+from mkctl.physics import knee, mechanism, simulate, stability
+from mkctl.physics.params import Params
+
+#: The air's values every test here uses (the spec's typical valve).
+AIR = {"C_fill": 5e-9, "C_exhaust": 0.0, "P_supply": 2e6, "band": 2e4, "b_cr": 0.3, "m_sub": 0.5,
+       "k_poly": 1.2, "V_dead": 5e-6, "T_air": 293.15, "C_leak": 0.0}
+
+
+def air_params(**values) -> Params:
+    return Params(valve_flow=1, c=45.0, **{**{k: v for k, v in AIR.items() if k != "C_leak"},
+                                           **values})
+
+
+def _clip(u):
+    return min(max(u, -1.0), 1.0)
+
+
+def _air_rate(P, u, L, Ldot, a, n, b):
+    """The test's own mass balance of one muscle through a switching valve of opening u."""
+    q = ip.net_flow(ip.opening("opening", _clip(u), P, a), P, a, a["T_air"])
+    V = ip.volume(L, b, n, a["V_dead"])
+    dV_dt = ip.volume_slope(L, b, n) * Ldot
+    return a["k_poly"] / V * (ip.R * a["T_air"] * q - (P + ip.P_ATM) * dV_dt)
+
+
+def independent_knee(time, ue, uf, P0, p: Params, a: dict):
+    """The knee with the air driven by openings, from the spec's equations: (X, V, Pe, Pf)."""
+    n = rig.turns(p)
+    hidden = {"c": p.c}
+    y = np.array([rig.rest_height(P0[0], P0[1], p), 0.0, *P0])
+    out = np.empty((time.size, 4))
+    out[0] = y
+    for k in range(time.size - 1):
+        def rhs(t, s, ue=ue[k], uf=uf[k]):
+            Le, Lf, Ge, Gf = (float(v) for v in rig.knee_geometry(s[0], p))
+            F = (Ge * float(rig.tension(Le, s[2], -Ge * s[1], p, hidden))
+                 - Gf * float(rig.tension(Lf, s[3], Gf * s[1], p, hidden)))
+            return [s[1], F / p.m - p.g, _air_rate(s[2], ue, Le, -Ge * s[1], a, n, p.b),
+                    _air_rate(s[3], uf, Lf, Gf * s[1], a, n, p.b)]
+        sol = solve_ivp(rhs, (time[k], time[k + 1]), y, method="Radau", rtol=1e-11,
+                        atol=[1e-12, 1e-12, 1e-5, 1e-5])
+        assert sol.success, sol.message
+        y = sol.y[:, -1]
+        out[k + 1] = y
+    return out
+
+
+def _start(p, Pf=1e5, alpha=math.radians(60.0)):
+    return float(stability.equilibrium_pressure(alpha, Pf, p)), Pf
+
+
+def _compare(time, ue, uf, P0, p):
+    ours = simulate.simulate_knee(time, ue, uf, p, stops=False, rtol=1e-11, inputs="opening",
+                                  P0=P0)
+    theirs = independent_knee(time, np.broadcast_to(ue, time.shape),
+                              np.broadcast_to(uf, time.shape), P0, p, AIR)
+    return ours, theirs
+
+
+def test_a_fill_from_closed_matches_an_independent_simulator():
+    p = air_params()
+    P0 = _start(p)
+    time = np.linspace(0.0, 0.1, 41)
+    # closed, then the extensor's valve opens a third (a proportional valve): the leg rises
+    ue = np.where(time < 0.02, 0.0, 0.3)
+    ours, theirs = _compare(time, ue, 0.0, P0, p)
+    closed = time <= 0.02
+    # closed at rest: nothing moves (the start is an equilibrium, the air sealed)
+    assert np.max(np.abs(ours.Pe[closed] - P0[0])) < 1e-6
+    assert np.ptp(theirs[:, 0]) > 1e-3  # the leg moves (millimetres)
+    assert ours.Pe[-1] > P0[0] + 1e4  # the extensor fills
+    # measured: 5e-11 m, 6e-10 m/s, 3e-4 Pa and 5e-5 Pa
+    assert np.max(np.abs(ours.X - theirs[:, 0])) < 1e-8
+    assert np.max(np.abs(ours.V - theirs[:, 1])) < 1e-7
+    assert np.max(np.abs(ours.Pe - theirs[:, 2])) < 0.2
+    assert np.max(np.abs(ours.Pf - theirs[:, 3])) < 0.2
+    # the flexor is sealed (uf = 0): its air is squeezed and expanded by the motion alone
+    assert np.max(np.abs(ours.Pf - P0[1])) > 10.0
+
+
+def test_a_switching_sequence_matches_an_independent_simulator():
+    p = air_params()
+    P0 = _start(p)
+    time = np.linspace(0.0, 0.12, 49)
+    # 1 / 0 / -1 on the extensor (full opening: the flow chokes), the flexor the other way round;
+    # 1.5 and -3 are clipped to 1 and -1
+    ue = np.select([time < 0.01, time < 0.05, time < 0.07], [1.5, 0.0, -1.0], 0.0)
+    uf = np.select([time < 0.01, time < 0.05, time < 0.07], [-1.0, 0.0, 1.0], -3.0)
+    ours, theirs = _compare(time, ue, uf, P0, p)
+    assert np.ptp(theirs[:, 2]) > 1e5 and np.ptp(theirs[:, 3]) > 5e4  # the valves move the air
+    # measured: 1.1e-9 m, 3.3e-8 m/s, 0.003 Pa and 0.08 Pa (of swings of 400 and 750 kPa)
+    assert np.max(np.abs(ours.X - theirs[:, 0])) < 1e-8
+    assert np.max(np.abs(ours.V - theirs[:, 1])) < 1e-7
+    assert np.max(np.abs(ours.Pe - theirs[:, 2])) < 0.2
+    assert np.max(np.abs(ours.Pf - theirs[:, 3])) < 0.2
+    # the clip: 1.5 runs as 1, -3 as -1
+    clipped = simulate.simulate_knee(time, np.clip(ue, -1, 1), np.clip(uf, -1, 1), p, stops=False,
+                                     rtol=1e-11, inputs="opening", P0=P0)
+    assert np.array_equal(clipped.Pe, ours.Pe) and np.array_equal(clipped.X, ours.X)
+
+
+def test_openings_are_not_the_pressure_path():
+    """The same numbers as set-points give another run: the keyword really switches the inputs."""
+    p = air_params()
+    P0 = _start(p)
+    time = np.linspace(0.0, 0.02, 5)
+    run = simulate.simulate_knee(time, 0.0, 0.0, p, inputs="opening", P0=P0)
+    assert np.allclose(run.Pe, P0[0], atol=1e-6)  # sealed at rest
+    default = simulate.simulate_knee(time, 0.0, 0.0, p, inputs="opening")
+    assert default.Pe[0] == simulate.default_start_pressures(p)[0]
+    assert math.isclose(default.X[0], simulate.default_hip_height(p), rel_tol=1e-9)
+
+
+def test_openings_without_the_air_are_refused_in_one_line():
+    time = np.linspace(0.0, 0.1, 3)
+    with pytest.raises(ParameterError, match=r"openings as inputs need the air.*valve_flow = 1"):
+        simulate.simulate_knee(time, 1.0, 0.0, Params(c=40.0), inputs="opening")
+    with pytest.raises(ParameterError, match="valve_flow = 1"):
+        mechanism.simulate_mechanism(time, [1.0], mechanism.builtin_mechanism("hanging_mass"),
+                                     Params(m=5.0), inputs="opening", P0=[3e5])
+    with pytest.raises(ParameterError, match="inputs = 'valve'"):
+        simulate.simulate_knee(time, 1.0, 0.0, air_params(), inputs="valve")
+    with pytest.raises(DomainError, match="valve opening ue = nan"):
+        simulate.simulate_knee(time, [0.0, np.nan, 0.0], 0.0, air_params(), inputs="opening")
+    with pytest.raises(ParameterError, match="need P0"):
+        mechanism.simulate_mechanism(time, [1.0], mechanism.builtin_mechanism("hanging_mass"),
+                                     air_params(m=5.0), inputs="opening")
+
+
+def test_valve_input_clips_to_the_valves_range():
+    assert [knee.valve_input(u) for u in (-2.0, -1.0, -0.25, 0.0, 0.5, 1.0, 7.0)] == [
+        -1.0, -1.0, -0.25, 0.0, 0.5, 1.0, 1.0]
+    assert np.array_equal(knee.valve_input(np.array([-5.0, 0.3, 5.0])), [-1.0, 0.3, 1.0])
+
+
+def independent_hanging(time, u, P0, p, a, mech):
+    n = rig.turns(p)
+    y = np.array([im.rest(mech, [P0], p), 0.0, P0])
+    out = np.empty((time.size, 3))
+    out[0] = y
+    for k in range(time.size - 1):
+        def rhs(t, s, u=u[k]):
+            F = im.generalized_force(mech, s[0], s[1], [s[2]], p) + im.stop_force(mech, s[0], s[1])
+            return [s[1], F / p.m, _air_rate(s[2], u, s[0], s[1], a, n, p.b)]
+        sol = solve_ivp(rhs, (time[k], time[k + 1]), y, method="Radau", rtol=1e-11,
+                        atol=[1e-12, 1e-12, 1e-5])
+        y = sol.y[:, -1]
+        out[k + 1] = y
+    return out
+
+
+def test_a_hanging_mass_driven_by_its_valve_matches_an_independent_simulator():
+    p = air_params(m=5.0)
+    hanging = mechanism.builtin_mechanism("hanging_mass")
+    time = np.linspace(0.0, 0.12, 25)
+    u = np.select([time < 0.02, time < 0.06], [0.0, 0.2], -0.5)  # closed, fill, exhaust
+    run = mechanism.simulate_mechanism(time, u, hanging, p, rtol=1e-11, inputs="opening",
+                                       P0=[3e5])
+    theirs = independent_hanging(time, u, 3e5, p, AIR, im.hanging_mass(p))
+    assert np.ptp(theirs[:, 0]) > 1e-3 and np.ptp(theirs[:, 2]) > 5e4
+    assert np.max(np.abs(run.q - theirs[:, 0])) < 1e-8
+    assert np.max(np.abs(run.P[:, 0] - theirs[:, 2])) < 0.2
