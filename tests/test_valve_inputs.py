@@ -182,3 +182,161 @@ def test_a_hanging_mass_driven_by_its_valve_matches_an_independent_simulator():
     assert np.ptp(theirs[:, 0]) > 1e-3 and np.ptp(theirs[:, 2]) > 5e4
     assert np.max(np.abs(run.q - theirs[:, 0])) < 1e-8
     assert np.max(np.abs(run.P[:, 0] - theirs[:, 2])) < 0.2
+
+
+# --- the native knee FMU built with valve inputs (model-spec 7d) -------------------------------------------------
+
+#: A valve of moderate size on a damped knee, with a leak: the FMU's start values in these tests.
+FMU_START = dict(valve_flow=1, C_fill=1e-9, C_leak=2e-12, c=40.0)
+FMU_OUTPUTS = ("X", "V", "alpha", "beta", "Le", "Lf", "fe", "ff", "Pe", "Pf", "F", "a1", "a2")
+
+
+def _openings(k):
+    """Step k of 1 ms: ue closed, open to the supply at 50 ms, closed at 150, open to the exhaust at 250,
+    a third open at 300, 1.5 (clipped to 1) at 450; uf closed, half open to the exhaust at 100 ms, open to the
+    supply at 200, closed at 260, -2 (clipped to -1) at 400."""
+    ue = (0.0 if k < 50 else 1.0 if k < 150 else 0.0 if k < 250 else -1.0 if k < 300 else 0.3 if k < 450
+          else 1.5)
+    uf = 0.0 if k < 100 else -0.5 if k < 200 else 1.0 if k < 260 else 0.0 if k < 400 else -2.0
+    return ue, uf
+
+
+@pytest.fixture(scope="module")
+def valve_fmus(tmp_path_factory) -> dict:
+    """The knee built with valve inputs, FMI 2.0 and 3.0 (this platform's binary only)."""
+    from mkctl.native import build, fmi3, fmu
+    if build.find_compiler() is None:
+        pytest.skip("no C compiler here")
+    out = tmp_path_factory.mktemp("valve_fmus")
+    return {"fmi2": fmu.build_one("McKibbenKnee", out / "knee2.fmu", valves=True, windows=False),
+            "fmi3": fmi3.build_one("McKibbenKnee", out / "knee3.fmu", valves=True, platforms=False)}
+
+
+def test_valve_input_variants_are_a_core_of_their_own(valve_fmus):
+    """The valve-input build's core holds the air's variants with the openings as inputs; the cores of the
+    builds without the option carry none of it (their C is unchanged: sha256 compared before and after)."""
+    from mkctl.native import fmu
+    from mkctl.native.variants import all_variants, valve_input_variants
+    variants = valve_input_variants()
+    assert variants and all(v.air and v.opening and v.name.endswith("au") for v in variants)
+    assert [v.name[:-1] for v in variants] == [v.name for v in all_variants(air=True) if v.air]
+    valves = fmu.core_source(valves=True)
+    assert f"knee_rhs_{variants[0].name}(" in valves and "MK_FMU_VALVE_AIR_MESSAGE" in valves
+    for other in (fmu.core_source(), fmu.core_source(True)):
+        assert "MK_FMU_VALVE_AIR_MESSAGE" not in other and f"knee_rhs_{variants[0].name}(" not in other
+
+
+@pytest.mark.parametrize("version", ["fmi2", "fmi3"])
+def test_co_simulation_knee_with_valve_inputs_agrees_with_the_library(valve_fmus, tmp_path, version):
+    from test_air_core import _Knee
+
+    from mkctl.physics import actuator
+    p = Params(**FMU_START)
+    knee_fmu = _Knee(valve_fmus[version], tmp_path / "cs", **FMU_START)
+    names = {v.name: v for v in knee_fmu.md.modelVariables}
+    assert {"ue", "uf", "Pe0", "Pf0", "qe", "qf"} <= set(names) and "pe_cmd" not in names
+    assert names["ue"].causality == "input" and names["valve_flow"].start in ("1", 1)
+    knee_fmu.fmu.exitInitializationMode()
+    P0 = simulate.default_start_pressures(p)
+    assert list(knee_fmu.get("Pe", "Pf")) == list(P0)
+    sim = simulate.KneeSimulator(p, simulate.default_hip_height(p), *P0, opening=True)
+    got, ref = [], []
+    for k in range(600):
+        ue, uf = _openings(k)
+        knee_fmu.set(ue=ue, uf=uf)
+        knee_fmu.fmu.doStep(k * 1e-3, 1e-3)
+        got.append(list(knee_fmu.get(*FMU_OUTPUTS, "qe", "qf")))
+        sim.step(1e-3, ue, uf)
+        outputs = sim.outputs(ue, uf)
+        flows = [actuator.air_mass_flow(outputs[P], knee.valve_input(u), p)  # the library's own flow
+                 for P, u in (("Pe", ue), ("Pf", uf))]
+        ref.append([outputs[name] for name in FMU_OUTPUTS] + flows)
+    got, ref = np.array(got), np.array(ref)
+    pe = FMU_OUTPUTS.index("Pe")
+    assert np.ptp(ref[:, pe]) > 1e5 and np.ptp(ref[:, 0]) > 0.05  # the valves move the air and the leg
+    q = len(FMU_OUTPUTS)
+    assert ref[:, q].min() < 0 < ref[:, q].max()  # fills and exhausts
+    # measured: 1e-14 of each output's scale (the same algorithm, C against Python)
+    for j, name in enumerate(FMU_OUTPUTS + ("qe", "qf")):
+        scale = max(1.0, np.abs(ref[:, j]).max()) if name not in ("qe", "qf") else np.abs(ref[:, j]).max()
+        assert np.abs(got[:, j] - ref[:, j]).max() <= 1e-9 * scale, name
+    # and the record's run (simulate_knee: its steps not cut at the samples), to the integrator's tolerance
+    # (measured: 4e-9 of X's scale, 7e-8 of Pe's)
+    t = np.arange(1, 601) * 1e-3
+    run = simulate.simulate_knee(np.r_[0.0, t], *np.array([_openings(k) for k in range(601)]).T, p,
+                                 X0=simulate.default_hip_height(p), inputs="opening")
+    for j, name in enumerate(("X", "Pe", "Pf")):
+        column = FMU_OUTPUTS.index(name)
+        scale = np.ptp(ref[:, column]) + np.abs(ref[:, column]).max()
+        assert np.abs(np.asarray(run[name])[1:] - got[:, column]).max() <= 5e-7 * scale, name
+
+
+@pytest.mark.parametrize("version", ["fmi2", "fmi3"])
+def test_model_exchange_knee_with_valve_inputs_agrees_with_the_library(valve_fmus, version):
+    # fmpy's CVode integrates the FMU's derivatives (the right-hand side traced with the openings), the openings
+    # stepping (each change given twice: fmpy holds an input between rows of equal time); measured 7e-8 of Pe's
+    # range, 1e-9 of X's: CVode's error (the Co-Simulation runs the core's own integrator and meets 1e-14)
+    from fmpy import simulate_fmu
+    p = Params(**FMU_START)
+    t = np.arange(0.0, 0.6, 1e-3)
+    openings = np.array([_openings(k) for k in range(t.size)])
+    changes = [0, *np.flatnonzero(np.any(np.diff(openings, axis=0) != 0, axis=1)) + 1]
+    rows = [(0.0, *openings[0])]
+    for k in changes[1:]:
+        rows += [(t[k], *openings[k - 1]), (t[k], *openings[k])]
+    rows.append((t[-1], *openings[-1]))
+    signals = np.array(rows, dtype=[("time", float), ("ue", float), ("uf", float)])
+    result = simulate_fmu(str(valve_fmus[version]), fmi_type="ModelExchange", start_values=FMU_START,
+                          input=signals, output=["X", "Pe", "Pf"], stop_time=float(t[-1]),
+                          output_interval=1e-3, relative_tolerance=1e-10)
+    ref = simulate.simulate_knee(t, openings[:, 0], openings[:, 1], p, inputs="opening",
+                                 X0=simulate.default_hip_height(p))
+    index = np.clip(np.searchsorted(t, result["time"] - 1e-9), 0, t.size - 1)
+    on_grid = np.abs(t[index] - result["time"]) < 1e-9
+    assert on_grid.sum() >= t.size - 1
+    rows, index = result[on_grid], index[on_grid]
+    for name in ("X", "Pe", "Pf"):
+        expected = np.asarray(ref[name])[index]
+        scale = np.ptp(ref[name]) + np.abs(ref[name]).max()
+        assert np.abs(rows[name] - expected).max() <= 1e-6 * scale, name
+
+
+_REFUSED = r"""
+import json, sys
+sys.path.insert(0, sys.argv[3])
+from test_air_core import _Knee
+path, kind = sys.argv[1], sys.argv[2]
+found = {}
+for case, start in [("no_air", {"valve_flow": 0}), ("dead_time", {"valve_flow": 1, "delay": 0.01})]:
+    knee = _Knee(path, sys.argv[4] + "/" + case, kind=kind, **start)
+    try:
+        knee.fmu.exitInitializationMode()
+        outcome = "accepted"
+    except Exception as error:  # fmpy raises on fmi2Error / fmi3Error
+        outcome = str(error)
+    found[case] = {"outcome": outcome, "messages": knee.messages}
+    knee.fmu.freeInstance()
+print(json.dumps(found))
+"""
+
+
+@pytest.mark.parametrize("version,kind", [("fmi2", "cs"), ("fmi3", "me")])
+def test_a_valve_input_knee_refuses_no_air_and_a_dead_time_in_one_line(valve_fmus, tmp_path, version,
+                                                                        kind):
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+    done = subprocess.run([sys.executable, "-c", _REFUSED, str(valve_fmus[version]), kind,
+                           str(Path(__file__).parent), str(tmp_path)], capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.strip().splitlines()[-1])
+    try:  # the library's own words
+        simulate.check_inputs("opening", Params())
+    except ParameterError as error:
+        library = str(error)
+    for case, words in (("no_air", library), ("dead_time", "carries no dead time")):
+        result = found[case]
+        assert result["outcome"] != "accepted", case
+        assert any(words in message for message in result["messages"]), (case, result["messages"])

@@ -123,6 +123,7 @@ class Model:
     derived_starts: Callable[[Params], dict]  #: start values of the inputs and of the extra parameters but P_rated
     author: str = "mkctl"
     air: bool = False  #: built with the air (model-spec 7d): the air's parameters and switch offered
+    valves: bool = False  #: the knee built with valve openings as inputs (model-spec 7d): ue, uf
 
     @property
     def integer_parameters(self) -> list[str]:
@@ -245,6 +246,33 @@ KNEE_WITH_AIR = dataclasses.replace(
     units=LiveMapping(lambda: {**KNEE_UNITS, **{name: UNITS[name] for name in KNEE_PARAMETERS_WITH_AIR},
                                **{name: "kg/s" for name in AIR_FLOW_OUTPUTS}}))
 
+#: The knee built with valve openings as its inputs (model-spec 7d; native FMUs only, when asked): the air knee's
+#: variables with the switching valves' openings ``ue``, ``uf`` in [-1, 1] (clipped) in place of the pressure
+#: commands, and the start pressures ``Pe0``, ``Pf0`` (default: those that hold the leg at alpha = 60 deg) as
+#: parameters. A dead time is not carried (refused at initialization), nor valve_flow = 0.
+VALVE_INPUTS = {"ue": "extensor valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions "
+                      "a proportional valve; clipped to [-1, 1]",
+                "uf": "flexor valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions "
+                      "a proportional valve; clipped to [-1, 1]"}
+START_PRESSURES = {"Pe0": "extensor gauge pressure at the start; left at its start value it holds the leg at "
+                          "alpha = 60 deg",
+                   "Pf0": "flexor gauge pressure at the start"}
+
+
+def _valve_knee_starts(params: Params) -> dict:
+    """Closed valves, the pressures and X0 that hold the leg of params at rest at alpha = 60 deg."""
+    pe, pf = default_commands(params)
+    return {"ue": 0.0, "uf": 0.0, "Pe0": pe, "Pf0": pf, "X0": default_hip_height(params)}
+
+
+KNEE_WITH_VALVES = dataclasses.replace(
+    KNEE_WITH_AIR, valves=True, inputs=tuple(VALVE_INPUTS), extra_parameters=("X0", *START_PRESSURES, "P_rated"),
+    description=KNEE.description + "; the air in the muscles (model-spec 4d), driven by the valves' openings",
+    descriptions=LiveMapping(lambda: {**KNEE_WITH_AIR.descriptions, **VALVE_INPUTS, **START_PRESSURES}),
+    units=LiveMapping(lambda: {**KNEE_WITH_AIR.units, **{name: "1" for name in VALVE_INPUTS},
+                               **{name: "Pa" for name in START_PRESSURES}}),
+    derived_starts=_valve_knee_starts)
+
 # --- one actuator -----------------------------------------------------------------------------------------------
 #: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them): Table I, then every
 #: registered effect's.
@@ -291,6 +319,9 @@ ACTUATOR = Model(
 MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
 
 
-def model_for(name: str, air: bool = False) -> Model:
-    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator does not)."""
+def model_for(name: str, air: bool = False, valves: bool = False) -> Model:
+    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator does not);
+    ``valves``: the knee with valve openings as inputs (:data:`KNEE_WITH_VALVES`)."""
+    if name == KNEE.name and valves:
+        return KNEE_WITH_VALVES
     return KNEE_WITH_AIR if air and name == KNEE.name else MODELS[name]

@@ -361,6 +361,23 @@ def build_knee_system(out, params: Params | None = None, platforms: bool = True)
     return {SYSTEM_NAME: build_knee_ssp(Path(out).resolve(), params, platforms=platforms)}
 
 
+def build_valve_knee(out, params: Params | None = None, platforms: bool = True) -> dict[str, Path]:
+    """The native knee FMUs with valve openings as inputs (model-spec 7d: ``ue``, ``uf`` in [-1, 1] in place of
+    ``pe_cmd``, ``pf_cmd``; the air on; :func:`mkctl.native.fmu.build_one` with ``valves``) into
+    ``out/native/McKibbenKnee.fmu`` and ``out/fmi3/McKibbenKnee.fmu``. Returns the paths by "native/<model>",
+    "fmi3/<model>". Raises an MkctlError (one line) without a C compiler."""
+    from ..native import fmi3, fmu
+    from ..native.build import find_compiler
+    if find_compiler() is None:
+        raise BuildError("no C compiler found (CC, cc, gcc, clang): the knee with valve inputs is a native FMU")
+    out = Path(out).resolve()
+    name = "McKibbenKnee"
+    return {f"native/{name}": fmu.build_one(name, out / "native" / f"{name}.fmu", params, windows=platforms,
+                                            valves=True),
+            f"fmi3/{name}": fmi3.build_one(name, out / "fmi3" / f"{name}.fmu", params, platforms=platforms,
+                                           valves=True)}
+
+
 def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser = argparse.ArgumentParser(prog="build_fmu", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=default_out, help=f"output folder (default: {default_out})")
@@ -378,6 +395,10 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser.add_argument("--ssp", action="store_true",
                         help="build the knee as a system of FMUs instead: OUT/McKibbenKneeSystem.ssp (the knee's "
                              "mechanism alone and two native actuator FMUs, SSP 1.0; docs/fmu.md)")
+    parser.add_argument("--valve-inputs", action="store_true",
+                        help="build the native knee with the air and its valves' openings ue, uf in [-1, 1] as "
+                             "its inputs instead of pe_cmd, pf_cmd (model-spec 7d): OUT/native/ and "
+                             "OUT/fmi3/McKibbenKnee.fmu")
     args = parser.parse_args(argv)
     try:
         params = None
@@ -389,6 +410,8 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
             params = read_muscle(args.params)
         if args.ssp:
             built = build_knee_system(args.out, params)
+        elif args.valve_inputs:
+            built = build_valve_knee(args.out, params)
         elif args.mechanism is not None and args.mechanism != "knee":
             built = build_mechanism_fmus(args.mechanism, args.out, params)
         else:
@@ -397,7 +420,8 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1
-    ran = not args.no_run and not args.ssp and (args.mechanism is None or args.mechanism == "knee")
+    ran = (not args.no_run and not args.ssp and not args.valve_inputs
+           and (args.mechanism is None or args.mechanism == "knee"))
     for name, path in built.items():
         print(f"built {path} (validated{', default experiment run' if ran else ''})")
     return 0

@@ -148,20 +148,25 @@ class Interface:
     generated_sources: tuple = ()  #: ((file name, C text), ...): further compilation units, generated
     core_parameters: tuple = ()  #: Real parameters after Params' fields in the core's parameter vector p
     air: bool = False  #: built with the air: the core's air variants and the air's parameters (model-spec 7d)
+    valves: bool = False  #: the knee built with valve openings as inputs (ue, uf; model-spec 7d): implies air
 
     def by_name(self) -> dict[str, Variable]:
         return {v.name: v for v in self.variables}
 
 
-def slave_interface(model_name: str, params: Params | None = None, air: bool = False) -> Interface:
+def slave_interface(model_name: str, params: Params | None = None, air: bool = False,
+                    valves: bool = False) -> Interface:
     """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
     start values taken from params (default: :data:`~mkctl.physics.params.DEFAULT`, the slave's own).
-    ``air``: the knee built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only).
+    ``air``: the knee built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only);
+    ``valves``: the knee with valve openings as its inputs (:data:`mkctl.fmi.interface.KNEE_WITH_VALVES`).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
-    model = model_for(model_name, air)
+    model = model_for(model_name, air or valves, valves)
+    if model.valves:  # the air switched on in its start values: the valves drive nothing without it
+        params = with_valves(params)
     if params is not None:
         try:
             check_carried(params, model.air)
@@ -174,7 +179,8 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
     return Interface(model_name, model.description, model.author, default_experiment, variables,
-                     model.undefined_outputs, dict(model.pressure_outputs), air=model.air)
+                     model.undefined_outputs, dict(model.pressure_outputs), air=model.air,
+                     valves=model.valves)
 
 
 def parameter_rule(name: str) -> str:
@@ -229,7 +235,7 @@ def event_indicator_count(interface: Interface) -> int:
     """The number of event indicators: the interface's own, else :func:`core_event_indicators`."""
     if interface.event_indicators is not None:
         return interface.event_indicators
-    return core_event_indicators(interface.model_name, interface.air)
+    return core_event_indicators(interface.model_name, interface.air, interface.valves)
 
 
 def me_variables(interface: Interface) -> tuple[Variable, ...]:
@@ -340,12 +346,12 @@ def c_identifier(name: str) -> str:
     return text
 
 
-def core_event_indicators(model_name: str, air: bool = False) -> int:
+def core_event_indicators(model_name: str, air: bool = False, valves: bool = False) -> int:
     """The number of event indicators of a model's Model Exchange interface: the most switching functions of any
     variant in the generated core (:func:`generate_core_source`; a variant with fewer pads with constants)."""
     import re
     key = {"McKibbenKnee": "KNEE", "McKibbenActuator": "ACTUATOR"}[model_name]
-    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(air), re.MULTILINE)
+    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(air, valves), re.MULTILINE)
     if found is None:
         raise NativeBuildError(f"the generated core has no event-indicator count for {model_name}")
     return int(found.group(1))
@@ -499,16 +505,17 @@ def _c_template(text: str) -> str:
 _CORE_SOURCES: dict[str, str] = {}
 
 
-def core_source(air: bool = False) -> str:
+def core_source(air: bool = False, valves: bool = False) -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
     (:func:`mkctl.native.build.cache_dir`) and in this process, keyed by everything it is generated from (the
     core's inputs, the effect registry and this module): tracing the equations takes seconds, and every build of
-    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air)."""
+    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air); ``valves``:
+    the air's variants only, with valve openings as inputs (:func:`mkctl.native.variants.valve_input_variants`)."""
     import hashlib
 
     from . import build
-    from .variants import all_variants
-    digest = hashlib.sha256(build.input_key(all_variants(air)).encode())
+    from .variants import all_variants, valve_input_variants
+    digest = hashlib.sha256(build.input_key(valve_input_variants() if valves else all_variants(air)).encode())
     digest.update(Path(__file__).read_bytes())
     key = digest.hexdigest()[:20]
     if key in _CORE_SOURCES:
@@ -518,7 +525,8 @@ def core_source(air: bool = False) -> str:
         if path.is_file():
             text = path.read_text()
         else:
-            text = generate_core_source(air) if air else generate_core_source()
+            text = (generate_core_source(valves=True) if valves else generate_core_source(air) if air
+                    else generate_core_source())
             try:
                 build._write_atomic(path, text.encode())
             except OSError:  # a read-only cache only costs time
@@ -527,9 +535,11 @@ def core_source(air: bool = False) -> str:
     return text
 
 
-def generate_core_source(air: bool = False) -> str:
+def generate_core_source(air: bool = False, valves: bool = False) -> str:
     """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant; ``air``: the air's too, after the
-    others: :func:`mkctl.native.variants.all_variants`) with the FMUs' additions, all
+    others: :func:`mkctl.native.variants.all_variants`; ``valves``: the air's only, with valve openings as inputs,
+    :func:`mkctl.native.variants.valve_input_variants`, and the messages of :func:`valve_input_refusals`) with the
+    FMUs' additions, all
     generated from mkctl's equations: the hip height at a kneecap angle (knee.X_from_alpha, for the default X0),
     the posture at a hip height (knee.geometry_at_X, for the outputs that can still be given when the pressures
     are not numbers), every domain check's message, and KneeSimulator's integrator settings."""
@@ -540,9 +550,9 @@ def generate_core_source(air: bool = False) -> str:
     from ..physics.simulate import KneeSimulator
     from ..physics.stability import DEFAULT_ALPHA
     from . import build, codegen
-    from .variants import all_variants
+    from .variants import all_variants, valve_input_variants
 
-    variants = all_variants(air)
+    variants = valve_input_variants() if valves else all_variants(air)
     source, core_table = build.generation(variants)
     table = core_table.copy()  # the additions' checks number on from the core's
     sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
@@ -568,8 +578,10 @@ def generate_core_source(air: bool = False) -> str:
         "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
         "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
         model_exchange_functions(core_table.emitted, table, variants)]
-    if air:
+    if air or valves:
         extra.append(air_flow_functions(variants, table))
+    if valves:
+        extra.append(valve_input_refusals())
     sim = KneeSimulator(Params(tau=1.0))
     lines = ["", "/* ---- added for the native FMUs by mkctl/native/fmu.py (generated too) ---- */", *extra,
              "const char *const mk_fmu_fault_templates[] = {",
@@ -588,7 +600,8 @@ def air_flow_functions(variants, table) -> str:
     """``mk_fmu_air_flows(p, Pe, Pf, pe_cmd, pf_cmd, out, fault)``: each muscle's net air mass flow [kg/s], out[0]
     the extensor's, out[1] the flexor's, traced from :func:`mkctl.physics.actuator.air_mass_flow` at the
     regulator's opening (:func:`mkctl.physics.actuator.valve_opening`) for the air's variants, 0 for the others
-    (the knee built with the air, outputs ``qe``, ``qf``)."""
+    (the knee built with the air, outputs ``qe``, ``qf``); a variant with valve openings as inputs (``opening``)
+    takes pe_cmd, pf_cmd as the openings (:func:`mkctl.physics.knee.valve_input`)."""
     import sympy
 
     from ..physics import actuator
@@ -599,21 +612,46 @@ def air_flow_functions(variants, table) -> str:
     arguments = "double Pe, double Pf, double pe_cmd, double pf_cmd, double *out, mk_fault *fault"
     call = "Pe, Pf, pe_cmd, pf_cmd, out, fault"
 
-    def flows(params):
-        return [actuator.air_mass_flow(P, actuator.valve_opening(P, command, params), params)
+    def flows(params, opening=False):
+        from ..physics.knee import valve_input
+        return [actuator.air_mass_flow(P, valve_input(command) if opening else
+                                       actuator.valve_opening(P, command, params), params)
                 for P, command in ((Pe, pe_cmd), (Pf, pf_cmd))]
 
     parts, cases = [], []
     for k, variant in enumerate(variants):
         if variant.air:
             name = f"fmu_air_flows_{variant.name}"
-            parts.append(codegen.emit_function(name, arguments, call, bindings, set(PARAMETER_NAMES),
-                                               codegen.trace(flows, codegen.SymbolicParams(variant)), "out", table))
+            traced = (codegen.trace(flows, codegen.SymbolicParams(variant), True) if variant.opening
+                      else codegen.trace(flows, codegen.SymbolicParams(variant)))
+            parts.append(codegen.emit_function(name, arguments, call, bindings, set(PARAMETER_NAMES), traced,
+                                               "out", table))
             cases.append(f"    case {k}: return {name}_once(p, NULL, {call});")
     parts += ["/* each muscle's net air mass flow [kg/s] (actuator.air_mass_flow at the regulator's opening) */",
               f"int mk_fmu_air_flows(const double *p, {arguments})", "{", "    out[0] = out[1] = 0.0;",
               "    switch (mk_variant(p)) {", *cases, "    }", "    return 0; /* no air: no flow */", "}", ""]
     return "\n".join(parts)
+
+
+def valve_input_refusals() -> str:
+    """The C of what a knee FMU with valve inputs refuses at initialization, in the library's words:
+    ``MK_FMU_VALVE_AIR_MESSAGE`` (the air switched off: :func:`mkctl.physics.simulate.check_inputs`'s error; the
+    core then has no variant for the parameters) and ``MK_FMU_VALVE_DELAY_MESSAGE`` (a dead time, which this FMU
+    does not carry: its delay line holds pressure commands), naming the switches from the effect registry."""
+    from ..physics import effects, simulate
+    try:
+        simulate.check_inputs("opening", DEFAULT.replace(**{e.switch_parameter.name: e.switch_parameter.off
+                                                            for e in effects.all_effects() if e.moves_air}))
+    except ParameterError as error:
+        air = str(error)
+    else:
+        raise NativeBuildError("the library accepts valve openings without the air")
+    delays = [e.switch_parameter for e in effects.all_effects() if e.command_delay is not None]
+    how = " and ".join(f"{q.name} = {q.off:g}" for q in delays) or "no dead time"
+    delay = f"a knee FMU with valve inputs carries no dead time (model-spec 4b): set {how}"
+    return "\n".join(["/* a knee FMU with valve inputs: what it refuses at initialization (the library's words) */",
+                      f"const char MK_FMU_VALVE_AIR_MESSAGE[] = {_c_string(air)};",
+                      f"const char MK_FMU_VALVE_DELAY_MESSAGE[] = {_c_string(delay)};", ""])
 
 
 def switching_functions(expressions, fixed: set[str]) -> list:
@@ -788,7 +826,7 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
             units.append(name)
     (dest / "model_variables.h").write_text(variables_header(interface, guid))
     (dest / "model_variables.c").write_text(variables_source(interface))
-    (dest / "mkctl_core.c").write_text(core_source(interface.air))
+    (dest / "mkctl_core.c").write_text(core_source(interface.air, interface.valves))
     units.append("mkctl_core.c")
     return units
 
@@ -848,13 +886,14 @@ def _validate(fmu: Path) -> None:
 
 
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
-              windows: bool = True, interface: Interface | None = None, air: bool = False) -> Path:
+              windows: bool = True, interface: Interface | None = None, air: bool = False,
+              valves: bool = False) -> Path:
     """Generate, compile, pack and validate one native FMU at target (model_source: see :func:`write_sources`).
     windows=False leaves out the other platforms' binaries (otherwise added when their toolchains
     are installed: :mod:`mkctl.native.cross`): a fraction of the build's compiling, for an FMU that
     will only run here. interface: another model's (a mechanism's), in place of the slave's. air:
-    the knee built with the air (:func:`build_native`)."""
-    interface = slave_interface(model_name, params, air) if interface is None else interface
+    the knee built with the air (:func:`build_native`); valves: the knee with valve openings as inputs."""
+    interface = slave_interface(model_name, params, air, valves) if interface is None else interface
     guid = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
         stage = Path(temp) / "fmu"
@@ -875,15 +914,30 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     return target
 
 
-def build_native(out: Path, params: Params | None = None, air: bool | None = None) -> dict[str, Path]:
+def build_native(out: Path, params: Params | None = None, air: bool | None = None,
+                 valves: bool = False) -> dict[str, Path]:
     """Write ``out/native/McKibbenKnee.fmu`` and ``out/native/McKibbenActuator.fmu``; returns their paths by
     model name. params: a :class:`Params` whose values become the start values (default: Table I, II, effects off).
     air: build the knee with the air (model-spec 7d: its parameters offered, the core's air variants compiled in);
-    None: when params switch it on. Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's
-    validation failing)."""
+    None: when params switch it on. valves: the knee with valve openings ue, uf as its inputs in place of the
+    pressure commands (model-spec 7d; the air built in and switched on in its start values:
+    :func:`with_valves`). Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's validation
+    failing)."""
     folder = Path(out) / "native"
     air = wants_air(params) if air is None else air
-    return {name: build_one(name, folder / f"{name}.fmu", params, air=air) for name in MODEL_NAMES}
+    return {name: build_one(name, folder / f"{name}.fmu", params, air=air, valves=valves) for name in MODEL_NAMES}
+
+
+def with_valves(params: Params | None) -> Params:
+    """params (default: :data:`~mkctl.physics.params.DEFAULT`) with the air on, as a knee with valve inputs needs
+    it: the switch of the effect that opens a valve (valve_flow) set to 1 when no effect that moves the air is on."""
+    from ..physics import effects
+    from ..physics.actuator import air_is_on
+    params = DEFAULT if params is None else params
+    if air_is_on(params):
+        return params
+    return params.replace(**{e.switch_parameter.name: 1 for e in effects.all_effects()
+                             if e.valve_opening is not None})
 
 
 def wants_air(params: Params | None) -> bool:
@@ -900,9 +954,12 @@ def command_line(argv, build, description: str, folder: str, program: str) -> in
                         f"working folder); the FMUs go into OUT/{folder}")
     parser.add_argument("--air", action="store_true", help="build the knee with the air in the muscles "
                         "(model-spec 7d: the valve's and the volume's parameters; about a third more C)")
+    parser.add_argument("--valve-inputs", action="store_true", help="build the knee with the air and the valves' "
+                        "openings ue, uf in [-1, 1] as its inputs instead of pe_cmd, pf_cmd (model-spec 7d)")
     args = parser.parse_args(argv)
     try:
-        built = build(args.out, air=True) if args.air else build(args.out)
+        built = (build(args.out, air=True, valves=True) if args.valve_inputs else
+                 build(args.out, air=True) if args.air else build(args.out))
     except MkctlError as error:
         print(f"{program}: {error}", file=sys.stderr)
         return 2
