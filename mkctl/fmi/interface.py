@@ -315,13 +315,41 @@ ACTUATOR = Model(
     derived_starts=lambda params: dict(ACTUATOR_INPUT_START),
 )
 
+#: The actuator built with the air (model-spec 4d, 7d; native FMUs only, when asked): the actuator's variables, the
+#: air's parameters and switch, and the output ``q``. With ``valve_flow`` = 1 its pressure P is a state of the
+#: muscle's mass balance at the inputs L, Ldot, fed by the valve that p_cmd sets as a pressure regulator.
+ACTUATOR_PARAMETERS_WITH_AIR = LiveSequence(lambda: [*_MUSCLE, *_effect_reals(air=True)])
+ACTUATOR_AIR_FLOW = {"q": "net air mass flow in (valve and leak; negative: out), 0 without the air"}
+ACTUATOR_WITH_AIR = dataclasses.replace(
+    ACTUATOR, parameters=ACTUATOR_PARAMETERS_WITH_AIR, air=True,
+    description=ACTUATOR.description + "; the air in the muscle (model-spec 4d) when valve_flow = 1",
+    outputs=(*ACTUATOR.outputs, *ACTUATOR_AIR_FLOW),
+    descriptions=LiveMapping(lambda: {**_ACTUATOR_DESCRIPTIONS, **ACTUATOR_AIR_FLOW}),
+    units=LiveMapping(lambda: {**ACTUATOR_UNITS, **{name: UNITS[name] for name in ACTUATOR_PARAMETERS_WITH_AIR},
+                               "q": "kg/s"}))
+#: The actuator with its valve's opening ``u`` as the input in place of ``p_cmd`` (model-spec 7d), and its start
+#: pressure ``P_start`` as a parameter; the air on (valve_flow = 0 and a dead time are refused at initialization).
+ACTUATOR_VALVE_INPUT = {"u": "valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions a "
+                             "proportional valve; clipped to [-1, 1]"}
+ACTUATOR_WITH_VALVES = dataclasses.replace(
+    ACTUATOR_WITH_AIR, valves=True, inputs=("u", "L", "Ldot"), extra_parameters=("P_start", "P_rated"),
+    description=ACTUATOR.description + "; the air in the muscle (model-spec 4d), driven by its valve's opening",
+    descriptions=LiveMapping(lambda: {**ACTUATOR_WITH_AIR.descriptions, **ACTUATOR_VALVE_INPUT,
+                                      "P_start": "gauge pressure at the start"}),
+    units=LiveMapping(lambda: {**ACTUATOR_WITH_AIR.units, "u": "1", "P_start": "Pa"}),
+    derived_starts=lambda params: {"u": 0.0, "L": ACTUATOR_INPUT_START["L"],
+                                   "Ldot": ACTUATOR_INPUT_START["Ldot"], "P_start": ACTUATOR_INPUT_START["p_cmd"]})
+
 #: Both FMUs, by model name.
 MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
 
 
 def model_for(name: str, air: bool = False, valves: bool = False) -> Model:
-    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator does not);
-    ``valves``: the knee with valve openings as inputs (:data:`KNEE_WITH_VALVES`)."""
-    if name == KNEE.name and valves:
-        return KNEE_WITH_VALVES
-    return KNEE_WITH_AIR if air and name == KNEE.name else MODELS[name]
+    """The model of an FMU by name; ``air``: as built with the air (:data:`KNEE_WITH_AIR`,
+    :data:`ACTUATOR_WITH_AIR`); ``valves``: with valve openings as inputs (:data:`KNEE_WITH_VALVES`,
+    :data:`ACTUATOR_WITH_VALVES`)."""
+    if valves:
+        return {KNEE.name: KNEE_WITH_VALVES, ACTUATOR.name: ACTUATOR_WITH_VALVES}[name]
+    if air:
+        return {KNEE.name: KNEE_WITH_AIR, ACTUATOR.name: ACTUATOR_WITH_AIR}[name]
+    return MODELS[name]

@@ -178,9 +178,15 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     experiment = {"startTime": "start_time", "stopTime": "stop_time", "stepSize": "step_size", "tolerance": "tolerance"}
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
-    return Interface(model_name, model.description, model.author, default_experiment, variables,
-                     model.undefined_outputs, dict(model.pressure_outputs), air=model.air,
-                     valves=model.valves)
+    interface = Interface(model_name, model.description, model.author, default_experiment, variables,
+                          model.undefined_outputs, dict(model.pressure_outputs), air=model.air,
+                          valves=model.valves)
+    if model.air and model_name == "McKibbenActuator":  # its air step, rate and flow: a unit of their own
+        text, switches = actuator_air_source(model.valves)
+        interface = dataclasses.replace(
+            interface, generated_sources=((ACTUATOR_AIR_FILE, text),),
+            event_indicators=max(switches, core_event_indicators(model_name, model.air, model.valves)))
+    return interface
 
 
 def parameter_rule(name: str) -> str:
@@ -631,6 +637,124 @@ def air_flow_functions(variants, table) -> str:
               f"int mk_fmu_air_flows(const double *p, {arguments})", "{", "    out[0] = out[1] = 0.0;",
               "    switch (mk_variant(p)) {", *cases, "    }", "    return 0; /* no air: no flow */", "}", ""]
     return "\n".join(parts)
+
+
+#: The generated compilation unit of an actuator FMU built with the air (:func:`actuator_air_source`).
+ACTUATOR_AIR_FILE = "actuator_air.c"
+_ACTUATOR_AIR_SOURCES: dict = {}
+
+
+def actuator_air_source(valves: bool = False) -> tuple[str, int]:
+    """The C of one muscle's air for the actuator FMU built with the air (model-spec 4d, 7d), and its number of
+    switching functions; a compilation unit of its own beside the core (whose C stays as it is), generated from
+    the library's equations like the core:
+
+    - ``mk_fmu_actuator_air_step(p, P, c, L, Ldot, dt, out, fault)``: the pressure after dt, the command c (a
+      set-point [Pa], or with ``valves`` the opening u) and L, Ldot held: the rate traced from
+      :func:`mkctl.physics.actuator.air_pressure_derivative` integrated by ``mk_pressure_integrate`` (the
+      algorithm of :func:`mkctl.physics.integrate.integrate`) at :data:`mkctl.physics.simulate.AIR_STEP_ATOL`,
+      ``AIR_STEP_RTOL``, as :class:`mkctl.physics.simulate.ActuatorSimulator` does;
+    - ``mk_fmu_actuator_air_rate`` (Model Exchange's derivative), ``mk_fmu_actuator_air_switches`` (its event
+      indicators: :func:`switching_functions` of the rate), ``mk_fmu_actuator_air_flow`` (the output q,
+      :func:`mkctl.physics.actuator.air_mass_flow` at the valve's opening), ``mk_fmu_actuator_air_on`` (an
+      effect that moves the air is on: the test of the air variants' condition) and
+      ``mk_fmu_actuator_air_fault`` (a fault in the library's words)."""
+    from ..physics import actuator, simulate
+    from ..physics.knee import valve_input
+    from . import build, codegen
+    from .mechanism_fmu import _template_part
+    from .variants import Variant, air_effects
+    key = (valves, build.input_key([Variant((), air=True, opening=valves)]))
+    if key in _ACTUATOR_AIR_SOURCES:
+        return _ACTUATOR_AIR_SOURCES[key]
+    import sympy
+    P, c, L, Ldot = (sympy.Symbol(n, real=True) for n in ("P", "P_cmd", "L", "Ldot"))
+    sp = codegen.SymbolicParams(Variant((), air=True))
+    table = codegen.CheckTable()
+    parameters = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+    moving = {**parameters, "P": "P", "P_cmd": "P_cmd", "L": "stops[0]", "Ldot": "stops[1]"}
+
+    def opening(P, c, params):
+        return valve_input(c) if valves else actuator.valve_opening(P, c, params)
+
+    def rate(P, c, L, Ldot, params):
+        return [actuator.air_pressure_derivative(P, valve_input(c) if valves else c, L, Ldot, params, valves)]
+
+    traced_rate = codegen.trace(rate, P, c, L, Ldot, sp)
+    switches = switching_functions(traced_rate.outputs, set(parameters))
+    call = "P, P_cmd, out, fault"
+    parts = [codegen.PRESSURE_INTEGRATOR_DECLARATION,
+             codegen.emit_function("actuator_air_rate", codegen.PRESSURE_RATE_ARGUMENTS, call, moving,
+                                   set(parameters), traced_rate, "out", table),
+             codegen.emit_function("actuator_air_flow", codegen.PRESSURE_RATE_ARGUMENTS, call,
+                                   {**parameters, "P": "P", "P_cmd": "P_cmd"}, set(parameters),
+                                   codegen.trace(lambda P, c, params: [actuator.air_mass_flow(
+                                       P, opening(P, c, params), params)], P, c, sp), "out", table)]
+    if switches:
+        parts.append(codegen.emit_function("actuator_air_switches", codegen.PRESSURE_RATE_ARGUMENTS, call, moving,
+                                           set(parameters), codegen.Traced(switches, []), "out", table))
+    air_on = " || ".join(f"(p[MK_P_{e.switch_parameter.name}] != {float(e.switch_parameter.off)!r})"
+                         for e in air_effects()) or "0"
+    templates = ", ".join(_c_template(_fault_template(check)) for check in table.checks) or '""'
+    api = f"""
+/* ---- the actuator FMU's air (actuator_fmu.c, actuator_me.c) ---- */
+void mk_fault_message(const mk_fault *fault, char *msg, size_t size);
+void mk_fault_format(const char *template_text, const mk_fault *fault, char *msg, size_t size);
+static const char *const air_templates[] = {{{templates}}};
+
+int mk_fmu_actuator_air_on(const double *p) {{ return {air_on}; }}
+
+void mk_fmu_actuator_air_fault(const mk_fault *fault, char *msg, size_t size)
+{{
+    if (fault->code == MK_FAULT_DOMAIN && fault->check >= 0 && fault->check < {len(table.checks)})
+        mk_fault_format(air_templates[fault->check], fault, msg, size);
+    else
+        mk_fault_message(fault, msg, size);
+}}
+
+int mk_fmu_actuator_air_step(const double *p, double P, double P_cmd, double L, double Ldot, double dt,
+                             double *out, mk_fault *fault)
+{{
+    double moving[2], k[MK_MAX_CONSTANTS];
+    moving[0] = L;
+    moving[1] = Ldot;
+    actuator_air_rate_constants(p, moving, k);
+    return mk_pressure_integrate(actuator_air_rate, p, moving, k, P, P_cmd, dt, out, fault);
+}}
+
+int mk_fmu_actuator_air_rate(const double *p, double P, double P_cmd, double L, double Ldot, double *out,
+                             mk_fault *fault)
+{{
+    double moving[2];
+    moving[0] = L;
+    moving[1] = Ldot;
+    return actuator_air_rate_once(p, moving, P, P_cmd, out, fault);
+}}
+
+int mk_fmu_actuator_air_flow(const double *p, double P, double P_cmd, double *out, mk_fault *fault)
+{{
+    return actuator_air_flow_once(p, NULL, P, P_cmd, out, fault);
+}}
+
+const int mk_fmu_actuator_air_nz = {len(switches)};
+int mk_fmu_actuator_air_switches(const double *p, double P, double P_cmd, double L, double Ldot, double *out,
+                                 mk_fault *fault)
+{{
+    double moving[2];
+    moving[0] = L;
+    moving[1] = Ldot;
+    {"return actuator_air_switches_once(p, moving, P, P_cmd, out, fault);" if switches else
+     "(void)p; (void)P; (void)P_cmd; (void)out; (void)fault; (void)moving; return 0;"}
+}}
+"""
+    head = _template_part("#include <math.h>", "/* ---- generated equations").replace(
+        "@PARAMETER_MACROS@", codegen._parameter_macros())
+    integrator = codegen.PRESSURE_INTEGRATOR.replace("@ATOL@", codegen._c_number(simulate.AIR_STEP_ATOL)).replace(
+        "@RTOL@", codegen._c_number(simulate.AIR_STEP_RTOL))
+    text = "\n".join(["/* Generated by mkctl.native.fmu from mkctl's equations (one muscle's air): do not edit. */",
+                      head, codegen._tableau(), *parts, integrator, api])
+    _ACTUATOR_AIR_SOURCES[key] = (text, len(switches))
+    return _ACTUATOR_AIR_SOURCES[key]
 
 
 def valve_input_refusals() -> str:

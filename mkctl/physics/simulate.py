@@ -1084,31 +1084,54 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
     return states[at, 0], states[at, 1]
 
 
+#: The tolerances of one muscle's air step (:class:`ActuatorSimulator` with the air; the native
+#: actuator FMU integrates with the same): absolute [Pa] and relative [-]. Tighter than the lag's
+#: (``actuator.PRESSURE_STEP_ATOL``, 1e-3 Pa): a step of the air's mass balance then meets a
+#: solve_ivp run to 1e-10 of the pressure's range (measured 6e-11 over a 0.2 s fill and exhaust;
+#: 4e-8 at the lag's tolerances), at twice the cost.
+AIR_STEP_ATOL = 1e-6
+AIR_STEP_RTOL = 1e-12
+
+
 class ActuatorSimulator:
     """One actuator as the actuator FMU runs it: a pressure lag state, the tension at (L, P, Ldot).
 
     The lag is integrated exactly over each step (the command is held constant), so the step size
-    does not matter. Without a lag the pressure equals the command.
+    does not matter. Without a lag the pressure equals the command. With the air
+    (``valve_flow``, model-spec 4d and 7d) the pressure is a state of the muscle's mass balance
+    (:func:`mkctl.physics.actuator.air_pressure_derivative`) at the length L and the rate Ldot,
+    held with the command over each step and integrated as
+    :func:`mkctl.physics.actuator.pressure_after` integrates a rate (Dormand-Prince 5(4), first
+    step dt) at :data:`AIR_STEP_ATOL`, :data:`AIR_STEP_RTOL`; its command is a regulator's
+    set-point [Pa], or with ``opening`` the valve's opening u [-] (clipped to [-1, 1]).
 
     Parameters
     ----------
     params : Params
         The actuator and its effects.
     p0 : float
-        Initial pressure [Pa] (and the first command seen through a dead time).
+        Initial pressure [Pa] (and, for pressure commands, the first command seen through a dead
+        time).
+    opening : bool
+        Whether the command is the valve's opening u (needs the air: :func:`check_inputs`).
 
     References
     ----------
-    .. [1] model-spec sections 4, 4b and 7 (McKibbenActuator.fmu).
+    .. [1] model-spec sections 4, 4b, 4d and 7, 7d (McKibbenActuator.fmu).
     """
 
-    def __init__(self, params: Params = DEFAULT, p0: float = 0.0):
+    def __init__(self, params: Params = DEFAULT, p0: float = 0.0, opening: bool = False):
         self.params = params
         self.time = 0.0
         self.pressure = float(p0)
+        self.opening = check_inputs("opening" if opening else "pressure", params)
+        self.air = actuator.air_is_on(params)
+        if self.air:
+            actuator.check_air_supported(params)
         delay = float(actuator.command_delay(params))
         #: the command as the actuator sees it through a dead time (None without one)
-        self.schedule = CommandSchedule(delay, (float(p0),)) if delay > 0 else None
+        first = (0.0,) if opening else (float(p0),)
+        self.schedule = CommandSchedule(delay, first) if delay > 0 else None
 
     def get_state(self) -> tuple:
         """A snapshot of everything that determines the future (FMU get state).
@@ -1133,7 +1156,7 @@ class ActuatorSimulator:
         if self.schedule is not None and len(snapshot) > 2 and snapshot[2] is not None:
             self.schedule.restore(snapshot[2])
 
-    def step(self, dt: float, p_cmd: float) -> float:
+    def step(self, dt: float, p_cmd: float, L: float | None = None, Ldot: float = 0.0) -> float:
         """Advance the pressure by one step towards the command (seen a dead time late, if any).
 
         Parameters
@@ -1141,7 +1164,12 @@ class ActuatorSimulator:
         dt : float
             Step [s].
         p_cmd : float
-            Commanded gauge pressure [Pa], held over the step.
+            Commanded gauge pressure [Pa], held over the step; with ``opening`` the valve's
+            opening u [-].
+        L : float, optional
+            The muscle's length [m], held over the step: the air's volume (needed with the air).
+        Ldot : float
+            Its lengthening rate [m/s], held over the step (the air is squeezed or expanded).
 
         Returns
         -------
@@ -1151,23 +1179,47 @@ class ActuatorSimulator:
         Raises
         ------
         DomainError
-            For a command that is not finite.
+            For a command that is not finite, or a length outside the model's domain.
+        ParameterError
+            With the air and no length.
 
         References
         ----------
-        .. [1] model-spec sections 4 (pressure_lag) and 4b (dead_time, asymmetric_lag).
+        .. [1] model-spec sections 4 (pressure_lag), 4b (dead_time, asymmetric_lag) and 4d (the
+           air).
         """
-        actuator.check_pressure(p_cmd)
+        if self.opening:
+            check_openings(p_cmd, "valve opening u")
+        else:
+            actuator.check_pressure(p_cmd)
+        if self.air and L is None:
+            raise ParameterError("with the air in the muscle (model-spec 4d) a step needs its "
+                                 "length L [m]")
         if self.schedule is None:
-            self.pressure = float(actuator.pressure_after(self.pressure, p_cmd, dt, self.params))
+            self.pressure = self._pressure_after(self.pressure, p_cmd, dt, L, Ldot)
         else:
             self.schedule.give(self.time, (float(p_cmd),))
             for start, stop, (seen,) in self.schedule.pieces(self.time, self.time + dt):
-                self.pressure = float(actuator.pressure_after(self.pressure, seen, stop - start,
-                                                              self.params))
+                self.pressure = self._pressure_after(self.pressure, seen, stop - start, L, Ldot)
             self.schedule.forget_before(self.time + dt)
         self.time += dt
         return self.pressure
+
+    def _pressure_after(self, P: float, command: float, dt: float, L, Ldot: float) -> float:
+        """The pressure [Pa] after dt [s] from P, the command (and L, Ldot) held."""
+        if not self.air:
+            return float(actuator.pressure_after(P, command, dt, self.params))
+        if not dt > 0:
+            return float(P)
+        L, Ldot, params, opening = float(L), float(Ldot), self.params, self.opening
+        command = float(knee.valve_input(command)) if opening else float(command)
+
+        def rate(y):
+            return np.array([float(actuator.air_pressure_derivative(float(y[0]), command, L, Ldot,
+                                                                    params, opening))])
+        state, _, _ = integrate(rate, np.array([float(P)]), float(dt), float(dt),
+                                np.array([AIR_STEP_ATOL]), AIR_STEP_RTOL)
+        return float(state[0])
 
     def outputs(self, p_cmd: float, L: float, Ldot: float) -> dict[str, float]:
         """The actuator FMU's outputs now: its pressure and its tension.
@@ -1185,7 +1237,8 @@ class ActuatorSimulator:
         -------
         dict of str to float
             "f": tension [N] (positive when it pulls); "P": pressure [Pa] (the lag state, or the
-            command it sees without a lag).
+            command it sees without a lag); with the air "q": the net air mass flow in [kg/s]
+            (:func:`mkctl.physics.actuator.air_mass_flow` at the valve's opening).
 
         Raises
         ------
@@ -1198,7 +1251,15 @@ class ActuatorSimulator:
            Eq. 7 and 13.
         .. [2] model-spec sections 2, 4 and 7.
         """
-        actuator.check_pressure(p_cmd)
+        if self.opening:
+            check_openings(p_cmd, "valve opening u")
+        else:
+            actuator.check_pressure(p_cmd)
         seen = p_cmd if self.schedule is None else self.schedule.at(self.time)[0]
         P = self.pressure if actuator.has_pressure_states(self.params) else float(seen)
-        return {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}
+        out = {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}
+        if self.air:
+            u = (knee.valve_input(float(seen)) if self.opening
+                 else actuator.valve_opening(P, float(seen), self.params))
+            out["q"] = float(actuator.air_mass_flow(P, u, self.params))
+        return out
