@@ -764,7 +764,7 @@ def valve_input_refusals() -> str:
     does not carry: its delay line holds pressure commands), naming the switches from the effect registry."""
     from ..physics import effects, simulate
     try:
-        simulate.check_inputs("opening", DEFAULT.replace(**{e.switch_parameter.name: e.switch_parameter.off
+        simulate.check_inputs("opening", Params().replace(**{e.switch_parameter.name: e.switch_parameter.off
                                                             for e in effects.all_effects() if e.moves_air}))
     except ParameterError as error:
         air = str(error)
@@ -1053,11 +1053,11 @@ def build_native(out: Path, params: Params | None = None, air: bool | None = Non
 
 
 def with_valves(params: Params | None) -> Params:
-    """params (default: :data:`~mkctl.physics.params.DEFAULT`) with the air on, as a knee with valve inputs needs
+    """params (default: the defaults, ``Params()``) with the air on, as a knee with valve inputs needs
     it: the switch of the effect that opens a valve (valve_flow) set to 1 when no effect that moves the air is on."""
     from ..physics import effects
     from ..physics.actuator import air_is_on
-    params = DEFAULT if params is None else params
+    params = Params() if params is None else params
     if air_is_on(params):
         return params
     return params.replace(**{e.switch_parameter.name: 1 for e in effects.all_effects()
