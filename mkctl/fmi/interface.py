@@ -246,16 +246,16 @@ KNEE_WITH_AIR = dataclasses.replace(
     units=LiveMapping(lambda: {**KNEE_UNITS, **{name: UNITS[name] for name in KNEE_PARAMETERS_WITH_AIR},
                                **{name: "kg/s" for name in AIR_FLOW_OUTPUTS}}))
 
-#: The knee built with valve openings as its inputs (model-spec 7d; native FMUs only, when asked): the air knee's
-#: variables with the switching valves' openings ``ue``, ``uf`` in [-1, 1] (clipped) in place of the pressure
-#: commands, and the start pressures ``Pe0``, ``Pf0`` (default: those that hold the leg at alpha = 60 deg) as
-#: parameters. A dead time is not carried (refused at initialization), nor valve_flow = 0.
-VALVE_INPUTS = {"ue": "extensor valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions "
-                      "a proportional valve; clipped to [-1, 1]",
-                "uf": "flexor valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions "
-                      "a proportional valve; clipped to [-1, 1]"}
-START_PRESSURES = {"Pe0": "extensor gauge pressure at the start; left at its start value it holds the leg at "
-                          "alpha = 60 deg",
+#: The knee built with valve openings as its inputs (model-spec 7d; native FMUs only, when asked):
+#: the air knee's variables with the switching valves' openings ``ue``, ``uf`` in [-1, 1] (clipped)
+#: in place of the pressure commands, and the start pressures ``Pe0``, ``Pf0`` (default: those that
+#: hold the leg at alpha = 60 deg) as parameters. A dead time is not carried (refused at
+#: initialization), nor valve_flow = 0.
+_OPENING = ("valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions a "
+            "proportional valve; clipped to [-1, 1]")
+VALVE_INPUTS = {"ue": "extensor " + _OPENING, "uf": "flexor " + _OPENING}
+START_PRESSURES = {"Pe0": "extensor gauge pressure at the start; left at its start value it holds "
+                          "the leg at alpha = 60 deg",
                    "Pf0": "flexor gauge pressure at the start"}
 
 
@@ -266,9 +266,12 @@ def _valve_knee_starts(params: Params) -> dict:
 
 
 KNEE_WITH_VALVES = dataclasses.replace(
-    KNEE_WITH_AIR, valves=True, inputs=tuple(VALVE_INPUTS), extra_parameters=("X0", *START_PRESSURES, "P_rated"),
-    description=KNEE.description + "; the air in the muscles (model-spec 4d), driven by the valves' openings",
-    descriptions=LiveMapping(lambda: {**KNEE_WITH_AIR.descriptions, **VALVE_INPUTS, **START_PRESSURES}),
+    KNEE_WITH_AIR, valves=True, inputs=tuple(VALVE_INPUTS),
+    extra_parameters=("X0", *START_PRESSURES, "P_rated"),
+    description=(KNEE.description
+                 + "; the air in the muscles (model-spec 4d), driven by the valves' openings"),
+    descriptions=LiveMapping(lambda: {**KNEE_WITH_AIR.descriptions, **VALVE_INPUTS,
+                                      **START_PRESSURES}),
     units=LiveMapping(lambda: {**KNEE_WITH_AIR.units, **{name: "1" for name in VALVE_INPUTS},
                                **{name: "Pa" for name in START_PRESSURES}}),
     derived_starts=_valve_knee_starts)
@@ -315,30 +318,36 @@ ACTUATOR = Model(
     derived_starts=lambda params: dict(ACTUATOR_INPUT_START),
 )
 
-#: The actuator built with the air (model-spec 4d, 7d; native FMUs only, when asked): the actuator's variables, the
-#: air's parameters and switch, and the output ``q``. With ``valve_flow`` = 1 its pressure P is a state of the
-#: muscle's mass balance at the inputs L, Ldot, fed by the valve that p_cmd sets as a pressure regulator.
+#: The actuator built with the air (model-spec 4d, 7d; native FMUs only, when asked): the actuator's
+#: variables, the air's parameters and switch, and the output ``q``. With ``valve_flow`` = 1 its
+#: pressure P is a state of the muscle's mass balance at the inputs L, Ldot, fed by the valve that
+#: p_cmd sets as a pressure regulator.
 ACTUATOR_PARAMETERS_WITH_AIR = LiveSequence(lambda: [*_MUSCLE, *_effect_reals(air=True)])
 ACTUATOR_AIR_FLOW = {"q": "net air mass flow in (valve and leak; negative: out), 0 without the air"}
 ACTUATOR_WITH_AIR = dataclasses.replace(
     ACTUATOR, parameters=ACTUATOR_PARAMETERS_WITH_AIR, air=True,
-    description=ACTUATOR.description + "; the air in the muscle (model-spec 4d) when valve_flow = 1",
+    description=(ACTUATOR.description
+                 + "; the air in the muscle (model-spec 4d) when valve_flow = 1"),
     outputs=(*ACTUATOR.outputs, *ACTUATOR_AIR_FLOW),
     descriptions=LiveMapping(lambda: {**_ACTUATOR_DESCRIPTIONS, **ACTUATOR_AIR_FLOW}),
-    units=LiveMapping(lambda: {**ACTUATOR_UNITS, **{name: UNITS[name] for name in ACTUATOR_PARAMETERS_WITH_AIR},
+    units=LiveMapping(lambda: {**ACTUATOR_UNITS,
+                               **{name: UNITS[name] for name in ACTUATOR_PARAMETERS_WITH_AIR},
                                "q": "kg/s"}))
-#: The actuator with its valve's opening ``u`` as the input in place of ``p_cmd`` (model-spec 7d), and its start
-#: pressure ``P_start`` as a parameter; the air on (valve_flow = 0 and a dead time are refused at initialization).
-ACTUATOR_VALVE_INPUT = {"u": "valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions a "
-                             "proportional valve; clipped to [-1, 1]"}
+#: The actuator with its valve's opening ``u`` as the input in place of ``p_cmd`` (model-spec 7d),
+#: and its start pressure ``P_start`` as a parameter; the air on (valve_flow = 0 and a dead time
+#: are refused at initialization).
+ACTUATOR_VALVE_INPUT = {"u": _OPENING}
 ACTUATOR_WITH_VALVES = dataclasses.replace(
-    ACTUATOR_WITH_AIR, valves=True, inputs=("u", "L", "Ldot"), extra_parameters=("P_start", "P_rated"),
-    description=ACTUATOR.description + "; the air in the muscle (model-spec 4d), driven by its valve's opening",
+    ACTUATOR_WITH_AIR, valves=True, inputs=("u", "L", "Ldot"),
+    extra_parameters=("P_start", "P_rated"),
+    description=(ACTUATOR.description
+                 + "; the air in the muscle (model-spec 4d), driven by its valve's opening"),
     descriptions=LiveMapping(lambda: {**ACTUATOR_WITH_AIR.descriptions, **ACTUATOR_VALVE_INPUT,
                                       "P_start": "gauge pressure at the start"}),
     units=LiveMapping(lambda: {**ACTUATOR_WITH_AIR.units, "u": "1", "P_start": "Pa"}),
     derived_starts=lambda params: {"u": 0.0, "L": ACTUATOR_INPUT_START["L"],
-                                   "Ldot": ACTUATOR_INPUT_START["Ldot"], "P_start": ACTUATOR_INPUT_START["p_cmd"]})
+                                   "Ldot": ACTUATOR_INPUT_START["Ldot"],
+                                   "P_start": ACTUATOR_INPUT_START["p_cmd"]})
 
 #: Both FMUs, by model name.
 MODELS = {model.name: model for model in (KNEE, ACTUATOR)}

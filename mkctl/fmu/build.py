@@ -362,20 +362,22 @@ def build_knee_system(out, params: Params | None = None, platforms: bool = True)
 
 
 def build_valve_fmus(out, params: Params | None = None, platforms: bool = True) -> dict[str, Path]:
-    """The native FMUs with valve openings as inputs (model-spec 7d; the air on; :func:`mkctl.native.fmu.build_one`
-    with ``valves``): the knee with ``ue``, ``uf`` in [-1, 1] in place of ``pe_cmd``, ``pf_cmd``, the actuator with
-    ``u`` in place of ``p_cmd``, into ``out/native/`` and ``out/fmi3/``. Returns the paths by "native/<model>",
-    "fmi3/<model>". Raises an MkctlError (one line) without a C compiler."""
+    """The native FMUs with valve openings as inputs (model-spec 7d; the air on;
+    :func:`mkctl.native.fmu.build_one` with ``valves``): the knee with ``ue``, ``uf`` in [-1, 1] in
+    place of ``pe_cmd``, ``pf_cmd``, the actuator with ``u`` in place of ``p_cmd``, into
+    ``out/native/`` and ``out/fmi3/``. Returns the paths by "native/<model>", "fmi3/<model>".
+    Raises an MkctlError (one line) without a C compiler."""
     from ..native import fmi3, fmu
     from ..native.build import find_compiler
     if find_compiler() is None:
-        raise BuildError("no C compiler found (CC, cc, gcc, clang): the FMUs with valve inputs are native FMUs")
+        raise BuildError("no C compiler found (CC, cc, gcc, clang): the FMUs with valve inputs "
+                         "are native FMUs")
     out, built = Path(out).resolve(), {}
     for name in fmu.MODEL_NAMES:
-        built[f"native/{name}"] = fmu.build_one(name, out / "native" / f"{name}.fmu", params, windows=platforms,
-                                                air=True, valves=True)
-        built[f"fmi3/{name}"] = fmi3.build_one(name, out / "fmi3" / f"{name}.fmu", params, platforms=platforms,
-                                               air=True, valves=True)
+        built[f"native/{name}"] = fmu.build_one(name, out / "native" / f"{name}.fmu", params,
+                                                windows=platforms, air=True, valves=True)
+        built[f"fmi3/{name}"] = fmi3.build_one(name, out / "fmi3" / f"{name}.fmu", params,
+                                               platforms=platforms, air=True, valves=True)
     return built
 
 
@@ -397,9 +399,10 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
                         help="build the knee as a system of FMUs instead: OUT/McKibbenKneeSystem.ssp (the knee's "
                              "mechanism alone and two native actuator FMUs, SSP 1.0; docs/fmu.md)")
     parser.add_argument("--valve-inputs", action="store_true",
-                        help="build the native FMUs with the air and the valves' openings in [-1, 1] as inputs "
-                             "(model-spec 7d): the knee's ue, uf instead of pe_cmd, pf_cmd, the actuator's u "
-                             "instead of p_cmd; OUT/native/ and OUT/fmi3/")
+                        help="build the native FMUs with the air and the valves' openings in "
+                             "[-1, 1] as inputs (model-spec 7d): the knee's ue, uf instead of "
+                             "pe_cmd, pf_cmd, the actuator's u instead of p_cmd; OUT/native/ and "
+                             "OUT/fmi3/")
     args = parser.parse_args(argv)
     try:
         params = None

@@ -435,8 +435,9 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
         return emit_function(f"{kind}_{v}", arguments, call, bindings, constant, traced, "out", checks, extra)
 
     # with valve openings as inputs (variant.opening) pe_cmd, pf_cmd carry the openings ue, uf
-    rhs = (trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, (X_low, X_high), opening=True)
-           if variant.opening else trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, (X_low, X_high)))
+    stops = (X_low, X_high)
+    rhs = (trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, stops, opening=True)
+           if variant.opening else trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, stops))
     parts = [emit("knee_rhs", bindings, constant | {"X_low", "X_high"}, rhs)]
     traced = trace(simulate.knee_outputs, X, V, Pe, Pf, sp)
     a1, a2 = KNEE_OUTPUT_NAMES.index("a1"), KNEE_OUTPUT_NAMES.index("a2")

@@ -148,7 +148,7 @@ class Interface:
     generated_sources: tuple = ()  #: ((file name, C text), ...): further compilation units, generated
     core_parameters: tuple = ()  #: Real parameters after Params' fields in the core's parameter vector p
     air: bool = False  #: built with the air: the core's air variants and the air's parameters (model-spec 7d)
-    valves: bool = False  #: the knee built with valve openings as inputs (ue, uf; model-spec 7d): implies air
+    valves: bool = False  #: built with valve openings as inputs (model-spec 7d): implies air
 
     def by_name(self) -> dict[str, Variable]:
         return {v.name: v for v in self.variables}
@@ -158,14 +158,14 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
                     valves: bool = False) -> Interface:
     """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
     start values taken from params (default: :data:`~mkctl.physics.params.DEFAULT`, the slave's own).
-    ``air``: the knee built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only);
-    ``valves``: the knee with valve openings as its inputs (:data:`mkctl.fmi.interface.KNEE_WITH_VALVES`).
+    ``air``: built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only);
+    ``valves``: with valve openings as inputs (:func:`mkctl.fmi.interface.model_for`).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
     model = model_for(model_name, air or valves, valves)
-    if model.valves:  # the air switched on in its start values: the valves drive nothing without it
+    if model.valves:  # the air on in its start values: the valves drive nothing without it
         params = with_valves(params)
     if params is not None:
         try:
@@ -178,14 +178,14 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     experiment = {"startTime": "start_time", "stopTime": "stop_time", "stepSize": "step_size", "tolerance": "tolerance"}
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
-    interface = Interface(model_name, model.description, model.author, default_experiment, variables,
-                          model.undefined_outputs, dict(model.pressure_outputs), air=model.air,
-                          valves=model.valves)
-    if model.air and model_name == "McKibbenActuator":  # its air step, rate and flow: a unit of their own
+    interface = Interface(model_name, model.description, model.author, default_experiment,
+                          variables, model.undefined_outputs, dict(model.pressure_outputs),
+                          air=model.air, valves=model.valves)
+    if model.air and model_name == "McKibbenActuator":  # its air: a generated unit of its own
         text, switches = actuator_air_source(model.valves)
-        interface = dataclasses.replace(
-            interface, generated_sources=((ACTUATOR_AIR_FILE, text),),
-            event_indicators=max(switches, core_event_indicators(model_name, model.air, model.valves)))
+        core = core_event_indicators(model_name, model.air, model.valves)
+        interface = dataclasses.replace(interface, generated_sources=((ACTUATOR_AIR_FILE, text),),
+                                        event_indicators=max(switches, core))
     return interface
 
 
@@ -515,13 +515,15 @@ def core_source(air: bool = False, valves: bool = False) -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
     (:func:`mkctl.native.build.cache_dir`) and in this process, keyed by everything it is generated from (the
     core's inputs, the effect registry and this module): tracing the equations takes seconds, and every build of
-    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air); ``valves``:
-    the air's variants only, with valve openings as inputs (:func:`mkctl.native.variants.valve_input_variants`)."""
+    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air);
+    ``valves``: the air's variants only, with valve openings as inputs
+    (:func:`mkctl.native.variants.valve_input_variants`)."""
     import hashlib
 
     from . import build
     from .variants import all_variants, valve_input_variants
-    digest = hashlib.sha256(build.input_key(valve_input_variants() if valves else all_variants(air)).encode())
+    variants = valve_input_variants() if valves else all_variants(air)
+    digest = hashlib.sha256(build.input_key(variants).encode())
     digest.update(Path(__file__).read_bytes())
     key = digest.hexdigest()[:20]
     if key in _CORE_SOURCES:
@@ -531,8 +533,8 @@ def core_source(air: bool = False, valves: bool = False) -> str:
         if path.is_file():
             text = path.read_text()
         else:
-            text = (generate_core_source(valves=True) if valves else generate_core_source(air) if air
-                    else generate_core_source())
+            text = (generate_core_source(valves=True) if valves
+                    else generate_core_source(air) if air else generate_core_source())
             try:
                 build._write_atomic(path, text.encode())
             except OSError:  # a read-only cache only costs time
@@ -543,9 +545,9 @@ def core_source(air: bool = False, valves: bool = False) -> str:
 
 def generate_core_source(air: bool = False, valves: bool = False) -> str:
     """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant; ``air``: the air's too, after the
-    others: :func:`mkctl.native.variants.all_variants`; ``valves``: the air's only, with valve openings as inputs,
-    :func:`mkctl.native.variants.valve_input_variants`, and the messages of :func:`valve_input_refusals`) with the
-    FMUs' additions, all
+    others: :func:`mkctl.native.variants.all_variants`; ``valves``: the air's only, with valve
+    openings as inputs, :func:`mkctl.native.variants.valve_input_variants`, and the messages of
+    :func:`valve_input_refusals`) with the FMUs' additions, all
     generated from mkctl's equations: the hip height at a kneecap angle (knee.X_from_alpha, for the default X0),
     the posture at a hip height (knee.geometry_at_X, for the outputs that can still be given when the pressures
     are not numbers), every domain check's message, and KneeSimulator's integrator settings."""
@@ -606,8 +608,8 @@ def air_flow_functions(variants, table) -> str:
     """``mk_fmu_air_flows(p, Pe, Pf, pe_cmd, pf_cmd, out, fault)``: each muscle's net air mass flow [kg/s], out[0]
     the extensor's, out[1] the flexor's, traced from :func:`mkctl.physics.actuator.air_mass_flow` at the
     regulator's opening (:func:`mkctl.physics.actuator.valve_opening`) for the air's variants, 0 for the others
-    (the knee built with the air, outputs ``qe``, ``qf``); a variant with valve openings as inputs (``opening``)
-    takes pe_cmd, pf_cmd as the openings (:func:`mkctl.physics.knee.valve_input`)."""
+    (the knee built with the air, outputs ``qe``, ``qf``); a variant with valve openings as inputs
+    (``opening``) takes pe_cmd, pf_cmd as the openings (:func:`mkctl.physics.knee.valve_input`)."""
     import sympy
 
     from ..physics import actuator
@@ -628,10 +630,11 @@ def air_flow_functions(variants, table) -> str:
     for k, variant in enumerate(variants):
         if variant.air:
             name = f"fmu_air_flows_{variant.name}"
-            traced = (codegen.trace(flows, codegen.SymbolicParams(variant), True) if variant.opening
-                      else codegen.trace(flows, codegen.SymbolicParams(variant)))
-            parts.append(codegen.emit_function(name, arguments, call, bindings, set(PARAMETER_NAMES), traced,
-                                               "out", table))
+            sp = codegen.SymbolicParams(variant)
+            traced = (codegen.trace(flows, sp, True) if variant.opening
+                      else codegen.trace(flows, sp))
+            parts.append(codegen.emit_function(name, arguments, call, bindings,
+                                               set(PARAMETER_NAMES), traced, "out", table))
             cases.append(f"    case {k}: return {name}_once(p, NULL, {call});")
     parts += ["/* each muscle's net air mass flow [kg/s] (actuator.air_mass_flow at the regulator's opening) */",
               f"int mk_fmu_air_flows(const double *p, {arguments})", "{", "    out[0] = out[1] = 0.0;",
@@ -639,63 +642,13 @@ def air_flow_functions(variants, table) -> str:
     return "\n".join(parts)
 
 
-#: The generated compilation unit of an actuator FMU built with the air (:func:`actuator_air_source`).
+#: The generated unit of an actuator FMU built with the air (:func:`actuator_air_source`).
 ACTUATOR_AIR_FILE = "actuator_air.c"
 _ACTUATOR_AIR_SOURCES: dict = {}
 
-
-def actuator_air_source(valves: bool = False) -> tuple[str, int]:
-    """The C of one muscle's air for the actuator FMU built with the air (model-spec 4d, 7d), and its number of
-    switching functions; a compilation unit of its own beside the core (whose C stays as it is), generated from
-    the library's equations like the core:
-
-    - ``mk_fmu_actuator_air_step(p, P, c, L, Ldot, dt, out, fault)``: the pressure after dt, the command c (a
-      set-point [Pa], or with ``valves`` the opening u) and L, Ldot held: the rate traced from
-      :func:`mkctl.physics.actuator.air_pressure_derivative` integrated by ``mk_pressure_integrate`` (the
-      algorithm of :func:`mkctl.physics.integrate.integrate`) at :data:`mkctl.physics.simulate.AIR_STEP_ATOL`,
-      ``AIR_STEP_RTOL``, as :class:`mkctl.physics.simulate.ActuatorSimulator` does;
-    - ``mk_fmu_actuator_air_rate`` (Model Exchange's derivative), ``mk_fmu_actuator_air_switches`` (its event
-      indicators: :func:`switching_functions` of the rate), ``mk_fmu_actuator_air_flow`` (the output q,
-      :func:`mkctl.physics.actuator.air_mass_flow` at the valve's opening), ``mk_fmu_actuator_air_on`` (an
-      effect that moves the air is on: the test of the air variants' condition) and
-      ``mk_fmu_actuator_air_fault`` (a fault in the library's words)."""
-    from ..physics import actuator, simulate
-    from ..physics.knee import valve_input
-    from . import build, codegen
-    from .variants import Variant, air_effects
-    key = (valves, build.input_key([Variant((), air=True, opening=valves)]))
-    if key in _ACTUATOR_AIR_SOURCES:
-        return _ACTUATOR_AIR_SOURCES[key]
-    import sympy
-    P, c, L, Ldot = (sympy.Symbol(n, real=True) for n in ("P", "P_cmd", "L", "Ldot"))
-    sp = codegen.SymbolicParams(Variant((), air=True))
-    table = codegen.CheckTable()
-    parameters = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
-    moving = {**parameters, "P": "P", "P_cmd": "P_cmd", "L": "stops[0]", "Ldot": "stops[1]"}
-
-    def opening(P, c, params):
-        return valve_input(c) if valves else actuator.valve_opening(P, c, params)
-
-    def rate(P, c, L, Ldot, params):
-        return [actuator.air_pressure_derivative(P, valve_input(c) if valves else c, L, Ldot, params, valves)]
-
-    traced_rate = codegen.trace(rate, P, c, L, Ldot, sp)
-    switches = switching_functions(traced_rate.outputs, set(parameters))
-    call = "P, P_cmd, out, fault"
-    parts = [codegen.PRESSURE_INTEGRATOR_DECLARATION,
-             codegen.emit_function("actuator_air_rate", codegen.PRESSURE_RATE_ARGUMENTS, call, moving,
-                                   set(parameters), traced_rate, "out", table),
-             codegen.emit_function("actuator_air_flow", codegen.PRESSURE_RATE_ARGUMENTS, call,
-                                   {**parameters, "P": "P", "P_cmd": "P_cmd"}, set(parameters),
-                                   codegen.trace(lambda P, c, params: [actuator.air_mass_flow(
-                                       P, opening(P, c, params), params)], P, c, sp), "out", table)]
-    if switches:
-        parts.append(codegen.emit_function("actuator_air_switches", codegen.PRESSURE_RATE_ARGUMENTS, call, moving,
-                                           set(parameters), codegen.Traced(switches, []), "out", table))
-    air_on = " || ".join(f"(p[MK_P_{e.switch_parameter.name}] != {float(e.switch_parameter.off)!r})"
-                         for e in air_effects()) or "0"
-    templates = ", ".join(_c_template(_fault_template(check)) for check in table.checks) or '""'
-    api = f"""
+#: The C API of :func:`actuator_air_source` (``{templates}``, ``{count}``, ``{air_on}``, ``{nz}``,
+#: ``{switches}`` filled in).
+_ACTUATOR_AIR_API = """
 /* ---- the actuator FMU's air (actuator_fmu.c, actuator_me.c) ---- */
 void mk_fault_message(const mk_fault *fault, char *msg, size_t size);
 void mk_fault_format(const char *template_text, const mk_fault *fault, char *msg, size_t size);
@@ -705,14 +658,14 @@ int mk_fmu_actuator_air_on(const double *p) {{ return {air_on}; }}
 
 void mk_fmu_actuator_air_fault(const mk_fault *fault, char *msg, size_t size)
 {{
-    if (fault->code == MK_FAULT_DOMAIN && fault->check >= 0 && fault->check < {len(table.checks)})
+    if (fault->code == MK_FAULT_DOMAIN && fault->check >= 0 && fault->check < {count})
         mk_fault_format(air_templates[fault->check], fault, msg, size);
     else
         mk_fault_message(fault, msg, size);
 }}
 
-int mk_fmu_actuator_air_step(const double *p, double P, double P_cmd, double L, double Ldot, double dt,
-                             double *out, mk_fault *fault)
+int mk_fmu_actuator_air_step(const double *p, double P, double P_cmd, double L, double Ldot,
+                             double dt, double *out, mk_fault *fault)
 {{
     double moving[2], k[MK_MAX_CONSTANTS];
     moving[0] = L;
@@ -721,8 +674,8 @@ int mk_fmu_actuator_air_step(const double *p, double P, double P_cmd, double L, 
     return mk_pressure_integrate(actuator_air_rate, p, moving, k, P, P_cmd, dt, out, fault);
 }}
 
-int mk_fmu_actuator_air_rate(const double *p, double P, double P_cmd, double L, double Ldot, double *out,
-                             mk_fault *fault)
+int mk_fmu_actuator_air_rate(const double *p, double P, double P_cmd, double L, double Ldot,
+                             double *out, mk_fault *fault)
 {{
     double moving[2];
     moving[0] = L;
@@ -730,43 +683,108 @@ int mk_fmu_actuator_air_rate(const double *p, double P, double P_cmd, double L, 
     return actuator_air_rate_once(p, moving, P, P_cmd, out, fault);
 }}
 
-int mk_fmu_actuator_air_flow(const double *p, double P, double P_cmd, double *out, mk_fault *fault)
+int mk_fmu_actuator_air_flow(const double *p, double P, double P_cmd, double *out,
+                             mk_fault *fault)
 {{
     return actuator_air_flow_once(p, NULL, P, P_cmd, out, fault);
 }}
 
-const int mk_fmu_actuator_air_nz = {len(switches)};
-int mk_fmu_actuator_air_switches(const double *p, double P, double P_cmd, double L, double Ldot, double *out,
-                                 mk_fault *fault)
+const int mk_fmu_actuator_air_nz = {nz};
+int mk_fmu_actuator_air_switches(const double *p, double P, double P_cmd, double L, double Ldot,
+                                 double *out, mk_fault *fault)
 {{
     double moving[2];
     moving[0] = L;
     moving[1] = Ldot;
-    {"return actuator_air_switches_once(p, moving, P, P_cmd, out, fault);" if switches else
-     "(void)p; (void)P; (void)P_cmd; (void)out; (void)fault; (void)moving; return 0;"}
+    {switches}
 }}
 """
-    from . import TEMPLATE
+
+
+def actuator_air_source(valves: bool = False) -> tuple[str, int]:
+    """The C of one muscle's air for the actuator FMU built with the air (model-spec 4d, 7d), and
+    its number of switching functions: a compilation unit of its own beside the core (whose C stays
+    as it is), generated from the library's equations like the core.
+
+    - ``mk_fmu_actuator_air_step(p, P, c, L, Ldot, dt, out, fault)``: the pressure after dt, the
+      command c (a set-point [Pa], or with ``valves`` the opening u) and L, Ldot held: the rate
+      traced from :func:`mkctl.physics.actuator.air_pressure_derivative`, integrated by
+      ``mk_pressure_integrate`` (the algorithm of :func:`mkctl.physics.integrate.integrate`) at
+      :data:`mkctl.physics.simulate.AIR_STEP_ATOL`, ``AIR_STEP_RTOL``, as
+      :class:`mkctl.physics.simulate.ActuatorSimulator` does;
+    - ``mk_fmu_actuator_air_rate`` (Model Exchange's derivative), ``mk_fmu_actuator_air_switches``
+      (its event indicators: :func:`switching_functions` of the rate), ``mk_fmu_actuator_air_flow``
+      (the output q, :func:`mkctl.physics.actuator.air_mass_flow` at the valve's opening),
+      ``mk_fmu_actuator_air_on`` (an effect that moves the air is on) and
+      ``mk_fmu_actuator_air_fault`` (a fault in the library's words).
+    """
+    from ..physics import actuator, simulate
+    from ..physics.knee import valve_input
+    from . import TEMPLATE, build, codegen
+    from .variants import Variant, air_effects
+    key = (valves, build.input_key([Variant((), air=True, opening=valves)]))
+    if key in _ACTUATOR_AIR_SOURCES:
+        return _ACTUATOR_AIR_SOURCES[key]
+    import sympy
+    P, c, L, Ldot = (sympy.Symbol(n, real=True) for n in ("P", "P_cmd", "L", "Ldot"))
+    sp = codegen.SymbolicParams(Variant((), air=True))
+    table = codegen.CheckTable()
+    parameters = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+    fixed = set(parameters)
+    held = {**parameters, "P": "P", "P_cmd": "P_cmd"}
+    moving = {**held, "L": "stops[0]", "Ldot": "stops[1]"}  # L, Ldot passed where stops go
+
+    def rate(P, c, L, Ldot, params):
+        command = valve_input(c) if valves else c
+        return [actuator.air_pressure_derivative(P, command, L, Ldot, params, valves)]
+
+    def flow(P, c, params):
+        u = valve_input(c) if valves else actuator.valve_opening(P, c, params)
+        return [actuator.air_mass_flow(P, u, params)]
+
+    traced_rate = codegen.trace(rate, P, c, L, Ldot, sp)
+    switches = switching_functions(traced_rate.outputs, fixed)
+    arguments, call = codegen.PRESSURE_RATE_ARGUMENTS, "P, P_cmd, out, fault"
+    parts = [codegen.PRESSURE_INTEGRATOR_DECLARATION,
+             codegen.emit_function("actuator_air_rate", arguments, call, moving, fixed, traced_rate,
+                                   "out", table),
+             codegen.emit_function("actuator_air_flow", arguments, call, held, fixed,
+                                   codegen.trace(flow, P, c, sp), "out", table)]
+    if switches:
+        parts.append(codegen.emit_function("actuator_air_switches", arguments, call, moving, fixed,
+                                           codegen.Traced(switches, []), "out", table))
+    switches_of = [e.switch_parameter for e in air_effects()]
+    air_on = " || ".join(f"(p[MK_P_{q.name}] != {float(q.off)!r})" for q in switches_of) or "0"
+    templates = ", ".join(_c_template(_fault_template(check)) for check in table.checks) or '""'
+    api = _ACTUATOR_AIR_API.format(
+        templates=templates, count=len(table.checks), air_on=air_on, nz=len(switches),
+        switches=("return actuator_air_switches_once(p, moving, P, P_cmd, out, fault);" if switches
+                  else "(void)p; (void)P; (void)P_cmd; (void)out; (void)fault; (void)moving; "
+                       "return 0;"))
     template = TEMPLATE.read_text()  # its head: includes, the parameter macros, mk_fault, mk_fail
-    head = template[template.index("#include <math.h>"):template.index("/* ---- generated equations")]
+    head = template[template.index("#include <math.h>"):
+                    template.index("/* ---- generated equations")]
     head = head.replace("@PARAMETER_MACROS@", codegen._parameter_macros())
-    integrator = codegen.PRESSURE_INTEGRATOR.replace("@ATOL@", codegen._c_number(simulate.AIR_STEP_ATOL)).replace(
+    integrator = codegen.PRESSURE_INTEGRATOR.replace(
+        "@ATOL@", codegen._c_number(simulate.AIR_STEP_ATOL)).replace(
         "@RTOL@", codegen._c_number(simulate.AIR_STEP_RTOL))
-    text = "\n".join(["/* Generated by mkctl.native.fmu from mkctl's equations (one muscle's air): do not edit. */",
-                      head, codegen._tableau(), *parts, integrator, api])
+    text = "\n".join(["/* Generated by mkctl.native.fmu from mkctl's equations (one muscle's air): "
+                      "do not edit. */", head, codegen._tableau(), *parts, integrator, api])
     _ACTUATOR_AIR_SOURCES[key] = (text, len(switches))
     return _ACTUATOR_AIR_SOURCES[key]
 
 
 def valve_input_refusals() -> str:
-    """The C of what a knee FMU with valve inputs refuses at initialization, in the library's words:
-    ``MK_FMU_VALVE_AIR_MESSAGE`` (the air switched off: :func:`mkctl.physics.simulate.check_inputs`'s error; the
-    core then has no variant for the parameters) and ``MK_FMU_VALVE_DELAY_MESSAGE`` (a dead time, which this FMU
-    does not carry: its delay line holds pressure commands), naming the switches from the effect registry."""
+    """The C of what a knee FMU with valve inputs refuses at initialization, in the library's
+    words: ``MK_FMU_VALVE_AIR_MESSAGE`` (the air switched off:
+    :func:`mkctl.physics.simulate.check_inputs`'s error; the core then has no variant for the
+    parameters) and ``MK_FMU_VALVE_DELAY_MESSAGE`` (a dead time, which this FMU does not carry: its
+    delay line holds pressure commands), naming the switches from the effect registry."""
     from ..physics import effects, simulate
     try:
-        simulate.check_inputs("opening", Params().replace(**{e.switch_parameter.name: e.switch_parameter.off
-                                                            for e in effects.all_effects() if e.moves_air}))
+        off = {e.switch_parameter.name: e.switch_parameter.off
+               for e in effects.all_effects() if e.moves_air}
+        simulate.check_inputs("opening", Params().replace(**off))
     except ParameterError as error:
         air = str(error)
     else:
@@ -774,7 +792,8 @@ def valve_input_refusals() -> str:
     delays = [e.switch_parameter for e in effects.all_effects() if e.command_delay is not None]
     how = " and ".join(f"{q.name} = {q.off:g}" for q in delays) or "no dead time"
     delay = f"a knee FMU with valve inputs carries no dead time (model-spec 4b): set {how}"
-    return "\n".join(["/* a knee FMU with valve inputs: what it refuses at initialization (the library's words) */",
+    return "\n".join(["/* a knee FMU with valve inputs: what it refuses at initialization (the "
+                      "library's words) */",
                       f"const char MK_FMU_VALVE_AIR_MESSAGE[] = {_c_string(air)};",
                       f"const char MK_FMU_VALVE_DELAY_MESSAGE[] = {_c_string(delay)};", ""])
 
@@ -1017,8 +1036,9 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     windows=False leaves out the other platforms' binaries (otherwise added when their toolchains
     are installed: :mod:`mkctl.native.cross`): a fraction of the build's compiling, for an FMU that
     will only run here. interface: another model's (a mechanism's), in place of the slave's. air:
-    the knee built with the air (:func:`build_native`); valves: the knee with valve openings as inputs."""
-    interface = slave_interface(model_name, params, air, valves) if interface is None else interface
+    the knee built with the air (:func:`build_native`); valves: with valve openings as inputs."""
+    if interface is None:
+        interface = slave_interface(model_name, params, air, valves)
     guid = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
         stage = Path(temp) / "fmu"
@@ -1044,18 +1064,20 @@ def build_native(out: Path, params: Params | None = None, air: bool | None = Non
     """Write ``out/native/McKibbenKnee.fmu`` and ``out/native/McKibbenActuator.fmu``; returns their paths by
     model name. params: a :class:`Params` whose values become the start values (default: Table I, II, effects off).
     air: build the knee with the air (model-spec 7d: its parameters offered, the core's air variants compiled in);
-    None: when params switch it on. valves: the knee with valve openings ue, uf as its inputs in place of the
-    pressure commands (model-spec 7d; the air built in and switched on in its start values:
-    :func:`with_valves`). Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's validation
-    failing)."""
+    None: when params switch it on. valves: with valve openings as inputs in place of the pressure
+    commands (model-spec 7d: the knee's ue, uf, the actuator's u; the air built in and switched on
+    in its start values: :func:`with_valves`). Raises :class:`NativeBuildError` (no compiler, a
+    compile error, fmpy's validation failing)."""
     folder = Path(out) / "native"
     air = wants_air(params) if air is None else air
-    return {name: build_one(name, folder / f"{name}.fmu", params, air=air, valves=valves) for name in MODEL_NAMES}
+    return {name: build_one(name, folder / f"{name}.fmu", params, air=air, valves=valves)
+            for name in MODEL_NAMES}
 
 
 def with_valves(params: Params | None) -> Params:
-    """params (default: the defaults, ``Params()``) with the air on, as a knee with valve inputs needs
-    it: the switch of the effect that opens a valve (valve_flow) set to 1 when no effect that moves the air is on."""
+    """params (default: the defaults, ``Params()``) with the air on, as an FMU with valve inputs
+    needs it: the switch of the effect that opens a valve (valve_flow) set to 1 when no effect
+    that moves the air is on."""
     from ..physics import effects
     from ..physics.actuator import air_is_on
     params = Params() if params is None else params
@@ -1079,8 +1101,10 @@ def command_line(argv, build, description: str, folder: str, program: str) -> in
                         f"working folder); the FMUs go into OUT/{folder}")
     parser.add_argument("--air", action="store_true", help="build the knee with the air in the muscles "
                         "(model-spec 7d: the valve's and the volume's parameters; about a third more C)")
-    parser.add_argument("--valve-inputs", action="store_true", help="build the knee with the air and the valves' "
-                        "openings ue, uf in [-1, 1] as its inputs instead of pe_cmd, pf_cmd (model-spec 7d)")
+    parser.add_argument("--valve-inputs", action="store_true",
+                        help="build with the air and the valves' openings in [-1, 1] as inputs "
+                             "(model-spec 7d): the knee's ue, uf instead of pe_cmd, pf_cmd, the "
+                             "actuator's u instead of p_cmd")
     args = parser.parse_args(argv)
     try:
         built = (build(args.out, air=True, valves=True) if args.valve_inputs else

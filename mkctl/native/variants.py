@@ -14,10 +14,11 @@ that makes the air's temperature a state (``air_temperature``) is carried by no 
 :func:`all_variants` gives the air variants only when asked (``air=True``): they would add a third to every
 source that holds all variants (the native FMUs), and the FMUs carry them only when built with the air.
 
-Valve openings as inputs (model-spec 7d: a knee FMU built with ``ue``, ``uf`` in place of ``pe_cmd``, ``pf_cmd``)
-are one more flag of an air variant, ``opening``: its right-hand side is traced with the inputs as the valves'
-openings (:func:`mkctl.physics.knee.knee_derivatives`, ``opening=True``). :func:`valve_input_variants` gives them
-(the air variants only: without the air an opening drives nothing).
+Valve openings as inputs (model-spec 7d: a knee FMU built with ``ue``, ``uf`` in place of
+``pe_cmd``, ``pf_cmd``) are one more flag of an air variant, ``opening``: its right-hand side is
+traced with the inputs as the valves' openings (:func:`mkctl.physics.knee.knee_derivatives`,
+``opening=True``). :func:`valve_input_variants` gives them (the air variants only: without the air
+an opening drives nothing).
 """
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ class Variant(NamedTuple):
 
     on: tuple[str, ...]
     air: bool = False
-    opening: bool = False  #: with the air: the inputs are the valves' openings, not pressure set-points
+    opening: bool = False  #: with the air: the inputs are the valves' openings, not set-points
 
     @classmethod
     def of(cls, params: Params) -> "Variant":
@@ -48,8 +49,8 @@ class Variant(NamedTuple):
 
     @property
     def name(self) -> str:
-        """A C identifier: one bit per structural effect of the registry, ``a`` after them with the air, ``u``
-        after that with valve openings as inputs."""
+        """A C identifier: one bit per structural effect of the registry, ``a`` after them with the
+        air, ``u`` after that with valve openings as inputs."""
         return "v" + "".join("1" if e.name in self.on else "0" for e in structural_effects()) + (
             "a" if self.air else "") + ("u" if self.opening else "")
 
@@ -109,8 +110,8 @@ def all_variants(air: bool = False) -> tuple[Variant, ...]:
 
 
 def valve_input_variants() -> tuple[Variant, ...]:
-    """The air variants of :func:`all_variants` with valve openings as inputs (``opening``): what a knee FMU built
-    with valve inputs holds."""
+    """The air variants of :func:`all_variants` with valve openings as inputs (``opening``): what a
+    knee FMU built with valve inputs holds."""
     return tuple(v._replace(opening=True) for v in all_variants(air=True) if v.air)
 
 
