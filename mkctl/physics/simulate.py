@@ -238,8 +238,8 @@ class KneeSimulator:
         commands already delayed.
     opening : bool
         Whether the inputs are the valves' openings ue, uf [-] (the air on, model-spec 7d) rather
-        than pressure commands; pe0, pf0 are then the start pressures, and a dead time's first
-        input is a closed valve until the first opening given arrives.
+        than pressure commands; pe0, pf0 are then the start pressures, and through a dead time
+        the first openings given act until later ones arrive (as :func:`simulate_knee`'s).
 
     Raises
     ------
@@ -263,9 +263,10 @@ class KneeSimulator:
         #: the commands as the actuators see them, a dead time late (None without one, or when the
         #: caller hands in commands already delayed: delay_commands False)
         delay = float(actuator.command_delay(params))
-        first = (0.0, 0.0) if opening else (float(pe0), float(pf0))
-        self.schedule = (CommandSchedule(delay, first)
+        self.schedule = (CommandSchedule(delay, (float(pe0), float(pf0)))
                          if delay > 0 and delay_commands else None)
+        #: openings: the first ones given replace the schedule's first (pe0, pf0 are pressures)
+        self._first_openings = self.opening and self.schedule is not None
         self.stops = _stop_positions(params) if stops else None
         self.rtol = rtol
         X0 = default_hip_height(params) if X0 is None else float(X0)
@@ -371,6 +372,9 @@ class KneeSimulator:
         self._check(pe_cmd, pf_cmd)
         if self.schedule is None:
             return self._held_step(dt, pe_cmd, pf_cmd)
+        if self._first_openings:
+            self.schedule = CommandSchedule(self.schedule.delay, (float(pe_cmd), float(pf_cmd)))
+            self._first_openings = False
         self.schedule.give(self.time, (float(pe_cmd), float(pf_cmd)))
         end = self.time + dt
         for start, stop, (pe, pf) in self.schedule.pieces(self.time, end):
