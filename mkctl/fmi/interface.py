@@ -124,6 +124,7 @@ class Model:
     derived_starts: Callable[[Params], dict]  #: start values of the inputs and of the extra parameters but P_rated
     author: str = "mkctl"
     air: bool = False  #: built with the air (model-spec 7d): the air's parameters and switch offered
+    valves: bool = False  #: the knee built with valve openings as inputs (model-spec 7d): ue, uf
 
     @property
     def integer_parameters(self) -> list[str]:
@@ -248,6 +249,36 @@ KNEE_WITH_AIR = dataclasses.replace(
     units=LiveMapping(lambda: {**KNEE_UNITS, **{name: UNITS[name] for name in KNEE_PARAMETERS_WITH_AIR},
                                **{name: "kg/s" for name in AIR_FLOW_OUTPUTS}}))
 
+#: The knee built with valve openings as its inputs (model-spec 7d; native FMUs only, when asked):
+#: the air knee's variables with the switching valves' openings ``ue``, ``uf`` in [-1, 1] (clipped)
+#: in place of the pressure commands, and the start pressures ``Pe0``, ``Pf0`` (default: those that
+#: hold the leg at alpha = 60 deg) as parameters. A dead time is not carried (refused at
+#: initialization), nor valve_flow = 0.
+_OPENING = ("valve opening: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions a "
+            "proportional valve; clipped to [-1, 1]")
+VALVE_INPUTS = {"ue": "extensor " + _OPENING, "uf": "flexor " + _OPENING}
+START_PRESSURES = {"Pe0": "extensor gauge pressure at the start; left at its start value it holds "
+                          "the leg at alpha = 60 deg",
+                   "Pf0": "flexor gauge pressure at the start"}
+
+
+def _valve_knee_starts(params: Params) -> dict:
+    """Closed valves, the pressures and X0 that hold the leg of params at rest at alpha = 60 deg."""
+    pe, pf = default_commands(params)
+    return {"ue": 0.0, "uf": 0.0, "Pe0": pe, "Pf0": pf, "X0": default_hip_height(params)}
+
+
+KNEE_WITH_VALVES = dataclasses.replace(
+    KNEE_WITH_AIR, valves=True, inputs=tuple(VALVE_INPUTS),
+    extra_parameters=("X0", *START_PRESSURES, "P_rated"),
+    description=(KNEE.description
+                 + "; the air in the muscles (model-spec 4d), driven by the valves' openings"),
+    descriptions=LiveMapping(lambda: {**KNEE_WITH_AIR.descriptions, **VALVE_INPUTS,
+                                      **START_PRESSURES}),
+    units=LiveMapping(lambda: {**KNEE_WITH_AIR.units, **{name: "1" for name in VALVE_INPUTS},
+                               **{name: "Pa" for name in START_PRESSURES}}),
+    derived_starts=_valve_knee_starts)
+
 # --- one actuator -----------------------------------------------------------------------------------------------
 #: Real parameters of model-spec sections 2 and 4 (the Integer ones and P_rated follow them): Table I, then every
 #: registered effect's.
@@ -290,12 +321,47 @@ ACTUATOR = Model(
     derived_starts=lambda params: dict(ACTUATOR_INPUT_START),
 )
 
+#: The actuator built with the air (model-spec 4d, 7d; native FMUs only, when asked): the actuator's
+#: variables, the air's parameters and switch, and the output ``q``. With ``valve_flow`` = 1 its
+#: pressure P is a state of the muscle's mass balance at the inputs L, Ldot, fed by the valve that
+#: p_cmd sets as a pressure regulator.
+ACTUATOR_PARAMETERS_WITH_AIR = LiveSequence(lambda: [*_MUSCLE, *_effect_reals(air=True)])
+ACTUATOR_AIR_FLOW = {"q": "net air mass flow in (valve and leak; negative: out), 0 without the air"}
+ACTUATOR_WITH_AIR = dataclasses.replace(
+    ACTUATOR, parameters=ACTUATOR_PARAMETERS_WITH_AIR, air=True,
+    description=(ACTUATOR.description
+                 + "; the air in the muscle (model-spec 4d) when valve_flow = 1"),
+    outputs=(*ACTUATOR.outputs, *ACTUATOR_AIR_FLOW),
+    descriptions=LiveMapping(lambda: {**_ACTUATOR_DESCRIPTIONS, **ACTUATOR_AIR_FLOW}),
+    units=LiveMapping(lambda: {**ACTUATOR_UNITS,
+                               **{name: UNITS[name] for name in ACTUATOR_PARAMETERS_WITH_AIR},
+                               "q": "kg/s"}))
+#: The actuator with its valve's opening ``u`` as the input in place of ``p_cmd`` (model-spec 7d),
+#: and its start pressure ``P_start`` as a parameter; the air on (valve_flow = 0 and a dead time
+#: are refused at initialization).
+ACTUATOR_VALVE_INPUT = {"u": _OPENING}
+ACTUATOR_WITH_VALVES = dataclasses.replace(
+    ACTUATOR_WITH_AIR, valves=True, inputs=("u", "L", "Ldot"),
+    extra_parameters=("P_start", "P_rated"),
+    description=(ACTUATOR.description
+                 + "; the air in the muscle (model-spec 4d), driven by its valve's opening"),
+    descriptions=LiveMapping(lambda: {**ACTUATOR_WITH_AIR.descriptions, **ACTUATOR_VALVE_INPUT,
+                                      "P_start": "gauge pressure at the start"}),
+    units=LiveMapping(lambda: {**ACTUATOR_WITH_AIR.units, "u": "1", "P_start": "Pa"}),
+    derived_starts=lambda params: {"u": 0.0, "L": ACTUATOR_INPUT_START["L"],
+                                   "Ldot": ACTUATOR_INPUT_START["Ldot"],
+                                   "P_start": ACTUATOR_INPUT_START["p_cmd"]})
+
 #: Both FMUs, by model name.
 MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
 
 
-def model_for(name: str, air: bool = False) -> Model:
-    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator does not)."""
+def model_for(name: str, air: bool = False, valves: bool = False) -> Model:
+    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator
+    does not: :func:`native_model`'s does); ``valves``: with valve openings as inputs
+    (:data:`KNEE_WITH_VALVES`, :data:`ACTUATOR_WITH_VALVES`)."""
+    if valves:
+        return {KNEE.name: KNEE_WITH_VALVES, ACTUATOR.name: ACTUATOR_WITH_VALVES}[name]
     return KNEE_WITH_AIR if air and name == KNEE.name else MODELS[name]
 
 
@@ -441,3 +507,11 @@ def mechanism_model(mechanism, air: bool = False) -> Model:
         units=LiveMapping(lambda: {**{n: UNITS[n] for n in parameters}, **fixed_units}),
         undefined_outputs="outputs that depend on the pressures are undefined",
         derived_starts=starts, air=air)
+
+
+def native_model(name: str, air: bool = False, valves: bool = False) -> Model:
+    """The model of a native FMU by name: :func:`model_for`'s, but the actuator built with the air
+    carries it (:data:`ACTUATOR_WITH_AIR`: its pressure a state of the mass balance at L, Ldot)."""
+    if air and not valves and name == ACTUATOR.name:
+        return ACTUATOR_WITH_AIR
+    return model_for(name, air, valves)

@@ -445,6 +445,26 @@ def build_knee_system(out, params: Params | None = None, platforms: bool = True)
     return {SYSTEM_NAME: build_knee_ssp(Path(out).resolve(), params, platforms=platforms)}
 
 
+def build_valve_fmus(out, params: Params | None = None, platforms: bool = True) -> dict[str, Path]:
+    """The native FMUs with valve openings as inputs (model-spec 7d; the air on;
+    :func:`mkctl.native.fmu.build_one` with ``valves``): the knee with ``ue``, ``uf`` in [-1, 1] in
+    place of ``pe_cmd``, ``pf_cmd``, the actuator with ``u`` in place of ``p_cmd``, into
+    ``out/native/`` and ``out/fmi3/``. Returns the paths by "native/<model>", "fmi3/<model>".
+    Raises an MkctlError (one line) without a C compiler."""
+    from ..native import fmi3, fmu
+    from ..native.build import find_compiler
+    if find_compiler() is None:
+        raise BuildError("no C compiler found (CC, cc, gcc, clang): the FMUs with valve inputs "
+                         "are native FMUs")
+    out, built = Path(out).resolve(), {}
+    for name in fmu.MODEL_NAMES:
+        built[f"native/{name}"] = fmu.build_one(name, out / "native" / f"{name}.fmu", params,
+                                                windows=platforms, air=True, valves=True)
+        built[f"fmi3/{name}"] = fmi3.build_one(name, out / "fmi3" / f"{name}.fmu", params,
+                                               platforms=platforms, air=True, valves=True)
+    return built
+
+
 def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser = argparse.ArgumentParser(prog="build_fmu", description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=default_out, help=f"output folder (default: {default_out})")
@@ -464,6 +484,11 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     parser.add_argument("--ssp", action="store_true",
                         help="build the knee as a system of FMUs instead: OUT/McKibbenKneeSystem.ssp (the knee's "
                              "mechanism alone and two native actuator FMUs, SSP 1.0; docs/fmu.md)")
+    parser.add_argument("--valve-inputs", action="store_true",
+                        help="build the native FMUs with the air and the valves' openings in "
+                             "[-1, 1] as inputs (model-spec 7d): the knee's ue, uf instead of "
+                             "pe_cmd, pf_cmd, the actuator's u instead of p_cmd; OUT/native/ and "
+                             "OUT/fmi3/")
     args = parser.parse_args(argv)
     try:
         params = None
@@ -475,6 +500,8 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
             params = read_muscle(args.params)
         if args.ssp:
             built = build_knee_system(args.out, params)
+        elif args.valve_inputs:
+            built = build_valve_fmus(args.out, params)
         elif args.mechanism is not None and args.mechanism != "knee":
             built = build_mechanism_fmus(args.mechanism, args.out, params, run=not args.no_run,
                                          native=not args.no_native, effects=args.effects)
@@ -484,7 +511,7 @@ def main(argv=None, default_out: Path = Path("dist")) -> int:
     except MkctlError as error:
         print(f"build_fmu: {error}", file=sys.stderr)
         return 2 if not isinstance(error, BuildError) else 1
-    ran = not args.no_run and not args.ssp
+    ran = not args.no_run and not args.ssp and not args.valve_inputs
     for name, path in built.items():
         print(f"built {path} (validated{', default experiment run' if ran else ''})")
     return 0

@@ -316,7 +316,7 @@ def actuator_variant(variant: Variant) -> Variant:
     """The structure one actuator's functions are traced with: the variant's, without the air (one muscle's air
     is no state of these functions, which take the pressure as given; with the air the knee's right-hand side
     and outputs are what carries it)."""
-    return variant._replace(air=False)
+    return variant._replace(air=False, opening=False)
 
 
 def _integrated_pressure_step(v: str) -> str:
@@ -434,8 +434,11 @@ def variant_functions(variant: Variant, checks: CheckTable) -> str:
         arguments, call = KINDS[kind]
         return emit_function(f"{kind}_{v}", arguments, call, bindings, constant, traced, "out", checks, extra)
 
-    parts = [emit("knee_rhs", bindings, constant | {"X_low", "X_high"},
-                  trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, (X_low, X_high)))]
+    # with valve openings as inputs (variant.opening) pe_cmd, pf_cmd carry the openings ue, uf
+    stops = (X_low, X_high)
+    rhs = (trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, stops, opening=True)
+           if variant.opening else trace(knee.knee_derivatives, state, pe_cmd, pf_cmd, sp, stops))
+    parts = [emit("knee_rhs", bindings, constant | {"X_low", "X_high"}, rhs)]
     traced = trace(simulate.knee_outputs, X, V, Pe, Pf, sp)
     a1, a2 = KNEE_OUTPUT_NAMES.index("a1"), KNEE_OUTPUT_NAMES.index("a2")
     stable = KNEE_OUTPUT_NAMES.index("stable")

@@ -164,11 +164,14 @@ def write_sources(interface: Interface, token: str, dest: Path, model_source: Pa
 
 
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
-              interface: Interface | None = None, platforms: bool = True, air: bool = False) -> Path:
+              interface: Interface | None = None, platforms: bool = True, air: bool = False,
+              valves: bool = False) -> Path:
     """Generate, compile, pack and validate one FMI 3.0 FMU at target (model_source: see :func:`write_sources`;
-    interface: another model's, a mechanism's, in place of the slave's; platforms=False: linux only)."""
+    interface: another model's, a mechanism's, in place of the slave's; platforms=False: linux only;
+    air, valves: as :func:`mkctl.native.fmu.build_one`)."""
     from .cross import add_platform_binaries
-    interface = fmi2.slave_interface(model_name, params, air) if interface is None else interface
+    if interface is None:
+        interface = fmi2.slave_interface(model_name, params, air, valves)
     token = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_fmi3_") as temp:
         stage = Path(temp) / "fmu"
@@ -190,12 +193,15 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     return target
 
 
-def build_fmi3(out: Path, params: Params | None = None, air: bool | None = None) -> dict[str, Path]:
+def build_fmi3(out: Path, params: Params | None = None, air: bool | None = None,
+               valves: bool = False) -> dict[str, Path]:
     """Write ``out/fmi3/McKibbenKnee.fmu`` and ``out/fmi3/McKibbenActuator.fmu``; returns their paths by model
-    name. params, air: as :func:`mkctl.native.fmu.build_native`. Raises :class:`NativeBuildError`."""
+    name. params, air, valves: as :func:`mkctl.native.fmu.build_native`. Raises
+    :class:`NativeBuildError`."""
     folder = Path(out) / "fmi3"
     air = fmi2.wants_air(params) if air is None else air
-    return {name: build_one(name, folder / f"{name}.fmu", params, air=air) for name in MODEL_NAMES}
+    return {name: build_one(name, folder / f"{name}.fmu", params, air=air, valves=valves)
+            for name in MODEL_NAMES}
 
 
 def main(argv=None) -> int:

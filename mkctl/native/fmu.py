@@ -55,7 +55,7 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
-from ..fmi.interface import check_carried, model_for
+from ..fmi.interface import check_carried, native_model
 from ..fmi.units import fmi_unit, unit_definitions
 from ..physics.params import PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
@@ -148,20 +148,25 @@ class Interface:
     generated_sources: tuple = ()  #: ((file name, C text), ...): further compilation units, generated
     core_parameters: tuple = ()  #: Real parameters after Params' fields in the core's parameter vector p
     air: bool = False  #: built with the air: the core's air variants and the air's parameters (model-spec 7d)
+    valves: bool = False  #: built with valve openings as inputs (model-spec 7d): implies air
 
     def by_name(self) -> dict[str, Variable]:
         return {v.name: v for v in self.variables}
 
 
-def slave_interface(model_name: str, params: Params | None = None, air: bool = False) -> Interface:
+def slave_interface(model_name: str, params: Params | None = None, air: bool = False,
+                    valves: bool = False) -> Interface:
     """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
     start values taken from params (default: the current model's defaults, the slave's own).
-    ``air``: the knee built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only).
+    ``air``: built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only);
+    ``valves``: with valve openings as inputs (:func:`mkctl.fmi.interface.native_model`).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
-    model = model_for(model_name, air)
+    model = native_model(model_name, air or valves, valves)
+    if model.valves:  # the air on in its start values: the valves drive nothing without it
+        params = with_valves(params)
     if params is not None:
         try:
             check_carried(params, model.air)
@@ -173,8 +178,15 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     experiment = {"startTime": "start_time", "stopTime": "stop_time", "stepSize": "step_size", "tolerance": "tolerance"}
     default_experiment = {key: str(model.default_experiment[field]) for key, field in experiment.items()
                           if model.default_experiment.get(field) is not None}
-    return Interface(model_name, model.description, model.author, default_experiment, variables,
-                     model.undefined_outputs, dict(model.pressure_outputs), air=model.air)
+    interface = Interface(model_name, model.description, model.author, default_experiment,
+                          variables, model.undefined_outputs, dict(model.pressure_outputs),
+                          air=model.air, valves=model.valves)
+    if model.air and model_name == "McKibbenActuator":  # its air: a generated unit of its own
+        text, switches = actuator_air_source(model.valves)
+        core = core_event_indicators(model_name, model.air, model.valves)
+        interface = dataclasses.replace(interface, generated_sources=((ACTUATOR_AIR_FILE, text),),
+                                        event_indicators=max(switches, core))
+    return interface
 
 
 def parameter_rule(name: str) -> str:
@@ -230,7 +242,7 @@ def event_indicator_count(interface: Interface) -> int:
     """The number of event indicators: the interface's own, else :func:`core_event_indicators`."""
     if interface.event_indicators is not None:
         return interface.event_indicators
-    return core_event_indicators(interface.model_name, interface.air)
+    return core_event_indicators(interface.model_name, interface.air, interface.valves)
 
 
 def me_variables(interface: Interface) -> tuple[Variable, ...]:
@@ -341,12 +353,12 @@ def c_identifier(name: str) -> str:
     return text
 
 
-def core_event_indicators(model_name: str, air: bool = False) -> int:
+def core_event_indicators(model_name: str, air: bool = False, valves: bool = False) -> int:
     """The number of event indicators of a model's Model Exchange interface: the most switching functions of any
     variant in the generated core (:func:`generate_core_source`; a variant with fewer pads with constants)."""
     import re
     key = {"McKibbenKnee": "KNEE", "McKibbenActuator": "ACTUATOR"}[model_name]
-    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(air), re.MULTILINE)
+    found = re.search(rf"^#define MK_FMU_{key}_NZ (\d+)$", core_source(air, valves), re.MULTILINE)
     if found is None:
         raise NativeBuildError(f"the generated core has no event-indicator count for {model_name}")
     return int(found.group(1))
@@ -500,16 +512,19 @@ def _c_template(text: str) -> str:
 _CORE_SOURCES: dict[str, str] = {}
 
 
-def core_source(air: bool = False) -> str:
+def core_source(air: bool = False, valves: bool = False) -> str:
     """:func:`generate_core_source`, cached on disk beside the core's own generated sources
     (:func:`mkctl.native.build.cache_dir`) and in this process, keyed by everything it is generated from (the
     core's inputs, the effect registry and this module): tracing the equations takes seconds, and every build of
-    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air)."""
+    the FMUs needs the same text. ``air``: with the air's variants too (an FMU built with the air);
+    ``valves``: the air's variants only, with valve openings as inputs
+    (:func:`mkctl.native.variants.valve_input_variants`)."""
     import hashlib
 
     from . import build
-    from .variants import all_variants
-    digest = hashlib.sha256(build.input_key(all_variants(air)).encode())
+    from .variants import all_variants, valve_input_variants
+    variants = valve_input_variants() if valves else all_variants(air)
+    digest = hashlib.sha256(build.input_key(variants).encode())
     digest.update(Path(__file__).read_bytes())
     key = digest.hexdigest()[:20]
     if key in _CORE_SOURCES:
@@ -519,7 +534,8 @@ def core_source(air: bool = False) -> str:
         if path.is_file():
             text = path.read_text()
         else:
-            text = generate_core_source(air) if air else generate_core_source()
+            text = (generate_core_source(valves=True) if valves
+                    else generate_core_source(air) if air else generate_core_source())
             try:
                 build._write_atomic(path, text.encode())
             except OSError:  # a read-only cache only costs time
@@ -528,9 +544,11 @@ def core_source(air: bool = False) -> str:
     return text
 
 
-def generate_core_source(air: bool = False) -> str:
+def generate_core_source(air: bool = False, valves: bool = False) -> str:
     """The C of the compiled core (:mod:`mkctl.native.codegen`, every variant; ``air``: the air's too, after the
-    others: :func:`mkctl.native.variants.all_variants`) with the FMUs' additions, all
+    others: :func:`mkctl.native.variants.all_variants`; ``valves``: the air's only, with valve
+    openings as inputs, :func:`mkctl.native.variants.valve_input_variants`, and the messages of
+    :func:`valve_input_refusals`) with the FMUs' additions, all
     generated from mkctl's equations: the hip height at a kneecap angle (knee.X_from_alpha, for the default X0),
     the posture at a hip height (knee.geometry_at_X, for the outputs that can still be given when the pressures
     are not numbers), every domain check's message, and KneeSimulator's integrator settings."""
@@ -541,9 +559,9 @@ def generate_core_source(air: bool = False) -> str:
     from ..physics.simulate import KneeSimulator
     from ..physics.stability import DEFAULT_ALPHA
     from . import build, codegen
-    from .variants import all_variants
+    from .variants import all_variants, valve_input_variants
 
-    variants = all_variants(air)
+    variants = valve_input_variants() if valves else all_variants(air)
     source, core_table = build.generation(variants)
     table = core_table.copy()  # the additions' checks number on from the core's
     sp = codegen.SymbolicParams(all_variants()[0])  # the geometry does not depend on the variant
@@ -569,8 +587,10 @@ def generate_core_source(air: bool = False) -> str:
         "int mk_fmu_posture(const double *p, double X, double *out, mk_fault *fault)",
         "{", "    return fmu_posture_once(p, NULL, X, out, fault);", "}", "",
         model_exchange_functions(core_table.emitted, table, variants)]
-    if air:
+    if air or valves:
         extra.append(air_flow_functions(variants, table))
+    if valves:
+        extra.append(valve_input_refusals())
     sim = KneeSimulator(Params(tau=1.0))
     lines = ["", "/* ---- added for the native FMUs by mkctl/native/fmu.py (generated too) ---- */", *extra,
              "const char *const mk_fmu_fault_templates[] = {",
@@ -589,7 +609,8 @@ def air_flow_functions(variants, table) -> str:
     """``mk_fmu_air_flows(p, Pe, Pf, pe_cmd, pf_cmd, out, fault)``: each muscle's net air mass flow [kg/s], out[0]
     the extensor's, out[1] the flexor's, traced from :func:`mkctl.physics.actuator.air_mass_flow` at the
     regulator's opening (:func:`mkctl.physics.actuator.valve_opening`) for the air's variants, 0 for the others
-    (the knee built with the air, outputs ``qe``, ``qf``)."""
+    (the knee built with the air, outputs ``qe``, ``qf``); a variant with valve openings as inputs
+    (``opening``) takes pe_cmd, pf_cmd as the openings (:func:`mkctl.physics.knee.valve_input`)."""
     import sympy
 
     from ..physics import actuator
@@ -600,21 +621,182 @@ def air_flow_functions(variants, table) -> str:
     arguments = "double Pe, double Pf, double pe_cmd, double pf_cmd, double *out, mk_fault *fault"
     call = "Pe, Pf, pe_cmd, pf_cmd, out, fault"
 
-    def flows(params):
-        return [actuator.air_mass_flow(P, actuator.valve_opening(P, command, params), params)
+    def flows(params, opening=False):
+        from ..physics.knee import valve_input
+        return [actuator.air_mass_flow(P, valve_input(command) if opening else
+                                       actuator.valve_opening(P, command, params), params)
                 for P, command in ((Pe, pe_cmd), (Pf, pf_cmd))]
 
     parts, cases = [], []
     for k, variant in enumerate(variants):
         if variant.air:
             name = f"fmu_air_flows_{variant.name}"
-            parts.append(codegen.emit_function(name, arguments, call, bindings, set(PARAMETER_NAMES),
-                                               codegen.trace(flows, codegen.SymbolicParams(variant)), "out", table))
+            sp = codegen.SymbolicParams(variant)
+            traced = (codegen.trace(flows, sp, True) if variant.opening
+                      else codegen.trace(flows, sp))
+            parts.append(codegen.emit_function(name, arguments, call, bindings,
+                                               set(PARAMETER_NAMES), traced, "out", table))
             cases.append(f"    case {k}: return {name}_once(p, NULL, {call});")
     parts += ["/* each muscle's net air mass flow [kg/s] (actuator.air_mass_flow at the regulator's opening) */",
               f"int mk_fmu_air_flows(const double *p, {arguments})", "{", "    out[0] = out[1] = 0.0;",
               "    switch (mk_variant(p)) {", *cases, "    }", "    return 0; /* no air: no flow */", "}", ""]
     return "\n".join(parts)
+
+
+#: The generated unit of an actuator FMU built with the air (:func:`actuator_air_source`).
+ACTUATOR_AIR_FILE = "actuator_air.c"
+_ACTUATOR_AIR_SOURCES: dict = {}
+
+#: The C API of :func:`actuator_air_source` (``{templates}``, ``{count}``, ``{air_on}``, ``{nz}``,
+#: ``{switches}`` filled in).
+_ACTUATOR_AIR_API = """
+/* ---- the actuator FMU's air (actuator_fmu.c, actuator_me.c) ---- */
+void mk_fault_message(const mk_fault *fault, char *msg, size_t size);
+void mk_fault_format(const char *template_text, const mk_fault *fault, char *msg, size_t size);
+static const char *const air_templates[] = {{{templates}}};
+
+int mk_fmu_actuator_air_on(const double *p) {{ return {air_on}; }}
+
+void mk_fmu_actuator_air_fault(const mk_fault *fault, char *msg, size_t size)
+{{
+    if (fault->code == MK_FAULT_DOMAIN && fault->check >= 0 && fault->check < {count})
+        mk_fault_format(air_templates[fault->check], fault, msg, size);
+    else
+        mk_fault_message(fault, msg, size);
+}}
+
+int mk_fmu_actuator_air_step(const double *p, double P, double P_cmd, double L, double Ldot,
+                             double dt, double *out, mk_fault *fault)
+{{
+    double moving[2], k[MK_MAX_CONSTANTS];
+    moving[0] = L;
+    moving[1] = Ldot;
+    actuator_air_rate_constants(p, moving, k);
+    return mk_pressure_integrate(actuator_air_rate, p, moving, k, P, P_cmd, dt, out, fault);
+}}
+
+int mk_fmu_actuator_air_rate(const double *p, double P, double P_cmd, double L, double Ldot,
+                             double *out, mk_fault *fault)
+{{
+    double moving[2];
+    moving[0] = L;
+    moving[1] = Ldot;
+    return actuator_air_rate_once(p, moving, P, P_cmd, out, fault);
+}}
+
+int mk_fmu_actuator_air_flow(const double *p, double P, double P_cmd, double *out,
+                             mk_fault *fault)
+{{
+    return actuator_air_flow_once(p, NULL, P, P_cmd, out, fault);
+}}
+
+const int mk_fmu_actuator_air_nz = {nz};
+int mk_fmu_actuator_air_switches(const double *p, double P, double P_cmd, double L, double Ldot,
+                                 double *out, mk_fault *fault)
+{{
+    double moving[2];
+    moving[0] = L;
+    moving[1] = Ldot;
+    {switches}
+}}
+"""
+
+
+def actuator_air_source(valves: bool = False) -> tuple[str, int]:
+    """The C of one muscle's air for the actuator FMU built with the air (model-spec 4d, 7d), and
+    its number of switching functions: a compilation unit of its own beside the core (whose C stays
+    as it is), generated from the library's equations like the core.
+
+    - ``mk_fmu_actuator_air_step(p, P, c, L, Ldot, dt, out, fault)``: the pressure after dt, the
+      command c (a set-point [Pa], or with ``valves`` the opening u) and L, Ldot held: the rate
+      traced from :func:`mkctl.physics.actuator.air_pressure_derivative`, integrated by
+      ``mk_pressure_integrate`` (the algorithm of :func:`mkctl.physics.integrate.integrate`) at
+      :data:`mkctl.physics.simulate.AIR_STEP_ATOL`, ``AIR_STEP_RTOL``, as
+      :class:`mkctl.physics.simulate.ActuatorSimulator` does;
+    - ``mk_fmu_actuator_air_rate`` (Model Exchange's derivative), ``mk_fmu_actuator_air_switches``
+      (its event indicators: :func:`switching_functions` of the rate), ``mk_fmu_actuator_air_flow``
+      (the output q, :func:`mkctl.physics.actuator.air_mass_flow` at the valve's opening),
+      ``mk_fmu_actuator_air_on`` (an effect that moves the air is on) and
+      ``mk_fmu_actuator_air_fault`` (a fault in the library's words).
+    """
+    from ..physics import actuator, simulate
+    from ..physics.knee import valve_input
+    from . import TEMPLATE, build, codegen
+    from .variants import Variant, air_effects
+    key = (valves, build.input_key([Variant((), air=True, opening=valves)]))
+    if key in _ACTUATOR_AIR_SOURCES:
+        return _ACTUATOR_AIR_SOURCES[key]
+    import sympy
+    P, c, L, Ldot = (sympy.Symbol(n, real=True) for n in ("P", "P_cmd", "L", "Ldot"))
+    sp = codegen.SymbolicParams(Variant((), air=True))
+    table = codegen.CheckTable()
+    parameters = {name: f"p[MK_P_{name}]" for name in PARAMETER_NAMES}
+    fixed = set(parameters)
+    held = {**parameters, "P": "P", "P_cmd": "P_cmd"}
+    moving = {**held, "L": "stops[0]", "Ldot": "stops[1]"}  # L, Ldot passed where stops go
+
+    def rate(P, c, L, Ldot, params):
+        command = valve_input(c) if valves else c
+        return [actuator.air_pressure_derivative(P, command, L, Ldot, params, valves)]
+
+    def flow(P, c, params):
+        u = valve_input(c) if valves else actuator.valve_opening(P, c, params)
+        return [actuator.air_mass_flow(P, u, params)]
+
+    traced_rate = codegen.trace(rate, P, c, L, Ldot, sp)
+    switches = switching_functions(traced_rate.outputs, fixed)
+    arguments, call = codegen.PRESSURE_RATE_ARGUMENTS, "P, P_cmd, out, fault"
+    parts = [codegen.PRESSURE_INTEGRATOR_DECLARATION,
+             codegen.emit_function("actuator_air_rate", arguments, call, moving, fixed, traced_rate,
+                                   "out", table),
+             codegen.emit_function("actuator_air_flow", arguments, call, held, fixed,
+                                   codegen.trace(flow, P, c, sp), "out", table)]
+    if switches:
+        parts.append(codegen.emit_function("actuator_air_switches", arguments, call, moving, fixed,
+                                           codegen.Traced(switches, []), "out", table))
+    switches_of = [e.switch_parameter for e in air_effects()]
+    air_on = " || ".join(f"(p[MK_P_{q.name}] != {float(q.off)!r})" for q in switches_of) or "0"
+    templates = ", ".join(_c_template(_fault_template(check)) for check in table.checks) or '""'
+    api = _ACTUATOR_AIR_API.format(
+        templates=templates, count=len(table.checks), air_on=air_on, nz=len(switches),
+        switches=("return actuator_air_switches_once(p, moving, P, P_cmd, out, fault);" if switches
+                  else "(void)p; (void)P; (void)P_cmd; (void)out; (void)fault; (void)moving; "
+                       "return 0;"))
+    template = TEMPLATE.read_text()  # its head: includes, the parameter macros, mk_fault, mk_fail
+    head = template[template.index("#include <math.h>"):
+                    template.index("/* ---- generated equations")]
+    head = head.replace("@PARAMETER_MACROS@", codegen._parameter_macros())
+    integrator = codegen.PRESSURE_INTEGRATOR.replace(
+        "@ATOL@", codegen._c_number(simulate.AIR_STEP_ATOL)).replace(
+        "@RTOL@", codegen._c_number(simulate.AIR_STEP_RTOL))
+    text = "\n".join(["/* Generated by mkctl.native.fmu from mkctl's equations (one muscle's air): "
+                      "do not edit. */", head, codegen._tableau(), *parts, integrator, api])
+    _ACTUATOR_AIR_SOURCES[key] = (text, len(switches))
+    return _ACTUATOR_AIR_SOURCES[key]
+
+
+def valve_input_refusals() -> str:
+    """The C of what a knee FMU with valve inputs refuses at initialization, in the library's
+    words: ``MK_FMU_VALVE_AIR_MESSAGE`` (the air switched off:
+    :func:`mkctl.physics.simulate.check_inputs`'s error; the core then has no variant for the
+    parameters) and ``MK_FMU_VALVE_DELAY_MESSAGE`` (a dead time, which this FMU does not carry: its
+    delay line holds pressure commands), naming the switches from the effect registry."""
+    from ..physics import effects, simulate
+    try:
+        off = {e.switch_parameter.name: e.switch_parameter.off
+               for e in effects.all_effects() if e.moves_air}
+        simulate.check_inputs("opening", Params().replace(**off))
+    except ParameterError as error:
+        air = str(error)
+    else:
+        raise NativeBuildError("the library accepts valve openings without the air")
+    delays = [e.switch_parameter for e in effects.all_effects() if e.command_delay is not None]
+    how = " and ".join(f"{q.name} = {q.off:g}" for q in delays) or "no dead time"
+    delay = f"a knee FMU with valve inputs carries no dead time (model-spec 4b): set {how}"
+    return "\n".join(["/* a knee FMU with valve inputs: what it refuses at initialization (the "
+                      "library's words) */",
+                      f"const char MK_FMU_VALVE_AIR_MESSAGE[] = {_c_string(air)};",
+                      f"const char MK_FMU_VALVE_DELAY_MESSAGE[] = {_c_string(delay)};", ""])
 
 
 def switching_functions(expressions, fixed: set[str]) -> list:
@@ -789,7 +971,7 @@ def write_sources(interface: Interface, guid: str, dest: Path, model_source: Pat
             units.append(name)
     (dest / "model_variables.h").write_text(variables_header(interface, guid))
     (dest / "model_variables.c").write_text(variables_source(interface))
-    (dest / "mkctl_core.c").write_text(core_source(interface.air))
+    (dest / "mkctl_core.c").write_text(core_source(interface.air, interface.valves))
     units.append("mkctl_core.c")
     return units
 
@@ -849,13 +1031,15 @@ def _validate(fmu: Path) -> None:
 
 
 def build_one(model_name: str, target: Path, params: Params | None = None, model_source: Path | None = None,
-              windows: bool = True, interface: Interface | None = None, air: bool = False) -> Path:
+              windows: bool = True, interface: Interface | None = None, air: bool = False,
+              valves: bool = False) -> Path:
     """Generate, compile, pack and validate one native FMU at target (model_source: see :func:`write_sources`).
     windows=False leaves out the other platforms' binaries (otherwise added when their toolchains
     are installed: :mod:`mkctl.native.cross`): a fraction of the build's compiling, for an FMU that
     will only run here. interface: another model's (a mechanism's), in place of the slave's. air:
-    the knee built with the air (:func:`build_native`)."""
-    interface = slave_interface(model_name, params, air) if interface is None else interface
+    the knee built with the air (:func:`build_native`); valves: with valve openings as inputs."""
+    if interface is None:
+        interface = slave_interface(model_name, params, air, valves)
     guid = "{" + str(uuid.uuid4()) + "}"
     with tempfile.TemporaryDirectory(prefix="mkctl_native_") as temp:
         stage = Path(temp) / "fmu"
@@ -876,15 +1060,32 @@ def build_one(model_name: str, target: Path, params: Params | None = None, model
     return target
 
 
-def build_native(out: Path, params: Params | None = None, air: bool | None = None) -> dict[str, Path]:
+def build_native(out: Path, params: Params | None = None, air: bool | None = None,
+                 valves: bool = False) -> dict[str, Path]:
     """Write ``out/native/McKibbenKnee.fmu`` and ``out/native/McKibbenActuator.fmu``; returns their paths by
     model name. params: a :class:`Params` whose values become the start values (default: Table I, II, effects off).
     air: build the knee with the air (model-spec 7d: its parameters offered, the core's air variants compiled in);
-    None: when params switch it on. Raises :class:`NativeBuildError` (no compiler, a compile error, fmpy's
-    validation failing)."""
+    None: when params switch it on. valves: with valve openings as inputs in place of the pressure
+    commands (model-spec 7d: the knee's ue, uf, the actuator's u; the air built in and switched on
+    in its start values: :func:`with_valves`). Raises :class:`NativeBuildError` (no compiler, a
+    compile error, fmpy's validation failing)."""
     folder = Path(out) / "native"
     air = wants_air(params) if air is None else air
-    return {name: build_one(name, folder / f"{name}.fmu", params, air=air) for name in MODEL_NAMES}
+    return {name: build_one(name, folder / f"{name}.fmu", params, air=air, valves=valves)
+            for name in MODEL_NAMES}
+
+
+def with_valves(params: Params | None) -> Params:
+    """params (default: the defaults, ``Params()``) with the air on, as an FMU with valve inputs
+    needs it: the switch of the effect that opens a valve (valve_flow) set to 1 when no effect
+    that moves the air is on."""
+    from ..physics import effects
+    from ..physics.actuator import air_is_on
+    params = Params() if params is None else params
+    if air_is_on(params):
+        return params
+    return params.replace(**{e.switch_parameter.name: 1 for e in effects.all_effects()
+                             if e.valve_opening is not None})
 
 
 def wants_air(params: Params | None) -> bool:
@@ -901,9 +1102,14 @@ def command_line(argv, build, description: str, folder: str, program: str) -> in
                         f"working folder); the FMUs go into OUT/{folder}")
     parser.add_argument("--air", action="store_true", help="build the knee with the air in the muscles "
                         "(model-spec 7d: the valve's and the volume's parameters; about a third more C)")
+    parser.add_argument("--valve-inputs", action="store_true",
+                        help="build with the air and the valves' openings in [-1, 1] as inputs "
+                             "(model-spec 7d): the knee's ue, uf instead of pe_cmd, pf_cmd, the "
+                             "actuator's u instead of p_cmd")
     args = parser.parse_args(argv)
     try:
-        built = build(args.out, air=True) if args.air else build(args.out)
+        built = (build(args.out, air=True, valves=True) if args.valve_inputs else
+                 build(args.out, air=True) if args.air else build(args.out))
     except MkctlError as error:
         print(f"{program}: {error}", file=sys.stderr)
         return 2

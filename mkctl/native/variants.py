@@ -13,6 +13,12 @@ that still act with the air on: the pressure-rate effects (the lags of section 4
 that makes the air's temperature a state (``air_temperature``) is carried by no variant: the knee refuses it.
 :func:`all_variants` gives the air variants only when asked (``air=True``): they would add a third to every
 source that holds all variants (the native FMUs), and the FMUs carry them only when built with the air.
+
+Valve openings as inputs (model-spec 7d: a knee FMU built with ``ue``, ``uf`` in place of
+``pe_cmd``, ``pf_cmd``) are one more flag of an air variant, ``opening``: its right-hand side is
+traced with the inputs as the valves' openings (:func:`mkctl.physics.knee.knee_derivatives`,
+``opening=True``). :func:`valve_input_variants` gives them (the air variants only: without the air
+an opening drives nothing).
 """
 from __future__ import annotations
 
@@ -34,6 +40,7 @@ class Variant(NamedTuple):
 
     on: tuple[str, ...]
     air: bool = False
+    opening: bool = False  #: with the air: the inputs are the valves' openings, not set-points
 
     @classmethod
     def of(cls, params: Params) -> "Variant":
@@ -45,9 +52,10 @@ class Variant(NamedTuple):
 
     @property
     def name(self) -> str:
-        """A C identifier: one bit per structural effect of the registry, ``a`` after them with the air."""
+        """A C identifier: one bit per structural effect of the registry, ``a`` after them with the
+        air, ``u`` after that with valve openings as inputs."""
         return "v" + "".join("1" if e.name in self.on else "0" for e in structural_effects()) + (
-            "a" if self.air else "")
+            "a" if self.air else "") + ("u" if self.opening else "")
 
     @property
     def lag(self) -> bool:
@@ -102,6 +110,12 @@ def all_variants(air: bool = False) -> tuple[Variant, ...]:
         variants += [Variant(on, True) for on in possible
                      if not any(effects.get(name).pressure_rate is not None for name in on)]
     return tuple(variants)
+
+
+def valve_input_variants() -> tuple[Variant, ...]:
+    """The air variants of :func:`all_variants` with valve openings as inputs (``opening``): what a
+    knee FMU built with valve inputs holds."""
+    return tuple(v._replace(opening=True) for v in all_variants(air=True) if v.air)
 
 
 def __getattr__(name):

@@ -745,8 +745,33 @@ def _scalar(x):
     return x if actuator.is_symbolic(x) else float(x)
 
 
+def valve_input(u):
+    """The opening a switching valve takes for an input u: ``clip(u, -1, 1)`` (model-spec 4d, 7d).
+
+    1 opens fully to the supply, -1 fully to the exhaust, 0 closes; a larger input saturates the
+    valve (a controller's output beyond full opening).
+
+    Parameters
+    ----------
+    u : float, array_like or sympy expression
+        The input [-].
+
+    Returns
+    -------
+    float, array or sympy expression
+        The opening [-] in [-1, 1].
+
+    References
+    ----------
+    .. [1] model-spec sections 4d (the switching valve) and 7d (``ue``, ``uf`` as inputs).
+    """
+    u = actuator.as_values(u)
+    xp = actuator.math_for(u)
+    return xp.minimum(xp.maximum(u, -1.0), 1.0)
+
+
 def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
-                     stops: tuple[float, float] | None = None):
+                     stops: tuple[float, float] | None = None, opening: bool = False):
     """Right-hand side of Eq. 17 with the effects in params.
 
     ``dX/dt = V``, ``dV/dt = (F(X, V, Pe, Pf) + F_stop(X, V)) / m - g``, and with pressure dynamics
@@ -756,7 +781,9 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
     (:func:`mkctl.physics.actuator.air_pressure_derivative`) at its length and its lengthening
     rate ``Le_dot = -G_e V``, ``Lf_dot = G_f V``: the motion squeezes or expands the air. With
     the air's temperatures as states (air_heat) the states end with Te, Tf and the pressures and
-    temperatures follow the effect's own rates (:func:`mkctl.physics.actuator.air_rates`).
+    temperatures follow the effect's own rates (:func:`mkctl.physics.actuator.air_rates`). With
+    ``opening`` the inputs are the valves' openings ue, uf (:func:`valve_input`, clipped to
+    [-1, 1]) in place of the regulators' set-points.
 
     Parameters
     ----------
@@ -769,6 +796,9 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
         The model.
     stops : tuple of float, optional
         (X_low, X_high) [m] of the end stops (:func:`end_stop_force`), or None for none at all.
+    opening : bool
+        With the air on: pe_cmd, pf_cmd are the valves' openings ue, uf [-] (switching valves,
+        model-spec 4d), not pressure set-points.
 
     Returns
     -------
@@ -795,26 +825,29 @@ def knee_derivatives(state, pe_cmd, pf_cmd, params: Params = DEFAULT,
         force = force + end_stop_force(X, V, p, stops)
     dV = force / p.m - p.g
     rates = [V, dV]
+    if lag and actuator.air_is_on(p) and opening:
+        pe_cmd, pf_cmd = valve_input(pe_cmd), valve_input(pf_cmd)
     if lag and actuator.has_temperature_states(p):
-        rates += _heat_rates(state, X, V, pe_cmd, pf_cmd, p)
+        rates += _heat_rates(state, X, V, pe_cmd, pf_cmd, p, opening)
     elif lag and actuator.air_is_on(p):
         # the air (model-spec 4d): each pressure from its mass balance, the volume from the motion
         geo = geometry_at_X(X, p, derivatives=False)
-        rates += [actuator.air_pressure_derivative(Pe, pe_cmd, geo.Le, -geo.G_e * V, p),
-                  actuator.air_pressure_derivative(Pf, pf_cmd, geo.Lf, geo.G_f * V, p)]
+        rates += [actuator.air_pressure_derivative(Pe, pe_cmd, geo.Le, -geo.G_e * V, p, opening),
+                  actuator.air_pressure_derivative(Pf, pf_cmd, geo.Lf, geo.G_f * V, p, opening)]
     elif lag:
         rates += [actuator.pressure_derivative(Pe, pe_cmd, p),
                   actuator.pressure_derivative(Pf, pf_cmd, p)]
     return rates if actuator.is_symbolic(dV) else np.array(rates, dtype=float)
 
 
-def _heat_rates(state, X, V, pe_cmd, pf_cmd, p) -> list:
+def _heat_rates(state, X, V, pe_cmd, pf_cmd, p, opening: bool = False) -> list:
     """dPe/dt, dPf/dt, dTe/dt, dTf/dt with the air's temperatures as states (air_heat, model-spec
-    4d): each muscle's :func:`mkctl.physics.actuator.air_rates` at its length and rate."""
+    4d): each muscle's :func:`mkctl.physics.actuator.air_rates` at its length and rate (``opening``:
+    the inputs are the valves' openings)."""
     geo = geometry_at_X(X, p, derivatives=False)
     Pe, Pf, Te, Tf = (_scalar(state[i]) for i in range(2, 6))
-    dPe, dTe = actuator.air_rates(Pe, Te, pe_cmd, geo.Le, -geo.G_e * V, p)
-    dPf, dTf = actuator.air_rates(Pf, Tf, pf_cmd, geo.Lf, geo.G_f * V, p)
+    dPe, dTe = actuator.air_rates(Pe, Te, pe_cmd, geo.Le, -geo.G_e * V, p, opening)
+    dPf, dTf = actuator.air_rates(Pf, Tf, pf_cmd, geo.Lf, geo.G_f * V, p, opening)
     return [dPe, dPf, dTe, dTf]
 
 

@@ -668,7 +668,8 @@ def state_names(mechanism: Mechanism, params=DEFAULT) -> tuple:
     return names
 
 
-def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) -> np.ndarray:
+def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None,
+                          opening: bool = False) -> np.ndarray:
     """Right-hand side of the mechanism's equation of motion (model-spec section 3b).
 
     ``qdd = (F + F_stop) / M``
@@ -690,6 +691,9 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
         :meth:`Mechanism.bind`'s parameters.
     stops : tuple of float, optional
         (q_min, q_max) of the end stops [m or rad]; None: no stops.
+    opening : bool
+        With the air on: the commands are each muscle's valve opening u [-] (a switching valve,
+        model-spec 4d; clipped to [-1, 1] by :func:`mkctl.physics.knee.valve_input`).
 
     Returns
     -------
@@ -716,23 +720,26 @@ def mechanism_derivatives(state, commands, mechanism: Mechanism, p, stops=None) 
     pressures = tuple(_scalar(state[2 + i]) for i in range(k)) if lag else commands
     force = mechanism_force(mechanism, q, qdot, pressures, p)
     rates = [qdot, _acceleration(q, qdot, force.F, force.M, stops)]
+    inputs = tuple(knee.valve_input(c) for c in commands) if opening else commands
     if lag and actuator.has_temperature_states(muscle):
-        rates += _heat_rates(state, commands, force, muscle, k)
+        rates += _heat_rates(state, inputs, force, muscle, k, opening)
     elif lag and actuator.air_is_on(muscle):
         # the air (model-spec 4d): each pressure from its mass balance at its length and rate
-        rates += [actuator.air_pressure_derivative(pressures[i], commands[i], force.L[i],
-                                                   force.Ldot[i], muscle) for i in range(k)]
+        rates += [actuator.air_pressure_derivative(pressures[i], inputs[i], force.L[i],
+                                                   force.Ldot[i], muscle, opening)
+                  for i in range(k)]
     elif lag:
         rates += [actuator.pressure_derivative(pressures[i], commands[i], muscle)
                   for i in range(k)]
     return rates if actuator.is_symbolic(rates[1]) else np.array(rates, dtype=float)
 
 
-def _heat_rates(state, commands, force, muscle, k) -> list:
+def _heat_rates(state, commands, force, muscle, k, opening: bool = False) -> list:
     """Each muscle's dP/dt, then each one's dT/dt, with the air's temperatures as states
-    (air_heat, model-spec 4d): :func:`mkctl.physics.actuator.air_rates` at its length and rate."""
+    (air_heat, model-spec 4d): :func:`mkctl.physics.actuator.air_rates` at its length and rate
+    (``opening``: the commands are the valves' openings)."""
     rates = [actuator.air_rates(_scalar(state[2 + i]), _scalar(state[2 + k + i]), commands[i],
-                                force.L[i], force.Ldot[i], muscle) for i in range(k)]
+                                force.L[i], force.Ldot[i], muscle, opening) for i in range(k)]
     return [r[0] for r in rates] + [r[1] for r in rates]
 
 
@@ -1213,27 +1220,34 @@ class MechanismRun(Result):
         return columns
 
 
-def _commands(mechanism: Mechanism, commands, time) -> np.ndarray:
-    """The pressure commands as an array (samples, muscles)."""
+def _commands(mechanism: Mechanism, commands, time, opening: bool = False) -> np.ndarray:
+    """The pressure commands (or valve openings) as an array (samples, muscles)."""
     if len(mechanism.muscles) == 1 and np.ndim(commands) <= 1 and not (
             isinstance(commands, (tuple, list)) and len(commands) == 1):
         commands = (commands,)
     if len(commands) != len(mechanism.muscles):
         raise ParameterError(f"mechanism {mechanism.name} has {len(mechanism.muscles)} muscle(s) "
-                             f"({', '.join(mechanism.muscles)}); got {len(commands)} pressure "
-                             f"command(s)")
+                             f"({', '.join(mechanism.muscles)}); got {len(commands)} "
+                             f"{'valve opening' if opening else 'pressure command'}(s)")
     out = np.stack([np.broadcast_to(np.asarray(c, dtype=float), time.shape) for c in commands],
                    axis=1)
-    actuator.check_pressure(out)
+    if opening:
+        simulate.check_openings(out)
+    else:
+        actuator.check_pressure(out)
     return out
 
 
 def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=None,
-                       stops: bool = True, rtol: float = 1e-10) -> MechanismRun:
+                       stops: bool = True, rtol: float = 1e-10, inputs: str = "pressure",
+                       P0=None) -> MechanismRun:
     """Simulate a mechanism over a record, commands held from each sample to the next.
 
     As :func:`mkctl.physics.simulate.simulate_knee`: the equation of motion of
-    :func:`mechanism_derivatives`, integrated over each run of held commands.
+    :func:`mechanism_derivatives`, integrated over each run of held commands. With
+    ``inputs="opening"`` the commands are each muscle's valve opening u [-] (model-spec 4d, 7d:
+    u1, u2; clipped to [-1, 1]) and the pressures start at ``P0``; it needs the air
+    (``valve_flow = 1``) and runs in Python.
 
     Parameters
     ----------
@@ -1249,13 +1263,18 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
         values.
     q0 : float, optional
         The initial coordinate [m or rad]; None: at rest in the stable equilibrium of the first
-        commands (model-spec 5d, :func:`equilibrium`). The motion always starts at rest, the
-        pressures at the first commands.
+        commands (model-spec 5d, :func:`equilibrium`), or with openings of ``P0``. The motion
+        always starts at rest, the pressures at the first commands (or at ``P0``).
     stops : bool
         Whether the end stops act.
     rtol : float
         Relative tolerance of :func:`mkctl.physics.integrate.integrate` (absolute: 1e-9 on q and
         qdot, 1e-3 Pa).
+    inputs : {"pressure", "opening"}
+        What the commands are: pressure set-points [Pa] (the default) or valve openings [-]
+        (:func:`mkctl.physics.simulate.check_inputs`).
+    P0 : sequence of float, optional
+        With openings (required then): each muscle's start pressure [Pa].
 
     Returns
     -------
@@ -1266,7 +1285,8 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
     Raises
     ------
     ParameterError
-        For another number of commands than muscles, or invalid own parameters.
+        For another number of commands than muscles, invalid own parameters, or openings without
+        the air or without P0.
     DomainError
         For a command that is not finite, a q0 outside the geometry, or no stable equilibrium of
         the first commands (q0 None).
@@ -1279,22 +1299,30 @@ def simulate_mechanism(time, commands, mechanism: Mechanism, params=DEFAULT, q0=
     """
     p = mechanism.bind(params)
     muscle = muscle_params(p)
+    opening = simulate.check_inputs(inputs, muscle)
     time = np.asarray(time, dtype=float)
-    commands = _commands(mechanism, commands, time)
+    commands = _commands(mechanism, commands, time, opening)
     k = commands.shape[1]
+    start = None
+    if opening:
+        if P0 is None or np.size(P0) != k:
+            raise ParameterError(f"valve openings as inputs need P0: the start pressure of each of "
+                                 f"the {k} muscle(s) [Pa]")
+        start = np.asarray(P0, dtype=float).reshape(k)
+        actuator.check_pressure(start)
     if q0 is None:
-        q0 = equilibrium(mechanism, tuple(commands[0]), p)
+        q0 = equilibrium(mechanism, tuple(commands[0] if start is None else start), p)
     delay = float(actuator.command_delay(muscle))
     if delay > 0 and time.size > 1:
         # the knee's cut grid: the commands as the muscles see them, a dead time late
         grid, seen_a, seen_b, at = simulate.delayed_commands(time, commands[:, 0], commands[:, -1],
                                                              delay)
         seen = np.stack([seen_a, seen_b][:k], axis=1)
-        states = _run(grid, seen, mechanism, p, float(q0), stops, rtol)[at]
+        states = _run(grid, seen, mechanism, p, float(q0), stops, rtol, start)[at]
         seen = seen[at]
     else:
         seen = commands
-        states = _run(time, commands, mechanism, p, float(q0), stops, rtol)
+        states = _run(time, commands, mechanism, p, float(q0), stops, rtol, start)
     q, qdot = states[:, 0].copy(), states[:, 1].copy()
     P = states[:, 2:2 + k].copy() if states.shape[1] > 2 else seen.copy()
     if time.size:
@@ -1315,16 +1343,19 @@ RUN_TEMPERATURE_ATOL = 1e-6
 RUN_FIRST_STEP = 1e-3
 
 
-def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
+def _run(time, commands, mechanism, p, q0, stops, rtol, start=None) -> np.ndarray:
     """The record loop: one integration per run of held commands, the samples read off the dense
-    output."""
+    output. ``start``: each muscle's start pressure [Pa] when the commands are valve openings (the
+    Python loop), None for pressure commands."""
     muscle = muscle_params(p)
     lag = actuator.has_pressure_states(muscle)
     k = commands.shape[1]
     stop_positions = mechanism.stop_positions(p) if stops else None
+    opening = start is not None
     # with the air's temperatures as states (air_heat) each muscle's air starts at T_air
     heat = [float(muscle.T_air)] * k if actuator.has_temperature_states(muscle) else []
-    state = np.array([q0, 0.0, *(commands[0] if lag else ()), *heat], dtype=float)
+    state = np.array([q0, 0.0, *((start if opening else commands[0]) if lag else ()), *heat],
+                     dtype=float)
     atol = np.array([*RUN_ATOL[:2], *([RUN_ATOL[2]] * k if lag else []),
                      *([RUN_TEMPERATURE_ATOL] * len(heat))])
     kinematics(mechanism, q0, p)  # q0 outside the geometry: the mechanism's own error, at once
@@ -1336,7 +1367,7 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
     # the knee's runs of held commands (it takes two columns: one muscle's twice)
     # first in the compiled core (mkctl.native.mechanism_compiled, handed in through backend): the
     # same loop in C; after a fault (None) the loop below runs, to raise its own error in its words
-    core = backend.mechanism_core(mechanism, p) if time.size > 1 else None
+    core = backend.mechanism_core(mechanism, p) if time.size > 1 and not opening else None
     compiled = None if core is None else core.run(time, commands, p, state, stop_positions,
                                                   rtol, atol, hint)
     if compiled is not None:
@@ -1345,7 +1376,7 @@ def _run(time, commands, mechanism, p, q0, stops, rtol) -> np.ndarray:
         held = commands[start]
 
         def rhs(y, held=held):
-            return mechanism_derivatives(y, held, mechanism, p, stop_positions)
+            return mechanism_derivatives(y, held, mechanism, p, stop_positions, opening)
 
         wanted = np.arange(start + 1, end + 1)
         times = time[wanted] - time[start]

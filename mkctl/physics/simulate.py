@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from ..errors import MkctlError
+from ..errors import DomainError, MkctlError, ParameterError
 from . import actuator, backend, effects, knee, stability
 from .integrate import integrate
 from .params import DEFAULT, Params
@@ -83,6 +83,93 @@ def default_hip_height(params: Params = DEFAULT) -> float:
     .. [1] model-spec sections 3 and 7 (X0 at alpha = 60 deg).
     """
     return float(knee.X_from_alpha(DEFAULT_ALPHA, params))
+
+
+#: What a simulation's inputs can be: the regulators' pressure set-points (the default) or the
+#: switching valves' openings (model-spec 4d, 7d).
+INPUT_KINDS = ("pressure", "opening")
+
+
+def check_inputs(inputs: str, params) -> bool:
+    """Whether a simulation's inputs are valve openings; refuse, in one line, what cannot be.
+
+    Parameters
+    ----------
+    inputs : str
+        "pressure" (pressure set-points [Pa]) or "opening" (each valve's opening u [-]).
+    params : Params or MechanismParams
+        The model: openings need the air in the muscles (an effect that opens a valve, valve_flow).
+
+    Returns
+    -------
+    bool
+        True for openings.
+
+    Raises
+    ------
+    ParameterError
+        For another kind of input, or openings without the air switched on (naming the switch).
+
+    References
+    ----------
+    .. [1] model-spec sections 4d (the switching valve) and 7d.
+    """
+    if inputs not in INPUT_KINDS:
+        raise ParameterError(f"inputs = {inputs!r} is not one of {', '.join(INPUT_KINDS)}")
+    if inputs == "pressure":
+        return False
+    if not actuator.air_is_on(params):
+        switches = [e.switch_parameter for e in effects.all_effects()
+                    if e.valve_opening is not None]
+        how = " or ".join(f"{q.name} = 1" for q in switches) or "an effect that opens a valve"
+        raise ParameterError("valve openings as inputs need the air in the muscles "
+                             f"(model-spec 4d): set {how}")
+    return True
+
+
+def check_openings(u, what: str = "valve opening") -> None:
+    """Raise :class:`DomainError` for a valve opening that is not a finite number.
+
+    Openings outside [-1, 1] are clipped (:func:`mkctl.physics.knee.valve_input`), not refused.
+
+    Parameters
+    ----------
+    u : float or array_like
+        Opening(s) [-].
+    what : str
+        The input's name, for the message.
+
+    Raises
+    ------
+    DomainError
+        Where an opening is NaN or infinite.
+    """
+    values = np.asarray(u, dtype=float)
+    if not np.isfinite(values).all():
+        bad = values[~np.isfinite(values)].flat[0] if values.ndim else float(values)
+        raise DomainError(f"{what} = {float(bad)!r} is not a finite number (an opening in [-1, 1])")
+
+
+def default_start_pressures(params: Params = DEFAULT) -> tuple[float, float]:
+    """The pressures a knee driven by valve openings starts at when none are given.
+
+    Those of :func:`default_commands`: they hold the leg at rest at alpha = 60 deg.
+
+    Parameters
+    ----------
+    params : Params
+        The model.
+
+    Returns
+    -------
+    Pe0, Pf0 : float
+        Extensor and flexor gauge pressures [Pa].
+
+    References
+    ----------
+    .. [1] model-spec section 7 (the default posture).
+    """
+    return default_commands(params)
 
 
 def knee_outputs(X, V, Pe, Pf, params: Params = DEFAULT) -> dict:
@@ -149,11 +236,17 @@ class KneeSimulator:
     delay_commands : bool
         Whether to delay the commands by the dead time in params; False when the caller hands in
         commands already delayed.
+    opening : bool
+        Whether the inputs are the valves' openings ue, uf [-] (the air on, model-spec 7d) rather
+        than pressure commands; pe0, pf0 are then the start pressures, and through a dead time
+        the first openings given act until later ones arrive (as :func:`simulate_knee`'s).
 
     Raises
     ------
     DomainError
         For an impossible X0.
+    ParameterError
+        For openings without the air (:func:`check_inputs`).
 
     References
     ----------
@@ -163,13 +256,16 @@ class KneeSimulator:
 
     def __init__(self, params: Params = DEFAULT, X0: float | None = None, pe0: float = 0.0,
                  pf0: float = 0.0, stops: bool = True, rtol: float = 1e-10,
-                 delay_commands: bool = True):
+                 delay_commands: bool = True, opening: bool = False):
         self.params = params
+        self.opening = check_inputs("opening" if opening else "pressure", params)
         #: the commands as the actuators see them, a dead time late (None without one, or when the
         #: caller hands in commands already delayed: delay_commands False)
         delay = float(actuator.command_delay(params))
         self.schedule = (CommandSchedule(delay, (float(pe0), float(pf0)))
                          if delay > 0 and delay_commands else None)
+        #: openings: the first ones given replace the schedule's first (pe0, pf0 are pressures)
+        self._first_openings = self.opening and self.schedule is not None
         self.stops = _stop_positions(params) if stops else None
         self.rtol = rtol
         X0 = default_hip_height(params) if X0 is None else float(X0)
@@ -274,10 +370,12 @@ class KneeSimulator:
         DomainError
             For a command that is not finite, or a state that leaves the model's domain.
         """
-        actuator.check_pressure(pe_cmd)
-        actuator.check_pressure(pf_cmd)
+        self._check(pe_cmd, pf_cmd)
         if self.schedule is None:
             return self._held_step(dt, pe_cmd, pf_cmd)
+        if self._first_openings:
+            self.schedule = CommandSchedule(self.schedule.delay, (float(pe_cmd), float(pf_cmd)))
+            self._first_openings = False
         self.schedule.give(self.time, (float(pe_cmd), float(pf_cmd)))
         end = self.time + dt
         for start, stop, (pe, pf) in self.schedule.pieces(self.time, end):
@@ -285,12 +383,27 @@ class KneeSimulator:
         self.schedule.forget_before(self.time)
         return self.state
 
+    def _check(self, pe_cmd: float, pf_cmd: float) -> None:
+        """The inputs' check: finite pressures, or finite openings."""
+        if self.opening:
+            check_openings(pe_cmd, "valve opening ue")
+            check_openings(pf_cmd, "valve opening uf")
+        else:
+            actuator.check_pressure(pe_cmd)
+            actuator.check_pressure(pf_cmd)
+
+    def _rhs(self, pe_cmd: float, pf_cmd: float):
+        """The right-hand side with these inputs held."""
+        params, stops, opening = self.params, self.stops, self.opening
+
+        def rhs(y):
+            return knee.knee_derivatives(y, pe_cmd, pf_cmd, params, stops, opening)
+        return rhs
+
     def _held_step(self, dt: float, pe_cmd: float, pf_cmd: float) -> np.ndarray:
         """Advance by dt [s] with the commands the actuators see, pe_cmd, pf_cmd [Pa], held."""
         if dt > 0:
-            def rhs(y):
-                return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
-
+            rhs = self._rhs(pe_cmd, pf_cmd)
             key = (tuple(self.state.tolist()), float(pe_cmd), float(pf_cmd), self.params,
                    self.stops)
             k1 = self._fsal_k if key == self._fsal_key else None
@@ -329,17 +442,13 @@ class KneeSimulator:
         DomainError
             For a command that is not finite, or a state that leaves the model's domain.
         """
-        actuator.check_pressure(pe_cmd)
-        actuator.check_pressure(pf_cmd)
+        self._check(pe_cmd, pf_cmd)
         times = np.asarray(times, dtype=float)
         states = np.empty((times.size, self.state.size))
         if not times[-1] > 0:  # nothing to integrate, as step() with dt <= 0
             states[:] = self.state
             return states
-
-        def rhs(y):
-            return knee.knee_derivatives(y, pe_cmd, pf_cmd, self.params, self.stops)
-
+        rhs = self._rhs(pe_cmd, pf_cmd)
         hint = min(self.step_hint, first_step) if first_step > 0 else self.step_hint
         self.state, self.step_hint, _ = integrate(rhs, self.state, times[-1], hint, self.atol,
                                                   self.rtol, dense_times=times, dense_out=states)
@@ -723,7 +832,8 @@ def delayed_commands(time, pe_cmd, pf_cmd, delay: float):
     return grid, pe_cmd[given], pf_cmd[given], at
 
 
-def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=False):
+def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=False,
+                start=None):
     """The one record loop of :func:`simulate_knee` and :func:`knee_states`: commands held from each
     sample to the next, one integration per run of held commands (:func:`held_command_runs`), the
     states at the samples with stop_at[k] (stop_at None: every sample) and at each run's end read
@@ -734,7 +844,8 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
     own error. Returns the states (n x nstate, filled at sample 0 and every stop) and the commands
     the actuators see at each sample, pe_seen and pf_seen [Pa] (the given ones, or with a dead time
     those given a delay earlier): what the outputs at the samples are computed from
-    (:func:`record_outputs`).
+    (:func:`record_outputs`). ``start``: (Pe0, Pf0) [Pa] when the inputs are valve openings (the
+    Python loop runs them: the compiled core takes set-points), None for pressure commands.
     """
     delay = 0.0 if delayed else float(actuator.command_delay(params))
     # a dead time: the same record on a grid cut where the late commands arrive
@@ -745,17 +856,19 @@ def _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, stop_at, delayed=
             mask = np.zeros(grid.size, dtype=bool)
             mask[at[stop_at]] = True
         if X0 is None:
-            X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
+            X0 = rest_hip_height(*(start or (pe_cmd[0], pf_cmd[0])), params)
         states, pe_seen, pf_seen = _run_record(grid, pe_seen, pf_seen, params, X0, stops, rtol,
-                                               mask, delayed=True)
+                                               mask, delayed=True, start=start)
         return states[at], pe_seen[at], pf_seen[at]
     n = time.size
+    P0 = start if start is not None else (pe_cmd[0], pf_cmd[0])
     if X0 is None:
-        X0 = rest_hip_height(pe_cmd[0], pf_cmd[0], params)
-    sim = KneeSimulator(params, X0, pe_cmd[0], pf_cmd[0], stops, rtol, delay_commands=False)
+        X0 = rest_hip_height(*P0, params)
+    sim = KneeSimulator(params, X0, *P0, stops, rtol, delay_commands=False,
+                        opening=start is not None)
     states = np.empty((n, sim.state.size))
     resume = 0
-    core = backend.compiled_core(params) if n > 0 else None
+    core = backend.compiled_core(params) if n > 0 and start is None else None
     if core is not None:
         resume = core.run_record(sim, time, pe_cmd, pf_cmd, stop_at, states, None)
     if resume == 0 and n > 0:
@@ -834,27 +947,39 @@ def record_outputs(states, pe_seen, pf_seen, params: Params = DEFAULT,
 
 
 def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None,
-                  stops: bool = True, rtol: float = 1e-10) -> SimulationResult:
+                  stops: bool = True, rtol: float = 1e-10, inputs: str = "pressure",
+                  P0: tuple[float, float] | None = None) -> SimulationResult:
     """Simulate the knee (Eq. 17) over a record; commands are held from each sample to the next.
 
     Runs in the compiled core (:mod:`mkctl.native`) when it is available, else in Python: same
-    results.
+    results. With ``inputs="opening"`` the two inputs are the valves' openings ue, uf (switching
+    valves, model-spec 4d and 7d: 1 open to the supply, 0 closed, -1 open to the exhaust, fractions
+    a proportional valve; clipped to [-1, 1] by :func:`mkctl.physics.knee.valve_input`) and the
+    pressures start at ``P0``; it needs the air (``valve_flow = 1``) and runs in Python.
 
     Parameters
     ----------
     time : array_like
         Sample times [s], increasing.
     pe_cmd, pf_cmd : float or array_like
-        Commanded gauge pressures at those times [Pa] (a scalar is held throughout).
+        Commanded gauge pressures at those times [Pa] (a scalar is held throughout); with
+        ``inputs="opening"`` the extensor's and the flexor's valve openings ue, uf [-].
     params : Params
         The model.
     X0 : float, optional
         Initial hip height [m], at rest; None: at rest in the stable equilibrium of the first
-        commands (:func:`rest_hip_height`).
+        commands (:func:`rest_hip_height`), or with openings of the start pressures ``P0``.
     stops : bool
         Whether the end stops act.
     rtol : float
         Relative tolerance of the adaptive integrator [-].
+    inputs : {"pressure", "opening"}
+        What pe_cmd, pf_cmd are: pressure set-points [Pa] (regulators; the default) or valve
+        openings [-] (:func:`check_inputs`).
+    P0 : tuple of float, optional
+        With openings: the start pressures (Pe0, Pf0) [Pa]; None: those that hold the leg at rest at
+        alpha = 60 deg (:func:`default_start_pressures`). Ignored with pressure commands (the
+        pressures start at the first commands).
 
     Returns
     -------
@@ -866,25 +991,55 @@ def simulate_knee(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | No
 
     Raises
     ------
+    ParameterError
+        For openings without the air, or another kind of input.
     DomainError
-        For a command that is not finite, a state that leaves the model's domain, or no equilibrium
-        to start from.
+        For a command (or an opening, or a start pressure) that is not finite, a state that leaves
+        the model's domain, or no equilibrium to start from.
 
     References
     ----------
     .. [1] "Stability Analysis of Robot Motions driven by McKibben Pneumatic Actuator", Eq. 17.
-    .. [2] model-spec sections 4b (dead_time), 5 (the knee experiment) and 7 (the outputs).
+    .. [2] model-spec sections 4b (dead_time), 4d (the valve), 5 (the knee experiment) and 7, 7d
+       (the outputs, the openings as inputs).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from mkctl.physics.params import Params
+    >>> from mkctl.physics.simulate import simulate_knee
+    >>> t = np.linspace(0, 0.2, 21)
+    >>> ue = np.where(t < 0.1, 0.0, 1.0)  # the extensor's valve opens to the supply at 0.1 s
+    >>> run = simulate_knee(t, ue, 0.0, Params(valve_flow=1), inputs="opening")
+    >>> bool(run.Pe[-1] > run.Pe[0] + 1e4 and run.X[-1] > run.X[0])
+    True
     """
     time = np.asarray(time, dtype=float)
     pe_cmd = np.broadcast_to(np.asarray(pe_cmd, dtype=float), time.shape)
     pf_cmd = np.broadcast_to(np.asarray(pf_cmd, dtype=float), time.shape)
-    states, pe_seen, pf_seen = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None)
+    start = _start_pressures(inputs, P0, params, pe_cmd, pf_cmd)
+    states, pe_seen, pf_seen = _run_record(time, pe_cmd, pf_cmd, params, X0, stops, rtol, None,
+                                           start=start)
     core = backend.compiled_core(params) if time.size > 0 else None
     lag = states.shape[1] >= 4  # (X, V, Pe, Pf[, Te, Tf])
     Pe, Pf = ((states[:, 2].copy(), states[:, 3].copy()) if lag
               else (np.array(pe_seen), np.array(pf_seen)))
     return SimulationResult.deferred(time, states[:, 0].copy(), states[:, 1].copy(), Pe, Pf,
                                      lambda: record_outputs(states, pe_seen, pf_seen, params, core))
+
+
+def _start_pressures(inputs, P0, params, ue, uf):
+    """(Pe0, Pf0) [Pa] of a run driven by openings (ue, uf checked finite), None for pressures."""
+    if not check_inputs(inputs, params):
+        return None
+    check_openings(ue, "valve opening ue")
+    check_openings(uf, "valve opening uf")
+    start = default_start_pressures(params) if P0 is None else tuple(float(P) for P in P0)
+    if len(start) != 2:
+        raise ParameterError(f"P0 has {len(start)} pressures; the knee has two muscles")
+    for P in start:
+        actuator.check_pressure(P)
+    return start
 
 
 def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None = None, at=None,
@@ -944,31 +1099,56 @@ def knee_states(time, pe_cmd, pf_cmd, params: Params = DEFAULT, X0: float | None
     return states[at, 0], states[at, 1]
 
 
+#: The tolerances of one muscle's air step (:class:`ActuatorSimulator` with the air; the native
+#: actuator FMU integrates with the same): absolute [Pa] and relative [-]. Tighter than the lag's
+#: (``actuator.PRESSURE_STEP_ATOL``, 1e-3 Pa): a step of the air's mass balance then meets a
+#: solve_ivp run to 1e-10 of the pressure's range (measured 6e-11 over a 0.2 s fill and exhaust;
+#: 4e-8 at the lag's tolerances), at twice the cost.
+AIR_STEP_ATOL = 1e-6
+AIR_STEP_RTOL = 1e-12
+
+
 class ActuatorSimulator:
     """One actuator as the actuator FMU runs it: a pressure lag state, the tension at (L, P, Ldot).
 
     The lag is integrated exactly over each step (the command is held constant), so the step size
-    does not matter. Without a lag the pressure equals the command.
+    does not matter. Without a lag the pressure equals the command. With the air
+    (``valve_flow``, model-spec 4d and 7d) the pressure is a state of the muscle's mass balance
+    (:func:`mkctl.physics.actuator.air_pressure_derivative`) at the length L and the rate Ldot,
+    held with the command over each step and integrated as
+    :func:`mkctl.physics.actuator.pressure_after` integrates a rate (Dormand-Prince 5(4), first
+    step dt) at :data:`AIR_STEP_ATOL`, :data:`AIR_STEP_RTOL`; its command is a regulator's
+    set-point [Pa], or with ``opening`` the valve's opening u [-] (clipped to [-1, 1]).
 
     Parameters
     ----------
     params : Params
         The actuator and its effects.
     p0 : float
-        Initial pressure [Pa] (and the first command seen through a dead time).
+        Initial pressure [Pa] (and, for pressure commands, the first command seen through a dead
+        time).
+    opening : bool
+        Whether the command is the valve's opening u (needs the air: :func:`check_inputs`).
 
     References
     ----------
-    .. [1] model-spec sections 4, 4b and 7 (McKibbenActuator.fmu).
+    .. [1] model-spec sections 4, 4b, 4d and 7, 7d (McKibbenActuator.fmu).
     """
 
-    def __init__(self, params: Params = DEFAULT, p0: float = 0.0):
+    def __init__(self, params: Params = DEFAULT, p0: float = 0.0, opening: bool = False):
         self.params = params
         self.time = 0.0
         self.pressure = float(p0)
+        self.opening = check_inputs("opening" if opening else "pressure", params)
+        self.air = actuator.air_is_on(params)
+        if actuator.has_temperature_states(params):  # one pressure state here: no temperature
+            raise ParameterError("the actuator's step carries the air's polytropic law, not its "
+                                 "temperature as a state (air_heat): switch tau_heat off, or use "
+                                 "mkctl.physics.pneumatics.simulate_air")
         delay = float(actuator.command_delay(params))
         #: the command as the actuator sees it through a dead time (None without one)
-        self.schedule = CommandSchedule(delay, (float(p0),)) if delay > 0 else None
+        first = (0.0,) if opening else (float(p0),)
+        self.schedule = CommandSchedule(delay, first) if delay > 0 else None
 
     def get_state(self) -> tuple:
         """A snapshot of everything that determines the future (FMU get state).
@@ -993,7 +1173,7 @@ class ActuatorSimulator:
         if self.schedule is not None and len(snapshot) > 2 and snapshot[2] is not None:
             self.schedule.restore(snapshot[2])
 
-    def step(self, dt: float, p_cmd: float) -> float:
+    def step(self, dt: float, p_cmd: float, L: float | None = None, Ldot: float = 0.0) -> float:
         """Advance the pressure by one step towards the command (seen a dead time late, if any).
 
         Parameters
@@ -1001,7 +1181,12 @@ class ActuatorSimulator:
         dt : float
             Step [s].
         p_cmd : float
-            Commanded gauge pressure [Pa], held over the step.
+            Commanded gauge pressure [Pa], held over the step; with ``opening`` the valve's
+            opening u [-].
+        L : float, optional
+            The muscle's length [m], held over the step: the air's volume (needed with the air).
+        Ldot : float
+            Its lengthening rate [m/s], held over the step (the air is squeezed or expanded).
 
         Returns
         -------
@@ -1011,23 +1196,47 @@ class ActuatorSimulator:
         Raises
         ------
         DomainError
-            For a command that is not finite.
+            For a command that is not finite, or a length outside the model's domain.
+        ParameterError
+            With the air and no length.
 
         References
         ----------
-        .. [1] model-spec sections 4 (pressure_lag) and 4b (dead_time, asymmetric_lag).
+        .. [1] model-spec sections 4 (pressure_lag), 4b (dead_time, asymmetric_lag) and 4d (the
+           air).
         """
-        actuator.check_pressure(p_cmd)
+        if self.opening:
+            check_openings(p_cmd, "valve opening u")
+        else:
+            actuator.check_pressure(p_cmd)
+        if self.air and L is None:
+            raise ParameterError("with the air in the muscle (model-spec 4d) a step needs its "
+                                 "length L [m]")
         if self.schedule is None:
-            self.pressure = float(actuator.pressure_after(self.pressure, p_cmd, dt, self.params))
+            self.pressure = self._pressure_after(self.pressure, p_cmd, dt, L, Ldot)
         else:
             self.schedule.give(self.time, (float(p_cmd),))
             for start, stop, (seen,) in self.schedule.pieces(self.time, self.time + dt):
-                self.pressure = float(actuator.pressure_after(self.pressure, seen, stop - start,
-                                                              self.params))
+                self.pressure = self._pressure_after(self.pressure, seen, stop - start, L, Ldot)
             self.schedule.forget_before(self.time + dt)
         self.time += dt
         return self.pressure
+
+    def _pressure_after(self, P: float, command: float, dt: float, L, Ldot: float) -> float:
+        """The pressure [Pa] after dt [s] from P, the command (and L, Ldot) held."""
+        if not self.air:
+            return float(actuator.pressure_after(P, command, dt, self.params))
+        if not dt > 0:
+            return float(P)
+        L, Ldot, params, opening = float(L), float(Ldot), self.params, self.opening
+        command = float(knee.valve_input(command)) if opening else float(command)
+
+        def rate(y):
+            return np.array([float(actuator.air_pressure_derivative(float(y[0]), command, L, Ldot,
+                                                                    params, opening))])
+        state, _, _ = integrate(rate, np.array([float(P)]), float(dt), float(dt),
+                                np.array([AIR_STEP_ATOL]), AIR_STEP_RTOL)
+        return float(state[0])
 
     def outputs(self, p_cmd: float, L: float, Ldot: float) -> dict[str, float]:
         """The actuator FMU's outputs now: its pressure and its tension.
@@ -1045,7 +1254,8 @@ class ActuatorSimulator:
         -------
         dict of str to float
             "f": tension [N] (positive when it pulls); "P": pressure [Pa] (the lag state, or the
-            command it sees without a lag).
+            command it sees without a lag); with the air "q": the net air mass flow in [kg/s]
+            (:func:`mkctl.physics.actuator.air_mass_flow` at the valve's opening).
 
         Raises
         ------
@@ -1058,7 +1268,15 @@ class ActuatorSimulator:
            Eq. 7 and 13.
         .. [2] model-spec sections 2, 4 and 7.
         """
-        actuator.check_pressure(p_cmd)
+        if self.opening:
+            check_openings(p_cmd, "valve opening u")
+        else:
+            actuator.check_pressure(p_cmd)
         seen = p_cmd if self.schedule is None else self.schedule.at(self.time)[0]
         P = self.pressure if actuator.has_pressure_states(self.params) else float(seen)
-        return {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}
+        out = {"f": float(actuator.tension(float(L), P, float(Ldot), self.params)), "P": P}
+        if self.air:
+            u = (knee.valve_input(float(seen)) if self.opening
+                 else actuator.valve_opening(P, float(seen), self.params))
+            out["q"] = float(actuator.air_mass_flow(P, u, self.params))
+        return out

@@ -8,6 +8,11 @@
  * a step that fails (a domain check, a collapsed step size) is refused and the state kept. With a dead time the
  * commands reach the actuators delay late (mk_run.c, mk_delay_*): each step is cut where a command given earlier
  * arrives, as KneeSimulator.step cuts it, and each piece integrated with the commands then in force.
+ *
+ * Built with valve inputs (model-spec 7d; VR_ue defined): the inputs ue, uf are the valves' openings, which the
+ * core's valve-input variants take where the others take the commands (their right-hand side traced with the
+ * openings, clipped to [-1, 1]); the pressures start at the parameters Pe0, Pf0. The air switched off (no variant
+ * for the parameters) and a dead time are refused at initialization, in the library's words (generated).
  */
 #include <math.h>
 #include <stdio.h>
@@ -21,7 +26,34 @@
 #define AUX_LOW 1  /* end stop positions [m] */
 #define AUX_HIGH 2
 
+#ifdef VR_ue
+#define MK_INPUT_E VR_ue
+#define MK_INPUT_F VR_uf
+#define MK_START_E VR_Pe0
+#define MK_START_F VR_Pf0
+int mk_variant(const double *p);
+extern const char MK_FMU_VALVE_AIR_MESSAGE[];
+extern const char MK_FMU_VALVE_DELAY_MESSAGE[];
+#else
+#define MK_INPUT_E VR_pe_cmd
+#define MK_INPUT_F VR_pf_cmd
+#define MK_START_E VR_pe_cmd /* the lag pressures start at the commands */
+#define MK_START_F VR_pf_cmd
+#endif
+
 static void params_of(const mk_data *d, double *p) { mk_param_vector(d, d->aux[AUX_N], p); }
+
+/* the two inputs the core's knee functions take now: the valves' openings, or the commands (with a dead time
+ * those in force now) */
+void mk_knee_inputs(const mk_data *d, double *u)
+{
+#ifdef VR_ue
+    u[0] = d->v[VR_ue];
+    u[1] = d->v[VR_uf];
+#else
+    mk_seen_commands(d, u);
+#endif
+}
 
 int mk_model_start(mk_data *d, char *msg, size_t size)
 {
@@ -30,6 +62,16 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     d->aux[AUX_N] = mk_turns(d);
     params_of(d, p);
+#ifdef VR_ue
+    if (mk_variant(p) < 0) { /* the valve-input variants are the air's: without the air there is none */
+        snprintf(msg, size, "%s", MK_FMU_VALVE_AIR_MESSAGE);
+        return 1;
+    }
+    if (d->dl.delay > 0) {
+        snprintf(msg, size, "%s", MK_FMU_VALVE_DELAY_MESSAGE);
+        return 1;
+    }
+#endif
     X0 = d->v[VR_X0];
     if (X0 == mk_variables[VR_X0].start && mk_fmu_X_from_alpha(p, MK_FMU_DEFAULT_ALPHA, &X0, &fault) != 0) {
         mk_fault_message(&fault, detail, sizeof detail);
@@ -53,8 +95,8 @@ int mk_model_start(mk_data *d, char *msg, size_t size)
     d->s.ny = mk_knee_nstate(p);
     d->s.y[0] = X0;
     d->s.y[1] = 0.0;
-    d->s.y[2] = d->v[VR_pe_cmd];
-    d->s.y[3] = d->v[VR_pf_cmd];
+    d->s.y[2] = d->v[MK_START_E];
+    d->s.y[3] = d->v[MK_START_F];
     d->s.h = MK_FMU_KNEE_H0;
     d->s.k1_valid = 0;
     /* every actuator length in 0 < L < b, finite pressures */
@@ -72,7 +114,7 @@ int mk_model_step(mk_data *d, double dt, char *msg, size_t size)
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     params_of(d, p);
     if (!(d->dl.delay > 0)) {
-        if (mk_knee_step(p, d->aux + AUX_LOW, s.y, dt, d->v[VR_pe_cmd], d->v[VR_pf_cmd], MK_FMU_KNEE_RTOL,
+        if (mk_knee_step(p, d->aux + AUX_LOW, s.y, dt, d->v[MK_INPUT_E], d->v[MK_INPUT_F], MK_FMU_KNEE_RTOL,
                          MK_FMU_KNEE_ATOL, &s.h, s.k, &s.k1_valid, &s.k_pe, &s.k_pf, &fault) != 0) {
             mk_fault_message(&fault, msg, size);
             d->s.k1_valid = 0;
@@ -110,7 +152,7 @@ int mk_model_outputs(mk_data *d, char *msg, size_t size)
     double p[MK_NPARAM], out[14], seen[MK_MAX_COMMANDS];
     mk_fault fault = {0, 0, 0, 0, 0, 0};
     params_of(d, p);
-    mk_seen_commands(d, seen); /* the commands, or with a dead time those in force now */
+    mk_knee_inputs(d, seen); /* the openings, or the commands (with a dead time those in force now) */
     if (mk_knee_outputs(p, d->s.y, seen[0], seen[1], out, &fault) != 0) {
         mk_fault_message(&fault, msg, size);
         return 1;
