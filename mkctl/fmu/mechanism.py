@@ -47,8 +47,6 @@ class MechanismSimulator:
 
     Raises
     ------
-    ParameterError
-        For the air's temperature as a state (not carried by a mechanism).
     DomainError
         For a q0 outside the mechanism's geometry.
 
@@ -61,7 +59,6 @@ class MechanismSimulator:
                  air_flows: bool = False):
         self.mechanism, self.p, self.rtol, self.air_flows = mechanism, p, rtol, air_flows
         self.muscle = mech.muscle_params(p)
-        actuator.check_air_supported(self.muscle)
         commands0 = tuple(float(c) for c in commands0)
         k = len(mechanism.muscles)
         delay = float(actuator.command_delay(self.muscle))
@@ -71,8 +68,11 @@ class MechanismSimulator:
         # q0 outside the geometry: the mechanism's own error
         mech.kinematics(mechanism, float(q0), p)
         self.time = 0.0
-        self.state = np.array([float(q0), 0.0, *(commands0 if self.lag else ())], dtype=float)
-        self.atol = np.array([*mech.RUN_ATOL[:2], *([mech.RUN_ATOL[2]] * k if self.lag else [])])
+        # with air_heat each muscle's air starts at T_air, its temperature a state after the pressures
+        heat = [float(self.muscle.T_air)] * k if actuator.has_temperature_states(self.muscle) else []
+        self.state = np.array([float(q0), 0.0, *(commands0 if self.lag else ()), *heat], dtype=float)
+        self.atol = np.array([*mech.RUN_ATOL[:2], *([mech.RUN_ATOL[2]] * k if self.lag else []),
+                              *([mech.RUN_TEMPERATURE_ATOL] * len(heat))])
         self.step_hint = mech.RUN_FIRST_STEP
 
     def get_state(self) -> tuple:

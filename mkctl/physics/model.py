@@ -371,7 +371,8 @@ def _check_tension_off_and_finite(effect: Effect, model: Model) -> None:
     import numpy as np
 
     on = _ProbeParams(_probe_values(effect, model))
-    off = _ProbeParams({**_probe_values(effect, model), **{q.name: q.off for q in effect.parameters}})
+    off_values = {q.name: q.off for q in effect.parameters}
+    off = _ProbeParams({**_probe_values(effect, model), **off_values})
     L = np.linspace(0.6, 0.99, 7) * on.b
     Ldot, P = np.linspace(-0.2, 0.2, 7), np.linspace(0.0, 6e5, 7)
     try:

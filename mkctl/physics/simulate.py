@@ -1130,6 +1130,12 @@ class ActuatorSimulator:
     opening : bool
         Whether the command is the valve's opening u (needs the air: :func:`check_inputs`).
 
+    Raises
+    ------
+    ParameterError
+        For openings without the air, or the air's temperature as a state (air_heat: one
+        pressure state here).
+
     References
     ----------
     .. [1] model-spec sections 4, 4b, 4d and 7, 7d (McKibbenActuator.fmu).
