@@ -171,8 +171,19 @@ def runs(built, run_python, tmp_path_factory):
     pe, pf = _knee_commands()
     jobs.append(_job(built["air knee"]["McKibbenKnee"], {"pe_cmd": pe, "pf_cmd": pf},
                      ["X", "Pe", "Pf", "qe", "qf"]))
+    p_cmd, L, Ldot = _actuator_inputs()
+    jobs.append(_job(built["air knee"]["McKibbenActuator"], {"p_cmd": p_cmd, "L": L, "Ldot": Ldot},
+                     ["P", "f", "q"]))
     rows = _run(jobs, run_python, tmp_path_factory.mktemp("jobs"))
-    return {case: (references[case], r) for case, r in zip(CASES, rows)}, rows[-1]
+    return {case: (references[case], r) for case, r in zip(CASES, rows)}, rows[-2], rows[-1]
+
+
+def _actuator_inputs():
+    """The actuator's set-point stepped up and down while its length is held, then pulled longer."""
+    p_cmd = np.where(TIME < 0.05, 300e3, np.where(TIME < 0.2, 450e3, 350e3))
+    Ldot = np.where(TIME < 0.25, 0.0, 0.02)
+    L = 0.19 + np.concatenate([[0.0], np.cumsum(Ldot[:-1] * np.diff(TIME))])
+    return p_cmd, L, Ldot
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -233,6 +244,30 @@ def test_knee_fmu_with_the_air_against_simulate_knee(runs):
     np.testing.assert_allclose(got[:, 3:5], want, rtol=1e-12, atol=1e-18)
 
 
+def test_actuator_fmu_with_the_air_against_the_librarys_actuator(runs):
+    """The pythonfmu actuator built with the air (ACTUATOR_WITH_AIR, the native one's interface): its
+    pressure a state of the mass balance at the length and rate it is given, against
+    ActuatorSimulator stepped alike (itself checked against simulate_air and an independent
+    simulator in tests/test_valve_inputs.py); q against air_mass_flow at its own pressure."""
+    from mkctl.physics.simulate import ActuatorSimulator
+    params = Params(**AIR, c=40.0)  # the build's parameters (the knee's and the actuator's)
+    p_cmd, L, Ldot = _actuator_inputs()
+    sim, want = ActuatorSimulator(params, float(p_cmd[0])), []
+    for j in range(TIME.size):
+        if j:
+            sim.step(float(TIME[j] - TIME[j - 1]), float(p_cmd[j - 1]), float(L[j - 1]),
+                     float(Ldot[j - 1]))
+        out = sim.outputs(float(p_cmd[j]), float(L[j]), float(Ldot[j]))
+        want.append([out["P"], out["f"], out["q"]])
+    want, got = np.array(want), runs[2]
+    assert np.ptp(want[:, 0]) > 5e4 and not np.allclose(want[:, 0], p_cmd, atol=1e3)  # it lags
+    np.testing.assert_allclose(got[:, 0], want[:, 0], rtol=1e-9, atol=1e-3)
+    np.testing.assert_allclose(got[:, 1], want[:, 1], rtol=1e-9, atol=1e-6)
+    flow = [actuator.air_mass_flow(P, actuator.valve_opening(P, c, params), params)
+            for P, c in zip(got[:, 0], p_cmd)]
+    np.testing.assert_allclose(got[:, 2], flow, rtol=1e-12, atol=1e-18)
+
+
 def test_knee_with_the_air_shows_the_native_knees_air_variables(built):
     from fmpy import read_model_description
 
@@ -245,8 +280,12 @@ def test_knee_with_the_air_shows_the_native_knees_air_variables(built):
     names = {v.name for v in md.modelVariables}
     assert {"valve_flow", "C_fill", "V_dead", "C_leak", "qe", "qf"} <= names
     assert md.description.startswith(KNEE_WITH_AIR.description + " (pythonfmu FMU")
-    # the actuator does not carry the air: not built, and the build said so
-    assert "McKibbenActuator" not in built["air knee"]
+    # the actuator carries the air too, with the native actuator's interface
+    from mkctl.fmi.interface import ACTUATOR_WITH_AIR
+    md = read_model_description(str(built["air knee"]["McKibbenActuator"]))
+    assert [v.name for v in md.modelVariables] == [v.name for v in ACTUATOR_WITH_AIR.variables(
+        Params(**AIR, c=40.0))]
+    assert {"valve_flow", "C_fill", "q"} <= {v.name for v in md.modelVariables}
 
 
 def test_the_mechanism_file_travels_as_itself(built):

@@ -357,12 +357,15 @@ MODELS = {model.name: model for model in (KNEE, ACTUATOR)}
 
 
 def model_for(name: str, air: bool = False, valves: bool = False) -> Model:
-    """The model of an FMU by name; ``air``: as built with the air (the knee carries it, the actuator
-    does not: :func:`native_model`'s does); ``valves``: with valve openings as inputs
-    (:data:`KNEE_WITH_VALVES`, :data:`ACTUATOR_WITH_VALVES`)."""
+    """The model of an FMU by name, for both kinds; ``air``: as built with the air (the knee's
+    :data:`KNEE_WITH_AIR`, the actuator's :data:`ACTUATOR_WITH_AIR`: its pressure a state of the mass
+    balance at L, Ldot); ``valves``: with valve openings as inputs (:data:`KNEE_WITH_VALVES`,
+    :data:`ACTUATOR_WITH_VALVES`, native FMUs)."""
     if valves:
         return {KNEE.name: KNEE_WITH_VALVES, ACTUATOR.name: ACTUATOR_WITH_VALVES}[name]
-    return KNEE_WITH_AIR if air and name == KNEE.name else MODELS[name]
+    if air:
+        return {KNEE.name: KNEE_WITH_AIR, ACTUATOR.name: ACTUATOR_WITH_AIR}[name]
+    return MODELS[name]
 
 
 # --- any mechanism (model-spec 3b, 7d) ----------------------------------------------------------
@@ -507,11 +510,3 @@ def mechanism_model(mechanism, air: bool = False) -> Model:
         units=LiveMapping(lambda: {**{n: UNITS[n] for n in parameters}, **fixed_units}),
         undefined_outputs="outputs that depend on the pressures are undefined",
         derived_starts=starts, air=air)
-
-
-def native_model(name: str, air: bool = False, valves: bool = False) -> Model:
-    """The model of a native FMU by name: :func:`model_for`'s, but the actuator built with the air
-    carries it (:data:`ACTUATOR_WITH_AIR`: its pressure a state of the mass balance at L, Ldot)."""
-    if air and not valves and name == ACTUATOR.name:
-        return ACTUATOR_WITH_AIR
-    return model_for(name, air, valves)

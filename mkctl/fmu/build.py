@@ -5,7 +5,7 @@
     python build_fmu.py --mechanism NAME|FILE.py [--no-native] ...
 
 writes ``DIR/McKibbenKnee.fmu`` and ``DIR/McKibbenActuator.fmu`` (DIR defaults to ``dist``; with
-parameters that switch on the air, the knee with it and no actuator, which does not carry it), or
+parameters that switch on the air, both with it), or
 with ``--mechanism`` the mechanism's ``DIR/McKibben<Name>.fmu`` (:func:`build_mechanism_fmus`; its
 script ``mckibben_mechanism.py`` serves every mechanism, named in the FMU's resources as data, a
 mechanism file carried as itself):
@@ -341,10 +341,6 @@ def build(out, run: bool = True, params: Params | None = None, native: bool = Tr
         packed = _stage_effects(temp / "effects", effect_files)
         for name, script in FMU_SCRIPTS.items():
             interface = model_for(name, air)
-            if air and not interface.air:  # the air switched on, and this FMU cannot carry it
-                print(f"build_fmu: note: {name} does not carry the air in the muscle (model-spec "
-                      "7d): not built with these parameters", file=sys.stderr)
-                continue
             built[name] = _pack(script, interface, params, out / f"{name}.fmu", temp / name,
                                 [package, *([packed] if packed else [])], air, fix_exit=_fix_exit)
     if run:

@@ -20,7 +20,9 @@ regulator's opening; 0 with valve_flow = 0).
 
 McKibbenActuator, over :class:`~mkctl.physics.simulate.ActuatorSimulator`: the pressure lag is the
 only state (solved exactly over each step, so the step size does not matter); the tension follows
-from the inputs L, Ldot and the present pressure.
+from the inputs L, Ldot and the present pressure. Built with the air, its interface is
+:data:`~mkctl.fmi.interface.ACTUATOR_WITH_AIR` (the native actuator's): ``p_cmd`` the regulator's
+set-point, the pressure a state of the mass balance at L, Ldot, and the output q.
 
 McKibbenMechanism, over :class:`~mkctl.fmu.mechanism.MechanismSimulator`: any mechanism
 (model-spec 3b, 7d), a built-in named in the build file (:data:`mkctl.fmu.slave.BUILD_FILE`) or a
@@ -83,6 +85,9 @@ class McKibbenActuator(McKibbenSlave):
     description, author = ACTUATOR.description, ACTUATOR.author
     default_experiment = DefaultExperiment(**ACTUATOR.default_experiment)
 
+    def _interface(self, build: dict, resources) -> Model:
+        return model_for(ACTUATOR.name, air=bool(build.get("air")))
+
     def _new_simulator(self, params) -> ActuatorSimulator:
         sim = ActuatorSimulator(params, float(self.p_cmd))
         self._stage = "the start inputs are outside the model's domain"
@@ -91,7 +96,8 @@ class McKibbenActuator(McKibbenSlave):
 
     def _advance(self, step_size: float) -> None:
         snapshot = self._sim.get_state()
-        self._sim.step(step_size, self.p_cmd)
+        # with the air the pressure is a state of the mass balance at the length and rate held
+        self._sim.step(step_size, self.p_cmd, self.L, self.Ldot)
         try:
             self._sim.outputs(self.p_cmd, self.L, self.Ldot)  # the step must end in the model's domain
         except MkctlError:

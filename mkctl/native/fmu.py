@@ -55,7 +55,7 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
-from ..fmi.interface import check_carried, native_model
+from ..fmi.interface import check_carried, model_for as native_model
 from ..fmi.units import fmi_unit, unit_definitions
 from ..physics.params import PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
@@ -159,7 +159,7 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     """The interface of a model (:data:`mkctl.fmi.interface.MODELS`, which its pythonfmu slave registers too),
     start values taken from params (default: the current model's defaults, the slave's own).
     ``air``: built with the air (:data:`mkctl.fmi.interface.KNEE_WITH_AIR`, native FMUs only);
-    ``valves``: with valve openings as inputs (:func:`mkctl.fmi.interface.native_model`).
+    ``valves``: with valve openings as inputs (:func:`mkctl.fmi.interface.model_for`).
 
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
