@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from mkctl.analysis import control as mc
+from mkctl.physics.params import Params
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -44,8 +45,8 @@ DURATION, T_STEP, DT = 1.6, 0.1, 1e-3
 def cases():
     op = mc.operating_point(math.radians(60), pf=100e3)
     damped = op.with_params(c=mc.damping_for_zeta(0.3, op))
-    model1 = mc.operating_point(math.radians(65), pf=150e3, params=mc.DEFAULT.replace(model=1, c=20.0))
-    fast = mc.operating_point(math.radians(60), pf=100e3, params=mc.DEFAULT.replace(m=0.01, c=0.2))  # w_n ~ 340/s
+    model1 = mc.operating_point(math.radians(65), pf=150e3, params=Params().replace(model=1, c=20.0))
+    fast = mc.operating_point(math.radians(60), pf=100e3, params=Params().replace(m=0.01, c=0.2))  # w_n ~ 340/s
     return {"linear": [op, damped, damped.with_params(tau=0.05), model1, fast],
             "steps": [(damped, 1e3), (damped.with_params(tau=0.05), 1e3), (damped, 100e3)]}
 
