@@ -24,7 +24,7 @@ from collections.abc import Callable, Mapping, Sequence
 from ..errors import ParameterError
 from ..physics import effects
 from ..physics.model import model_of
-from ..physics.params import (EFFECTS_TABLE, INTEGER_PARAMETERS, RATED_PRESSURE, TABLE_I, TABLE_II, UNITS,
+from ..physics.params import (EFFECTS_TABLE, RATED_PRESSURE, TABLE_I, TABLE_II, UNITS,
                               LiveMapping, LiveSequence, Params)
 from ..physics.simulate import KNEE_OUTPUTS, default_commands, default_hip_height
 

@@ -55,7 +55,7 @@ from xml.etree import ElementTree as ET
 
 from ..fmi.xml import xml_bytes
 from ..errors import MkctlError, ParameterError
-from ..fmi.interface import check_carried, model_for as native_model
+from ..fmi.interface import check_carried, model_for
 from ..fmi.units import fmi_unit, unit_definitions
 from ..physics.params import PARAMETER_NAMES, UNITS, Params, domain_of, outside_domain_message
 
@@ -164,7 +164,7 @@ def slave_interface(model_name: str, params: Params | None = None, air: bool = F
     With params, every parameter starts at params' value, ``X0`` (knee) at the hip height at alpha = 60 deg of
     params' geometry and the knee's input commands at the pressures that hold it there.
     """
-    model = native_model(model_name, air or valves, valves)
+    model = model_for(model_name, air or valves, valves)
     if model.valves:  # the air on in its start values: the valves drive nothing without it
         params = with_valves(params)
     if params is not None:
@@ -462,13 +462,14 @@ def variables_source(interface: Interface) -> str:
               "    {-1, \"\"}", "};", f"const int mk_n_me_refused = {len(refused)};",
               "",
               "void mk_param_vector(const mk_data *d, double n, double *p)", "{"]
+    defaults = Params()  # the current model's: the values of the names that are no variable here
     for index, name in enumerate(PARAMETER_NAMES):
         if name == "n":
             lines.append(f"    p[{index}] = n; /* n, given or derived */")
         elif name in names:
             lines.append(f"    p[{index}] = d->v[VR_{name}];")
         else:
-            lines.append(f"    p[{index}] = {_c_double(getattr(Params(), name))}; /* {name}: not a variable here, "
+            lines.append(f"    p[{index}] = {_c_double(getattr(defaults, name))}; /* {name}: not a variable here, "
                          "Params' default */")
     for index, name in enumerate(interface.core_parameters, start=len(PARAMETER_NAMES)):
         lines.append(f"    p[{index}] = d->v[VR_{c_identifier(name)}];")

@@ -64,7 +64,7 @@ class Model:
     .. [1] model-spec sections 4 (the effects), 4b (a real rig's), 4c (yours), 4d (the air).
     """
 
-    __slots__ = ("effects", "_by_name", "_parameters", "_hash")
+    __slots__ = ("effects", "_by_name", "_parameters", "_names", "_switches", "_hash")
 
     def __init__(self, effects: tuple[Effect, ...]):
         effects = tuple(effects)
@@ -74,8 +74,11 @@ class Model:
             by_name[effect.name] = effect
         object.__setattr__(self, "effects", effects)
         object.__setattr__(self, "_by_name", by_name)
-        object.__setattr__(self, "_parameters",
-                           tuple(q for e in effects for q in e.parameters))
+        parameters = tuple(q for e in effects for q in e.parameters)
+        object.__setattr__(self, "_parameters", parameters)
+        # read at every parameter set made: derived once, as the model never changes
+        object.__setattr__(self, "_names", (*BASE_NAMES, *(q.name for q in parameters)))
+        object.__setattr__(self, "_switches", frozenset(q.name for q in parameters if q.switch))
         object.__setattr__(self, "_hash", hash(tuple((e.name, id(e)) for e in effects)))
 
     @classmethod
@@ -124,7 +127,12 @@ class Model:
     @property
     def parameter_names(self) -> tuple[str, ...]:
         """Every name of a parameter set of this model: the tables', then the effects'."""
-        return (*BASE_NAMES, *(q.name for q in self._parameters))
+        return self._names
+
+    @property
+    def switch_names(self) -> frozenset[str]:
+        """The parameters that are whole-number switches (``model``, ``slack``, ...)."""
+        return self._switches
 
     def get(self, name: str) -> Effect:
         """The effect of this name.

@@ -240,7 +240,7 @@ class Params:
 
     @staticmethod
     def _validate(own: dict, model: Model) -> None:
-        switches = {q.name for q in model.parameters if q.switch}
+        switches = model.switch_names
         for name in model.parameter_names:
             value = own[name]
             if value is None:
